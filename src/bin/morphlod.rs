@@ -1,0 +1,2 @@
+//! The `morphlod` command line.
+fn main() {}

@@ -1,0 +1,19 @@
+//! The crate-level error. Each stage owns a typed error of its own (loading,
+//! mesh validation, ...); this enum wraps them so a caller that drives the whole
+//! pipeline can use one `Result` type and still match on the stage that failed.
+
+use thiserror::Error as ThisError;
+
+/// Any error morphlod returns.
+#[derive(Debug, ThisError)]
+pub enum Error {
+    /// Reading or parsing an input file failed.
+    #[error(transparent)]
+    Load(#[from] crate::io::LoadError),
+    /// A mesh failed validation (NaN coordinates, indices out of range, ...).
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::MeshError),
+    /// Building a morph from its inputs failed (pose sizes or connectivity differ, ...).
+    #[error(transparent)]
+    Morph(#[from] crate::morph::MorphError),
+}

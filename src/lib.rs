@@ -1,0 +1,41 @@
+//! # morphlod
+//!
+//! Continuous level of detail for deforming (morphing) triangle meshes, after
+//! *"LOD triangle strips for deforming meshes"* (built on LodStrips).
+//!
+//! The data flows through the modules in this order:
+//!
+//! ```text
+//! io ─► mesh / morph ─► simplify (collapse sequence per frame) ─┐
+//!                    └► strip (S0, the common strips) ─────────┴► lodstrips (change lists, runtime)
+//!                                                                  └► gpu (wgpu buffers, one multi-draw)
+//! ```
+//!
+//! * [`io`] reads OBJ, OFF, PLY and glTF/GLB into an [`IndexedMesh`] or a [`Morph`].
+//! * [`mesh`] owns the flat indexed mesh, its validation, cleaning and adjacency.
+//! * [`topology`] reports components, boundaries, manifoldness and genus.
+//! * [`morph`] owns the supermesh `T` with poses `V(0)`, `V(1)` (and glTF weight animations).
+//! * [`simplify`] produces a quadric-error half-edge [`CollapseSequence`].
+//! * [`collapse`] defines what a collapse sequence means: survivors and the reference mesh
+//!   at any LOD, the oracle every test compares against.
+//! * [`strip`] turns triangles into generalized triangle strips `S0`.
+//! * [`lodstrips`] records the change lists and applies them at run time.
+//! * [`metrics`] measures geometric error (Hausdorff / RMS by surface sampling).
+//! * [`gpu`] renders with wgpu: the caller owns the device, queue and render pass.
+
+pub mod collapse;
+pub mod error;
+pub mod gpu;
+pub mod io;
+pub mod lodstrips;
+pub mod mesh;
+pub mod metrics;
+pub mod morph;
+pub mod simplify;
+pub mod strip;
+pub mod topology;
+
+pub use collapse::{Collapse, CollapseSequence};
+pub use error::Error;
+pub use mesh::IndexedMesh;
+pub use morph::Morph;
