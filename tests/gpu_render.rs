@@ -178,8 +178,14 @@ fn restart_and_culling() -> Result<(), GpuError> {
             cull,
         );
         for (strip, upper_right_lit) in [(&restarted, true), (&clockwise, clockwise_visible)] {
-            let mut object =
-                Object::new(device, &pipeline, Topology::Strip, &v, &v, &[strip.clone()])?;
+            let mut object = Object::new(
+                device,
+                &pipeline,
+                Topology::Strip,
+                &v,
+                &v,
+                std::slice::from_ref(strip),
+            )?;
             object.set_view_proj(camera());
             object.set_color(BASE);
             object.set_light(Vec3::Z, 0.2)?;
@@ -317,6 +323,56 @@ fn object_rejects_bad_input() -> Result<(), GpuError> {
     assert!(matches!(
         Target::new(device, 0, 16, CLEAR),
         Err(GpuError::TargetSize { width: 0, .. })
+    ));
+    Ok(())
+}
+
+#[test]
+fn strip_colours_follow_first_instance() -> Result<(), GpuError> {
+    let Some(ctx) = gpu::test_context()? else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    eprintln!(
+        "INDIRECT_FIRST_INSTANCE enabled: {}",
+        ctx.first_instance_enabled()
+    );
+    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    let mut object = two_quads(device, &pipeline)?;
+    object.set_shade_mode(gpu::ShadeMode::StripColours);
+    let first_instances: Vec<u32> = object
+        .indirect_args()
+        .iter()
+        .map(|a| a.first_instance)
+        .collect();
+    object.prepare(queue);
+    let image = target.render(device, queue, &mut [&mut object])?;
+    // Quad A at t = 0 covers (-0.5, 0.5); quad B covers (0.0, -0.5).
+    let (a, b) = (pixel(&image, -0.5, 0.5), pixel(&image, 0.0, -0.5));
+    assert_ne!(a, CLEAR_RGBA);
+    assert_ne!(b, CLEAR_RGBA);
+    if ctx.first_instance_enabled() {
+        assert_eq!(first_instances, [0, 1]);
+        assert_ne!(a, b, "regions 0 and 1 must get different strip colours");
+    } else {
+        // wgpu requires first_instance = 0 without the feature: one colour for all strips.
+        assert_eq!(first_instances, [0, 0]);
+        assert_eq!(a, b);
+    }
+
+    // The PNG helper writes what was read back.
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("strip_colours.png");
+    gpu::save_png(&image, &path)?;
+    let reloaded = match image::open(&path) {
+        Ok(reloaded) => reloaded.into_rgba8(),
+        Err(error) => panic!("cannot reload {}: {error}", path.display()),
+    };
+    assert!(reloaded == image, "the PNG must round-trip the pixels");
+    let bad = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("no/such/dir/x.png");
+    assert!(matches!(
+        gpu::save_png(&image, &bad),
+        Err(GpuError::Png { .. })
     ));
     Ok(())
 }
