@@ -305,14 +305,23 @@ fn object_rejects_bad_input() -> Result<(), GpuError> {
             regions: 1
         })
     ));
-    assert!(matches!(
-        object.write_region(0, &[0, 9]),
-        Err(GpuError::IndexOutOfRange {
-            position: 1,
-            index: 9,
-            ..
-        })
-    ));
+    match object.write_region(0, &[0, 9]) {
+        Err(
+            error @ GpuError::IndexOutOfRange {
+                position: 1,
+                index: 9,
+                ..
+            },
+        ) => {
+            let message = error.to_string();
+            assert!(
+                message.contains("index 9 at position 1 of region 0")
+                    && message.contains("4 vertices"),
+                "the message must say what and where: {message}"
+            );
+        }
+        other => panic!("expected IndexOutOfRange, got {other:?}"),
+    }
     assert!(object.set_t(f32::NAN).is_err());
     assert!(object.set_t(1.5).is_err());
     assert!(object.set_light(Vec3::ZERO, 0.2).is_err());
@@ -374,5 +383,72 @@ fn strip_colours_follow_first_instance() -> Result<(), GpuError> {
         gpu::save_png(&image, &bad),
         Err(GpuError::Png { .. })
     ));
+    Ok(())
+}
+
+/// 256 regions in one object: one multi-draw must draw every one of them, and hiding every
+/// other region must coalesce into one indirect write (records 20 bytes apart merge).
+#[test]
+fn many_regions_one_draw() -> Result<(), GpuError> {
+    let Some(ctx) = gpu::test_context()? else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    const CELLS: u32 = 16;
+    let cell = 2.0 / CELLS as f32;
+    let centre = |i: u32| -1.0 + (i as f32 + 0.5) * cell;
+    let mut v = Vec::new();
+    let mut regions = Vec::new();
+    for j in 0..CELLS {
+        for i in 0..CELLS {
+            // Cells are 4 pixels wide; each quad covers the middle 2, leaving 2-pixel gaps.
+            let (x, y, h) = (centre(i), centre(j), 0.25 * cell);
+            let first = v.len() as u32;
+            v.extend(quad(x - h, x + h, y - h, y + h));
+            regions.push(vec![first, first + 1, first + 2, first + 3]);
+        }
+    }
+    let mut object = Object::new(device, &pipeline, Topology::Strip, &v, &v, &regions)?;
+    object.set_view_proj(camera());
+    object.set_color(BASE);
+    object.prepare(queue);
+    let image = target.render(device, queue, &mut [&mut object])?;
+    for j in 0..CELLS {
+        for i in 0..CELLS {
+            assert_lit(&image, centre(i), centre(j), "every region drawn");
+        }
+    }
+    // Pixel (3, 3): its centre lies between the quads of cells 0 and 1.
+    let gap = -1.0 + 3.5 / (SIZE as f32 / 2.0);
+    assert_clear(&image, gap, gap, "gap between cells");
+
+    for region in (0..regions.len()).step_by(2) {
+        object.write_region(region, &[])?;
+    }
+    let upload = object.prepare(queue);
+    assert!(upload.index_ranges.is_empty());
+    // Records 0, 2, ..., 254: one write from the first byte of record 0 to the end of 254.
+    assert_eq!(upload.indirect_ranges, vec![0..255 * 20]);
+    let image = target.render(device, queue, &mut [&mut object])?;
+    for j in 0..CELLS {
+        for i in 0..CELLS {
+            let (x, y) = (centre(i), centre(j));
+            if (j * CELLS + i).is_multiple_of(2) {
+                assert_clear(&image, x, y, "hidden region");
+            } else {
+                assert_lit(&image, x, y, "kept region");
+            }
+        }
+    }
+    assert_eq!(object.draw_calls(), 2);
+
+    // An object without regions still renders (an empty multi-draw) and draws nothing.
+    let mut empty = Object::new(device, &pipeline, Topology::Strip, &v, &v, &[])?;
+    empty.prepare(queue);
+    let image = target.render(device, queue, &mut [&mut empty])?;
+    assert!(image.pixels().all(|p| p.0 == CLEAR_RGBA));
+    assert_eq!(empty.draw_calls(), 1);
     Ok(())
 }
