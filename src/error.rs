@@ -16,4 +16,7 @@ pub enum Error {
     /// Building a morph from its inputs failed (pose sizes or connectivity differ, ...).
     #[error(transparent)]
     Morph(#[from] crate::morph::MorphError),
+    /// Creating, updating or reading back GPU resources failed.
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
 }

@@ -1,1 +1,111 @@
-//! TODO(helper): gpu.
+//! Rendering with wgpu: the GPU side of a morphlod object.
+//!
+//! This module owns everything that touches a `wgpu::Device`:
+//!
+//! * [`Context`] — a headless instance/adapter/device/queue (no window), and the policy GPU tests
+//!   use when no adapter exists ([`test_context`]).
+//! * [`MorphPipeline`] — the render pipelines for `shaders/morph.wgsl` (triangle strips with
+//!   primitive restart, and triangle lists for reference renders). Many objects share one.
+//! * [`Object`] — one deforming mesh on the GPU: poses `V(0)`, `V(1)` uploaded once, an index
+//!   buffer cut into fixed regions (one per strip of `S0`), and one `DrawIndexedIndirectArgs` per
+//!   region. The CPU edits regions; [`Object::prepare`] uploads only the changed byte ranges and
+//!   [`Object::render`] draws every region with exactly one `multi_draw_indexed_indirect`.
+//! * [`Target`] — an offscreen colour + depth target and its readback into an `image::RgbaImage`.
+//!
+//! The caller owns the device, queue and render pass (the `prepare` / `render` split of
+//! egui-wgpu and glyphon), so an object drops into any existing wgpu renderer.
+
+mod context;
+mod object;
+mod pipeline;
+mod target;
+
+pub use context::{test_context, Context};
+pub use object::{Object, Topology, Upload};
+pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
+pub use target::{save_png, Target};
+
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// The index that restarts a triangle strip (`strip_index_format` is `Uint32`).
+pub const RESTART: u32 = u32::MAX;
+
+/// Why a GPU operation failed.
+#[derive(Debug, Error)]
+pub enum GpuError {
+    /// No adapter (GPU or software rasterizer) is visible to wgpu.
+    #[error(
+        "no GPU adapter found ({source}); on Debian/Ubuntu install the lavapipe software \
+         Vulkan driver with `apt-get install mesa-vulkan-drivers libvulkan1`"
+    )]
+    NoAdapter {
+        #[source]
+        source: wgpu::RequestAdapterError,
+    },
+    /// The adapter exists but refused to create a device.
+    #[error("the adapter {adapter:?} could not create a device: {source}")]
+    RequestDevice {
+        adapter: String,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+    /// The two poses of an object have different vertex counts.
+    #[error("pose V(0) has {v0} vertices and pose V(1) has {v1}; both poses need one vertex per mesh vertex")]
+    PoseSizeMismatch { v0: usize, v1: usize },
+    /// An object needs at least one vertex, and fewer than `RESTART` of them.
+    #[error("an object needs between 1 and {max} vertices, got {count}")]
+    VertexCount { count: usize, max: usize },
+    /// A buffer would exceed the device's `max_buffer_size`.
+    #[error("the {what} buffer needs {bytes} bytes but the device allows at most {max}; split the mesh into several objects")]
+    BufferTooLarge {
+        what: &'static str,
+        bytes: u64,
+        max: u64,
+    },
+    /// A region number past the last region.
+    #[error("region {region} does not exist; the object has {regions} regions")]
+    NoSuchRegion { region: usize, regions: usize },
+    /// More live indices than the region's fixed capacity (its `S0` strip length).
+    #[error("region {region} holds at most {capacity} indices, got {len}")]
+    RegionOverflow {
+        region: usize,
+        len: usize,
+        capacity: usize,
+    },
+    /// An index that names no vertex (or a restart in a triangle-list object).
+    #[error("index {index} at position {position} of region {region} is out of range: the object has {vertices} vertices{restart}",
+        restart = if *.restart_allowed { " (0xFFFFFFFF restarts a strip)" } else { " and draws triangle lists, where restart is not allowed" })]
+    IndexOutOfRange {
+        region: usize,
+        position: usize,
+        index: u32,
+        vertices: u32,
+        restart_allowed: bool,
+    },
+    /// A shading or blending parameter that would make the shader produce NaN.
+    #[error("invalid {what}: {value}; {expected}")]
+    InvalidParameter {
+        what: &'static str,
+        value: String,
+        expected: &'static str,
+    },
+    /// An offscreen target of zero size or larger than the device allows.
+    #[error(
+        "a {width}x{height} target is not possible: each side must be between 1 and {max} pixels"
+    )]
+    TargetSize { width: u32, height: u32, max: u32 },
+    /// Waiting for the GPU failed (device lost, timeout).
+    #[error("waiting for the GPU failed: {0}")]
+    Poll(#[from] wgpu::PollError),
+    /// Mapping the readback buffer failed.
+    #[error("mapping the readback buffer failed: {0}")]
+    Map(String),
+    /// Writing a PNG failed.
+    #[error("cannot write PNG {path}: {source}")]
+    Png {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+}
