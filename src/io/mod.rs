@@ -157,11 +157,7 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
         Some(Format::Obj) => obj::load(path),
         Some(Format::Off) => off::load(path),
         Some(Format::Ply) => ply::load(path),
-        Some(Format::Gltf) => Err(LoadError::Unsupported {
-            path: path.to_path_buf(),
-            what: format!("glTF (mesh {:?})", options.gltf_mesh),
-            hint: "glTF loading is not built in yet".into(),
-        }),
+        Some(Format::Gltf) => Err(LoadError::Unsupported { path: path.to_path_buf(), what: "glTF".into(), hint: format!("this build has no glTF loader (mesh {} was asked for): convert it to OBJ, OFF or PLY", options.gltf_mesh.as_deref().unwrap_or("0")) }),
         None => Err(LoadError::Unsupported {
             path: path.to_path_buf(),
             what: format!(
