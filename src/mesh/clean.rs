@@ -31,6 +31,8 @@ pub struct CleanOptions {
     /// equal to 0.0) into the first of them. Off by default because a file
     /// may split vertices on purpose (UV or normal seams, a morph whose poses
     /// separate the copies); on for files that just failed to share them.
+    /// Only the positions of the mesh given (one pose) are compared: for a
+    /// morph, weld only copies that coincide in every pose, or poses tear.
     pub weld: bool,
 }
 
