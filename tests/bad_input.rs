@@ -598,6 +598,23 @@ fn parse_any(name: &str, bytes: &[u8]) -> Result<morphlod::IndexedMesh, LoadErro
     }
 }
 
+/// Every prefix of every valid input parses without panicking; a binary
+/// PLY needs all of its bytes, so each of its strict prefixes is an error.
+#[test]
+fn every_truncation_is_handled() {
+    for (name, bytes) in valid_inputs() {
+        for len in 0..bytes.len() {
+            let result = parse_any(name, &bytes[..len]);
+            if name == "b.ply" {
+                assert!(result.is_err(), "{name} cut at {len} was accepted");
+            }
+            if let Ok(mesh) = result {
+                assert!(mesh.validate().is_ok(), "{name} cut at {len}");
+            }
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
