@@ -1074,7 +1074,7 @@ fn percent_decode(uri: &str) -> String {
 fn triangulate(mode: Mode, corners: &[u32]) -> Result<Vec<[u32; 3]>, String> {
     match mode {
         Mode::Triangles => {
-            if corners.len() % 3 != 0 {
+            if !corners.len().is_multiple_of(3) {
                 return Err(format!(
                     "TRIANGLES needs a multiple of 3 indices, has {}",
                     corners.len()

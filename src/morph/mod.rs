@@ -598,15 +598,14 @@ mod tests {
         let targets = [target(&path, "0"), target(&path, "1")];
         let t = 0.37;
         let w = animated.weights_at(t);
+        let ends: Vec<Vec<[f32; 3]>> = targets.iter().map(|m| m.v1()).collect();
         let expected: Vec<[f32; 3]> = (0..animated.vertex_count())
             .map(|v| {
-                let mut p = animated.base()[v];
-                for (i, m) in targets.iter().enumerate() {
-                    for c in 0..3 {
-                        p[c] += w[i] * (m.v1()[v][c] - m.base()[v][c]);
-                    }
-                }
-                p
+                let base = animated.base()[v];
+                let moved = |c: usize| {
+                    base[c] + w[0] * (ends[0][v][c] - base[c]) + w[1] * (ends[1][v][c] - base[c])
+                };
+                [moved(0), moved(1), moved(2)]
             })
             .collect();
         assert!(close(&animated.positions_at(t), &expected, 1e-6));

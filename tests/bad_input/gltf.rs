@@ -61,7 +61,7 @@ fn json_with_buffer(buffer: &str) -> String {
 /// A GLB container (header, padded JSON chunk, BIN chunk).
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut json = json.as_bytes().to_vec();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();
