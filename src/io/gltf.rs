@@ -32,7 +32,7 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
     if options.apply_transforms {
         doc.transform(&mesh, &mut mesh_out, &mut [])?;
     }
-    Ok(mesh_out)
+    super::validated(mesh_out, path)
 }
 
 /// What [`crate::morph::Morph::from_gltf`] needs from a file: the selected mesh
@@ -335,10 +335,7 @@ struct Document {
 
 impl Document {
     fn open(path: &Path) -> Result<Document, LoadError> {
-        let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let bytes = super::read(path)?;
         let is_glb = bytes.starts_with(b"glTF")
             || path
                 .extension()
