@@ -705,6 +705,43 @@ mod tests {
     }
 
     #[test]
+    fn select_applies_a_cleaning_result_to_every_target() {
+        use crate::mesh::clean::{clean, CleanOptions};
+        let morph = target(&asset("makehuman_body.glb"), "caucasian-male-baby");
+        let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
+        let cleaned = clean(&base, &CleanOptions { weld: true }).unwrap();
+        let kept = morph
+            .select(&cleaned.vertex_map, cleaned.mesh.triangles.clone())
+            .unwrap();
+        assert_eq!(kept.v0(), cleaned.mesh.positions);
+        let v1 = morph.v1();
+        let expected: Vec<[f32; 3]> = cleaned.vertex_map.iter().map(|&v| v1[v as usize]).collect();
+        assert_eq!(kept.v1(), expected);
+    }
+
+    #[test]
+    fn transformed_morph_moves_deltas_with_the_node() {
+        // The cube's node scales by 100 and rotates: target offsets scale too.
+        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
+        let source = MorphSource::Target("1".to_string());
+        let plain = Morph::from_gltf(&path, &LoadOptions::default(), &source).unwrap();
+        let placed = LoadOptions {
+            apply_transforms: true,
+            ..LoadOptions::default()
+        };
+        let moved = Morph::from_gltf(&path, &placed, &source).unwrap();
+        let length = |m: &Morph, v: usize| {
+            let (a, b) = (m.v0()[v], m.v1()[v]);
+            ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+        };
+        let v = (0..plain.vertex_count())
+            .max_by(|&a, &b| length(&plain, a).total_cmp(&length(&plain, b)))
+            .unwrap();
+        assert!(length(&plain, v) > 0.01);
+        assert!((length(&moved, v) / length(&plain, v) - 100.0).abs() < 1e-2);
+    }
+
+    #[test]
     fn from_parts_checks_lengths() {
         let base = quad(0.0).positions;
         let short = MorphTarget {

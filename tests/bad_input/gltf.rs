@@ -460,3 +460,47 @@ proptest! {
         }
     }
 }
+
+/// The target as a sparse accessor without a buffer view: zeros except the
+/// entries listed (index 0 from view 1, value (0, 0, 1) from view 2).
+const SPARSE_TARGET: &str = r#"{"componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [0, 0, 1],
+    "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123}, "values": {"bufferView": 2}}}"#;
+
+const DENSE_TARGET: &str = r#"{"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 1], "max": [0, 0, 1]}"#;
+
+#[test]
+fn sparse_target_deltas_load() {
+    let path = glb_variant("sparse", DENSE_TARGET, SPARSE_TARGET);
+    let morph = Morph::from_gltf(
+        &path,
+        &LoadOptions::default(),
+        &MorphSource::Target("lift".to_string()),
+    )
+    .unwrap();
+    assert_eq!(
+        morph.v1(),
+        vec![[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    );
+}
+
+#[test]
+fn sparse_index_out_of_range() {
+    // Sparse index 2 (the third u16 of view 1, at byte 4) in a 2-element accessor.
+    let bad = SPARSE_TARGET
+        .replace(r#""count": 3"#, r#""count": 2"#)
+        .replace(
+            r#""bufferView": 1, "componentType": 5123"#,
+            r#""bufferView": 1, "byteOffset": 4, "componentType": 5123"#,
+        );
+    let path = glb_variant("sparse-range", DENSE_TARGET, &bad);
+    let err = animated(&path).unwrap_err();
+    assert!(
+        matches!(err, MorphError::Load(LoadError::GltfData { .. })),
+        "{err:?}"
+    );
+    let message = err.to_string();
+    assert!(
+        message.contains("accessor 2") && message.contains("sparse entry 0 replaces element 2"),
+        "{message}"
+    );
+}
