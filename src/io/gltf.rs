@@ -314,9 +314,10 @@ fn interpolation(i: gltf::animation::Interpolation) -> Interpolation {
 }
 
 /// The largest accessor without a buffer view we materialise (it reads as zeros
-/// plus sparse values); the count comes from the file, so it must be capped
-/// before allocating.
-const MAX_VIEWLESS_ELEMENTS: usize = 1 << 26;
+/// plus sparse values): its count comes from the file and no data backs it, so
+/// a few bytes of JSON could otherwise ask for gigabytes. 256 MiB holds a
+/// 22-million-vertex sparse morph target.
+const MAX_VIEWLESS_BYTES: usize = 1 << 28;
 
 /// Triangle primitives of one mesh, concatenated: positions, triangles and, when
 /// asked, per-target POSITION deltas concatenated the same way.
@@ -821,13 +822,14 @@ impl Document {
                 out
             }
             None => {
-                if count > MAX_VIEWLESS_ELEMENTS {
+                let bytes = count.checked_mul(size).filter(|&b| b <= MAX_VIEWLESS_BYTES);
+                let Some(bytes) = bytes else {
                     return Err(self.unsupported(
                         element,
-                        format!("an accessor without bufferView of {count} elements (at most {MAX_VIEWLESS_ELEMENTS})"),
+                        format!("an accessor without bufferView of {count} elements of {size} bytes (at most {MAX_VIEWLESS_BYTES} bytes)"),
                     ));
-                }
-                vec![0; count * size]
+                };
+                vec![0; bytes]
             }
         };
         if let Some(sparse) = accessor.sparse() {

@@ -504,3 +504,15 @@ fn sparse_index_out_of_range() {
         "{message}"
     );
 }
+
+#[test]
+fn huge_viewless_accessor_is_refused_before_allocating() {
+    let huge = SPARSE_TARGET.replace(r#""count": 3"#, r#""count": 4000000000"#);
+    let path = glb_variant("huge-sparse", DENSE_TARGET, &huge);
+    let err = animated(&path).unwrap_err();
+    assert!(
+        matches!(err, MorphError::Load(LoadError::GltfUnsupported { .. })),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("accessor 2"), "{err}");
+}
