@@ -426,7 +426,7 @@ fn animated_cube(path: &Path) -> Result<Morph, MorphError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     /// Random byte edits anywhere in the cube's GLB (header, JSON, binary data):
     /// loading returns Ok or a typed error, never panics, and whatever loads is
