@@ -641,3 +641,8 @@ proptest! {
         }
     }
 }
+
+// A test crate root resolves `mod x;` beside itself (tests/x.rs), so the
+// per-format files under tests/bad_input/ need explicit paths.
+#[path = "bad_input/gltf.rs"]
+mod gltf;

@@ -99,5 +99,9 @@ fn info_one(path: &Path, options: &LoadOptions, weld: bool) -> Result<String, St
     out += &format!("cleaning (weld {})\n", if weld { "on" } else { "off" });
     out += &format!("{}\n", cleaned.report);
     out += &format!("topology (after cleaning)\n{topology}\n");
+    if Format::from_path(path) == Some(Format::Gltf) {
+        let summary = morphlod::io::gltf::inspect(path).map_err(|e| e.to_string())?;
+        out += &format!("glTF contents\n{summary}");
+    }
     Ok(out)
 }
