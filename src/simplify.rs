@@ -18,10 +18,12 @@
 //!   That is the [`Collapse::error`](crate::collapse::Collapse) recorded.
 //!
 //! Unlike meshoptimizer (which collapses in independent batches) the order is
-//! strictly greedy: a priority queue of each vertex's cheapest outgoing
-//! half-edge, invalidated lazily with per-vertex version stamps. Costs are
-//! cheap, validity checks are not, so a candidate is only validated when it is
-//! popped.
+//! strictly greedy: an indexed min-heap holds one entry per vertex, its
+//! cheapest outgoing half-edge, updated in place (decrease/increase key) when
+//! its fan or quadric changes, so the heap never exceeds the vertex count and
+//! holds no stale entries. Costs are cheap, validity checks are not, so a
+//! candidate is only validated when it is popped (lazily: its 2-ring may have
+//! changed since it was ranked).
 //!
 //! Topology rules (each checked on the current mesh before a collapse):
 //! * an interior vertex may collapse onto any neighbour; a boundary vertex only
@@ -36,9 +38,6 @@
 //! * no remaining triangle around `u` flips or degenerates: the cosine between
 //!   its normals before and after must exceed
 //!   [`SimplifyOptions::min_normal_cos`].
-
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
@@ -194,14 +193,126 @@ impl Quadric {
     }
 }
 
-/// A queued candidate `u → w`. Ordered by cost first (non-negative `f64` bits
-/// order like the values), then by vertex so the result is deterministic.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-struct Entry {
-    cost: u64,
-    u: u32,
-    w: u32,
-    version: u32,
+/// Indexed binary min-heap of vertices keyed by `(cost, vertex)` (the vertex
+/// breaks ties, so the result is deterministic), with each vertex's chosen
+/// target beside its cost.
+struct Queue {
+    heap: Vec<u32>,
+    /// Position of each vertex in `heap`, or `NONE`.
+    slot: Vec<u32>,
+    cost: Vec<f64>,
+    target: Vec<u32>,
+}
+
+impl Queue {
+    fn new(n: usize) -> Self {
+        Self {
+            heap: Vec::with_capacity(n),
+            slot: vec![NONE; n],
+            cost: vec![0.0; n],
+            target: vec![NONE; n],
+        }
+    }
+
+    fn before(&self, a: u32, b: u32) -> bool {
+        self.cost[a as usize]
+            .total_cmp(&self.cost[b as usize])
+            .then(a.cmp(&b))
+            .is_lt()
+    }
+
+    fn queued(&self, v: u32) -> bool {
+        self.slot[v as usize] != NONE
+    }
+
+    /// Whether `(cost, v)` would come before everything queued.
+    fn beats_top(&self, cost: f64, v: u32) -> bool {
+        self.heap.first().is_none_or(|&top| {
+            cost.total_cmp(&self.cost[top as usize])
+                .then(v.cmp(&top))
+                .is_le()
+        })
+    }
+
+    fn set(&mut self, v: u32, cost: f64, target: u32) {
+        self.cost[v as usize] = cost;
+        self.target[v as usize] = target;
+        let i = match self.slot[v as usize] {
+            NONE => {
+                self.heap.push(v);
+                self.heap.len() - 1
+            }
+            i => i as usize,
+        };
+        self.slot[v as usize] = i as u32;
+        let i = self.sift_up(i);
+        self.sift_down(i);
+    }
+
+    fn remove(&mut self, v: u32) {
+        let i = self.slot[v as usize];
+        if i == NONE {
+            return;
+        }
+        self.slot[v as usize] = NONE;
+        let last = self.heap.pop().unwrap_or(v);
+        if last != v {
+            self.heap[i as usize] = last;
+            self.slot[last as usize] = i;
+            let i = self.sift_up(i as usize);
+            self.sift_down(i);
+        }
+    }
+
+    fn pop(&mut self) -> Option<u32> {
+        let top = *self.heap.first()?;
+        self.remove(top);
+        Some(top)
+    }
+
+    fn place(&mut self, i: usize, v: u32) {
+        self.heap[i] = v;
+        self.slot[v as usize] = i as u32;
+    }
+
+    fn sift_up(&mut self, mut i: usize) -> usize {
+        let v = self.heap[i];
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            let p = self.heap[parent];
+            if !self.before(v, p) {
+                break;
+            }
+            self.place(i, p);
+            i = parent;
+        }
+        self.place(i, v);
+        i
+    }
+
+    fn sift_down(&mut self, mut i: usize) {
+        let v = self.heap[i];
+        let n = self.heap.len();
+        loop {
+            let left = 2 * i + 1;
+            if left >= n {
+                break;
+            }
+            let right = left + 1;
+            let child = if right < n && self.before(self.heap[right], self.heap[left]) {
+                right
+            } else {
+                left
+            };
+            let c = self.heap[child];
+            if !self.before(c, v) {
+                break;
+            }
+            self.place(i, c);
+            i = child;
+        }
+        self.place(i, v);
+    }
 }
 
 struct State<'o> {
@@ -218,14 +329,14 @@ struct State<'o> {
     cap: Vec<u32>,
     pool: Vec<u32>,
     collapsed: Vec<bool>,
-    version: Vec<u32>,
     /// Scratch marks for neighbour sets: `mark[v] == stamp` means "in the set".
     mark: Vec<u32>,
     count: Vec<u32>,
     stamp: u32,
     scratch: Vec<u32>,
+    around: Vec<u32>,
     candidates: Vec<(f64, u32)>,
-    heap: BinaryHeap<Reverse<Entry>>,
+    queue: Queue,
     collapses: Vec<Collapse>,
 }
 
@@ -260,13 +371,13 @@ impl<'o> State<'o> {
             len,
             pool,
             collapsed: vec![false; n],
-            version: vec![0; n],
             mark: vec![0; n],
             count: vec![0; n],
             stamp: 0,
             scratch: Vec::new(),
+            around: Vec::new(),
             candidates: Vec::new(),
-            heap: BinaryHeap::with_capacity(n * 2),
+            queue: Queue::new(n),
             collapses: Vec::with_capacity(n),
         }
     }
@@ -288,41 +399,37 @@ impl<'o> State<'o> {
 
     fn run(&mut self) {
         for v in 0..self.pos.len() as u32 {
-            self.requeue(v);
+            self.rerank(v);
         }
         loop {
-            while let Some(Reverse(e)) = self.heap.pop() {
-                if self.collapsed[e.u as usize] || self.version[e.u as usize] != e.version {
-                    continue;
-                }
-                if self.is_valid(e.u, e.w) {
-                    self.collapse(e.u, e.w, f64::from_bits(e.cost));
+            while let Some(u) = self.queue.pop() {
+                let w = self.queue.target[u as usize];
+                if self.is_valid(u, w) {
+                    self.collapse(u, w, self.queue.cost[u as usize]);
                     continue;
                 }
                 // The cheapest target went invalid (its 2-ring changed since it was
                 // ranked): fall back to the cheapest valid one, at once if it still
-                // beats everything queued.
-                self.version[e.u as usize] = self.version[e.u as usize].wrapping_add(1);
-                if let Some((cost, w)) = self.best_valid(e.u) {
-                    let bits = cost.to_bits();
-                    match self.heap.peek() {
-                        Some(Reverse(top)) if top.cost < bits => self.push(e.u, w, cost),
-                        _ => self.collapse(e.u, w, cost),
+                // beats everything queued. Without one, u waits until its fan changes.
+                if let Some((cost, w)) = self.best_valid(u) {
+                    if self.queue.beats_top(cost, u) {
+                        self.collapse(u, w, cost);
+                    } else {
+                        self.queue.set(u, cost, w);
                     }
                 }
             }
-            // The queue ran dry. A vertex with no valid target is dropped from the
-            // queue and only re-ranked when its own fan changes, but later
-            // collapses in its 2-ring can unblock it: sweep once more so the
-            // sequence really runs to the end.
+            // The queue ran dry. A vertex without a valid target left the queue
+            // and returns only when its own fan changes, but later collapses in
+            // its 2-ring can unblock it: sweep once more so the sequence really
+            // runs to the end.
             let mut progress = false;
             for v in 0..self.pos.len() as u32 {
                 if self.collapsed[v as usize] || self.kind[v as usize] == Kind::Locked {
                     continue;
                 }
                 if let Some((cost, w)) = self.best_valid(v) {
-                    self.version[v as usize] = self.version[v as usize].wrapping_add(1);
-                    self.push(v, w, cost);
+                    self.queue.set(v, cost, w);
                     progress = true;
                 }
             }
@@ -332,26 +439,17 @@ impl<'o> State<'o> {
         }
     }
 
-    fn push(&mut self, u: u32, w: u32, cost: f64) {
-        self.heap.push(Reverse(Entry {
-            cost: cost.to_bits(),
-            u,
-            w,
-            version: self.version[u as usize],
-        }));
-    }
-
-    /// Re-ranks `u` by cost alone and queues its cheapest allowed target.
-    fn requeue(&mut self, u: u32) {
-        self.version[u as usize] = self.version[u as usize].wrapping_add(1);
+    /// Ranks `u` by cost alone and queues its cheapest allowed target.
+    fn rerank(&mut self, u: u32) {
         self.rank_targets(u);
         let best = self
             .candidates
             .iter()
             .copied()
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        if let Some((cost, w)) = best {
-            self.push(u, w, cost);
+        match best {
+            Some((cost, w)) => self.queue.set(u, cost, w),
+            None => self.queue.remove(u),
         }
     }
 
@@ -364,12 +462,24 @@ impl<'o> State<'o> {
         if kind == Kind::Locked || self.collapsed[u as usize] {
             return;
         }
+        let q = self.quadric[u as usize];
+        let (s, l) = (self.start[u as usize], self.len[u as usize] as usize);
+        if kind == Kind::Interior {
+            let seen = self.next_stamp();
+            for i in s..s + l {
+                for v in self.tris[self.pool[i] as usize] {
+                    if v != u && self.mark[v as usize] != seen {
+                        self.mark[v as usize] = seen;
+                        self.candidates.push((q.error(self.pos[v as usize]), v));
+                    }
+                }
+            }
+            return;
+        }
         let seen = self.next_stamp();
         let done = self.next_stamp();
-        let (s, l) = (self.start[u as usize], self.len[u as usize] as usize);
         for i in s..s + l {
-            let t = self.tris[self.pool[i] as usize];
-            for v in t {
+            for v in self.tris[self.pool[i] as usize] {
                 if v != u {
                     if self.mark[v as usize] != seen {
                         self.mark[v as usize] = seen;
@@ -379,22 +489,13 @@ impl<'o> State<'o> {
                 }
             }
         }
-        let q = self.quadric[u as usize];
         for i in s..s + l {
-            let t = self.tris[self.pool[i] as usize];
-            for v in t {
+            for v in self.tris[self.pool[i] as usize] {
                 if v == u || self.mark[v as usize] != seen {
                     continue;
                 }
                 self.mark[v as usize] = done;
-                let allowed = match kind {
-                    Kind::Interior => true,
-                    Kind::Border => {
-                        self.count[v as usize] == 1 && self.kind[v as usize] == Kind::Border
-                    }
-                    Kind::Locked => false,
-                };
-                if allowed {
+                if self.count[v as usize] == 1 && self.kind[v as usize] == Kind::Border {
                     self.candidates.push((q.error(self.pos[v as usize]), v));
                 }
             }
@@ -511,8 +612,9 @@ impl<'o> State<'o> {
     }
 
     /// Applies `u → w`: kills the triangles on edge uw, re-points u's other
-    /// triangles to w, merges the quadric, and re-ranks every vertex whose fan
-    /// changed (w and u's old neighbours).
+    /// triangles to w, merges the quadric, and updates the queue where costs or
+    /// candidate sets changed: w (new quadric, new fan) and u's old neighbours
+    /// (they lost u and gained w).
     fn collapse(&mut self, u: u32, w: u32, cost: f64) {
         self.collapses.push(Collapse {
             u,
@@ -520,12 +622,26 @@ impl<'o> State<'o> {
             error: cost as f32,
         });
         self.collapsed[u as usize] = true;
+        self.queue.remove(u);
         let qu = self.quadric[u as usize];
         self.quadric[w as usize].add(&qu);
 
         let mut moved = std::mem::take(&mut self.scratch);
         moved.clear();
         moved.extend_from_slice(self.list(u));
+        let mut around = std::mem::take(&mut self.around);
+        around.clear();
+        for &t in &moved {
+            around.extend(
+                self.tris[t as usize]
+                    .iter()
+                    .copied()
+                    .filter(|&v| v != u && v != w),
+            );
+        }
+        around.sort_unstable();
+        around.dedup();
+
         self.len[u as usize] = 0;
         let mut kept = 0;
         for i in 0..moved.len() {
@@ -546,19 +662,30 @@ impl<'o> State<'o> {
         }
         moved.truncate(kept);
         self.append_to_list(w, &moved);
-
-        // Re-rank w and everything now around it that used to touch u.
-        moved.clear();
-        let s = self.start[w as usize];
-        for i in s..s + self.len[w as usize] as usize {
-            moved.extend_from_slice(&self.tris[self.pool[i] as usize]);
-        }
-        moved.sort_unstable();
-        moved.dedup();
-        for &v in &moved {
-            self.requeue(v);
-        }
         self.scratch = moved;
+
+        self.rerank(w);
+        let pw = self.pos[w as usize];
+        for &x in &around {
+            // An interior neighbour whose queued target was not u keeps its other
+            // costs: only the new edge x→w can lower its best. Anything else
+            // (target u gone, border rules depend on the new edges, or not queued)
+            // is ranked afresh.
+            let xi = x as usize;
+            if self.kind[xi] == Kind::Interior && self.queue.queued(x) && self.queue.target[xi] != u
+            {
+                let c = self.quadric[xi].error(pw);
+                if c.total_cmp(&self.queue.cost[xi])
+                    .then(w.cmp(&self.queue.target[xi]))
+                    .is_lt()
+                {
+                    self.queue.set(x, c, w);
+                }
+            } else {
+                self.rerank(x);
+            }
+        }
+        self.around = around;
     }
 
     fn remove_from_list(&mut self, v: u32, t: u32) {
@@ -1009,6 +1136,33 @@ pub(crate) mod tests {
         seq.validate().unwrap();
         // The fin's edge vertices are non-manifold and never move.
         assert!(seq.collapses.iter().all(|c| c.u != base && c.u != base + 1));
+    }
+
+    #[test]
+    fn real_meshes_run_to_a_tetrahedron() {
+        // Both are closed genus-0 surfaces: the topology must hold at every LOD
+        // checked (every 16th and the last 64) and the sequence must reach the
+        // minimum, a tetrahedron.
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+        for mesh in [
+            crate::io::obj::load(&dir.join("bunny.obj")),
+            crate::io::off::load(&dir.join("cow.off")),
+        ] {
+            let mesh = mesh.unwrap();
+            let (pos, tris) = (&mesh.positions, &mesh.triangles);
+            let seq = simplify(pos, tris, &SimplifyOptions::default());
+            seq.validate().unwrap();
+            let start = inspect(pos.len(), tris, 0);
+            assert_eq!(
+                (start.euler, start.components, start.boundary_loops),
+                (2, 1, 0)
+            );
+            for lod in (0..=seq.len()).filter(|l| l % 16 == 0 || l + 64 > seq.len()) {
+                let lod_mesh = seq.reference_mesh(tris, lod);
+                assert_eq!(inspect(pos.len(), &lod_mesh, lod), start, "LOD {lod}");
+            }
+            assert_eq!(seq.reference_mesh(tris, seq.len()).len(), 4);
+        }
     }
 
     #[test]
