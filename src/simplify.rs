@@ -522,12 +522,20 @@ impl<'o> State<'o> {
             return false;
         }
         // The triangles on edge uw: their apexes, and whether the edge is
-        // traversed once each way (manifold) or once (boundary).
+        // traversed once each way (manifold) or once (boundary). Meanwhile mark
+        // u's neighbours for the link condition below.
+        let stamp = self.next_stamp();
         let mut shared = 0usize;
         let mut apex = [NONE; 2];
         let mut forward = [false; 2];
-        for &t in self.list(u) {
-            let tri = self.tris[t as usize];
+        let (su, sw) = (self.start[u as usize], self.start[w as usize]);
+        let lu = self.len[u as usize] as usize;
+        let lw = self.len[w as usize] as usize;
+        for i in su..su + lu {
+            let tri = self.tris[self.pool[i] as usize];
+            for v in tri {
+                self.mark[v as usize] = stamp;
+            }
             if let Some(cw) = tri.iter().position(|&v| v == w) {
                 if shared == 2 {
                     return false;
@@ -546,22 +554,13 @@ impl<'o> State<'o> {
         if !edge_ok {
             return false;
         }
-        let lu = self.len[u as usize] as usize;
-        let lw = self.len[w as usize] as usize;
         if lu + lw <= 2 * shared {
             // Nothing would remain of this component.
             return false;
         }
 
-        // Link condition: mark u's neighbours, then look for one that w also
-        // reaches through a triangle not on edge uw.
-        let stamp = self.next_stamp();
-        let (su, sw) = (self.start[u as usize], self.start[w as usize]);
-        for i in su..su + lu {
-            for v in self.tris[self.pool[i] as usize] {
-                self.mark[v as usize] = stamp;
-            }
-        }
+        // Link condition: no neighbour of u that w also reaches through a
+        // triangle not on edge uw.
         for i in sw..sw + lw {
             let tri = self.tris[self.pool[i] as usize];
             if tri.contains(&u) {
@@ -595,8 +594,8 @@ impl<'o> State<'o> {
             let before = (pa - pu).cross(pb - pu);
             let after = (pa - pw).cross(pb - pw);
             let limit = min_cos * (before.length_squared() * after.length_squared()).sqrt();
-            // `!(x > y)` so that NaN (non-finite input) also rejects.
-            if !(before.dot(after) > limit) {
+            // Anything but "greater" rejects, NaN (non-finite input) included.
+            if before.dot(after).partial_cmp(&limit) != Some(std::cmp::Ordering::Greater) {
                 return false;
             }
         }
@@ -631,16 +630,15 @@ impl<'o> State<'o> {
         moved.extend_from_slice(self.list(u));
         let mut around = std::mem::take(&mut self.around);
         around.clear();
+        let seen = self.next_stamp();
         for &t in &moved {
-            around.extend(
-                self.tris[t as usize]
-                    .iter()
-                    .copied()
-                    .filter(|&v| v != u && v != w),
-            );
+            for v in self.tris[t as usize] {
+                if v != u && v != w && self.mark[v as usize] != seen {
+                    self.mark[v as usize] = seen;
+                    around.push(v);
+                }
+            }
         }
-        around.sort_unstable();
-        around.dedup();
 
         self.len[u as usize] = 0;
         let mut kept = 0;
