@@ -354,7 +354,7 @@ impl<'o> State<'o> {
 
         let mut start = Vec::with_capacity(n);
         let mut len = Vec::with_capacity(n);
-        let mut pool = Vec::with_capacity(tris.len() * 3 * 2);
+        let mut pool = Vec::with_capacity(tris.len() * 3 * 3);
         for v in 0..n as u32 {
             start.push(pool.len());
             len.push(vt.of(v).len() as u32);
