@@ -317,7 +317,9 @@ impl Queue {
 
 struct State<'o> {
     options: &'o SimplifyOptions,
-    pos: Vec<DVec3>,
+    /// The caller's positions, read as `f64` on use: half the cache
+    /// footprint of a `DVec3` copy, and the collapse loop is memory bound.
+    pos: &'o [[f32; 3]],
     tris: Vec<[u32; 3]>,
     kind: Vec<Kind>,
     quadric: Vec<Quadric>,
@@ -341,12 +343,9 @@ struct State<'o> {
 }
 
 impl<'o> State<'o> {
-    fn new(positions: &[[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
+    fn new(positions: &'o [[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
         let n = positions.len();
-        let pos: Vec<DVec3> = positions
-            .iter()
-            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
-            .collect();
+        let pos = positions;
         let vt = VertexTriangles::new(&tris, n);
         let edges = EdgeMap::new(&tris);
         let kind = classify(&tris, &vt, &edges);
@@ -380,6 +379,10 @@ impl<'o> State<'o> {
             queue: Queue::new(n),
             collapses: Vec::with_capacity(n),
         }
+    }
+
+    fn p(&self, v: u32) -> DVec3 {
+        dvec(self.pos[v as usize])
     }
 
     fn list(&self, v: u32) -> &[u32] {
@@ -470,7 +473,7 @@ impl<'o> State<'o> {
                 for v in self.tris[self.pool[i] as usize] {
                     if v != u && self.mark[v as usize] != seen {
                         self.mark[v as usize] = seen;
-                        self.candidates.push((q.error(self.pos[v as usize]), v));
+                        self.candidates.push((q.error(self.p(v)), v));
                     }
                 }
             }
@@ -496,7 +499,7 @@ impl<'o> State<'o> {
                 }
                 self.mark[v as usize] = done;
                 if self.count[v as usize] == 1 && self.kind[v as usize] == Kind::Border {
-                    self.candidates.push((q.error(self.pos[v as usize]), v));
+                    self.candidates.push((q.error(self.p(v)), v));
                 }
             }
         }
@@ -573,8 +576,8 @@ impl<'o> State<'o> {
             }
         }
 
-        let pu = self.pos[u as usize];
-        let pw = self.pos[w as usize];
+        let pu = self.p(u);
+        let pw = self.p(w);
         let min_cos = self.options.min_normal_cos as f64;
         for i in su..su + lu {
             let tri = self.tris[self.pool[i] as usize];
@@ -590,7 +593,7 @@ impl<'o> State<'o> {
             if both_apex && self.has_triangle(w, a, b) {
                 return false;
             }
-            let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
+            let (pa, pb) = (self.p(a), self.p(b));
             let before = (pa - pu).cross(pb - pu);
             let after = (pa - pw).cross(pb - pw);
             let limit = min_cos * (before.length_squared() * after.length_squared()).sqrt();
@@ -663,7 +666,7 @@ impl<'o> State<'o> {
         self.scratch = moved;
 
         self.rerank(w);
-        let pw = self.pos[w as usize];
+        let pw = self.p(w);
         for &x in &around {
             // An interior neighbour whose queued target was not u keeps its other
             // costs: only the new edge x→w can lower its best. Anything else
@@ -711,6 +714,10 @@ impl<'o> State<'o> {
         self.pool[s..s + add.len()].copy_from_slice(add);
         self.len[vi] = need as u32;
     }
+}
+
+fn dvec(p: [f32; 3]) -> DVec3 {
+    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
 
 /// Tags each vertex by walking its fan across manifold edges: one closed fan
@@ -773,14 +780,14 @@ fn classify(tris: &[[u32; 3]], vt: &VertexTriangles, edges: &EdgeMap) -> Vec<Kin
 
 /// Face quadrics, boundary edge quadrics and the regularizing point quadric of every vertex.
 fn quadrics(
-    pos: &[DVec3],
+    pos: &[[f32; 3]],
     tris: &[[u32; 3]],
     edges: &EdgeMap,
     options: &SimplifyOptions,
 ) -> Vec<Quadric> {
     let mut q = vec![Quadric::default(); pos.len()];
     let face = |t: [u32; 3], weight: f64| {
-        let (p0, p1, p2) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
+        let [p0, p1, p2] = t.map(|v| dvec(pos[v as usize]));
         let cross = (p1 - p0).cross(p2 - p0);
         let double_area = cross.length();
         let n = if double_area > 0.0 {
@@ -804,7 +811,11 @@ fn quadrics(
         let h = group[0];
         let t = tris[h.triangle as usize];
         let apex = t[(h.corner as usize + 2) % 3];
-        let (p0, p1, p2) = (pos[h.from as usize], pos[h.to as usize], pos[apex as usize]);
+        let (p0, p1, p2) = (
+            dvec(pos[h.from as usize]),
+            dvec(pos[h.to as usize]),
+            dvec(pos[apex as usize]),
+        );
         let edge = p1 - p0;
         // The plane holds the edge and is perpendicular to the triangle: its
         // normal is the component of (p2 - p0) perpendicular to the edge.
@@ -822,7 +833,7 @@ fn quadrics(
     }
     let r = options.regularization as f64;
     for (v, qv) in q.iter_mut().enumerate() {
-        let p = Quadric::point(pos[v], qv.w * r);
+        let p = Quadric::point(dvec(pos[v]), qv.w * r);
         qv.add(&p);
     }
     q
