@@ -77,18 +77,50 @@ pub struct EdgeMap {
 
 impl EdgeMap {
     pub fn new(triangles: &[[u32; 3]]) -> Self {
-        let mut half_edges = Vec::with_capacity(triangles.len() * 3);
-        for (t, tri) in triangles.iter().enumerate() {
+        // Counting sort by the smaller endpoint, then a stable sort by the
+        // larger one inside each (small) bucket: O(n) instead of a comparison
+        // sort of all half-edges, which dominated the simplifier's setup.
+        // Half-edges enter their bucket in (triangle, corner) order, so the
+        // result is ordered by (key, triangle, corner) as before.
+        let half_edge = |t: usize, c: usize| HalfEdge {
+            from: triangles[t][c],
+            to: triangles[t][(c + 1) % 3],
+            triangle: t as u32,
+            corner: c as u8,
+        };
+        let vertex_count = triangles
+            .iter()
+            .flatten()
+            .max()
+            .map_or(0, |&m| m as usize + 1);
+        let mut offsets = vec![0usize; vertex_count + 1];
+        for t in 0..triangles.len() {
             for c in 0..3 {
-                half_edges.push(HalfEdge {
-                    from: tri[c],
-                    to: tri[(c + 1) % 3],
-                    triangle: t as u32,
-                    corner: c as u8,
-                });
+                offsets[half_edge(t, c).key().0 as usize + 1] += 1;
             }
         }
-        half_edges.sort_unstable_by_key(|h| (h.key(), h.triangle, h.corner));
+        for i in 0..vertex_count {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let empty = HalfEdge {
+            from: 0,
+            to: 0,
+            triangle: 0,
+            corner: 0,
+        };
+        let mut half_edges = vec![empty; triangles.len() * 3];
+        for t in 0..triangles.len() {
+            for c in 0..3 {
+                let h = half_edge(t, c);
+                let bucket = &mut fill[h.key().0 as usize];
+                half_edges[*bucket] = h;
+                *bucket += 1;
+            }
+        }
+        for bucket in offsets.windows(2) {
+            half_edges[bucket[0]..bucket[1]].sort_by_key(|h| h.key().1);
+        }
         Self { half_edges }
     }
 
@@ -137,6 +169,27 @@ mod tests {
         let n = triangle_neighbors(&tris, &edges);
         assert_eq!(n[0], [NONE, NONE, 1]);
         assert_eq!(n[1], [0, NONE, NONE]);
+    }
+
+    #[test]
+    fn edges_sorted_by_key_then_triangle() {
+        let tris = [[3, 1, 0], [0, 1, 2], [2, 1, 3], [0, 2, 3]];
+        let edges = EdgeMap::new(&tris);
+        let mut expected: Vec<(u32, u32, u32, u8)> = Vec::new();
+        for (t, tri) in tris.iter().enumerate() {
+            for c in 0..3 {
+                let (a, b) = (tri[c], tri[(c + 1) % 3]);
+                expected.push((a.min(b), a.max(b), t as u32, c as u8));
+            }
+        }
+        expected.sort_unstable();
+        let got: Vec<(u32, u32, u32, u8)> = edges
+            .edges()
+            .flatten()
+            .map(|h| (h.key().0, h.key().1, h.triangle, h.corner))
+            .collect();
+        assert_eq!(got, expected);
+        assert_eq!(EdgeMap::new(&[]).edges().count(), 0);
     }
 
     #[test]

@@ -1,0 +1,117 @@
+//! Geometric quality of our collapse sequences against `meshopt::simplify`.
+//!
+//! For each real mesh, the reference mesh of our sequence at 10%, 5% and 2% of
+//! the triangles is compared, by symmetric Hausdorff distance and RMS (Metro-style
+//! surface sampling, [`morphlod::metrics`]), with meshoptimizer's result at the
+//! same triangle count, both against the original. meshopt is given an error
+//! limit of the whole mesh extent so only the count stops it; where it stops
+//! short of the count, both are compared at the count it reached.
+//!
+//! Print the table with
+//! `cargo test --release --test simplify_quality -- --ignored --nocapture`.
+
+use std::path::Path;
+
+use morphlod::collapse::CollapseSequence;
+use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
+use morphlod::simplify::{simplify, SimplifyOptions};
+use morphlod::IndexedMesh;
+
+/// Samples per surface: enough that the RMS is stable to well under 1%.
+const SAMPLES: usize = 200_000;
+
+fn load(name: &str) -> IndexedMesh {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets").join(name);
+    let mesh = match path.extension().and_then(|e| e.to_str()) {
+        Some("off") => morphlod::io::off::load(&path),
+        _ => morphlod::io::obj::load(&path),
+    };
+    match mesh {
+        Ok(m) => m,
+        Err(e) => panic!("{name}: {e}"),
+    }
+}
+
+/// The first LOD with at most `target` triangles (triangle counts strictly
+/// fall along a sequence: every collapse removes at least one).
+fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
+    let (mut lo, mut hi) = (0, seq.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if seq.reference_mesh(tris, mid).len() <= target {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+fn meshopt_simplify(mesh: &IndexedMesh, target: usize) -> Vec<[u32; 3]> {
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
+        .expect("tightly packed positions");
+    let out = meshopt::simplify(
+        &indices,
+        &adapter,
+        target * 3,
+        1.0,
+        meshopt::SimplifyOptions::None,
+        None,
+    );
+    out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+}
+
+/// Error of `tris` (over the original vertex buffer) against the original surface.
+fn error(mesh: &IndexedMesh, original: &SurfaceIndex, original_samples: &[glam::DVec3], tris: &[[u32; 3]]) -> ErrorStats {
+    let index = SurfaceIndex::new(&mesh.positions, tris).expect("indices in range");
+    let samples = sample_surface(&mesh.positions, tris, SAMPLES, 2).expect("indices in range");
+    symmetric(directed_error(&samples, original), directed_error(original_samples, &index))
+}
+
+#[test]
+#[ignore = "prints the quality table; run in release"]
+fn quality_vs_meshopt() {
+    println!(
+        "{:<10} {:>5} {:>7} | {:>10} {:>10} | {:>10} {:>10} | {:>6} {:>6}",
+        "mesh", "keep", "tris", "H ours", "H meshopt", "RMS ours", "RMS mopt", "H x", "RMS x"
+    );
+    let mut worst = (0.0f64, 0.0f64);
+    for name in ["cow.off", "bunny.obj", "man.off"] {
+        let mesh = load(name);
+        mesh.validate().unwrap();
+        let seq = simplify(&mesh.positions, &mesh.triangles, &SimplifyOptions::default());
+        seq.validate().unwrap();
+        let original = SurfaceIndex::new(&mesh.positions, &mesh.triangles).unwrap();
+        let original_samples = sample_surface(&mesh.positions, &mesh.triangles, SAMPLES, 1).unwrap();
+        let diagonal = {
+            let (lo, hi) = mesh.bounds().unwrap();
+            ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt() as f64
+        };
+        for percent in [10usize, 5, 2] {
+            let target = mesh.triangles.len() * percent / 100;
+            let theirs = meshopt_simplify(&mesh, target);
+            let ours = seq.reference_mesh(&mesh.triangles, lod_for(&seq, &mesh.triangles, theirs.len()));
+            let e_ours = error(&mesh, &original, &original_samples, &ours);
+            let e_theirs = error(&mesh, &original, &original_samples, &theirs);
+            let ratio = (e_ours.hausdorff / e_theirs.hausdorff, e_ours.rms / e_theirs.rms);
+            worst = (worst.0.max(ratio.0), worst.1.max(ratio.1));
+            // Errors in percent of the bounding box diagonal, as Metro reports them.
+            let pct = |d: f64| 100.0 * d / diagonal;
+            println!(
+                "{:<10} {:>4}% {:>3}/{:<3} | {:>9.4}% {:>9.4}% | {:>9.4}% {:>9.4}% | {:>6.3} {:>6.3}",
+                name,
+                percent,
+                ours.len(),
+                theirs.len(),
+                pct(e_ours.hausdorff),
+                pct(e_theirs.hausdorff),
+                pct(e_ours.rms),
+                pct(e_theirs.rms),
+                ratio.0,
+                ratio.1
+            );
+        }
+    }
+    println!("worst ratio ours/meshopt: Hausdorff {:.3}, RMS {:.3} (goal <= 1.15)", worst.0, worst.1);
+}
