@@ -2,14 +2,53 @@
 //! binary little-endian) and glTF 2.0 / GLB. Every loader returns a typed
 //! [`LoadError`] naming the file and the line or element at fault; none may
 //! panic on any input.
+//!
+//! Loaders return the mesh as the file indexes it (no welding, no dropping of
+//! degenerate triangles: that is [`crate::mesh::clean`], which reports what it
+//! changed), but always validated, so every later stage can index without checks.
 
 pub mod gltf;
 pub mod obj;
 pub mod off;
 pub mod ply;
+mod text;
 
-use std::path::PathBuf;
+use crate::mesh::{IndexedMesh, MeshError};
+use std::fmt;
+use std::path::{Path, PathBuf};
 use thiserror::Error;
+
+/// Where in a file an error was found.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Location {
+    /// A 1-based line of a text file (OBJ, OFF, ASCII PLY, the PLY header).
+    Line(usize),
+    /// Record `index` (0-based) of a PLY element; binary files have no lines,
+    /// so the element and record are the only useful coordinates there.
+    Record {
+        element: String,
+        index: usize,
+        line: Option<usize>,
+    },
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::Line(line) => write!(f, "line {line}"),
+            Location::Record {
+                element,
+                index,
+                line: Some(line),
+            } => write!(f, "line {line} ({element} {index})"),
+            Location::Record {
+                element,
+                index,
+                line: None,
+            } => write!(f, "{element} {index}"),
+        }
+    }
+}
 
 /// Why a file could not be loaded.
 #[derive(Debug, Error)]
@@ -20,4 +59,137 @@ pub enum LoadError {
         #[source]
         source: std::io::Error,
     },
+    /// The text does not follow the format (bad header, unparsable number, missing field).
+    #[error("{}: {at}: {message}", .path.display())]
+    Syntax {
+        path: PathBuf,
+        at: Location,
+        message: String,
+    },
+    /// A coordinate is NaN or infinite (or overflows f32); later stages
+    /// (quadrics, bounds, the GPU) cannot work with it.
+    #[error("{}: {at}: coordinate {value} is not finite: fix or remove that vertex", .path.display())]
+    NonFinite {
+        path: PathBuf,
+        at: Location,
+        value: f64,
+    },
+    /// A face names a vertex that does not exist. `index` is as written in
+    /// the file (1-based or negative for OBJ, 0-based for OFF and PLY).
+    #[error("{}: {at}: vertex index {index} is out of range: the file has {vertices} vertices", .path.display())]
+    IndexOutOfRange {
+        path: PathBuf,
+        at: Location,
+        index: i64,
+        vertices: usize,
+    },
+    /// OBJ counts vertices from 1 (or from -1 backwards); 0 names nothing.
+    #[error("{}: {at}: OBJ vertex index 0 names no vertex (indices start at 1, negative ones count back from the last vertex)", .path.display())]
+    ZeroIndex { path: PathBuf, at: Location },
+    #[error("{}: {at}: a face needs at least 3 vertices, this one has {corners}", .path.display())]
+    FaceTooSmall {
+        path: PathBuf,
+        at: Location,
+        corners: usize,
+    },
+    /// The file ends before the records its header announced.
+    #[error("{}: the file ends before {expected}: it is truncated, or its header counts are wrong", .path.display())]
+    Truncated { path: PathBuf, expected: String },
+    #[error("{}: {what} is not supported: {hint}", .path.display())]
+    Unsupported {
+        path: PathBuf,
+        what: String,
+        hint: String,
+    },
+    /// The file parsed but the mesh is unusable (no triangles, too many vertices).
+    #[error("{}: {source}", .path.display())]
+    InvalidMesh {
+        path: PathBuf,
+        #[source]
+        source: MeshError,
+    },
+}
+
+/// Choices that only some formats use.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Which glTF mesh to load: its name or its index; `None` is the first mesh.
+    pub gltf_mesh: Option<String>,
+    /// Whether glTF node transforms are applied to the positions.
+    pub apply_transforms: bool,
+}
+
+/// The file formats [`load_mesh`] recognises, by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Obj,
+    Off,
+    Ply,
+    Gltf,
+}
+
+impl Format {
+    /// The format for a path's extension (case-insensitive), or `None`.
+    pub fn from_path(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "obj" => Some(Format::Obj),
+            "off" => Some(Format::Off),
+            "ply" => Some(Format::Ply),
+            "gltf" | "glb" => Some(Format::Gltf),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Obj => "Wavefront OBJ",
+            Format::Off => "OFF",
+            Format::Ply => "PLY",
+            Format::Gltf => "glTF",
+        }
+    }
+}
+
+/// Loads one mesh, choosing the loader by the file's extension.
+pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, LoadError> {
+    match Format::from_path(path) {
+        Some(Format::Obj) => obj::load(path),
+        Some(Format::Off) => off::load(path),
+        Some(Format::Ply) => ply::load(path),
+        Some(Format::Gltf) => Err(LoadError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!("glTF (mesh {:?})", options.gltf_mesh),
+            hint: "glTF loading is not built in yet".into(),
+        }),
+        None => Err(LoadError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!(
+                "the extension {:?}",
+                path.extension()
+                    .map(|e| e.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            ),
+            hint: "give a .obj, .off, .ply, .gltf or .glb file".into(),
+        }),
+    }
+}
+
+/// Reads a whole file, mapping the failure to [`LoadError::Io`].
+fn read(path: &Path) -> Result<Vec<u8>, LoadError> {
+    std::fs::read(path).map_err(|source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Validates a freshly parsed mesh, so callers never get one that later stages reject.
+fn validated(mesh: IndexedMesh, path: &Path) -> Result<IndexedMesh, LoadError> {
+    match mesh.validate() {
+        Ok(()) => Ok(mesh),
+        Err(source) => Err(LoadError::InvalidMesh {
+            path: path.to_path_buf(),
+            source,
+        }),
+    }
 }

@@ -1,1 +1,658 @@
-//! TODO(helper): ply loader.
+//! PLY (Stanford polygon format), ASCII and binary little-endian.
+//!
+//! The header declares elements, each a count and a record layout of scalar
+//! and list properties. Only `vertex` (its `x y z`, any scalar type) and
+//! `face` (its `vertex_indices` / `vertex_index` list) are kept; every other
+//! property and element (normals, colours, `edge`, `material`, ...) must still
+//! be stepped over exactly, because in a binary file its bytes sit between the
+//! ones we want. Big-endian files are rejected rather than byte-swapped: they
+//! are rare, and a wrong guess would load garbage silently.
+
+use super::text::{self, capacity, fan, finite_f32};
+use super::{read, validated, LoadError, Location};
+use crate::mesh::IndexedMesh;
+use std::path::Path;
+
+/// Reads and parses a PLY file.
+pub fn load(path: &Path) -> Result<IndexedMesh, LoadError> {
+    parse(&read(path)?, path)
+}
+
+/// Parses PLY bytes; `path` only names the file in errors.
+pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
+    let header = Header::parse(bytes, path)?;
+    let body = bytes.get(header.body_start..).unwrap_or_default();
+    let mut reader = match header.encoding {
+        Encoding::Ascii => Reader::Ascii(Tokens {
+            bytes: body,
+            pos: 0,
+            line: header.lines + 1,
+        }),
+        Encoding::BinaryLittleEndian => Reader::Binary {
+            bytes: body,
+            pos: 0,
+        },
+    };
+    let layout = header.mesh_layout(path)?;
+    let vertex_count = header.elements[layout.vertex].count;
+
+    let mut positions: Vec<[f32; 3]> = Vec::new();
+    let mut triangles: Vec<[u32; 3]> = Vec::new();
+    let mut corners: Vec<u32> = Vec::new();
+    for (e, element) in header.elements.iter().enumerate() {
+        // Reserve only what the remaining bytes can hold (a record is at
+        // least one byte in binary, two in ASCII): the header count alone is
+        // not trusted.
+        if e == layout.vertex {
+            positions.reserve(capacity(element.count, body.len(), 2));
+        } else if e == layout.face {
+            triangles.reserve(capacity(element.count, body.len(), 2));
+        }
+        // A record without properties occupies no bytes: a corrupt header
+        // could declare billions of them and spin here for nothing.
+        if element.properties.is_empty() {
+            continue;
+        }
+        for index in 0..element.count {
+            let record = Record {
+                element,
+                index,
+                path,
+            };
+            if e == layout.vertex {
+                let mut position = [0.0f32; 3];
+                for (p, property) in element.properties.iter().enumerate() {
+                    let axis = layout.xyz.iter().position(|&axis| axis == p);
+                    match (axis, property.kind) {
+                        (Some(axis), Kind::Scalar(ty)) => {
+                            position[axis] = reader.coordinate(ty, &record)?
+                        }
+                        _ => reader.skip(property.kind, &record)?,
+                    }
+                }
+                positions.push(position);
+            } else if e == layout.face {
+                for (p, property) in element.properties.iter().enumerate() {
+                    let (count_type, item_type) = match property.kind {
+                        Kind::List(count, item) if p == layout.indices => (count, item),
+                        kind => {
+                            reader.skip(kind, &record)?;
+                            continue;
+                        }
+                    };
+                    let size = reader.list_size(count_type, &record)?;
+                    if size < 3 {
+                        return Err(LoadError::FaceTooSmall {
+                            path: path.to_path_buf(),
+                            at: reader.location(&record),
+                            corners: size,
+                        });
+                    }
+                    // Pushed as read, never reserved by `size`: a corrupt
+                    // count meets the end of the data before any allocation.
+                    corners.clear();
+                    for _ in 0..size {
+                        let value = reader.integer(item_type, &record)?;
+                        let vertex = u32::try_from(value)
+                            .ok()
+                            .filter(|&v| (v as usize) < vertex_count)
+                            .ok_or_else(|| LoadError::IndexOutOfRange {
+                                path: path.to_path_buf(),
+                                at: reader.location(&record),
+                                index: value,
+                                vertices: vertex_count,
+                            })?;
+                        corners.push(vertex);
+                    }
+                    fan(&corners, &mut triangles);
+                }
+            } else {
+                for property in &element.properties {
+                    reader.skip(property.kind, &record)?;
+                }
+            }
+        }
+    }
+    validated(IndexedMesh::new(positions, triangles), path)
+}
+
+/// A PLY scalar type, with its aliases (`float` = `float32`, ...).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn from_name(name: &[u8]) -> Option<Scalar> {
+        Some(match name {
+            b"char" | b"int8" => Scalar::I8,
+            b"uchar" | b"uint8" => Scalar::U8,
+            b"short" | b"int16" => Scalar::I16,
+            b"ushort" | b"uint16" => Scalar::U16,
+            b"int" | b"int32" => Scalar::I32,
+            b"uint" | b"uint32" => Scalar::U32,
+            b"float" | b"float32" => Scalar::F32,
+            b"double" | b"float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
+    fn is_integer(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Scalar(Scalar),
+    /// A list: the count's type, then the items' type.
+    List(Scalar, Scalar),
+}
+
+#[derive(Debug)]
+struct Property {
+    name: String,
+    kind: Kind,
+    line: usize,
+}
+
+#[derive(Debug)]
+struct Element {
+    name: String,
+    count: usize,
+    properties: Vec<Property>,
+    line: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Encoding {
+    Ascii,
+    BinaryLittleEndian,
+}
+
+struct Header {
+    encoding: Encoding,
+    elements: Vec<Element>,
+    /// Byte offset of the first body byte, just after `end_header`'s newline.
+    body_start: usize,
+    /// Number of header lines, so ASCII body lines keep file line numbers.
+    lines: usize,
+}
+
+/// Where the wanted data sits: element and property indices into the header.
+struct MeshLayout {
+    vertex: usize,
+    /// The `x`, `y`, `z` property indices of the vertex element.
+    xyz: [usize; 3],
+    face: usize,
+    /// The vertex-index list property of the face element.
+    indices: usize,
+}
+
+impl Header {
+    fn parse(bytes: &[u8], path: &Path) -> Result<Header, LoadError> {
+        let syntax = |line: usize, message: String| LoadError::Syntax {
+            path: path.to_path_buf(),
+            at: Location::Line(line),
+            message,
+        };
+        let mut encoding = None;
+        let mut elements: Vec<Element> = Vec::new();
+        let mut offset = 0usize;
+        for (n, line) in text::lines(bytes) {
+            // The body starts after this line's '\n'; `lines` strips it (and a '\r').
+            offset = bytes.len().min(offset + raw_len(bytes, offset));
+            let mut words = text::tokens(line);
+            let keyword = words.next().unwrap_or_default();
+            if n == 1 {
+                if keyword != b"ply" || words.next().is_some() {
+                    return Err(syntax(
+                        1,
+                        "not a PLY file: the first line must be `ply`".into(),
+                    ));
+                }
+                continue;
+            }
+            match keyword {
+                b"format" => {
+                    let kind = words.next().unwrap_or_default();
+                    encoding = Some(match kind {
+                        b"ascii" => Encoding::Ascii,
+                        b"binary_little_endian" => Encoding::BinaryLittleEndian,
+                        b"binary_big_endian" => {
+                            return Err(LoadError::Unsupported {
+                                path: path.to_path_buf(),
+                                what: "binary_big_endian PLY".into(),
+                                hint: "convert it to binary_little_endian or ascii (for example with meshlab or `plyfile`)".into(),
+                            })
+                        }
+                        other => {
+                            return Err(syntax(
+                                n,
+                                format!("unknown PLY format {:?} (expected ascii or binary_little_endian)", text::show(other)),
+                            ))
+                        }
+                    });
+                }
+                b"comment" | b"obj_info" | b"" => {}
+                b"element" => {
+                    let (Some(name), Some(count), None) =
+                        (words.next(), words.next(), words.next())
+                    else {
+                        return Err(syntax(n, "expected `element NAME COUNT`".into()));
+                    };
+                    elements.push(Element {
+                        name: String::from_utf8_lossy(name).into_owned(),
+                        count: text::count(count, "the element count", path, &Location::Line(n))?,
+                        properties: Vec::new(),
+                        line: n,
+                    });
+                }
+                b"property" => {
+                    let Some(element) = elements.last_mut() else {
+                        return Err(syntax(n, "a property before any element".into()));
+                    };
+                    let parts: Vec<&[u8]> = words.collect();
+                    let scalar = |name: &[u8]| {
+                        Scalar::from_name(name).ok_or_else(|| {
+                            syntax(n, format!("unknown property type {:?}", text::show(name)))
+                        })
+                    };
+                    let (kind, name) = match parts.as_slice() {
+                        [b"list", count, item, name] => {
+                            let count = scalar(count)?;
+                            if !count.is_integer() {
+                                return Err(syntax(n, "a list's count type must be an integer type".into()));
+                            }
+                            (Kind::List(count, scalar(item)?), name)
+                        }
+                        [ty, name] => (Kind::Scalar(scalar(ty)?), name),
+                        _ => {
+                            return Err(syntax(
+                                n,
+                                "expected `property TYPE NAME` or `property list COUNT_TYPE ITEM_TYPE NAME`".into(),
+                            ))
+                        }
+                    };
+                    element.properties.push(Property {
+                        name: String::from_utf8_lossy(name).into_owned(),
+                        kind,
+                        line: n,
+                    });
+                }
+                b"end_header" => {
+                    let Some(encoding) = encoding else {
+                        return Err(syntax(n, "the header has no `format` line".into()));
+                    };
+                    return Ok(Header {
+                        encoding,
+                        elements,
+                        body_start: offset,
+                        lines: n,
+                    });
+                }
+                other => {
+                    return Err(syntax(
+                        n,
+                        format!("unknown header keyword {:?}", text::show(other)),
+                    ))
+                }
+            }
+        }
+        if bytes.is_empty() {
+            return Err(syntax(1, "the file is empty".into()));
+        }
+        Err(LoadError::Truncated {
+            path: path.to_path_buf(),
+            expected: "the `end_header` line".into(),
+        })
+    }
+
+    /// Finds the vertex coordinates and the face index list, checking their types.
+    fn mesh_layout(&self, path: &Path) -> Result<MeshLayout, LoadError> {
+        let syntax = |line: usize, message: String| LoadError::Syntax {
+            path: path.to_path_buf(),
+            at: Location::Line(line),
+            message,
+        };
+        let find = |name: &str| self.elements.iter().position(|e| e.name == name);
+        let end = self.lines;
+        let vertex = find("vertex")
+            .ok_or_else(|| syntax(end, "the header declares no `element vertex`".into()))?;
+        let face = find("face").ok_or_else(|| {
+            syntax(
+                end,
+                "the header declares no `element face`: this is a point cloud, not a mesh".into(),
+            )
+        })?;
+        let vertices = &self.elements[vertex];
+        let mut xyz = [0usize; 3];
+        for (slot, axis) in xyz.iter_mut().zip(["x", "y", "z"]) {
+            let p = vertices
+                .properties
+                .iter()
+                .position(|p| p.name == axis)
+                .ok_or_else(|| {
+                    syntax(
+                        vertices.line,
+                        format!("`element vertex` has no `{axis}` property"),
+                    )
+                })?;
+            if let Kind::List(..) = vertices.properties[p].kind {
+                return Err(syntax(
+                    vertices.properties[p].line,
+                    format!("vertex property `{axis}` must be a scalar, not a list"),
+                ));
+            }
+            *slot = p;
+        }
+        let faces = &self.elements[face];
+        let indices = faces
+            .properties
+            .iter()
+            .position(|p| p.name == "vertex_indices" || p.name == "vertex_index")
+            .ok_or_else(|| {
+                syntax(
+                    faces.line,
+                    "`element face` has no `vertex_indices` (or `vertex_index`) list".into(),
+                )
+            })?;
+        let property = &faces.properties[indices];
+        match property.kind {
+            Kind::List(_, item) if item.is_integer() => {}
+            _ => {
+                return Err(syntax(
+                    property.line,
+                    format!("`{}` must be a list of an integer type", property.name),
+                ))
+            }
+        }
+        Ok(MeshLayout {
+            vertex,
+            xyz,
+            face,
+            indices,
+        })
+    }
+}
+
+/// Length of the line starting at `offset`, including its '\n' if present.
+fn raw_len(bytes: &[u8], offset: usize) -> usize {
+    let rest = bytes.get(offset..).unwrap_or_default();
+    match rest.iter().position(|&b| b == b'\n') {
+        Some(at) => at + 1,
+        None => rest.len(),
+    }
+}
+
+/// The record being read, for error messages.
+struct Record<'a> {
+    element: &'a Element,
+    index: usize,
+    path: &'a Path,
+}
+
+impl Record<'_> {
+    fn truncated(&self) -> LoadError {
+        LoadError::Truncated {
+            path: self.path.to_path_buf(),
+            expected: format!(
+                "{} {} of the {} declared on header line {}",
+                self.element.name, self.index, self.element.count, self.element.line
+            ),
+        }
+    }
+}
+
+/// ASCII body tokens with the line each one is on.
+struct Tokens<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    line: usize,
+}
+
+impl<'a> Tokens<'a> {
+    fn next(&mut self) -> Option<&'a [u8]> {
+        while let Some(&b) = self.bytes.get(self.pos) {
+            if !b.is_ascii_whitespace() {
+                break;
+            }
+            if b == b'\n' {
+                self.line += 1;
+            }
+            self.pos += 1;
+        }
+        let start = self.pos;
+        while self
+            .bytes
+            .get(self.pos)
+            .is_some_and(|b| !b.is_ascii_whitespace())
+        {
+            self.pos += 1;
+        }
+        self.bytes.get(start..self.pos).filter(|t| !t.is_empty())
+    }
+}
+
+enum Reader<'a> {
+    Ascii(Tokens<'a>),
+    Binary { bytes: &'a [u8], pos: usize },
+}
+
+/// A value read as its declared type.
+enum Number {
+    Int(i64),
+    Float(f64),
+}
+
+impl Reader<'_> {
+    fn location(&self, record: &Record) -> Location {
+        Location::Record {
+            element: record.element.name.clone(),
+            index: record.index,
+            line: match self {
+                Reader::Ascii(tokens) => Some(tokens.line),
+                Reader::Binary { .. } => None,
+            },
+        }
+    }
+
+    fn number(&mut self, ty: Scalar, record: &Record) -> Result<Number, LoadError> {
+        match self {
+            Reader::Ascii(tokens) => {
+                let token = tokens.next().ok_or_else(|| record.truncated())?;
+                let at = self.location(record);
+                if ty.is_integer() {
+                    text::integer(token, "the value", record.path, &at).map(Number::Int)
+                } else {
+                    // Straight to f32 when that is the declared type, to keep
+                    // the correctly rounded value (see `text::coordinate`).
+                    let value = text::coordinate(token, record.path, &at)?;
+                    Ok(Number::Float(f64::from(value)))
+                }
+            }
+            Reader::Binary { bytes, pos } => {
+                let end = pos
+                    .checked_add(ty.size())
+                    .filter(|&end| end <= bytes.len())
+                    .ok_or_else(|| record.truncated())?;
+                let raw = bytes.get(*pos..end).ok_or_else(|| record.truncated())?;
+                *pos = end;
+                Ok(decode(ty, raw))
+            }
+        }
+    }
+
+    /// A vertex coordinate as a finite `f32`.
+    fn coordinate(&mut self, ty: Scalar, record: &Record) -> Result<f32, LoadError> {
+        match self.number(ty, record)? {
+            Number::Int(value) => Ok(value as f32),
+            Number::Float(value) => finite_f32(value, record.path, &self.location(record)),
+        }
+    }
+
+    /// A value of an integer type (the header checks guarantee the type, and
+    /// an ASCII token like `1.5` already fails as "not an integer").
+    fn integer(&mut self, ty: Scalar, record: &Record) -> Result<i64, LoadError> {
+        match self.number(ty, record)? {
+            Number::Int(value) => Ok(value),
+            Number::Float(value) => Err(LoadError::Syntax {
+                path: record.path.to_path_buf(),
+                at: self.location(record),
+                message: format!("expected an integer, found {value}"),
+            }),
+        }
+    }
+
+    /// A list's item count, which must be a non-negative integer.
+    fn list_size(&mut self, count_type: Scalar, record: &Record) -> Result<usize, LoadError> {
+        let value = self.integer(count_type, record)?;
+        usize::try_from(value).map_err(|_| LoadError::Syntax {
+            path: record.path.to_path_buf(),
+            at: self.location(record),
+            message: format!("a list has a negative length {value}"),
+        })
+    }
+
+    /// Steps over one property of a record without keeping it.
+    fn skip(&mut self, kind: Kind, record: &Record) -> Result<(), LoadError> {
+        let (items, ty) = match kind {
+            Kind::Scalar(ty) => (1, ty),
+            Kind::List(count, item) => (self.list_size(count, record)?, item),
+        };
+        match self {
+            // Checked against the remaining bytes before moving, so a corrupt
+            // list length is a truncation error, not an overflow.
+            Reader::Binary { bytes, pos } => {
+                *pos = items
+                    .checked_mul(ty.size())
+                    .and_then(|len| pos.checked_add(len))
+                    .filter(|&end| end <= bytes.len())
+                    .ok_or_else(|| record.truncated())?;
+            }
+            Reader::Ascii(tokens) => {
+                for _ in 0..items {
+                    tokens.next().ok_or_else(|| record.truncated())?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Decodes one little-endian scalar; `raw` has exactly `ty.size()` bytes.
+fn decode(ty: Scalar, raw: &[u8]) -> Number {
+    let mut buf = [0u8; 8];
+    for (slot, &b) in buf.iter_mut().zip(raw) {
+        *slot = b;
+    }
+    let [b0, b1, b2, b3, ..] = buf;
+    match ty {
+        Scalar::I8 => Number::Int(i64::from(b0 as i8)),
+        Scalar::U8 => Number::Int(i64::from(b0)),
+        Scalar::I16 => Number::Int(i64::from(i16::from_le_bytes([b0, b1]))),
+        Scalar::U16 => Number::Int(i64::from(u16::from_le_bytes([b0, b1]))),
+        Scalar::I32 => Number::Int(i64::from(i32::from_le_bytes([b0, b1, b2, b3]))),
+        Scalar::U32 => Number::Int(i64::from(u32::from_le_bytes([b0, b1, b2, b3]))),
+        Scalar::F32 => Number::Float(f64::from(f32::from_le_bytes([b0, b1, b2, b3]))),
+        Scalar::F64 => Number::Float(f64::from_le_bytes(buf)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ply(bytes: &[u8]) -> Result<IndexedMesh, LoadError> {
+        parse(bytes, Path::new("test.ply"))
+    }
+
+    #[test]
+    fn ascii_with_extra_properties_and_elements() {
+        let text = "ply\r\nformat ascii 1.0\r\ncomment made by hand\r\nelement vertex 4\r\nproperty float nx\r\nproperty float32 x\r\nproperty double y\r\nproperty uchar red\r\nproperty int z\r\nelement face 2\r\nproperty list uchar int vertex_indices\r\nproperty list ushort float texcoord\r\nelement edge 1\r\nproperty int vertex1\r\nproperty int vertex2\r\nend_header\r\n9 0 0 255 0\r\n9 1 0 255 0\r\n9 1 1 255 0\r\n9 0 1 255 3\r\n4 0 1 2 3 2 0.5 0.5\r\n3 3 2 1 0\r\n0 1\r\n";
+        let mesh = ply(text.as_bytes()).unwrap();
+        assert_eq!(
+            mesh.positions,
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 3.0]
+            ]
+        );
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [3, 2, 1]]);
+    }
+
+    /// Binary little-endian PLY: double coordinates between other scalars, a
+    /// face element with a skipped list before the indices, an `edge` element.
+    #[test]
+    fn binary_little_endian_skips_by_size() {
+        let header = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty uint8 flag\nproperty float64 x\nproperty float64 y\nproperty float64 z\nproperty short s\nelement face 1\nproperty list uint16 float32 uv\nproperty list uint int32 vertex_index\nelement edge 1\nproperty list uchar int vertices\nend_header\n";
+        let mut bytes = header.as_bytes().to_vec();
+        for (i, p) in [[0.0f64, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5]]
+            .iter()
+            .enumerate()
+        {
+            bytes.push(i as u8);
+            for c in p {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+            bytes.extend_from_slice(&(-7i16).to_le_bytes());
+        }
+        bytes.extend_from_slice(&2u16.to_le_bytes());
+        bytes.extend_from_slice(&0.25f32.to_le_bytes());
+        bytes.extend_from_slice(&0.75f32.to_le_bytes());
+        bytes.extend_from_slice(&3u32.to_le_bytes());
+        for v in [2i32, 1, 0] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        bytes.push(2);
+        bytes.extend_from_slice(&0i32.to_le_bytes());
+        bytes.extend_from_slice(&1i32.to_le_bytes());
+        let mesh = ply(&bytes).unwrap();
+        assert_eq!(mesh.positions[2], [0.0, 1.0, 0.5]);
+        assert_eq!(mesh.triangles, vec![[2, 1, 0]]);
+        // One byte short of the edge record: truncation names the element.
+        let err = ply(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(matches!(err, LoadError::Truncated { .. }), "{err}");
+        assert!(err.to_string().contains("edge 0 of the 1"), "{err}");
+    }
+
+    #[test]
+    fn face_errors_name_the_record() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar uint vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 3\n";
+        let err = ply(text.as_bytes()).unwrap_err();
+        match &err {
+            LoadError::IndexOutOfRange {
+                at,
+                index: 3,
+                vertices: 3,
+                ..
+            } => assert_eq!(
+                at,
+                &Location::Record {
+                    element: "face".into(),
+                    index: 1,
+                    line: Some(14)
+                }
+            ),
+            other => panic!("unexpected {other}"),
+        }
+    }
+}
