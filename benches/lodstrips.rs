@@ -16,7 +16,9 @@ use morphlod::strip::stripify;
 use morphlod::IndexedMesh;
 
 fn load(name: &str) -> Option<IndexedMesh> {
-    let path = format!("{}/assets/{name}", env!("CARGO_MANIFEST_DIR"));
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
     let mesh = if name.ends_with(".obj") {
         morphlod::io::obj::load(&path)
     } else {

@@ -406,6 +406,58 @@ fn partial_sequences_and_empty() {
     }
 }
 
+fn asset(name: &str) -> morphlod::IndexedMesh {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
+    let mesh = if name.ends_with(".obj") {
+        morphlod::io::obj::load(&path)
+    } else {
+        morphlod::io::off::load(&path)
+    };
+    mesh.unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+const ASSETS: [&str; 5] = ["cow.off", "bunny.obj", "man.off", "bull.off", "camel.off"];
+
+#[test]
+fn real_assets_random_sequences() {
+    for (k, name) in ASSETS.iter().enumerate() {
+        let mesh = asset(name);
+        check_mesh(name, &mesh.triangles, mesh.positions.len(), 10_000, 100 + k as u64);
+    }
+}
+
+/// S0 must not cost more indices than meshopt's strips (vertex-cache strip
+/// order, then `meshopt::stripify` with restarts), counting one restart
+/// between our strips as meshopt counts its own.
+#[test]
+fn real_assets_strips_beat_meshopt() {
+    for name in ASSETS {
+        let mesh = asset(name);
+        let n = mesh.positions.len();
+        let strips = stripify(&mesh.triangles, n);
+        let expected = canonical_multiset(
+            mesh.triangles.iter().copied().filter(|t| !degenerate(*t)),
+        );
+        assert_eq!(canonical_multiset(strips.triangles()), expected, "{name}");
+        let flat: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        let ordered = meshopt::optimize_vertex_cache_strip(&flat, n);
+        let theirs = meshopt::stripify(&ordered, n, u32::MAX).expect("meshopt stripify");
+        let ours = strips.indices.len() + strips.len().saturating_sub(1);
+        let tris = mesh.triangles.len() as f64;
+        eprintln!(
+            "{name}: ours {:.3} indices/triangle ({:.3} with restarts, {} strips, {:.1} indices/strip), meshopt {:.3}",
+            strips.indices.len() as f64 / tris,
+            ours as f64 / tris,
+            strips.len(),
+            strips.indices.len() as f64 / strips.len().max(1) as f64,
+            theirs.len() as f64 / tris
+        );
+        assert!(ours <= theirs.len(), "{name}: {ours} indices vs meshopt {}", theirs.len());
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
