@@ -1,1 +1,1020 @@
-//! TODO(helper): simplify.
+//! Quadric error simplification (Garland–Heckbert) by half-edge collapses,
+//! run to the end: the output is the whole [`CollapseSequence`], from full
+//! detail down to the smallest mesh the topology rules allow.
+//!
+//! This module owns the collapse order and its validity rules. Only half-edge
+//! collapses are made (`u` moves onto an existing neighbour `w`) because the
+//! runtime shares one vertex buffer across every LOD and animation frame: no
+//! collapse may invent a position.
+//!
+//! Choices follow meshoptimizer's `meshopt_simplify`, whose users expect its
+//! quality:
+//! * face planes are weighted by `sqrt(2 · area)`, so the error scales linearly
+//!   with size (better silhouettes than plain area weights);
+//! * every boundary edge adds a plane through the edge, perpendicular to its
+//!   triangle, weighted by edge length × [`SimplifyOptions::boundary_weight`];
+//! * the cost of `u → w` is `Q_u(p_w) / W_u`: the weighted mean squared distance
+//!   from `p_w` to the planes that `u` stands for, in object units squared.
+//!   That is the [`Collapse::error`](crate::collapse::Collapse) recorded.
+//!
+//! Unlike meshoptimizer (which collapses in independent batches) the order is
+//! strictly greedy: a priority queue of each vertex's cheapest outgoing
+//! half-edge, invalidated lazily with per-vertex version stamps. Costs are
+//! cheap, validity checks are not, so a candidate is only validated when it is
+//! popped.
+//!
+//! Topology rules (each checked on the current mesh before a collapse):
+//! * an interior vertex may collapse onto any neighbour; a boundary vertex only
+//!   along a boundary edge onto a boundary neighbour (so borders never merge,
+//!   holes never close, and an interior edge between two boundary vertices is
+//!   never collapsed); vertices that are not manifold never move;
+//! * the link condition: `u` and `w` share no neighbour other than the apexes
+//!   of the triangles on edge `uw` (this also stops a boundary loop of three
+//!   edges from closing);
+//! * no collapse creates a triangle that already exists (the tetrahedron case),
+//!   or removes the last triangle of a component;
+//! * no remaining triangle around `u` flips or degenerates: the cosine between
+//!   its normals before and after must exceed
+//!   [`SimplifyOptions::min_normal_cos`].
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::DVec3;
+
+use crate::collapse::{Collapse, CollapseSequence};
+use crate::mesh::adjacency::{
+    is_manifold_pair, triangle_neighbors, EdgeMap, VertexTriangles, NONE,
+};
+
+/// Tuning of the simplifier; `Default` matches meshoptimizer's choices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimplifyOptions {
+    /// Weight of a boundary edge's plane relative to the face planes (meshoptimizer uses 10):
+    /// higher keeps open borders in place longer.
+    pub boundary_weight: f32,
+    /// A collapse is rejected when a remaining triangle's normal turns by more than
+    /// `acos(min_normal_cos)` or degenerates. 0.25 (about 75°) as in meshoptimizer: the
+    /// "pure" test (0, 90°) lets a series of near-90° collapses fold a surface over.
+    pub min_normal_cos: f32,
+    /// Weight of a point quadric at each vertex, relative to its plane weights. A tiny value
+    /// only breaks ties on flat regions (shorter edges collapse first) without changing shape.
+    pub regularization: f32,
+}
+
+impl Default for SimplifyOptions {
+    fn default() -> Self {
+        Self {
+            boundary_weight: 10.0,
+            min_normal_cos: 0.25,
+            regularization: 1e-7,
+        }
+    }
+}
+
+/// Simplifies the mesh to the end and returns every collapse in order.
+///
+/// `positions` should be finite and `triangles` in range (see
+/// [`IndexedMesh::validate`](crate::mesh::IndexedMesh::validate)); triangles
+/// with an out-of-range or repeated index are ignored rather than trusted.
+/// Non-manifold input does not fail: vertices on non-manifold edges or with
+/// more than one fan stay put. Pure function, no shared state: safe to call
+/// from many threads at once.
+pub fn simplify(
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    options: &SimplifyOptions,
+) -> CollapseSequence {
+    let n = positions.len();
+    let tris: Vec<[u32; 3]> = triangles
+        .iter()
+        .copied()
+        .filter(|t| {
+            t.iter().all(|&v| (v as usize) < n) && t[0] != t[1] && t[1] != t[2] && t[0] != t[2]
+        })
+        .collect();
+    let mut state = State::new(positions, tris, options);
+    state.run();
+    CollapseSequence {
+        vertex_count: n as u32,
+        collapses: state.collapses,
+    }
+}
+
+/// What a vertex may do, fixed at the start: valid collapses keep interior
+/// vertices interior and boundary vertices on their boundary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// One closed fan of manifold edges: may collapse onto any neighbour.
+    Interior,
+    /// One open fan with exactly two boundary edges: collapses along them only.
+    Border,
+    /// Non-manifold, several fans, or no triangle: never collapses (may be a target).
+    Locked,
+}
+
+/// Symmetric 4×4 plane quadric `Σ w (n·p + d)²`, with the total weight `w`
+/// kept so the error can be reported as a weighted mean.
+#[derive(Clone, Copy, Debug, Default)]
+struct Quadric {
+    a00: f64,
+    a11: f64,
+    a22: f64,
+    a10: f64,
+    a20: f64,
+    a21: f64,
+    b0: f64,
+    b1: f64,
+    b2: f64,
+    c: f64,
+    w: f64,
+}
+
+impl Quadric {
+    /// The plane `n·p + d = 0` (`n` unit length) with weight `w`.
+    fn plane(n: DVec3, d: f64, w: f64) -> Self {
+        Self {
+            a00: n.x * n.x * w,
+            a11: n.y * n.y * w,
+            a22: n.z * n.z * w,
+            a10: n.x * n.y * w,
+            a20: n.x * n.z * w,
+            a21: n.y * n.z * w,
+            b0: n.x * d * w,
+            b1: n.y * d * w,
+            b2: n.z * d * w,
+            c: d * d * w,
+            w,
+        }
+    }
+
+    /// Squared distance to the point `p`, times `w`.
+    fn point(p: DVec3, w: f64) -> Self {
+        Self {
+            a00: w,
+            a11: w,
+            a22: w,
+            a10: 0.0,
+            a20: 0.0,
+            a21: 0.0,
+            b0: -p.x * w,
+            b1: -p.y * w,
+            b2: -p.z * w,
+            c: p.length_squared() * w,
+            w,
+        }
+    }
+
+    fn add(&mut self, o: &Quadric) {
+        self.a00 += o.a00;
+        self.a11 += o.a11;
+        self.a22 += o.a22;
+        self.a10 += o.a10;
+        self.a20 += o.a20;
+        self.a21 += o.a21;
+        self.b0 += o.b0;
+        self.b1 += o.b1;
+        self.b2 += o.b2;
+        self.c += o.c;
+        self.w += o.w;
+    }
+
+    /// `Q(p) / W`: weighted mean squared distance (object units²). `abs`
+    /// because rounding can make a true zero slightly negative.
+    fn error(&self, p: DVec3) -> f64 {
+        let rx = self.a00 * p.x + 2.0 * (self.a10 * p.y + self.a20 * p.z + self.b0);
+        let ry = self.a11 * p.y + 2.0 * (self.a21 * p.z + self.b1);
+        let rz = self.a22 * p.z + 2.0 * self.b2;
+        let q = self.c + rx * p.x + ry * p.y + rz * p.z;
+        if self.w > 0.0 {
+            q.abs() / self.w
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A queued candidate `u → w`. Ordered by cost first (non-negative `f64` bits
+/// order like the values), then by vertex so the result is deterministic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Entry {
+    cost: u64,
+    u: u32,
+    w: u32,
+    version: u32,
+}
+
+struct State<'o> {
+    options: &'o SimplifyOptions,
+    pos: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    kind: Vec<Kind>,
+    quadric: Vec<Quadric>,
+    /// Per-vertex list of its live triangles: `len` entries at `start` in
+    /// `pool`, room for `cap`. A list that outgrows its room moves to the end
+    /// of the pool with double the room, so merges stay amortised O(degree).
+    start: Vec<usize>,
+    len: Vec<u32>,
+    cap: Vec<u32>,
+    pool: Vec<u32>,
+    collapsed: Vec<bool>,
+    version: Vec<u32>,
+    /// Scratch marks for neighbour sets: `mark[v] == stamp` means "in the set".
+    mark: Vec<u32>,
+    count: Vec<u32>,
+    stamp: u32,
+    scratch: Vec<u32>,
+    candidates: Vec<(f64, u32)>,
+    heap: BinaryHeap<Reverse<Entry>>,
+    collapses: Vec<Collapse>,
+}
+
+impl<'o> State<'o> {
+    fn new(positions: &[[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
+        let n = positions.len();
+        let pos: Vec<DVec3> = positions
+            .iter()
+            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+            .collect();
+        let vt = VertexTriangles::new(&tris, n);
+        let edges = EdgeMap::new(&tris);
+        let kind = classify(&tris, &vt, &edges);
+        let quadric = quadrics(&pos, &tris, &edges, options);
+
+        let mut start = Vec::with_capacity(n);
+        let mut len = Vec::with_capacity(n);
+        let mut pool = Vec::with_capacity(tris.len() * 3 * 2);
+        for v in 0..n as u32 {
+            start.push(pool.len());
+            len.push(vt.of(v).len() as u32);
+            pool.extend_from_slice(vt.of(v));
+        }
+        Self {
+            options,
+            pos,
+            tris,
+            kind,
+            quadric,
+            cap: len.clone(),
+            start,
+            len,
+            pool,
+            collapsed: vec![false; n],
+            version: vec![0; n],
+            mark: vec![0; n],
+            count: vec![0; n],
+            stamp: 0,
+            scratch: Vec::new(),
+            candidates: Vec::new(),
+            heap: BinaryHeap::with_capacity(n * 2),
+            collapses: Vec::with_capacity(n),
+        }
+    }
+
+    fn list(&self, v: u32) -> &[u32] {
+        let s = self.start[v as usize];
+        &self.pool[s..s + self.len[v as usize] as usize]
+    }
+
+    /// A fresh mark value; clears the marks when the counter wraps.
+    fn next_stamp(&mut self) -> u32 {
+        if self.stamp >= u32::MAX - 2 {
+            self.mark.fill(0);
+            self.stamp = 0;
+        }
+        self.stamp += 1;
+        self.stamp
+    }
+
+    fn run(&mut self) {
+        for v in 0..self.pos.len() as u32 {
+            self.requeue(v);
+        }
+        loop {
+            while let Some(Reverse(e)) = self.heap.pop() {
+                if self.collapsed[e.u as usize] || self.version[e.u as usize] != e.version {
+                    continue;
+                }
+                if self.is_valid(e.u, e.w) {
+                    self.collapse(e.u, e.w, f64::from_bits(e.cost));
+                    continue;
+                }
+                // The cheapest target went invalid (its 2-ring changed since it was
+                // ranked): fall back to the cheapest valid one, at once if it still
+                // beats everything queued.
+                self.version[e.u as usize] = self.version[e.u as usize].wrapping_add(1);
+                if let Some((cost, w)) = self.best_valid(e.u) {
+                    let bits = cost.to_bits();
+                    match self.heap.peek() {
+                        Some(Reverse(top)) if top.cost < bits => self.push(e.u, w, cost),
+                        _ => self.collapse(e.u, w, cost),
+                    }
+                }
+            }
+            // The queue ran dry. A vertex with no valid target is dropped from the
+            // queue and only re-ranked when its own fan changes, but later
+            // collapses in its 2-ring can unblock it: sweep once more so the
+            // sequence really runs to the end.
+            let mut progress = false;
+            for v in 0..self.pos.len() as u32 {
+                if self.collapsed[v as usize] || self.kind[v as usize] == Kind::Locked {
+                    continue;
+                }
+                if let Some((cost, w)) = self.best_valid(v) {
+                    self.version[v as usize] = self.version[v as usize].wrapping_add(1);
+                    self.push(v, w, cost);
+                    progress = true;
+                }
+            }
+            if !progress {
+                break;
+            }
+        }
+    }
+
+    fn push(&mut self, u: u32, w: u32, cost: f64) {
+        self.heap.push(Reverse(Entry {
+            cost: cost.to_bits(),
+            u,
+            w,
+            version: self.version[u as usize],
+        }));
+    }
+
+    /// Re-ranks `u` by cost alone and queues its cheapest allowed target.
+    fn requeue(&mut self, u: u32) {
+        self.version[u as usize] = self.version[u as usize].wrapping_add(1);
+        self.rank_targets(u);
+        let best = self
+            .candidates
+            .iter()
+            .copied()
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if let Some((cost, w)) = best {
+            self.push(u, w, cost);
+        }
+    }
+
+    /// Fills `candidates` with the targets the vertex kinds allow for `u`, and
+    /// their costs. A neighbour seen in exactly one of `u`'s triangles is across
+    /// a boundary edge.
+    fn rank_targets(&mut self, u: u32) {
+        self.candidates.clear();
+        let kind = self.kind[u as usize];
+        if kind == Kind::Locked || self.collapsed[u as usize] {
+            return;
+        }
+        let seen = self.next_stamp();
+        let done = self.next_stamp();
+        let (s, l) = (self.start[u as usize], self.len[u as usize] as usize);
+        for i in s..s + l {
+            let t = self.tris[self.pool[i] as usize];
+            for v in t {
+                if v != u {
+                    if self.mark[v as usize] != seen {
+                        self.mark[v as usize] = seen;
+                        self.count[v as usize] = 0;
+                    }
+                    self.count[v as usize] += 1;
+                }
+            }
+        }
+        let q = self.quadric[u as usize];
+        for i in s..s + l {
+            let t = self.tris[self.pool[i] as usize];
+            for v in t {
+                if v == u || self.mark[v as usize] != seen {
+                    continue;
+                }
+                self.mark[v as usize] = done;
+                let allowed = match kind {
+                    Kind::Interior => true,
+                    Kind::Border => {
+                        self.count[v as usize] == 1 && self.kind[v as usize] == Kind::Border
+                    }
+                    Kind::Locked => false,
+                };
+                if allowed {
+                    self.candidates.push((q.error(self.pos[v as usize]), v));
+                }
+            }
+        }
+    }
+
+    /// The cheapest target of `u` that passes every check, if any.
+    fn best_valid(&mut self, u: u32) -> Option<(f64, u32)> {
+        self.rank_targets(u);
+        let mut candidates = std::mem::take(&mut self.candidates);
+        candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let found = candidates
+            .iter()
+            .copied()
+            .find(|&(_, w)| self.is_valid(u, w));
+        self.candidates = candidates;
+        found
+    }
+
+    /// Every rule in the module docs, on the current mesh.
+    fn is_valid(&mut self, u: u32, w: u32) -> bool {
+        let ku = self.kind[u as usize];
+        if ku == Kind::Locked || self.collapsed[u as usize] || self.collapsed[w as usize] {
+            return false;
+        }
+        // The triangles on edge uw: their apexes, and whether the edge is
+        // traversed once each way (manifold) or once (boundary).
+        let mut shared = 0usize;
+        let mut apex = [NONE; 2];
+        let mut forward = [false; 2];
+        for &t in self.list(u) {
+            let tri = self.tris[t as usize];
+            if let Some(cw) = tri.iter().position(|&v| v == w) {
+                if shared == 2 {
+                    return false;
+                }
+                let cu = tri.iter().position(|&v| v == u).unwrap_or(0);
+                apex[shared] = tri[3 - cu - cw];
+                forward[shared] = (cu + 1) % 3 == cw;
+                shared += 1;
+            }
+        }
+        let edge_ok = match ku {
+            Kind::Interior => shared == 2 && forward[0] != forward[1],
+            Kind::Border => shared == 1 && self.kind[w as usize] == Kind::Border,
+            Kind::Locked => false,
+        };
+        if !edge_ok {
+            return false;
+        }
+        let lu = self.len[u as usize] as usize;
+        let lw = self.len[w as usize] as usize;
+        if lu + lw <= 2 * shared {
+            // Nothing would remain of this component.
+            return false;
+        }
+
+        // Link condition: mark u's neighbours, then look for one that w also
+        // reaches through a triangle not on edge uw.
+        let stamp = self.next_stamp();
+        let (su, sw) = (self.start[u as usize], self.start[w as usize]);
+        for i in su..su + lu {
+            for v in self.tris[self.pool[i] as usize] {
+                self.mark[v as usize] = stamp;
+            }
+        }
+        for i in sw..sw + lw {
+            let tri = self.tris[self.pool[i] as usize];
+            if tri.contains(&u) {
+                continue;
+            }
+            for v in tri {
+                if v != w && self.mark[v as usize] == stamp && v != apex[0] && v != apex[1] {
+                    return false;
+                }
+            }
+        }
+
+        let pu = self.pos[u as usize];
+        let pw = self.pos[w as usize];
+        let min_cos = self.options.min_normal_cos as f64;
+        for i in su..su + lu {
+            let tri = self.tris[self.pool[i] as usize];
+            if tri.contains(&w) {
+                continue;
+            }
+            let cu = tri.iter().position(|&v| v == u).unwrap_or(0);
+            let a = tri[(cu + 1) % 3];
+            let b = tri[(cu + 2) % 3];
+            // A triangle whose other corners are both apexes becomes (w, a, b):
+            // if w already has that triangle the collapse squashes a tetrahedron.
+            let both_apex = (a == apex[0] || a == apex[1]) && (b == apex[0] || b == apex[1]);
+            if both_apex && self.has_triangle(w, a, b) {
+                return false;
+            }
+            let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
+            let before = (pa - pu).cross(pb - pu);
+            let after = (pa - pw).cross(pb - pw);
+            let limit = min_cos * (before.length_squared() * after.length_squared()).sqrt();
+            // `!(x > y)` so that NaN (non-finite input) also rejects.
+            if !(before.dot(after) > limit) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Whether a live triangle of `w` uses exactly the vertices `{w, a, b}`.
+    fn has_triangle(&self, w: u32, a: u32, b: u32) -> bool {
+        self.list(w).iter().any(|&t| {
+            let tri = self.tris[t as usize];
+            tri.contains(&a) && tri.contains(&b)
+        })
+    }
+
+    /// Applies `u → w`: kills the triangles on edge uw, re-points u's other
+    /// triangles to w, merges the quadric, and re-ranks every vertex whose fan
+    /// changed (w and u's old neighbours).
+    fn collapse(&mut self, u: u32, w: u32, cost: f64) {
+        self.collapses.push(Collapse {
+            u,
+            w,
+            error: cost as f32,
+        });
+        self.collapsed[u as usize] = true;
+        let qu = self.quadric[u as usize];
+        self.quadric[w as usize].add(&qu);
+
+        let mut moved = std::mem::take(&mut self.scratch);
+        moved.clear();
+        moved.extend_from_slice(self.list(u));
+        self.len[u as usize] = 0;
+        let mut kept = 0;
+        for i in 0..moved.len() {
+            let t = moved[i];
+            let tri = self.tris[t as usize];
+            if tri.contains(&w) {
+                for v in tri {
+                    if v != u {
+                        self.remove_from_list(v, t);
+                    }
+                }
+            } else {
+                let c = tri.iter().position(|&v| v == u).unwrap_or(0);
+                self.tris[t as usize][c] = w;
+                moved[kept] = t;
+                kept += 1;
+            }
+        }
+        moved.truncate(kept);
+        self.append_to_list(w, &moved);
+
+        // Re-rank w and everything now around it that used to touch u.
+        moved.clear();
+        let s = self.start[w as usize];
+        for i in s..s + self.len[w as usize] as usize {
+            moved.extend_from_slice(&self.tris[self.pool[i] as usize]);
+        }
+        moved.sort_unstable();
+        moved.dedup();
+        for &v in &moved {
+            self.requeue(v);
+        }
+        self.scratch = moved;
+    }
+
+    fn remove_from_list(&mut self, v: u32, t: u32) {
+        let s = self.start[v as usize];
+        let l = self.len[v as usize] as usize;
+        if let Some(i) = self.pool[s..s + l].iter().position(|&x| x == t) {
+            self.pool.swap(s + i, s + l - 1);
+            self.len[v as usize] -= 1;
+        }
+    }
+
+    fn append_to_list(&mut self, v: u32, add: &[u32]) {
+        let vi = v as usize;
+        let l = self.len[vi] as usize;
+        let need = l + add.len();
+        if need > self.cap[vi] as usize {
+            let s = self.start[vi];
+            let new_start = self.pool.len();
+            self.pool.extend_from_within(s..s + l);
+            self.pool.resize(new_start + need * 2, 0);
+            self.start[vi] = new_start;
+            self.cap[vi] = (need * 2) as u32;
+        }
+        let s = self.start[vi] + l;
+        self.pool[s..s + add.len()].copy_from_slice(add);
+        self.len[vi] = need as u32;
+    }
+}
+
+/// Tags each vertex by walking its fan across manifold edges: one closed fan
+/// is interior, one open fan with two boundary edges is a border vertex,
+/// anything else (non-manifold edges, bow-ties, isolated) is locked.
+fn classify(tris: &[[u32; 3]], vt: &VertexTriangles, edges: &EdgeMap) -> Vec<Kind> {
+    let n = vt.vertex_count();
+    let mut boundary = vec![0u32; n];
+    let mut nonmanifold = vec![false; n];
+    for group in edges.edges() {
+        let (a, b) = group[0].key();
+        if group.len() == 1 {
+            boundary[a as usize] += 1;
+            boundary[b as usize] += 1;
+        } else if !is_manifold_pair(group) {
+            nonmanifold[a as usize] = true;
+            nonmanifold[b as usize] = true;
+        }
+    }
+    let neighbors = triangle_neighbors(tris, edges);
+    let corner = |t: u32, v: u32| tris[t as usize].iter().position(|&x| x == v).unwrap_or(0);
+    (0..n as u32)
+        .map(|v| {
+            let fan = vt.of(v);
+            if fan.is_empty() || nonmanifold[v as usize] {
+                return Kind::Locked;
+            }
+            let (first, kind) = match boundary[v as usize] {
+                0 => (fan[0], Kind::Interior),
+                // Start where the edge coming into v is the boundary, so the walk
+                // over outgoing edges covers the whole open fan.
+                2 => match fan
+                    .iter()
+                    .copied()
+                    .find(|&t| neighbors[t as usize][(corner(t, v) + 2) % 3] == NONE)
+                {
+                    Some(t) => (t, Kind::Border),
+                    None => return Kind::Locked,
+                },
+                _ => return Kind::Locked,
+            };
+            let mut t = first;
+            let mut visited = 0;
+            loop {
+                visited += 1;
+                t = neighbors[t as usize][corner(t, v)];
+                if t == NONE || t == first || visited > fan.len() {
+                    break;
+                }
+            }
+            let closed = t == first;
+            if visited == fan.len() && closed == (kind == Kind::Interior) {
+                kind
+            } else {
+                Kind::Locked
+            }
+        })
+        .collect()
+}
+
+/// Face quadrics, boundary edge quadrics and the regularizing point quadric of every vertex.
+fn quadrics(
+    pos: &[DVec3],
+    tris: &[[u32; 3]],
+    edges: &EdgeMap,
+    options: &SimplifyOptions,
+) -> Vec<Quadric> {
+    let mut q = vec![Quadric::default(); pos.len()];
+    let face = |t: [u32; 3], weight: f64| {
+        let (p0, p1, p2) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
+        let cross = (p1 - p0).cross(p2 - p0);
+        let double_area = cross.length();
+        let n = if double_area > 0.0 {
+            cross / double_area
+        } else {
+            DVec3::ZERO
+        };
+        Quadric::plane(n, -n.dot(p0), double_area.sqrt() * weight)
+    };
+    for &t in tris {
+        let f = face(t, 1.0);
+        for v in t {
+            q[v as usize].add(&f);
+        }
+    }
+    let bw = options.boundary_weight as f64;
+    for group in edges.edges() {
+        if group.len() != 1 {
+            continue;
+        }
+        let h = group[0];
+        let t = tris[h.triangle as usize];
+        let apex = t[(h.corner as usize + 2) % 3];
+        let (p0, p1, p2) = (pos[h.from as usize], pos[h.to as usize], pos[apex as usize]);
+        let edge = p1 - p0;
+        // The plane holds the edge and is perpendicular to the triangle: its
+        // normal is the component of (p2 - p0) perpendicular to the edge.
+        let perp =
+            (p2 - p0) - edge * ((p2 - p0).dot(edge) / edge.length_squared().max(f64::MIN_POSITIVE));
+        let perp = perp.normalize_or_zero();
+        let mut e = Quadric::plane(perp, -perp.dot(p0), edge.length() * bw);
+        // The face plane too, with the same weight but no share of the mean
+        // (meshoptimizer: stabilises collapses along the border both ways).
+        let mut f = face(t, bw);
+        f.w = 0.0;
+        e.add(&f);
+        q[h.from as usize].add(&e);
+        q[h.to as usize].add(&e);
+    }
+    let r = options.regularization as f64;
+    for (v, qv) in q.iter_mut().enumerate() {
+        let p = Quadric::point(pos[v], qv.w * r);
+        qv.add(&p);
+    }
+    q
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use std::collections::HashMap;
+
+    /// An `n`×`n` grid of quads over `[0,1]²` at height `z` (a disk: one boundary loop).
+    pub(crate) fn grid(n: u32, z: f32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        let mut pos = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                pos.push([i as f32 / n as f32, j as f32 / n as f32, z]);
+            }
+        }
+        let mut tris = Vec::new();
+        let row = n + 1;
+        for j in 0..n {
+            for i in 0..n {
+                let v = j * row + i;
+                tris.push([v, v + 1, v + row + 1]);
+                tris.push([v, v + row + 1, v + row]);
+            }
+        }
+        (pos, tris)
+    }
+
+    /// A UV sphere of radius 1 around `center`, outward-facing, with pole vertices.
+    fn sphere(stacks: u32, slices: u32, center: [f32; 3]) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        let mut pos = vec![[center[0], center[1], center[2] + 1.0]];
+        for i in 1..stacks {
+            let theta = std::f32::consts::PI * i as f32 / stacks as f32;
+            for j in 0..slices {
+                let phi = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
+                pos.push([
+                    center[0] + theta.sin() * phi.cos(),
+                    center[1] + theta.sin() * phi.sin(),
+                    center[2] + theta.cos(),
+                ]);
+            }
+        }
+        let south = pos.len() as u32;
+        pos.push([center[0], center[1], center[2] - 1.0]);
+        let ring = |i: u32, j: u32| 1 + (i - 1) * slices + j % slices;
+        let mut tris = Vec::new();
+        for j in 0..slices {
+            tris.push([0, ring(1, j), ring(1, j + 1)]);
+            tris.push([south, ring(stacks - 1, j + 1), ring(stacks - 1, j)]);
+        }
+        for i in 1..stacks - 1 {
+            for j in 0..slices {
+                let (a, b, c, d) = (
+                    ring(i, j),
+                    ring(i, j + 1),
+                    ring(i + 1, j),
+                    ring(i + 1, j + 1),
+                );
+                tris.push([a, c, d]);
+                tris.push([a, d, b]);
+            }
+        }
+        (pos, tris)
+    }
+
+    /// A torus (genus 1, closed) with radii 1 and 0.35.
+    fn torus(major: u32, minor: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        let mut pos = Vec::new();
+        for i in 0..major {
+            let a = 2.0 * std::f32::consts::PI * i as f32 / major as f32;
+            for j in 0..minor {
+                let b = 2.0 * std::f32::consts::PI * j as f32 / minor as f32;
+                let r = 1.0 + 0.35 * b.cos();
+                pos.push([r * a.cos(), r * a.sin(), 0.35 * b.sin()]);
+            }
+        }
+        let id = |i: u32, j: u32| (i % major) * minor + j % minor;
+        let mut tris = Vec::new();
+        for i in 0..major {
+            for j in 0..minor {
+                tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        (pos, tris)
+    }
+
+    /// A grid with the middle quads removed: an annulus, two boundary loops.
+    fn annulus() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        let (pos, tris) = grid(9, 0.0);
+        let tris = tris
+            .into_iter()
+            .filter(|t| {
+                let c = t.iter().fold([0.0f32; 2], |s, &v| {
+                    [
+                        s[0] + pos[v as usize][0] / 3.0,
+                        s[1] + pos[v as usize][1] / 3.0,
+                    ]
+                });
+                !((0.34..0.66).contains(&c[0]) && (0.34..0.66).contains(&c[1]))
+            })
+            .collect();
+        (pos, tris)
+    }
+
+    /// Appends mesh `b` to mesh `a` as a second component.
+    fn join(
+        a: (Vec<[f32; 3]>, Vec<[u32; 3]>),
+        b: (Vec<[f32; 3]>, Vec<[u32; 3]>),
+    ) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        let (mut pos, mut tris) = a;
+        let base = pos.len() as u32;
+        pos.extend(b.0);
+        tris.extend(b.1.iter().map(|t| t.map(|v| v + base)));
+        (pos, tris)
+    }
+
+    /// Topology of a triangle list, measured from scratch (the oracle side).
+    #[derive(Debug, PartialEq)]
+    struct Topology {
+        euler: i64,
+        components: usize,
+        boundary_loops: usize,
+    }
+
+    fn find(parent: &mut [u32], mut v: u32) -> u32 {
+        while parent[v as usize] != v {
+            parent[v as usize] = parent[parent[v as usize] as usize];
+            v = parent[v as usize];
+        }
+        v
+    }
+
+    /// Panics (naming the LOD) unless the mesh is edge-manifold, consistently
+    /// oriented and free of duplicate triangles; returns its topology.
+    fn inspect(n: usize, tris: &[[u32; 3]], lod: usize) -> Topology {
+        let mut half: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut faces: HashMap<[u32; 3], u32> = HashMap::new();
+        for t in tris {
+            assert!(
+                t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+                "LOD {lod}: degenerate {t:?}"
+            );
+            for c in 0..3 {
+                *half.entry((t[c], t[(c + 1) % 3])).or_default() += 1;
+            }
+            let mut key = *t;
+            key.sort_unstable();
+            let dup = faces.entry(key).or_default();
+            *dup += 1;
+            assert_eq!(*dup, 1, "LOD {lod}: duplicate triangle {t:?}");
+        }
+        let mut edges = 0i64;
+        let mut component = (0..n as u32).collect::<Vec<_>>();
+        let mut boundary = (0..n as u32).collect::<Vec<_>>();
+        let mut on_boundary = vec![false; n];
+        for (&(a, b), &k) in &half {
+            assert_eq!(k, 1, "LOD {lod}: half-edge {a}->{b} used {k} times");
+            let opposite = half.contains_key(&(b, a));
+            if !opposite || a < b {
+                edges += 1;
+            }
+            let (ra, rb) = (find(&mut component, a), find(&mut component, b));
+            component[ra as usize] = rb;
+            if !opposite {
+                on_boundary[a as usize] = true;
+                on_boundary[b as usize] = true;
+                let (ra, rb) = (find(&mut boundary, a), find(&mut boundary, b));
+                boundary[ra as usize] = rb;
+            }
+        }
+        let mut used = vec![false; n];
+        for t in tris {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        let vertices = used.iter().filter(|&&u| u).count() as i64;
+        let components = (0..n as u32)
+            .filter(|&v| used[v as usize] && find(&mut component, v) == v)
+            .count();
+        let boundary_loops = (0..n as u32)
+            .filter(|&v| on_boundary[v as usize] && find(&mut boundary, v) == v)
+            .count();
+        Topology {
+            euler: vertices - edges + tris.len() as i64,
+            components,
+            boundary_loops,
+        }
+    }
+
+    /// Simplifies to the end and checks every LOD against the input topology.
+    /// Returns the sequence and the final (vertex, triangle) counts.
+    fn check_run(pos: &[[f32; 3]], tris: &[[u32; 3]]) -> (CollapseSequence, usize, usize) {
+        let seq = simplify(pos, tris, &SimplifyOptions::default());
+        seq.validate().unwrap();
+        assert_eq!(seq.vertex_count as usize, pos.len());
+        let start = inspect(pos.len(), tris, 0);
+        for lod in 1..=seq.len() {
+            let mesh = seq.reference_mesh(tris, lod);
+            assert_eq!(inspect(pos.len(), &mesh, lod), start, "LOD {lod}");
+        }
+        let last = seq.reference_mesh(tris, seq.len());
+        let mut used: Vec<u32> = last.iter().flatten().copied().collect();
+        used.sort_unstable();
+        used.dedup();
+        (seq, used.len(), last.len())
+    }
+
+    #[test]
+    fn sphere_runs_to_a_tetrahedron_without_flips() {
+        let (pos, tris) = sphere(10, 16, [0.0; 3]);
+        let (seq, v, t) = check_run(&pos, &tris);
+        assert_eq!((v, t), (4, 4));
+        assert_eq!(seq.len(), pos.len() - 4);
+        // Every vertex stays on the convex sphere, so an outward-facing
+        // triangle is one whose normal points away from the centre.
+        for lod in 0..=seq.len() {
+            for tri in seq.reference_mesh(&tris, lod) {
+                let [a, b, c] = tri.map(|v| {
+                    let p = pos[v as usize];
+                    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+                });
+                let outward = (b - a).cross(c - a).dot(a + b + c);
+                assert!(outward > 0.0, "LOD {lod}: triangle {tri:?} faces inward");
+            }
+        }
+        // Costs are non-negative mean squared distances; a flat-ish start is cheap.
+        assert!(seq.collapses.iter().all(|c| c.error >= 0.0));
+        assert!(seq.collapses[0].error < seq.collapses[seq.len() - 1].error);
+    }
+
+    #[test]
+    fn disk_keeps_its_boundary_and_ends_at_one_triangle() {
+        let (pos, tris) = grid(6, 0.0);
+        let (_, v, t) = check_run(&pos, &tris);
+        assert_eq!((v, t), (3, 1));
+    }
+
+    #[test]
+    fn flat_interior_collapses_before_the_boundary_moves() {
+        // Interior vertices of a flat grid cost nothing; border vertices pay
+        // their edge planes unless collinear. So all 25 interior vertices and
+        // the 20 non-corner border vertices (collinear, also free) go first,
+        // and no corner moves before every free vertex is gone.
+        let (pos, tris) = grid(6, 0.0);
+        let seq = simplify(&pos, &tris, &SimplifyOptions::default());
+        let corners = [0u32, 6, 42, 48];
+        let first_corner = seq
+            .collapses
+            .iter()
+            .position(|c| corners.contains(&c.u))
+            .unwrap();
+        assert!(first_corner >= 45, "a corner moved at step {first_corner}");
+        assert!(seq.collapses[..45].iter().all(|c| c.error < 1e-6));
+    }
+
+    #[test]
+    fn annulus_keeps_both_loops() {
+        let (pos, tris) = annulus();
+        let (seq, v, _) = check_run(&pos, &tris);
+        assert!(!seq.is_empty());
+        // Two loops of at least three vertices each survive.
+        assert!(v >= 6, "{v} vertices left");
+    }
+
+    #[test]
+    fn torus_keeps_its_genus() {
+        let (pos, tris) = torus(16, 8);
+        let (seq, v, _) = check_run(&pos, &tris);
+        assert!(seq.len() > pos.len() / 2, "only {} collapses", seq.len());
+        assert!(v >= 7, "a torus needs at least 7 vertices, {v} left");
+    }
+
+    #[test]
+    fn components_end_separately() {
+        let mesh = join(
+            sphere(6, 10, [0.0; 3]),
+            join(sphere(5, 8, [3.0, 0.0, 0.0]), grid(4, 5.0)),
+        );
+        let (_, v, t) = check_run(&mesh.0, &mesh.1);
+        assert_eq!((v, t), (4 + 4 + 3, 4 + 4 + 1));
+    }
+
+    #[test]
+    fn non_manifold_and_degenerate_input_does_not_panic() {
+        // A fin (three triangles on one edge), a repeated-index triangle, an
+        // out-of-range index and a duplicated triangle, next to a clean grid.
+        let (mut pos, mut tris) = grid(4, 0.0);
+        let base = pos.len() as u32;
+        pos.extend([
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [0.5, 1.0, 1.0],
+            [0.5, -1.0, 1.0],
+            [0.5, 0.0, 2.0],
+        ]);
+        tris.extend([
+            [base, base + 1, base + 2],
+            [base + 1, base, base + 3],
+            [base, base + 1, base + 4],
+            [base, base, base + 1],
+            [base, base + 1, 999],
+            [0, 1, 6],
+        ]);
+        let seq = simplify(&pos, &tris, &SimplifyOptions::default());
+        seq.validate().unwrap();
+        // The fin's edge vertices are non-manifold and never move.
+        assert!(seq.collapses.iter().all(|c| c.u != base && c.u != base + 1));
+    }
+
+    #[test]
+    fn empty_input() {
+        let seq = simplify(&[], &[], &SimplifyOptions::default());
+        assert!(seq.is_empty());
+        assert_eq!(seq.vertex_count, 0);
+    }
+}
