@@ -297,7 +297,27 @@ fn check_mesh(name: &str, tris: &[[u32; 3]], n: usize, steps: usize, seed: u64) 
         strips.indices.len(),
         seq.len()
     );
+    report(name, &strips, &seq);
     walk(tris, &strips, &seq, steps, &mut rng);
+}
+
+/// Prints indices per drawn triangle at some LODs and the change-list size.
+fn report(name: &str, strips: &Strips, seq: &CollapseSequence) {
+    let model = LodStrips::build(strips, seq).expect("model builds");
+    let mut state = LodState::new(&model);
+    let mut line = String::new();
+    for pct in [0, 25, 50, 75, 90] {
+        state.set_lod(&model, model.max_lod() * pct / 100);
+        line += &format!(
+            " L{pct}: {:.2}",
+            state.index_count() as f64 / state.triangle_count().max(1) as f64
+        );
+    }
+    eprintln!(
+        "{name}: indices/triangle{line}; change bytes/collapse {:.1}, model/indexed {:.2}",
+        model.change_bytes() as f64 / model.max_lod().max(1) as f64,
+        model.byte_size() as f64 / (strips.triangles().len().max(1) * 12) as f64
+    );
 }
 
 // ---------------------------------------------------------------- generators
@@ -424,7 +444,37 @@ const ASSETS: [&str; 5] = ["cow.off", "bunny.obj", "man.off", "bull.off", "camel
 fn real_assets_random_sequences() {
     for (k, name) in ASSETS.iter().enumerate() {
         let mesh = asset(name);
-        check_mesh(name, &mesh.triangles, mesh.positions.len(), 10_000, 100 + k as u64);
+        check_mesh(
+            name,
+            &mesh.triangles,
+            mesh.positions.len(),
+            10_000,
+            100 + k as u64,
+        );
+    }
+}
+
+#[test]
+fn real_assets_qem_sequences() {
+    for (k, name) in ASSETS.iter().enumerate() {
+        let mesh = asset(name);
+        let n = mesh.positions.len();
+        let strips = stripify(&mesh.triangles, n);
+        let seq = morphlod::simplify::simplify(
+            &mesh.positions,
+            &mesh.triangles,
+            &morphlod::simplify::SimplifyOptions::default(),
+        );
+        seq.validate().expect("QEM sequence is valid");
+        let label = format!("{name} (QEM)");
+        report(&label, &strips, &seq);
+        walk(
+            &mesh.triangles,
+            &strips,
+            &seq,
+            10_000,
+            &mut Rng(200 + k as u64),
+        );
     }
 }
 
@@ -437,9 +487,8 @@ fn real_assets_strips_beat_meshopt() {
         let mesh = asset(name);
         let n = mesh.positions.len();
         let strips = stripify(&mesh.triangles, n);
-        let expected = canonical_multiset(
-            mesh.triangles.iter().copied().filter(|t| !degenerate(*t)),
-        );
+        let expected =
+            canonical_multiset(mesh.triangles.iter().copied().filter(|t| !degenerate(*t)));
         assert_eq!(canonical_multiset(strips.triangles()), expected, "{name}");
         let flat: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         let ordered = meshopt::optimize_vertex_cache_strip(&flat, n);
@@ -454,7 +503,11 @@ fn real_assets_strips_beat_meshopt() {
             strips.indices.len() as f64 / strips.len().max(1) as f64,
             theirs.len() as f64 / tris
         );
-        assert!(ours <= theirs.len(), "{name}: {ours} indices vs meshopt {}", theirs.len());
+        assert!(
+            ours <= theirs.len(),
+            "{name}: {ours} indices vs meshopt {}",
+            theirs.len()
+        );
     }
 }
 
