@@ -26,7 +26,8 @@ use thiserror::Error;
 
 use super::runtime::cut;
 use super::{
-    kind_len, push_footer, push_var, LodStrips, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
+    kind_len, push_footer, push_var, zigzag, LodStrips, KIND_B, KIND_BC, KIND_BCC, KIND_C,
+    KIND_NONE,
 };
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::strip::Strips;
@@ -150,9 +151,9 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
         .map(|s| live_windows(&buf[region_offsets[s] as usize..region_offsets[s + 1] as usize]))
         .sum();
 
-    let mut stream: Vec<u16> = Vec::new();
-    let mut rewrites: Vec<u16> = Vec::new();
-    let mut resizes: Vec<u16> = Vec::new();
+    let mut stream: Vec<u8> = Vec::new();
+    let mut rewrites: Vec<u8> = Vec::new();
+    let mut resizes: Vec<u8> = Vec::new();
     let mut positions: Vec<u32> = Vec::new();
     let mut touched: Vec<(u32, u32)> = Vec::new();
     let mut needed: Vec<bool> = Vec::new();
@@ -239,7 +240,7 @@ fn reduce(
     live: usize,
     strip: u32,
     needed: &mut Vec<bool>,
-    out: &mut Vec<u16>,
+    out: &mut Vec<u8>,
 ) -> (usize, u32) {
     needed.clear();
     needed.resize(live, false);
@@ -272,8 +273,10 @@ fn reduce(
             push_var(out, strip);
             push_var(out, at as u32);
             push_var(out, ((len as u32) << 3) | u32::from(kind));
+            let mut previous = if at > 0 { region[at - 1] } else { 0 };
             for &v in &region[at..at + len] {
-                push_var(out, v);
+                push_var(out, zigzag(v, previous));
+                previous = v;
             }
             current = cut(&mut region[..current], at, len, kind);
             count += 1;

@@ -15,9 +15,11 @@
 //! parity, hence its orientation), and every window created at the junction is
 //! degenerate. Leading runs are removed in even lengths, trailing runs whole.
 //!
-//! The change stream is a flat `Vec<u16>` of variable-length numbers (one
-//! `u16` below `0x8000`, else two); each step ends with its own length so the
-//! runtime can walk the stream backward from its cursor without an offset table.
+//! The change stream is a flat `Vec<u8>` of LEB128 numbers: rewrite positions
+//! delta-coded per strip, removed indices as zigzag differences to their left
+//! neighbour. Each step ends with its own length, readable backward, so the
+//! runtime walks the stream in both directions from a cursor without an
+//! offset table.
 
 mod build;
 mod runtime;
@@ -56,7 +58,7 @@ pub struct LodStrips {
     /// `(u, w)` of each step.
     collapses: Vec<[u32; 2]>,
     /// The change stream, see the module docs.
-    stream: Vec<u16>,
+    stream: Vec<u8>,
     /// Triangles drawn at LOD 0.
     triangles_at_0: u32,
 }
@@ -87,7 +89,7 @@ impl LodStrips {
 
     /// Bytes of the change lists alone (the stream).
     pub fn change_bytes(&self) -> usize {
-        self.stream.len() * 2
+        self.stream.len()
     }
 
     /// Bytes of the whole model: `S0`, its region table, the collapse targets
@@ -101,49 +103,72 @@ impl LodStrips {
     }
 }
 
-/// Appends `v` (below `2^31`) as one `u16` if it is below `0x8000`, else as
-/// two, high part first with the top bit set.
-fn push_var(out: &mut Vec<u16>, v: u32) {
-    if v < 0x8000 {
-        out.push(v as u16);
-    } else {
-        out.push(0x8000 | (v >> 16) as u16);
-        out.push(v as u16);
+/// Appends `v` as LEB128: 7 bits per byte, low group first, top bit set on
+/// every byte but the last. Positions and deltas are mostly below 128, so
+/// most numbers take one byte.
+fn push_var(out: &mut Vec<u8>, mut v: u32) {
+    while v >= 0x80 {
+        out.push((v as u8) | 0x80);
+        v >>= 7;
     }
+    out.push(v as u8);
 }
 
 /// Reads a number written by [`push_var`] at `*at`, advancing `*at`.
-fn read_var(stream: &[u16], at: &mut usize) -> u32 {
-    let a = stream[*at];
-    *at += 1;
-    if a & 0x8000 == 0 {
-        u32::from(a)
-    } else {
+fn read_var(stream: &[u8], at: &mut usize) -> u32 {
+    let mut v = 0u32;
+    let mut shift = 0;
+    loop {
         let b = stream[*at];
         *at += 1;
-        (u32::from(a & 0x7FFF) << 16) | u32::from(b)
+        v |= u32::from(b & 0x7F) << shift;
+        if b & 0x80 == 0 {
+            return v;
+        }
+        shift += 7;
     }
 }
 
-/// Appends a step footer (the step's length in `u16`s, footer excluded),
-/// readable backward: one `u16` below `0x8000`, else low part then high part
-/// with the top bit set.
-fn push_footer(out: &mut Vec<u16>, len: u32) {
-    if len < 0x8000 {
-        out.push(len as u16);
-    } else {
-        out.push(len as u16);
-        out.push(0x8000 | (len >> 16) as u16);
+/// Bytes [`push_var`] and [`push_footer`] take for `v`.
+fn var_len(v: u32) -> usize {
+    (32 - (v | 1).leading_zeros() as usize).div_ceil(7)
+}
+
+/// A removed index stored as the zigzag difference to the index before it:
+/// degenerate runs repeat their neighbours, so this is mostly 0 (one byte).
+fn zigzag(value: u32, previous: u32) -> u32 {
+    let d = value.wrapping_sub(previous) as i32;
+    ((d << 1) ^ (d >> 31)) as u32
+}
+
+fn unzigzag(z: u32, previous: u32) -> u32 {
+    let d = ((z >> 1) as i32) ^ -((z & 1) as i32);
+    previous.wrapping_add(d as u32)
+}
+
+/// Appends a step footer: the step's length in bytes, footer excluded, as
+/// LEB128 groups written high first, so that it reads backward from the end:
+/// the last byte holds the low group, its top bit says whether more precede.
+fn push_footer(out: &mut Vec<u8>, len: u32) {
+    let groups = var_len(len);
+    for g in (0..groups).rev() {
+        let bits = ((len >> (7 * g)) & 0x7F) as u8;
+        out.push(if g + 1 < groups { bits | 0x80 } else { bits });
     }
 }
 
 /// Reads the footer that ends just before `end`; returns the start of the step.
-fn step_start_before(stream: &[u16], end: usize) -> usize {
-    let last = stream[end - 1];
-    if last & 0x8000 == 0 {
-        end - 1 - last as usize
-    } else {
-        let len = ((u32::from(last & 0x7FFF)) << 16) | u32::from(stream[end - 2]);
-        end - 2 - len as usize
+fn step_start_before(stream: &[u8], end: usize) -> usize {
+    let mut at = end - 1;
+    let mut len = 0usize;
+    let mut shift = 0;
+    loop {
+        let b = stream[at];
+        len |= usize::from(b & 0x7F) << shift;
+        if b & 0x80 == 0 {
+            return at - len;
+        }
+        shift += 7;
+        at -= 1;
     }
 }

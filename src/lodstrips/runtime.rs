@@ -7,7 +7,10 @@
 //! refining undoes its resizes in reverse order, then its rewrites. Nothing is
 //! allocated per change; the only scratch vector is reused.
 
-use super::{kind_len, read_var, step_start_before, LodStrips, KIND_B, KIND_BC, KIND_BCC, KIND_C};
+use super::{
+    kind_len, read_var, step_start_before, unzigzag, var_len, LodStrips, KIND_B, KIND_BC, KIND_BCC,
+    KIND_C,
+};
 
 /// Changed part of one strip's region: indices `start..end` relative to the
 /// region start (coalesced over all changes since the last [`LodState::take_dirty`]).
@@ -174,8 +177,8 @@ impl LodState {
             self.mark(strip, i as u32, new_live as u32);
             self.mark_len(strip);
         }
-        // Skip the footer: it is two words exactly when the body is long.
-        at += if at - self.cursor < 0x8000 { 1 } else { 2 };
+        // Skip the footer, which holds the length just read.
+        at += var_len((at - self.cursor) as u32);
         self.cursor = at;
         self.triangles -= removed;
         self.lod += 1;
@@ -221,8 +224,10 @@ impl LodState {
             let new_live = live + len - kind_len(kind);
             let region = &mut self.indices[base..base + new_live];
             region.copy_within(i + kind_len(kind)..live, i + len);
+            let mut previous = if i > 0 { region[i - 1] } else { 0 };
             for slot in &mut region[i..i + len] {
-                *slot = read_var(s, &mut at);
+                previous = unzigzag(read_var(s, &mut at), previous);
+                *slot = previous;
             }
             self.lens[strip] = new_live as u32;
             self.mark(strip, i as u32, new_live as u32);
