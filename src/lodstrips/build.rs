@@ -294,7 +294,7 @@ fn junction(strip: &[u32], i: usize, j: usize) -> Option<u16> {
     let c = strip[j];
     let a = i.checked_sub(2).map(|k| strip[k]);
     let d = strip.get(j + 1).copied();
-    let candidates: &[u16] = if len % 2 == 0 {
+    let candidates: &[u16] = if len.is_multiple_of(2) {
         &[KIND_NONE, KIND_BC]
     } else {
         &[KIND_B, KIND_C, KIND_BCC]
