@@ -26,8 +26,8 @@ use thiserror::Error;
 
 use super::runtime::cut;
 use super::{
-    kind_len, push_footer, push_var, zigzag, LodStrips, KIND_B, KIND_BC, KIND_BCC, KIND_C,
-    KIND_NONE,
+    kind_len, push_footer, push_group, push_header, push_var, zigzag, LodStrips, KIND_B, KIND_BC,
+    KIND_BCC, KIND_C, KIND_NONE,
 };
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::strip::Strips;
@@ -179,9 +179,8 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
                 continue;
             }
             let before = live_windows(region);
-            push_var(&mut rewrites, s - previous);
+            push_group(&mut rewrites, s - previous, positions.len() as u32);
             previous = s;
-            push_var(&mut rewrites, positions.len() as u32);
             let mut last = 0u32;
             for &p in &positions {
                 region[p as usize] = w;
@@ -216,9 +215,7 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
             removed += before - live_windows(&buf[base..base + new_live]);
         }
         let start = stream.len();
-        push_var(&mut stream, touched.len() as u32);
-        push_var(&mut stream, resize_count);
-        push_var(&mut stream, removed);
+        push_header(&mut stream, touched.len() as u32, resize_count, removed);
         stream.extend_from_slice(&rewrites);
         stream.extend_from_slice(&resizes);
         let body = (stream.len() - start) as u32;

@@ -129,6 +129,55 @@ fn read_var(stream: &[u8], at: &mut usize) -> u32 {
     }
 }
 
+/// Step header: counts of rewrite groups, resizes and removed triangles. The
+/// common small case (most collapses touch a few strips and remove two
+/// triangles) fits one byte; `0xFF` escapes to three numbers.
+fn push_header(out: &mut Vec<u8>, groups: u32, resizes: u32, removed: u32) {
+    if groups < 15 && resizes < 4 && removed < 4 {
+        out.push((groups | resizes << 4 | removed << 6) as u8);
+    } else {
+        out.push(0xFF);
+        push_var(out, groups);
+        push_var(out, resizes);
+        push_var(out, removed);
+    }
+}
+
+fn read_header(stream: &[u8], at: &mut usize) -> (u32, u32, u32) {
+    let h = stream[*at];
+    *at += 1;
+    if h != 0xFF {
+        let h = u32::from(h);
+        (h & 15, (h >> 4) & 3, h >> 6)
+    } else {
+        let groups = read_var(stream, at);
+        let resizes = read_var(stream, at);
+        (groups, resizes, read_var(stream, at))
+    }
+}
+
+/// Rewrite group head: the strip as a difference to the previous group's,
+/// and the position count folded into the low two bits (1 to 3, or 4 plus a
+/// second number).
+fn push_group(out: &mut Vec<u8>, strip_delta: u32, count: u32) {
+    let c = (count - 1).min(3);
+    push_var(out, strip_delta << 2 | c);
+    if c == 3 {
+        push_var(out, count - 4);
+    }
+}
+
+fn read_group(stream: &[u8], at: &mut usize) -> (u32, u32) {
+    let v = read_var(stream, at);
+    let c = v & 3;
+    let count = if c == 3 {
+        4 + read_var(stream, at)
+    } else {
+        c + 1
+    };
+    (v >> 2, count)
+}
+
 /// Bytes [`push_var`] and [`push_footer`] take for `v`.
 fn var_len(v: u32) -> usize {
     (32 - (v | 1).leading_zeros() as usize).div_ceil(7)

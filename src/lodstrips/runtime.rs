@@ -8,8 +8,8 @@
 //! allocated per change; the only scratch vector is reused.
 
 use super::{
-    kind_len, read_var, step_start_before, unzigzag, var_len, LodStrips, KIND_B, KIND_BC, KIND_BCC,
-    KIND_C,
+    kind_len, read_group, read_header, read_var, step_start_before, unzigzag, var_len, LodStrips,
+    KIND_B, KIND_BC, KIND_BCC, KIND_C,
 };
 
 /// Changed part of one strip's region: indices `start..end` relative to the
@@ -157,9 +157,7 @@ impl LodState {
         let s = &model.stream;
         let [_, w] = model.collapses[self.lod];
         let mut at = self.cursor;
-        let groups = read_var(s, &mut at);
-        let resizes = read_var(s, &mut at);
-        let removed = read_var(s, &mut at);
+        let (groups, resizes, removed) = read_header(s, &mut at);
         at = self.rewrite(model, at, groups, w);
         for _ in 0..resizes {
             let strip = read_var(s, &mut at) as usize;
@@ -191,14 +189,11 @@ impl LodState {
         let start = step_start_before(s, self.cursor);
         let [u, _] = model.collapses[self.lod - 1];
         let mut at = start;
-        let groups = read_var(s, &mut at);
-        let resizes = read_var(s, &mut at);
-        let removed = read_var(s, &mut at);
+        let (groups, resizes, removed) = read_header(s, &mut at);
         let rewrites = at;
         // Skip the rewrites to reach the resize records.
         for _ in 0..groups {
-            read_var(s, &mut at);
-            let count = read_var(s, &mut at);
+            let (_, count) = read_group(s, &mut at);
             for _ in 0..count {
                 read_var(s, &mut at);
             }
@@ -245,8 +240,8 @@ impl LodState {
         let s = &model.stream;
         let mut strip = 0usize;
         for _ in 0..groups {
-            strip += read_var(s, &mut at) as usize;
-            let count = read_var(s, &mut at);
+            let (delta, count) = read_group(s, &mut at);
+            strip += delta as usize;
             let base = model.region_offsets[strip] as usize;
             let mut pos = 0u32;
             let mut lo = u32::MAX;
