@@ -76,7 +76,7 @@ fn main() {
         let mut state = LodState::new(&model);
         let mut lod_ipt = Vec::new();
         for pct in [0usize, 25, 50, 75, 90] {
-            state.set_lod(&model, max * pct / 100);
+            state.set_lod(&model, max * pct / 100).expect("same model");
             lod_ipt.push(state.index_count() as f64 / state.triangle_count().max(1) as f64);
         }
         let bytes_per_collapse = model.change_bytes() as f64 / max.max(1) as f64;
@@ -84,16 +84,16 @@ fn main() {
         let size_ratio = model.byte_size() as f64 / indexed as f64;
 
         // Linear sweep: every step up, then every step down.
-        state.set_lod(&model, 0);
+        state.set_lod(&model, 0).expect("same model");
         state.take_dirty();
         let t = Instant::now();
         let rounds = 5;
         for _ in 0..rounds {
             for l in 1..=max {
-                state.set_lod(&model, l);
+                state.set_lod(&model, l).expect("same model");
             }
             for l in (0..max).rev() {
-                state.set_lod(&model, l);
+                state.set_lod(&model, l).expect("same model");
             }
         }
         let linear = t.elapsed().as_nanos() as f64 / (rounds * 2 * max.max(1)) as f64;
@@ -121,7 +121,7 @@ fn main() {
             let mut cur = state.lod();
             for &g in &targets {
                 moved += cur.abs_diff(g);
-                state.set_lod(&model, g);
+                state.set_lod(&model, g).expect("same model");
                 cur = g;
             }
         }

@@ -232,8 +232,8 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
         );
         for s in 0..model.strip_count() {
             assert_eq!(
-                mirror.strip(&model, s),
-                state.strip(&model, s),
+                Some(mirror.strip(&model, s)),
+                state.strip(s),
                 "mirror strip {s} at LOD {l}"
             );
         }
@@ -254,7 +254,7 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
         } else {
             target
         };
-        state.set_lod(&model, target);
+        state.set_lod(&model, target).expect("same model");
         assert_eq!(state.lod(), target);
         mirror.upload(&model, &mut state);
         let (hash, count) = reference[target];
@@ -276,11 +276,11 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
         }
     }
     let mut fresh = LodState::new(&model);
-    fresh.set_lod(&model, state.lod());
+    fresh.set_lod(&model, state.lod()).expect("same model");
     for s in 0..model.strip_count() {
         assert_eq!(
-            fresh.strip(&model, s),
-            state.strip(&model, s),
+            fresh.strip(s),
+            state.strip(s),
             "walked strip {s} differs from a direct move"
         );
     }
@@ -307,7 +307,9 @@ fn report(name: &str, strips: &Strips, seq: &CollapseSequence) {
     let mut state = LodState::new(&model);
     let mut line = String::new();
     for pct in [0, 25, 50, 75, 90] {
-        state.set_lod(&model, model.max_lod() * pct / 100);
+        state
+            .set_lod(&model, model.max_lod() * pct / 100)
+            .expect("same model");
         line += &format!(
             " L{pct}: {:.2}",
             state.index_count() as f64 / state.triangle_count().max(1) as f64

@@ -227,6 +227,7 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
         collapses: seq.collapses.iter().map(|c| [c.u, c.w]).collect(),
         stream,
         triangles_at_0,
+        id: super::NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
     })
 }
 
@@ -336,7 +337,7 @@ fn junction(strip: &[u32], i: usize, j: usize) -> Option<u16> {
 mod tests {
     use super::*;
     use crate::collapse::{canonical_multiset, Collapse};
-    use crate::lodstrips::LodState;
+    use crate::lodstrips::{LodError, LodState};
     use crate::strip::strip_triangles;
 
     fn seq(n: u32, pairs: &[(u32, u32)]) -> CollapseSequence {
@@ -352,7 +353,7 @@ mod tests {
     fn drawn(model: &LodStrips, state: &LodState) -> Vec<[u32; 3]> {
         let mut t = Vec::new();
         for s in 0..model.strip_count() {
-            t.extend(strip_triangles(state.strip(model, s)));
+            t.extend(strip_triangles(state.strip(s).unwrap_or_default()));
         }
         canonical_multiset(t)
     }
@@ -395,7 +396,7 @@ mod tests {
         let model = LodStrips::build(&strips, &s).unwrap();
         let mut state = LodState::new(&model);
         for l in [1, 2, 0, 2, 1, 0] {
-            state.set_lod(&model, l);
+            state.set_lod(&model, l).unwrap();
             assert_eq!(
                 drawn(&model, &state),
                 canonical_multiset(s.reference_mesh(&tris, l))
@@ -413,11 +414,14 @@ mod tests {
         let s = seq(4, &[(3, 2), (2, 1)]);
         let model = LodStrips::build(&strips, &s).unwrap();
         let mut state = LodState::new(&model);
-        state.set_lod(&model, 2);
+        state.set_lod(&model, 2).unwrap();
         assert_eq!(state.index_count(), 0);
-        state.set_lod(&model, 0);
-        assert_eq!(state.strip(&model, 0), &[0, 1, 2, 3]);
+        state.set_lod(&model, 0).unwrap();
+        assert_eq!(state.strip(0).unwrap_or_default(), &[0, 1, 2, 3]);
         let dirty = state.take_dirty();
         assert_eq!(dirty.lengths, vec![0]);
+        assert_eq!(state.strip(1), None);
+        let other = LodStrips::build(&strips, &s).unwrap();
+        assert_eq!(state.set_lod(&other, 1), Err(LodError::WrongModel));
     }
 }

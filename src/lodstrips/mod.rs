@@ -25,7 +25,7 @@ mod build;
 mod runtime;
 
 pub use build::BuildError;
-pub use runtime::{Dirty, DirtyRange, LodState};
+pub use runtime::{Dirty, DirtyRange, LodError, LodState};
 
 use crate::strip::Strips;
 
@@ -61,7 +61,12 @@ pub struct LodStrips {
     stream: Vec<u8>,
     /// Triangles drawn at LOD 0.
     triangles_at_0: u32,
+    /// Identifies the model a [`LodState`] was made for (clones share it).
+    id: u64,
 }
+
+/// Source of model ids: a state must only follow the stream it was made for.
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 impl LodStrips {
     /// Records the change lists of `seq` over the strips `s0`.

@@ -12,6 +12,13 @@ use super::{
     KIND_B, KIND_BC, KIND_BCC, KIND_C,
 };
 
+/// Why a state cannot move.
+#[derive(Debug, thiserror::Error, Clone, Copy, PartialEq, Eq)]
+pub enum LodError {
+    #[error("this LodState was made for another LodStrips model; make one with LodState::new(&model) for each model")]
+    WrongModel,
+}
+
 /// Changed part of one strip's region: indices `start..end` relative to the
 /// region start (coalesced over all changes since the last [`LodState::take_dirty`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,6 +39,8 @@ pub struct Dirty {
 /// The current strips at some LOD of one [`LodStrips`] model.
 #[derive(Clone, Debug)]
 pub struct LodState {
+    model_id: u64,
+    region_offsets: Vec<u32>,
     indices: Vec<u32>,
     lens: Vec<u32>,
     lod: usize,
@@ -51,6 +60,8 @@ impl LodState {
     pub fn new(model: &LodStrips) -> LodState {
         let strips = model.strip_count();
         LodState {
+            model_id: model.id,
+            region_offsets: model.region_offsets.clone(),
             indices: model.s0.clone(),
             lens: model
                 .region_offsets
@@ -88,10 +99,16 @@ impl LodState {
         &self.lens
     }
 
-    /// Live indices of strip `i`.
-    pub fn strip<'a>(&'a self, model: &LodStrips, i: usize) -> &'a [u32] {
-        let base = model.region_offsets[i] as usize;
-        &self.indices[base..base + self.lens[i] as usize]
+    /// Live indices of strip `i`, or `None` past the last strip.
+    pub fn strip(&self, i: usize) -> Option<&[u32]> {
+        let base = *self.region_offsets.get(i)? as usize;
+        self.indices.get(base..base + *self.lens.get(i)? as usize)
+    }
+
+    /// Region offsets into [`indices`](Self::indices): strip `i` owns
+    /// `region_offsets()[i]..region_offsets()[i+1]`.
+    pub fn region_offsets(&self) -> &[u32] {
+        &self.region_offsets
     }
 
     /// Total live indices over all strips.
@@ -100,8 +117,12 @@ impl LodState {
     }
 
     /// Moves to LOD `lod` (clamped to `model.max_lod()`), applying only the
-    /// recorded changes between the current LOD and `lod`.
-    pub fn set_lod(&mut self, model: &LodStrips, lod: usize) {
+    /// recorded changes between the current LOD and `lod`. `model` must be the
+    /// one this state was made from.
+    pub fn set_lod(&mut self, model: &LodStrips, lod: usize) -> Result<(), LodError> {
+        if model.id != self.model_id {
+            return Err(LodError::WrongModel);
+        }
         let lod = lod.min(model.max_lod());
         while self.lod < lod {
             self.coarsen(model);
@@ -109,6 +130,7 @@ impl LodState {
         while self.lod > lod {
             self.refine(model);
         }
+        Ok(())
     }
 
     /// Hands the dirty log to the uploader and clears it.
