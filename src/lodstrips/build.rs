@@ -205,11 +205,17 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
 
         let mut resize_count = 0u32;
         let mut removed = 0u32;
-        for &(s, before) in &touched {
+        for (group, &(s, before)) in touched.iter().enumerate() {
             let base = region_offsets[s as usize] as usize;
             let cap = region_offsets[s as usize + 1] as usize;
             let live = lens[s as usize];
-            let (new_live, count) = reduce(&mut buf[base..cap], live, s, &mut needed, &mut resizes);
+            let (new_live, count) = reduce(
+                &mut buf[base..cap],
+                live,
+                group as u32,
+                &mut needed,
+                &mut resizes,
+            );
             lens[s as usize] = new_live;
             resize_count += count;
             removed += before - live_windows(&buf[base..base + new_live]);
@@ -233,10 +239,12 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
 
 /// Cuts the unneeded runs of the strip `region[..live]` right to left,
 /// appending one record per cut; returns the new live length and the count.
+/// Records name the strip by its rewrite group in this step (`group`): a
+/// strip is only reduced where the step rewrote it, and the index is smaller.
 fn reduce(
     region: &mut [u32],
     live: usize,
-    strip: u32,
+    group: u32,
     needed: &mut Vec<bool>,
     out: &mut Vec<u8>,
 ) -> (usize, u32) {
@@ -268,7 +276,7 @@ fn reduce(
             junction(&region[..current], i, j).map(|kind| (i, j - i, kind))
         };
         if let Some((at, len, kind)) = cut_at {
-            push_var(out, strip);
+            push_var(out, group);
             push_var(out, at as u32);
             push_var(out, ((len as u32) << 3) | u32::from(kind));
             let mut previous = if at > 0 { region[at - 1] } else { 0 };

@@ -5,7 +5,7 @@
 //! `set_lod` walks the change stream from the current LOD to the requested one,
 //! one step at a time: coarsening applies a step's rewrites then its resizes,
 //! refining undoes its resizes in reverse order, then its rewrites. Nothing is
-//! allocated per change; the only scratch vector is reused.
+//! allocated per change; the scratch vectors are reused.
 
 use super::{
     kind_len, read_group, read_header, read_var, step_start_before, unzigzag, var_len, LodStrips,
@@ -53,6 +53,8 @@ pub struct LodState {
     len_changed: Vec<bool>,
     len_strips: Vec<u32>,
     scratch: Vec<usize>,
+    /// Strips of the current step's rewrite groups (resizes name strips by group).
+    group_strips: Vec<u32>,
 }
 
 impl LodState {
@@ -77,6 +79,7 @@ impl LodState {
             len_changed: vec![false; strips],
             len_strips: Vec::new(),
             scratch: Vec::new(),
+            group_strips: Vec::new(),
         }
     }
 
@@ -182,7 +185,7 @@ impl LodState {
         let (groups, resizes, removed) = read_header(s, &mut at);
         at = self.rewrite(model, at, groups, w);
         for _ in 0..resizes {
-            let strip = read_var(s, &mut at) as usize;
+            let strip = self.group_strips[read_var(s, &mut at) as usize] as usize;
             let i = read_var(s, &mut at) as usize;
             let lk = read_var(s, &mut at);
             let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
@@ -214,8 +217,12 @@ impl LodState {
         let (groups, resizes, removed) = read_header(s, &mut at);
         let rewrites = at;
         // Skip the rewrites to reach the resize records.
+        self.group_strips.clear();
+        let mut strip = 0u32;
         for _ in 0..groups {
-            let (_, count) = read_group(s, &mut at);
+            let (delta, count) = read_group(s, &mut at);
+            strip += delta;
+            self.group_strips.push(strip);
             for _ in 0..count {
                 read_var(s, &mut at);
             }
@@ -232,7 +239,7 @@ impl LodState {
         }
         for k in (0..self.scratch.len()).rev() {
             let mut at = self.scratch[k];
-            let strip = read_var(s, &mut at) as usize;
+            let strip = self.group_strips[read_var(s, &mut at) as usize] as usize;
             let i = read_var(s, &mut at) as usize;
             let lk = read_var(s, &mut at);
             let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
@@ -261,9 +268,11 @@ impl LodState {
     fn rewrite(&mut self, model: &LodStrips, mut at: usize, groups: u32, value: u32) -> usize {
         let s = &model.stream;
         let mut strip = 0usize;
+        self.group_strips.clear();
         for _ in 0..groups {
             let (delta, count) = read_group(s, &mut at);
             strip += delta as usize;
+            self.group_strips.push(strip as u32);
             let base = model.region_offsets[strip] as usize;
             let mut pos = 0u32;
             let mut lo = u32::MAX;
