@@ -12,8 +12,9 @@
 //! * Full checks (exact sorted multisets, mirror == state, index count never
 //!   above `S0`): every step on meshes up to `FULL_EVERY_STEP_TRIANGLES`
 //!   triangles, every `FULL_STRIDE`-th step and the last one on bigger meshes.
-//! * End of walk: the walked state equals a fresh state moved straight from LOD 0
-//!   (same index contents and lengths, which this model guarantees).
+//! * End of walk: the walked state equals a fresh state of a model built again
+//!   from the same inputs, moved straight from LOD 0 (same index contents and
+//!   lengths, which this model guarantees: every LOD has one buffer state).
 
 use morphlod::collapse::{canonical, canonical_multiset, Collapse, CollapseSequence};
 use morphlod::lodstrips::{LodState, LodStrips};
@@ -275,8 +276,16 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
             full(target, &mirror, &state);
         }
     }
-    let mut fresh = LodState::new(&model);
-    fresh.set_lod(&model, state.lod()).expect("same model");
+    // A model built again from the same inputs, moved straight to the final LOD.
+    let rebuilt = LodStrips::build(strips, seq).expect("model builds");
+    assert_eq!(
+        rebuilt.byte_size(),
+        model.byte_size(),
+        "build is deterministic"
+    );
+    let mut fresh = LodState::new(&rebuilt);
+    fresh.set_lod(&rebuilt, state.lod()).expect("same model");
+    assert_eq!(fresh.lengths(), state.lengths());
     for s in 0..model.strip_count() {
         assert_eq!(
             fresh.strip(s),
