@@ -1,0 +1,435 @@
+//! Recording the change lists: replay the collapse sequence over `S0`.
+//!
+//! Step `l` (collapse `u → w`): every position holding `u` in the live strips
+//! is rewritten to `w` (and recorded), then every strip that held `u` is
+//! reduced. The reduction rule set, with why each keeps the drawn multiset:
+//!
+//! * An index is *needed* if some non-degenerate window contains it. A maximal
+//!   run of unneeded indices touches only degenerate windows, so cutting it
+//!   destroys nothing drawn. What the cut can break is (a) the parity of every
+//!   later window, which flips if the removed length is odd, and (b) the
+//!   windows created across the junction.
+//! * Trailing run: removed whole (no later windows, no junction).
+//! * Leading run: removed in an even length (the kept odd index is unneeded,
+//!   so the first window stays degenerate; later windows keep parity).
+//! * Interior run `A B [run] C D`: replaced by `r` with `|r| ≡ |run| (mod 2)`
+//!   and `|r| < |run|`, choosing the first of `[]`, `[B C]` (even) or `[B]`,
+//!   `[C]`, `[B C C]` (odd) for which every window of `A B r C D` is
+//!   degenerate. `[B C]` and `[B C C]` always are (`A B B C C D`); `[]` covers
+//!   Skip Strips' `(ab)+ → ab` and `(aa)+ → aa`. Unneeded runs stay unneeded
+//!   and needed indices stay needed, so one right-to-left pass suffices.
+//!
+//! The runtime applies these records blindly; the oracle (tests/oracle.rs)
+//! checks the drawn multiset against the reference mesh after every step.
+
+use thiserror::Error;
+
+use super::runtime::cut;
+use super::{
+    kind_len, push_footer, push_group, push_header, push_var, zigzag, LodStrips, KIND_B, KIND_BC,
+    KIND_BCC, KIND_C, KIND_NONE,
+};
+use crate::collapse::{CollapseSequence, SequenceError};
+use crate::strip::Strips;
+
+/// Why a model cannot be built from these strips and this sequence.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum BuildError {
+    #[error(transparent)]
+    Sequence(#[from] SequenceError),
+    #[error("strip offsets are malformed at entry {entry}: offsets must start at 0, never decrease and end at the index count {indices}; rebuild the strips with strip::stripify")]
+    BadOffsets { entry: usize, indices: usize },
+    #[error("strip index {index} at position {position} is not a vertex of the {vertices}-vertex mesh the sequence was built for; strips and sequence must come from the same mesh")]
+    IndexOutOfRange {
+        position: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("{what} is {value}, above the supported {limit}; split the mesh")]
+    TooLarge {
+        what: &'static str,
+        value: usize,
+        limit: usize,
+    },
+}
+
+/// Largest vertex count and strip length the change stream encodes.
+const VERTEX_LIMIT: usize = 1 << 31;
+const INDEX_LIMIT: usize = 1 << 28;
+
+fn degenerate(a: u32, b: u32, c: u32) -> bool {
+    a == b || b == c || a == c
+}
+
+fn live_windows(strip: &[u32]) -> u32 {
+    strip
+        .windows(3)
+        .filter(|w| !degenerate(w[0], w[1], w[2]))
+        .count() as u32
+}
+
+fn check_inputs(s0: &Strips, seq: &CollapseSequence) -> Result<(), BuildError> {
+    seq.validate()?;
+    let vertices = seq.vertex_count as usize;
+    if vertices > VERTEX_LIMIT {
+        return Err(BuildError::TooLarge {
+            what: "the vertex count",
+            value: vertices,
+            limit: VERTEX_LIMIT,
+        });
+    }
+    let total = s0.indices.len();
+    if total > INDEX_LIMIT {
+        return Err(BuildError::TooLarge {
+            what: "the strip index count",
+            value: total,
+            limit: INDEX_LIMIT,
+        });
+    }
+    match s0.offsets.first() {
+        Some(0) => {}
+        None if total == 0 => {}
+        _ => {
+            return Err(BuildError::BadOffsets {
+                entry: 0,
+                indices: total,
+            })
+        }
+    }
+    for (entry, w) in s0.offsets.windows(2).enumerate() {
+        if w[1] < w[0] {
+            return Err(BuildError::BadOffsets {
+                entry: entry + 1,
+                indices: total,
+            });
+        }
+    }
+    if let Some(&last) = s0.offsets.last() {
+        if last as usize != total {
+            return Err(BuildError::BadOffsets {
+                entry: s0.offsets.len() - 1,
+                indices: total,
+            });
+        }
+    }
+    if let Some(position) = s0.indices.iter().position(|&v| v as usize >= vertices) {
+        return Err(BuildError::IndexOutOfRange {
+            position,
+            index: s0.indices[position],
+            vertices,
+        });
+    }
+    Ok(())
+}
+
+pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, BuildError> {
+    check_inputs(s0, seq)?;
+    let region_offsets = if s0.offsets.is_empty() {
+        vec![0]
+    } else {
+        s0.offsets.clone()
+    };
+    let strips = region_offsets.len() - 1;
+    let mut buf = s0.indices.clone();
+    let mut lens: Vec<usize> = region_offsets
+        .windows(2)
+        .map(|w| (w[1] - w[0]) as usize)
+        .collect();
+
+    // Vertex → sorted strips that may hold it (a superset: merged on collapse).
+    let mut strips_of: Vec<Vec<u32>> = vec![Vec::new(); seq.vertex_count as usize];
+    for s in 0..strips {
+        let region = &buf[region_offsets[s] as usize..region_offsets[s + 1] as usize];
+        for &v in region {
+            let list = &mut strips_of[v as usize];
+            if list.last() != Some(&(s as u32)) {
+                list.push(s as u32);
+            }
+        }
+    }
+    let triangles_at_0: u32 = (0..strips)
+        .map(|s| live_windows(&buf[region_offsets[s] as usize..region_offsets[s + 1] as usize]))
+        .sum();
+
+    let mut stream: Vec<u8> = Vec::new();
+    let mut rewrites: Vec<u8> = Vec::new();
+    let mut resizes: Vec<u8> = Vec::new();
+    let mut positions: Vec<u32> = Vec::new();
+    let mut touched: Vec<(u32, u32)> = Vec::new();
+    let mut needed: Vec<bool> = Vec::new();
+    let mut merged: Vec<u32> = Vec::new();
+    for c in &seq.collapses {
+        let (u, w) = (c.u, c.w);
+        rewrites.clear();
+        resizes.clear();
+        touched.clear();
+        let mut previous = 0u32;
+        for &s in &strips_of[u as usize] {
+            let base = region_offsets[s as usize] as usize;
+            let region = &mut buf[base..base + lens[s as usize]];
+            positions.clear();
+            positions.extend(
+                region
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &v)| v == u)
+                    .map(|(p, _)| p as u32),
+            );
+            if positions.is_empty() {
+                continue;
+            }
+            let before = live_windows(region);
+            push_group(&mut rewrites, s - previous, positions.len() as u32);
+            previous = s;
+            let mut last = 0u32;
+            for &p in &positions {
+                region[p as usize] = w;
+                push_var(&mut rewrites, p - last);
+                last = p;
+            }
+            touched.push((s, before));
+        }
+        // `u` is gone; the strips that held it now hold `w`.
+        merged.clear();
+        let (mut a, mut b) = (0, 0);
+        let into = &strips_of[w as usize];
+        while a < touched.len() || b < into.len() {
+            let x = touched.get(a).map_or(u32::MAX, |t| t.0);
+            let y = into.get(b).copied().unwrap_or(u32::MAX);
+            merged.push(x.min(y));
+            a += usize::from(x <= y);
+            b += usize::from(y <= x);
+        }
+        std::mem::swap(&mut strips_of[w as usize], &mut merged);
+        strips_of[u as usize] = Vec::new();
+
+        let mut resize_count = 0u32;
+        let mut removed = 0u32;
+        for (group, &(s, before)) in touched.iter().enumerate() {
+            let base = region_offsets[s as usize] as usize;
+            let cap = region_offsets[s as usize + 1] as usize;
+            let live = lens[s as usize];
+            let (new_live, count) = reduce(
+                &mut buf[base..cap],
+                live,
+                group as u32,
+                &mut needed,
+                &mut resizes,
+            );
+            lens[s as usize] = new_live;
+            resize_count += count;
+            removed += before - live_windows(&buf[base..base + new_live]);
+        }
+        let start = stream.len();
+        push_header(&mut stream, touched.len() as u32, resize_count, removed);
+        stream.extend_from_slice(&rewrites);
+        stream.extend_from_slice(&resizes);
+        let body = (stream.len() - start) as u32;
+        push_footer(&mut stream, body);
+    }
+    Ok(LodStrips {
+        region_offsets,
+        s0: s0.indices.clone(),
+        collapses: seq.collapses.iter().map(|c| [c.u, c.w]).collect(),
+        stream,
+        triangles_at_0,
+        id: super::NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+    })
+}
+
+/// Cuts the unneeded runs of the strip `region[..live]` right to left,
+/// appending one record per cut; returns the new live length and the count.
+/// Records name the strip by its rewrite group in this step (`group`): a
+/// strip is only reduced where the step rewrote it, and the index is smaller.
+fn reduce(
+    region: &mut [u32],
+    live: usize,
+    group: u32,
+    needed: &mut Vec<bool>,
+    out: &mut Vec<u8>,
+) -> (usize, u32) {
+    needed.clear();
+    needed.resize(live, false);
+    for k in 0..live.saturating_sub(2) {
+        if !degenerate(region[k], region[k + 1], region[k + 2]) {
+            needed[k..k + 3].fill(true);
+        }
+    }
+    let mut current = live;
+    let mut count = 0;
+    let mut j = live;
+    while j > 0 {
+        if needed[j - 1] {
+            j -= 1;
+            continue;
+        }
+        let mut i = j;
+        while i > 0 && !needed[i - 1] {
+            i -= 1;
+        }
+        let cut_at = if j == current {
+            Some((i, j - i, KIND_NONE))
+        } else if i == 0 {
+            let len = j & !1;
+            (len > 0).then_some((0, len, KIND_NONE))
+        } else {
+            junction(&region[..current], i, j).map(|kind| (i, j - i, kind))
+        };
+        if let Some((at, len, kind)) = cut_at {
+            push_var(out, group);
+            push_var(out, at as u32);
+            push_var(out, ((len as u32) << 3) | u32::from(kind));
+            let mut previous = if at > 0 { region[at - 1] } else { 0 };
+            for &v in &region[at..at + len] {
+                push_var(out, zigzag(v, previous));
+                previous = v;
+            }
+            current = cut(&mut region[..current], at, len, kind);
+            count += 1;
+        }
+        j = i;
+    }
+    (current, count)
+}
+
+/// The shortest replacement for the interior run `strip[i..j]` that keeps
+/// length parity and leaves every junction window degenerate, if shorter.
+fn junction(strip: &[u32], i: usize, j: usize) -> Option<u16> {
+    let len = j - i;
+    let b = strip[i - 1];
+    let c = strip[j];
+    let a = i.checked_sub(2).map(|k| strip[k]);
+    let d = strip.get(j + 1).copied();
+    let candidates: &[u16] = if len.is_multiple_of(2) {
+        &[KIND_NONE, KIND_BC]
+    } else {
+        &[KIND_B, KIND_C, KIND_BCC]
+    };
+    candidates.iter().copied().find(|&kind| {
+        if kind_len(kind) >= len {
+            return false;
+        }
+        let mut seq = [0u32; 7];
+        let mut n = 0;
+        let mut put = |v: u32| {
+            seq[n] = v;
+            n += 1;
+        };
+        if let Some(a) = a {
+            put(a);
+        }
+        put(b);
+        match kind {
+            KIND_B => put(b),
+            KIND_C => put(c),
+            KIND_BC => {
+                put(b);
+                put(c);
+            }
+            KIND_BCC => {
+                put(b);
+                put(c);
+                put(c);
+            }
+            _ => {}
+        }
+        put(c);
+        if let Some(d) = d {
+            put(d);
+        }
+        seq[..n].windows(3).all(|w| degenerate(w[0], w[1], w[2]))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collapse::{canonical_multiset, Collapse};
+    use crate::lodstrips::{LodError, LodState};
+    use crate::strip::strip_triangles;
+
+    fn seq(n: u32, pairs: &[(u32, u32)]) -> CollapseSequence {
+        CollapseSequence {
+            vertex_count: n,
+            collapses: pairs
+                .iter()
+                .map(|&(u, w)| Collapse { u, w, error: 0.0 })
+                .collect(),
+        }
+    }
+
+    fn drawn(model: &LodStrips, state: &LodState) -> Vec<[u32; 3]> {
+        let mut t = Vec::new();
+        for s in 0..model.strip_count() {
+            t.extend(strip_triangles(state.strip(s).unwrap_or_default()));
+        }
+        canonical_multiset(t)
+    }
+
+    #[test]
+    fn rejects_bad_inputs() {
+        let strips = Strips {
+            indices: vec![0, 1, 2],
+            offsets: vec![0, 3],
+        };
+        let bad = Strips {
+            indices: vec![0, 1, 2],
+            offsets: vec![0, 2],
+        };
+        assert!(matches!(
+            LodStrips::build(&bad, &seq(3, &[])),
+            Err(BuildError::BadOffsets { .. })
+        ));
+        assert!(matches!(
+            LodStrips::build(&strips, &seq(2, &[])),
+            Err(BuildError::IndexOutOfRange { index: 2, .. })
+        ));
+        assert!(matches!(
+            LodStrips::build(&strips, &seq(3, &[(0, 0)])),
+            Err(BuildError::Sequence(_))
+        ));
+    }
+
+    #[test]
+    fn the_parity_trap_is_not_cut_into_a_new_triangle() {
+        // A fan-like strip where collapsing 2 → 1 and 3 → 1 leaves `x 1 1 1 y`:
+        // dropping two of the 1s would draw (x, 1, y), which the reference lacks.
+        let strip = vec![0, 5, 1, 2, 3, 4, 6];
+        let strips = Strips {
+            indices: strip.clone(),
+            offsets: vec![0, strip.len() as u32],
+        };
+        let tris: Vec<[u32; 3]> = strip_triangles(&strip).collect();
+        let s = seq(7, &[(2, 1), (3, 1)]);
+        let model = LodStrips::build(&strips, &s).unwrap();
+        let mut state = LodState::new(&model);
+        for l in [1, 2, 0, 2, 1, 0] {
+            state.set_lod(&model, l).unwrap();
+            assert_eq!(
+                drawn(&model, &state),
+                canonical_multiset(s.reference_mesh(&tris, l))
+            );
+            assert_eq!(state.triangle_count(), s.reference_mesh(&tris, l).len());
+        }
+    }
+
+    #[test]
+    fn dead_strip_vanishes_and_comes_back() {
+        let strips = Strips {
+            indices: vec![0, 1, 2, 3],
+            offsets: vec![0, 4],
+        };
+        let s = seq(4, &[(3, 2), (2, 1)]);
+        let model = LodStrips::build(&strips, &s).unwrap();
+        let mut state = LodState::new(&model);
+        state.set_lod(&model, 2).unwrap();
+        assert_eq!(state.index_count(), 0);
+        state.set_lod(&model, 0).unwrap();
+        assert_eq!(state.strip(0).unwrap_or_default(), &[0, 1, 2, 3]);
+        let dirty = state.take_dirty();
+        assert_eq!(dirty.lengths, vec![0]);
+        assert_eq!(state.strip(1), None);
+        let other = LodStrips::build(&strips, &s).unwrap();
+        assert_eq!(state.set_lod(&other, 1), Err(LodError::WrongModel));
+    }
+}

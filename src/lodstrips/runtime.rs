@@ -1,0 +1,316 @@
+//! The runtime state: the index buffer with one fixed region per strip, the
+//! live length of each strip, the current LOD, and the log of what changed
+//! since the GPU uploader last looked.
+//!
+//! `set_lod` walks the change stream from the current LOD to the requested one,
+//! one step at a time: coarsening applies a step's rewrites then its resizes,
+//! refining undoes its resizes in reverse order, then its rewrites. Nothing is
+//! allocated per change; the scratch vectors are reused.
+
+use super::{
+    kind_len, read_group, read_header, read_var, step_start_before, unzigzag, var_len, LodStrips,
+    KIND_B, KIND_BC, KIND_BCC, KIND_C,
+};
+
+/// Why a state cannot move.
+#[derive(Debug, thiserror::Error, Clone, Copy, PartialEq, Eq)]
+pub enum LodError {
+    #[error("this LodState was made for another LodStrips model; make one with LodState::new(&model) for each model")]
+    WrongModel,
+}
+
+/// Changed part of one strip's region: indices `start..end` relative to the
+/// region start (coalesced over all changes since the last [`LodState::take_dirty`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DirtyRange {
+    pub strip: u32,
+    pub start: u32,
+    pub end: u32,
+}
+
+/// What the uploader must write: the index ranges, and the strips whose live
+/// length (draw `index_count`) changed.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Dirty {
+    pub ranges: Vec<DirtyRange>,
+    pub lengths: Vec<u32>,
+}
+
+/// The current strips at some LOD of one [`LodStrips`] model.
+#[derive(Clone, Debug)]
+pub struct LodState {
+    model_id: u64,
+    region_offsets: Vec<u32>,
+    indices: Vec<u32>,
+    lens: Vec<u32>,
+    lod: usize,
+    /// Stream position where step `lod` starts.
+    cursor: usize,
+    triangles: u32,
+    dirty_lo: Vec<u32>,
+    dirty_hi: Vec<u32>,
+    dirty_strips: Vec<u32>,
+    len_changed: Vec<bool>,
+    len_strips: Vec<u32>,
+    scratch: Vec<usize>,
+    /// Strips of the current step's rewrite groups (resizes name strips by group).
+    group_strips: Vec<u32>,
+}
+
+impl LodState {
+    /// The state at LOD 0: the buffer holds `S0`, nothing is dirty.
+    pub fn new(model: &LodStrips) -> LodState {
+        let strips = model.strip_count();
+        LodState {
+            model_id: model.id,
+            region_offsets: model.region_offsets.clone(),
+            indices: model.s0.clone(),
+            lens: model
+                .region_offsets
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .collect(),
+            lod: 0,
+            cursor: 0,
+            triangles: model.triangles_at_0,
+            dirty_lo: vec![u32::MAX; strips],
+            dirty_hi: vec![0; strips],
+            dirty_strips: Vec::new(),
+            len_changed: vec![false; strips],
+            len_strips: Vec::new(),
+            scratch: Vec::new(),
+            group_strips: Vec::new(),
+        }
+    }
+
+    pub fn lod(&self) -> usize {
+        self.lod
+    }
+
+    /// Non-degenerate triangles the current strips draw.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles as usize
+    }
+
+    /// The whole index buffer (all regions, live parts and stale tails).
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
+    }
+
+    /// Live length of every strip.
+    pub fn lengths(&self) -> &[u32] {
+        &self.lens
+    }
+
+    /// Live indices of strip `i`, or `None` past the last strip.
+    pub fn strip(&self, i: usize) -> Option<&[u32]> {
+        let base = *self.region_offsets.get(i)? as usize;
+        self.indices.get(base..base + *self.lens.get(i)? as usize)
+    }
+
+    /// Region offsets into [`indices`](Self::indices): strip `i` owns
+    /// `region_offsets()[i]..region_offsets()[i+1]`.
+    pub fn region_offsets(&self) -> &[u32] {
+        &self.region_offsets
+    }
+
+    /// Total live indices over all strips.
+    pub fn index_count(&self) -> usize {
+        self.lens.iter().map(|&l| l as usize).sum()
+    }
+
+    /// Moves to LOD `lod` (clamped to `model.max_lod()`), applying only the
+    /// recorded changes between the current LOD and `lod`. `model` must be the
+    /// one this state was made from.
+    pub fn set_lod(&mut self, model: &LodStrips, lod: usize) -> Result<(), LodError> {
+        if model.id != self.model_id {
+            return Err(LodError::WrongModel);
+        }
+        let lod = lod.min(model.max_lod());
+        while self.lod < lod {
+            self.coarsen(model);
+        }
+        while self.lod > lod {
+            self.refine(model);
+        }
+        Ok(())
+    }
+
+    /// Hands the dirty log to the uploader and clears it.
+    pub fn take_dirty(&mut self) -> Dirty {
+        let mut out = Dirty::default();
+        self.dirty_strips.sort_unstable();
+        for &s in &self.dirty_strips {
+            let i = s as usize;
+            out.ranges.push(DirtyRange {
+                strip: s,
+                start: self.dirty_lo[i],
+                end: self.dirty_hi[i],
+            });
+            self.dirty_lo[i] = u32::MAX;
+            self.dirty_hi[i] = 0;
+        }
+        self.dirty_strips.clear();
+        self.len_strips.sort_unstable();
+        for &s in &self.len_strips {
+            self.len_changed[s as usize] = false;
+        }
+        out.lengths = std::mem::take(&mut self.len_strips);
+        out
+    }
+
+    fn mark(&mut self, strip: usize, start: u32, end: u32) {
+        if start >= end {
+            return;
+        }
+        if self.dirty_lo[strip] == u32::MAX {
+            self.dirty_strips.push(strip as u32);
+        }
+        self.dirty_lo[strip] = self.dirty_lo[strip].min(start);
+        self.dirty_hi[strip] = self.dirty_hi[strip].max(end);
+    }
+
+    fn mark_len(&mut self, strip: usize) {
+        if !self.len_changed[strip] {
+            self.len_changed[strip] = true;
+            self.len_strips.push(strip as u32);
+        }
+    }
+
+    /// Applies step `self.lod`: rewrites `u → w`, then the resizes in order.
+    fn coarsen(&mut self, model: &LodStrips) {
+        let s = &model.stream;
+        let [_, w] = model.collapses[self.lod];
+        let mut at = self.cursor;
+        let (groups, resizes, removed) = read_header(s, &mut at);
+        at = self.rewrite(model, at, groups, w);
+        for _ in 0..resizes {
+            let strip = self.group_strips[read_var(s, &mut at) as usize] as usize;
+            let i = read_var(s, &mut at) as usize;
+            let lk = read_var(s, &mut at);
+            let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
+            for _ in 0..len {
+                read_var(s, &mut at);
+            }
+            let base = model.region_offsets[strip] as usize;
+            let live = self.lens[strip] as usize;
+            let region = &mut self.indices[base..base + live];
+            let new_live = cut(region, i, len, kind);
+            self.lens[strip] = new_live as u32;
+            self.mark(strip, i as u32, new_live as u32);
+            self.mark_len(strip);
+        }
+        // Skip the footer, which holds the length just read.
+        at += var_len((at - self.cursor) as u32);
+        self.cursor = at;
+        self.triangles -= removed;
+        self.lod += 1;
+    }
+
+    /// Undoes step `self.lod - 1`: restores the resizes in reverse order, then
+    /// writes `u` back.
+    fn refine(&mut self, model: &LodStrips) {
+        let s = &model.stream;
+        let start = step_start_before(s, self.cursor);
+        let [u, _] = model.collapses[self.lod - 1];
+        let mut at = start;
+        let (groups, resizes, removed) = read_header(s, &mut at);
+        let rewrites = at;
+        // Skip the rewrites to reach the resize records.
+        self.group_strips.clear();
+        let mut strip = 0u32;
+        for _ in 0..groups {
+            let (delta, count) = read_group(s, &mut at);
+            strip += delta;
+            self.group_strips.push(strip);
+            for _ in 0..count {
+                read_var(s, &mut at);
+            }
+        }
+        self.scratch.clear();
+        for _ in 0..resizes {
+            self.scratch.push(at);
+            read_var(s, &mut at);
+            read_var(s, &mut at);
+            let len = read_var(s, &mut at) >> 3;
+            for _ in 0..len {
+                read_var(s, &mut at);
+            }
+        }
+        for k in (0..self.scratch.len()).rev() {
+            let mut at = self.scratch[k];
+            let strip = self.group_strips[read_var(s, &mut at) as usize] as usize;
+            let i = read_var(s, &mut at) as usize;
+            let lk = read_var(s, &mut at);
+            let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
+            let base = model.region_offsets[strip] as usize;
+            let live = self.lens[strip] as usize;
+            let new_live = live + len - kind_len(kind);
+            let region = &mut self.indices[base..base + new_live];
+            region.copy_within(i + kind_len(kind)..live, i + len);
+            let mut previous = if i > 0 { region[i - 1] } else { 0 };
+            for slot in &mut region[i..i + len] {
+                previous = unzigzag(read_var(s, &mut at), previous);
+                *slot = previous;
+            }
+            self.lens[strip] = new_live as u32;
+            self.mark(strip, i as u32, new_live as u32);
+            self.mark_len(strip);
+        }
+        self.rewrite(model, rewrites, groups, u);
+        self.cursor = start;
+        self.triangles += removed;
+        self.lod -= 1;
+    }
+
+    /// Writes `value` at every position of the rewrite groups starting at
+    /// `at`; returns the stream position after them.
+    fn rewrite(&mut self, model: &LodStrips, mut at: usize, groups: u32, value: u32) -> usize {
+        let s = &model.stream;
+        let mut strip = 0usize;
+        self.group_strips.clear();
+        for _ in 0..groups {
+            let (delta, count) = read_group(s, &mut at);
+            strip += delta as usize;
+            self.group_strips.push(strip as u32);
+            let base = model.region_offsets[strip] as usize;
+            let mut pos = 0u32;
+            let mut lo = u32::MAX;
+            for _ in 0..count {
+                pos += read_var(s, &mut at);
+                self.indices[base + pos as usize] = value;
+                lo = lo.min(pos);
+            }
+            self.mark(strip, lo, pos + 1);
+        }
+        at
+    }
+}
+
+/// Cuts `region[i..i+len]` (the live part of a strip is all of `region`),
+/// writing the replacement `kind` made of the neighbours `B = region[i-1]`,
+/// `C = region[i+len]`, and packing the tail; returns the new live length.
+pub(super) fn cut(region: &mut [u32], i: usize, len: usize, kind: u16) -> usize {
+    let live = region.len();
+    let r = kind_len(kind);
+    if r > 0 {
+        let b = region[i - 1];
+        let c = region[i + len];
+        match kind {
+            KIND_B => region[i] = b,
+            KIND_C => region[i] = c,
+            KIND_BC => {
+                region[i] = b;
+                region[i + 1] = c;
+            }
+            KIND_BCC => {
+                region[i] = b;
+                region[i + 1] = c;
+                region[i + 2] = c;
+            }
+            _ => {}
+        }
+    }
+    region.copy_within(i + len..live, i + r);
+    live - len + r
+}
