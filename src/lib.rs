@@ -23,6 +23,7 @@
 //! * [`metrics`] measures geometric error (Hausdorff / RMS by surface sampling).
 //! * [`gpu`] renders with wgpu: the caller owns the device, queue and render pass.
 
+pub mod asset;
 pub mod collapse;
 pub mod error;
 pub mod gpu;
@@ -35,6 +36,7 @@ pub mod simplify;
 pub mod strip;
 pub mod topology;
 
+pub use asset::Asset;
 pub use collapse::{Collapse, CollapseSequence};
 pub use error::Error;
 pub use mesh::IndexedMesh;
