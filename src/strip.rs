@@ -222,11 +222,18 @@ impl Grower<'_> {
                 Some(_) => 1,
                 None => 1,
             };
-            let options = [natural, 3 - natural];
-            let pick = options
-                .iter()
-                .copied()
-                .find(|&k| self.free(self.neighbors[next as usize][((entry + k) % 3) as usize]));
+            let target = |k: u8| self.neighbors[next as usize][((entry + k) % 3) as usize];
+            let (a, b) = (target(natural), target(3 - natural));
+            // Prefer no swap, unless the swap side would be left with no free
+            // neighbour at all: a lone triangle later costs a whole strip.
+            let pick = match (self.free(a), self.free(b)) {
+                (true, true) if self.degree[b as usize] == 0 && self.degree[a as usize] > 0 => {
+                    Some(3 - natural)
+                }
+                (true, _) => Some(natural),
+                (false, true) => Some(3 - natural),
+                (false, false) => None,
+            };
             match pick {
                 Some(k) => {
                     turn = Some(k);

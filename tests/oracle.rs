@@ -552,3 +552,36 @@ proptest! {
         walk(&tris, &strips, &seq, 200, &mut rng);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1000, ..ProptestConfig::default() })]
+
+    /// Adversarial strips: random index sequences over a small alphabet (so
+    /// full of repeats, swaps and degenerate runs from the start) as `S0`, the
+    /// triangles they draw as `T`, and collapses between arbitrary live
+    /// vertices (not only edges). Exercises every reduction rule on inputs
+    /// no stripifier would produce.
+    #[test]
+    fn random_strips_arbitrary_collapses(
+        strips in proptest::collection::vec(proptest::collection::vec(0u32..9, 0..40), 1..6),
+        seed in any::<u64>(),
+    ) {
+        let n = 9usize;
+        let mut s0 = Strips { indices: Vec::new(), offsets: vec![0] };
+        for st in &strips {
+            s0.indices.extend_from_slice(st);
+            s0.offsets.push(s0.indices.len() as u32);
+        }
+        let tris = s0.triangles();
+        let mut rng = Rng(seed);
+        let mut live: Vec<u32> = (0..n as u32).collect();
+        let mut collapses = Vec::new();
+        while live.len() > 1 && rng.below(12) != 0 {
+            let u = live.swap_remove(rng.below(live.len()));
+            let w = live[rng.below(live.len())];
+            collapses.push(Collapse { u, w, error: 0.0 });
+        }
+        let seq = CollapseSequence { vertex_count: n as u32, collapses };
+        walk(&tris, &s0, &seq, 60, &mut rng);
+    }
+}

@@ -391,19 +391,21 @@ mod tests {
     }
 
     #[test]
-    fn the_parity_trap_is_not_cut_into_a_new_triangle() {
-        // A fan-like strip where collapsing 2 → 1 and 3 → 1 leaves `x 1 1 1 y`:
-        // dropping two of the 1s would draw (x, 1, y), which the reference lacks.
-        let strip = vec![0, 5, 1, 2, 3, 4, 6];
+    fn junctions_never_join_vertices_into_a_new_triangle() {
+        // Strip 0: collapsing 3 → 2 and 4 → 5 leaves `0 1 2 2 5 5 6 7`; the
+        // middle `2 5` is unneeded, but cutting it would draw (1, 2, 5) and
+        // (2, 5, 6). Strip 1: `8 9 10 10 10 10 11 12` after 13, 14 → 10 may
+        // lose two 10s (`(aa)+ → aa`), never three (the DESIGN.md trap).
+        let indices = vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 13, 14, 10, 11, 12];
         let strips = Strips {
-            indices: strip.clone(),
-            offsets: vec![0, strip.len() as u32],
+            indices: indices.clone(),
+            offsets: vec![0, 8, 16],
         };
-        let tris: Vec<[u32; 3]> = strip_triangles(&strip).collect();
-        let s = seq(7, &[(2, 1), (3, 1)]);
+        let tris = strips.triangles();
+        let s = seq(15, &[(3, 2), (4, 5), (13, 10), (14, 10)]);
         let model = LodStrips::build(&strips, &s).unwrap();
         let mut state = LodState::new(&model);
-        for l in [1, 2, 0, 2, 1, 0] {
+        for l in [2, 4, 1, 3, 0, 4, 2, 0] {
             state.set_lod(&model, l).unwrap();
             assert_eq!(
                 drawn(&model, &state),
@@ -411,6 +413,9 @@ mod tests {
             );
             assert_eq!(state.triangle_count(), s.reference_mesh(&tris, l).len());
         }
+        state.set_lod(&model, 4).unwrap();
+        assert_eq!(state.strip(0).unwrap(), &[0, 1, 2, 2, 5, 5, 6, 7]);
+        assert_eq!(state.strip(1).unwrap(), &[8, 9, 10, 10, 11, 12]);
     }
 
     #[test]
