@@ -127,8 +127,9 @@ pub fn analyze(mesh: &IndexedMesh) -> Result<TopologyReport, MeshError> {
     // Per component: V, E, F for χ_c, and whether anything makes it open.
     let mut counts = vec![[0i64; 3]; components];
     let mut open = vec![false; components];
-    for v in 0..n {
-        if let Some(c) = counts.get_mut(component_of[v] as usize) {
+    for &c in &component_of {
+        // Isolated vertices have no component (NONE) and are skipped here.
+        if let Some(c) = counts.get_mut(c as usize) {
             c[0] += 1;
         }
     }

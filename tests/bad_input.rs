@@ -542,6 +542,34 @@ fn extension_is_case_insensitive() {
     assert_eq!(mesh.unwrap().triangles, vec![[0, 1, 2]]);
 }
 
+/// The CLI turns a load error into one located message and exit code 1,
+/// still reporting the good files given with it.
+#[test]
+fn cli_info_reports_errors_without_panic() {
+    let dir = std::env::temp_dir().join(format!("morphlod-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.off");
+    std::fs::write(&bad, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n").unwrap();
+    let good = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/bunny.obj");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_morphlod"))
+        .arg("info")
+        .arg(&bad)
+        .arg(&good)
+        .output()
+        .unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("line 6: vertex index 5 is out of range"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stdout.contains("1839 vertices, 3674 triangles"), "{stdout}");
+    assert!(stdout.contains("genus             0"), "{stdout}");
+}
+
 // ---- fuzzing by mutation ---------------------------------------------------
 
 fn valid_inputs() -> Vec<(&'static str, Vec<u8>)> {
@@ -567,6 +595,23 @@ fn parse_any(name: &str, bytes: &[u8]) -> Result<morphlod::IndexedMesh, LoadErro
         Some("obj") => obj::parse(bytes, path),
         Some("off") => off::parse(bytes, path),
         _ => ply::parse(bytes, path),
+    }
+}
+
+/// Every prefix of every valid input parses without panicking; a binary
+/// PLY needs all of its bytes, so each of its strict prefixes is an error.
+#[test]
+fn every_truncation_is_handled() {
+    for (name, bytes) in valid_inputs() {
+        for len in 0..bytes.len() {
+            let result = parse_any(name, &bytes[..len]);
+            if name == "b.ply" {
+                assert!(result.is_err(), "{name} cut at {len} was accepted");
+            }
+            if let Ok(mesh) = result {
+                assert!(mesh.validate().is_ok(), "{name} cut at {len}");
+            }
+        }
     }
 }
 
@@ -596,3 +641,8 @@ proptest! {
         }
     }
 }
+
+// A test crate root resolves `mod x;` beside itself (tests/x.rs), so the
+// per-format files under tests/bad_input/ need explicit paths.
+#[path = "bad_input/gltf.rs"]
+mod gltf;

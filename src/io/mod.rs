@@ -108,6 +108,39 @@ pub enum LoadError {
         #[source]
         source: MeshError,
     },
+    #[error("{path}: not a valid GLB container: {message}")]
+    GltfContainer { path: PathBuf, message: String },
+    #[error("{path}: invalid glTF JSON: {message}")]
+    GltfJson { path: PathBuf, message: String },
+    /// An element's data is inconsistent (out of its buffer, index out of range,
+    /// non-finite, counts that disagree). `element` names it as in the JSON.
+    #[error("{path}: {element}: {message}")]
+    GltfData {
+        path: PathBuf,
+        element: String,
+        message: String,
+    },
+    #[error("{path}: {element}: {what} is not supported by morphlod")]
+    GltfUnsupported {
+        path: PathBuf,
+        element: String,
+        what: String,
+    },
+    #[error("{path}: buffer {buffer} refers to the external file {file}, which cannot be read ({source}); keep the .bin files beside the .gltf")]
+    GltfExternal {
+        path: PathBuf,
+        buffer: usize,
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: no {kind} '{wanted}'; the file has: {available}")]
+    GltfNotFound {
+        path: PathBuf,
+        kind: &'static str,
+        wanted: String,
+        available: String,
+    },
 }
 
 /// Choices that only some formats use.
@@ -157,11 +190,7 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
         Some(Format::Obj) => obj::load(path),
         Some(Format::Off) => off::load(path),
         Some(Format::Ply) => ply::load(path),
-        Some(Format::Gltf) => Err(LoadError::Unsupported {
-            path: path.to_path_buf(),
-            what: format!("glTF (mesh {:?})", options.gltf_mesh),
-            hint: "glTF loading is not built in yet".into(),
-        }),
+        Some(Format::Gltf) => gltf::load_mesh(path, options),
         None => Err(LoadError::Unsupported {
             path: path.to_path_buf(),
             what: format!(

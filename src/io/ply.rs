@@ -40,13 +40,13 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
     for (e, element) in header.elements.iter().enumerate() {
-        // Reserve only what the remaining bytes can hold (a record is at
-        // least one byte in binary, two in ASCII): the header count alone is
-        // not trusted.
+        // Reserve only what the body can hold at the element's smallest
+        // record size: the header count alone is not trusted.
+        let min_bytes = element.min_record_bytes(header.encoding);
         if e == layout.vertex {
-            positions.reserve(capacity(element.count, body.len(), 2));
+            positions.reserve(capacity(element.count, body.len(), min_bytes));
         } else if e == layout.face {
-            triangles.reserve(capacity(element.count, body.len(), 2));
+            triangles.reserve(capacity(element.count, body.len(), min_bytes));
         }
         // A record without properties occupies no bytes: a corrupt header
         // could declare billions of them and spin here for nothing.
@@ -178,6 +178,21 @@ struct Element {
     count: usize,
     properties: Vec<Property>,
     line: usize,
+}
+
+impl Element {
+    /// The fewest bytes one record can take: every scalar at its size and
+    /// every list empty in binary; a one-character token and a separator per
+    /// value in ASCII.
+    fn min_record_bytes(&self, encoding: Encoding) -> usize {
+        self.properties
+            .iter()
+            .map(|p| match (encoding, p.kind) {
+                (Encoding::Ascii, _) => 2,
+                (Encoding::BinaryLittleEndian, Kind::Scalar(ty) | Kind::List(ty, _)) => ty.size(),
+            })
+            .sum()
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -654,5 +669,37 @@ mod tests {
             ),
             other => panic!("unexpected {other}"),
         }
+    }
+
+    /// The cow written as ASCII and as binary PLY loads back bit for bit.
+    #[test]
+    fn cow_round_trips_through_both_encodings() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cow.off");
+        let cow = crate::io::off::load(&path).unwrap();
+        let header = |format: &str| {
+            format!(
+                "ply\nformat {format} 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+                cow.vertex_count(),
+                cow.triangle_count()
+            )
+        };
+        let mut ascii = header("ascii");
+        let mut binary = header("binary_little_endian").into_bytes();
+        for p in &cow.positions {
+            // `{:?}` prints the shortest text that parses back to the same f32.
+            ascii += &format!("{:?} {:?} {:?}\n", p[0], p[1], p[2]);
+            for c in p {
+                binary.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        for t in &cow.triangles {
+            ascii += &format!("3 {} {} {}\n", t[0], t[1], t[2]);
+            binary.push(3);
+            for v in t {
+                binary.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        assert_eq!(ply(ascii.as_bytes()).unwrap(), cow);
+        assert_eq!(ply(&binary).unwrap(), cow);
     }
 }

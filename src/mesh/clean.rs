@@ -31,6 +31,8 @@ pub struct CleanOptions {
     /// equal to 0.0) into the first of them. Off by default because a file
     /// may split vertices on purpose (UV or normal seams, a morph whose poses
     /// separate the copies); on for files that just failed to share them.
+    /// Only the positions of the mesh given (one pose) are compared: for a
+    /// morph, weld only copies that coincide in every pose, or poses tear.
     pub weld: bool,
 }
 
@@ -228,8 +230,9 @@ pub fn remap_positions(
         .collect()
 }
 
-/// Exactly zero area: the cross product of two edges vanishes in f64 (where
-/// products of f32 coordinates are exact, so "zero" is not a rounding accident).
+/// Zero area: the cross product of two edges vanishes, computed in f64 so
+/// that f32 rounding of a thin but real triangle does not count it. Only a
+/// report figure (such triangles are kept), so no tolerance is needed.
 fn is_zero_area(positions: &[[f32; 3]], t: [u32; 3]) -> bool {
     let [a, b, c] = t.map(|v| positions[v as usize].map(f64::from));
     let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];

@@ -1,16 +1,784 @@
-//! The supermesh: one triangulation `T` with poses `V(t)`, `t ∈ [0, 1]`.
+//! The supermesh of a same-connectivity morph: one triangulation `T` with poses
+//! `V(t)`, `t ∈ [0, 1]`, written as a base mesh plus weighted morph-target deltas
+//! `V(t) = base + Σ w_i(t) D_i` (the glTF morph model).
+//!
+//! The weights `w(t)` are either
+//! * **two-pose** ([`Weights::TwoPose`]): linear in `t`, `w(t) = (1 − t) w0 + t w1`, so
+//!   `V(t)` is exactly the linear blend of `V(0)` and `V(1)`; or
+//! * **animated** ([`Weights::Animated`]): a glTF weight animation played over its
+//!   duration, `t = τ / duration`. `V(t)` is then generally not linear in `t`.
+//!
+//! The GPU runtime stores only `V(0)` and `V(1)` and blends them linearly with `t`:
+//! for two-pose morphs that is exact, for animated morphs it is an approximation
+//! (exact at `t = 0` and `t = 1` only). The CPU side ([`Morph::positions_at`], used
+//! to simplify each sampled frame) evaluates the animation exactly at any `t`.
 
+mod track;
+
+pub use track::{Interpolation, WeightTrack};
+
+use crate::io::{LoadError, LoadOptions};
+use crate::mesh::IndexedMesh;
+use std::path::Path;
 use thiserror::Error;
 
-/// A deforming mesh over one triangulation.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// One morph target: per-vertex position offsets added with a weight.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MorphTarget {
+    pub name: String,
+    pub deltas: Vec<[f32; 3]>,
+}
+
+/// How the target weights depend on `t ∈ [0, 1]`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Weights {
+    /// `w(t) = (1 − t) w0 + t w1`; one weight per target in each.
+    TwoPose { w0: Vec<f32>, w1: Vec<f32> },
+    /// `w(t) = track(t · track.duration())`.
+    Animated(WeightTrack),
+}
+
+/// Which poses of a glTF mesh's morph targets make the morph.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MorphSource {
+    /// One target, by name (from `mesh.extras.targetNames`) or index:
+    /// `V(0)` = base (all weights 0, ignoring the mesh's default weights, so the
+    /// morph shows exactly that target), `V(1)` = base + the target at weight 1.
+    Target(String),
+    /// A weight animation, by name or index, played over its whole duration,
+    /// evaluated with its own interpolation (STEP, LINEAR or CUBICSPLINE).
+    Animation(String),
+    /// `V(0)` = base (all weights 0), `V(1)` = the mesh's default weights
+    /// (`mesh.weights`, all 0 when absent).
+    DefaultWeights,
+}
+
+/// A deforming mesh over one triangulation. Fields are private so the length
+/// invariants checked by the constructors hold: every pose and every delta array
+/// has `vertex_count` entries, every triangle indexes below it, every weight
+/// vector has one entry per target.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Morph {
-    pub triangles: Vec<[u32; 3]>,
+    triangles: Vec<[u32; 3]>,
+    base: Vec<[f32; 3]>,
+    targets: Vec<MorphTarget>,
+    weights: Weights,
 }
 
 /// Why a morph could not be built.
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Error)]
 pub enum MorphError {
     #[error("the poses have {a} and {b} vertices; a morph needs one vertex count")]
     PoseSizeMismatch { a: usize, b: usize },
+    #[error("the meshes have {a} and {b} triangles; a same-connectivity morph needs identical triangle lists (use a supermesh for different connectivity)")]
+    TriangleCountMismatch { a: usize, b: usize },
+    #[error("the meshes differ first at triangle {index}: {a:?} versus {b:?}; a same-connectivity morph needs identical triangle lists")]
+    TriangleMismatch {
+        index: usize,
+        a: [u32; 3],
+        b: [u32; 3],
+    },
+    #[error("the morph has no triangles ({vertices} vertices)")]
+    Empty { vertices: usize },
+    #[error("triangle {triangle} uses vertex {index}, but the morph has only {vertices} vertices")]
+    IndexOutOfRange {
+        triangle: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("{pose}: vertex {vertex} is not finite ({value:?})")]
+    NonFinite {
+        pose: String,
+        vertex: usize,
+        value: [f32; 3],
+    },
+    #[error("morph target '{target}' has {deltas} deltas for {vertices} vertices")]
+    TargetSize {
+        target: String,
+        deltas: usize,
+        vertices: usize,
+    },
+    #[error("the weights give {weights} values for {targets} morph targets")]
+    WeightCount { weights: usize, targets: usize },
+    #[error("vertex map entry {position} is {index}, but the morph has only {vertices} vertices")]
+    VertexMapOutOfRange {
+        position: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("a weight track needs at least one keyframe and one target (got {keyframes} keyframes, {targets} targets)")]
+    TrackEmpty { keyframes: usize, targets: usize },
+    #[error("keyframe {keyframe} has time {time} after {previous}: keyframe times must be finite and strictly increasing")]
+    TrackTimes {
+        keyframe: usize,
+        previous: f32,
+        time: f32,
+    },
+    #[error("a {interpolation} track with {keyframes} keyframes and {targets} targets needs {expected} output values, but has {values}")]
+    TrackValueCount {
+        interpolation: &'static str,
+        keyframes: usize,
+        targets: usize,
+        expected: usize,
+        values: usize,
+    },
+    #[error("two-pose weight {index} is not finite")]
+    WeightNotFinite { index: usize },
+    #[error("weight track output value {index} is not finite")]
+    TrackValue { index: usize },
+    #[error("{path}: mesh '{mesh}' has no morph targets")]
+    NoTargets { path: String, mesh: String },
+    #[error("{path}: no morph target '{wanted}'; the file has: {available}")]
+    NoSuchTarget {
+        path: String,
+        wanted: String,
+        available: String,
+    },
+    #[error("{path}: no animation '{wanted}'; the file has: {available}")]
+    NoSuchAnimation {
+        path: String,
+        wanted: String,
+        available: String,
+    },
+    #[error(
+        "{path}: animation '{animation}' has no channel animating the weights of mesh '{mesh}'"
+    )]
+    NoWeightChannel {
+        path: String,
+        animation: String,
+        mesh: String,
+    },
+    #[error(transparent)]
+    Load(#[from] LoadError),
+}
+
+impl Morph {
+    /// The general validated constructor: a base pose, targets and their weights.
+    pub fn from_parts(
+        triangles: Vec<[u32; 3]>,
+        base: Vec<[f32; 3]>,
+        targets: Vec<MorphTarget>,
+        weights: Weights,
+    ) -> Result<Morph, MorphError> {
+        let n = base.len();
+        if triangles.is_empty() {
+            return Err(MorphError::Empty { vertices: n });
+        }
+        check_triangles(&triangles, n)?;
+        check_finite("base pose", &base)?;
+        for target in &targets {
+            if target.deltas.len() != n {
+                return Err(MorphError::TargetSize {
+                    target: target.name.clone(),
+                    deltas: target.deltas.len(),
+                    vertices: n,
+                });
+            }
+            check_finite(&format!("morph target '{}'", target.name), &target.deltas)?;
+        }
+        let weight_counts = match &weights {
+            Weights::TwoPose { w0, w1 } => {
+                if let Some(bad) = w0.iter().chain(w1).position(|w| !w.is_finite()) {
+                    return Err(MorphError::WeightNotFinite { index: bad });
+                }
+                [w0.len(), w1.len()]
+            }
+            Weights::Animated(track) => [track.targets(), track.targets()],
+        };
+        if let Some(&bad) = weight_counts.iter().find(|&&c| c != targets.len()) {
+            return Err(MorphError::WeightCount {
+                weights: bad,
+                targets: targets.len(),
+            });
+        }
+        Ok(Morph {
+            triangles,
+            base,
+            targets,
+            weights,
+        })
+    }
+
+    /// `V(t) = (1 − t) v0 + t v1` over one triangulation. Stored as base `v0`
+    /// plus one target `v1 − v0`, so `v1()` equals `v1` up to one rounding.
+    pub fn from_poses(
+        triangles: Vec<[u32; 3]>,
+        v0: Vec<[f32; 3]>,
+        v1: Vec<[f32; 3]>,
+    ) -> Result<Morph, MorphError> {
+        if v0.len() != v1.len() {
+            return Err(MorphError::PoseSizeMismatch {
+                a: v0.len(),
+                b: v1.len(),
+            });
+        }
+        check_finite("pose V(1)", &v1)?;
+        let deltas = v0
+            .iter()
+            .zip(&v1)
+            .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
+            .collect();
+        let target = MorphTarget {
+            name: "V(1)".to_string(),
+            deltas,
+        };
+        let weights = Weights::TwoPose {
+            w0: vec![0.0],
+            w1: vec![1.0],
+        };
+        Morph::from_parts(triangles, v0, vec![target], weights)
+    }
+
+    /// A two-pose morph from two meshes with the same connectivity: same vertex
+    /// count and identical triangle lists (same order, same corner order).
+    pub fn from_meshes(a: &IndexedMesh, b: &IndexedMesh) -> Result<Morph, MorphError> {
+        if a.positions.len() != b.positions.len() {
+            return Err(MorphError::PoseSizeMismatch {
+                a: a.positions.len(),
+                b: b.positions.len(),
+            });
+        }
+        if a.triangles.len() != b.triangles.len() {
+            return Err(MorphError::TriangleCountMismatch {
+                a: a.triangles.len(),
+                b: b.triangles.len(),
+            });
+        }
+        if let Some(index) = a
+            .triangles
+            .iter()
+            .zip(&b.triangles)
+            .position(|(x, y)| x != y)
+        {
+            return Err(MorphError::TriangleMismatch {
+                index,
+                a: a.triangles[index],
+                b: b.triangles[index],
+            });
+        }
+        Morph::from_poses(
+            a.triangles.clone(),
+            a.positions.clone(),
+            b.positions.clone(),
+        )
+    }
+
+    /// A morph from a glTF mesh's morph targets (see [`MorphSource`]). The mesh is
+    /// chosen and placed by `options` exactly as [`crate::io::gltf::load_mesh`] does.
+    pub fn from_gltf(
+        path: &Path,
+        options: &LoadOptions,
+        source: &MorphSource,
+    ) -> Result<Morph, MorphError> {
+        let data = crate::io::gltf::load_morph(path, options)?;
+        let shown = path.display().to_string();
+        if data.targets.is_empty() {
+            return Err(MorphError::NoTargets {
+                path: shown,
+                mesh: data.mesh_name,
+            });
+        }
+        let mut targets = data.targets;
+        let weights = match source {
+            MorphSource::Target(wanted) => {
+                let names: Vec<Option<&str>> =
+                    targets.iter().map(|t| Some(t.name.as_str())).collect();
+                let Some(i) = crate::io::gltf::pick(wanted, &names) else {
+                    return Err(MorphError::NoSuchTarget {
+                        path: shown,
+                        wanted: wanted.clone(),
+                        available: crate::io::gltf::list_names(&names),
+                    });
+                };
+                // Only the chosen target contributes, so keep only its deltas.
+                targets = vec![targets.swap_remove(i)];
+                Weights::TwoPose {
+                    w0: vec![0.0],
+                    w1: vec![1.0],
+                }
+            }
+            MorphSource::DefaultWeights => Weights::TwoPose {
+                w0: vec![0.0; targets.len()],
+                w1: data.default_weights,
+            },
+            MorphSource::Animation(wanted) => {
+                let names: Vec<Option<&str>> =
+                    data.animations.iter().map(|a| a.name.as_deref()).collect();
+                let Some(i) = crate::io::gltf::pick(wanted, &names) else {
+                    return Err(MorphError::NoSuchAnimation {
+                        path: shown,
+                        wanted: wanted.clone(),
+                        available: crate::io::gltf::list_names(&names),
+                    });
+                };
+                match data.animations.into_iter().nth(i).and_then(|a| a.track) {
+                    Some(track) => Weights::Animated(track),
+                    None => {
+                        return Err(MorphError::NoWeightChannel {
+                            path: shown,
+                            animation: wanted.clone(),
+                            mesh: data.mesh_name,
+                        })
+                    }
+                }
+            }
+        };
+        Morph::from_parts(data.mesh.triangles, data.mesh.positions, targets, weights)
+    }
+
+    /// The same morph on a subset of the vertices, renumbered: new vertex `i` is
+    /// old vertex `vertex_map[i]`, and `triangles` index the new vertices. This
+    /// applies one cleaning result (computed once, e.g. on `V(0)`) identically to
+    /// the base and every target, so all poses keep one connectivity.
+    pub fn select(
+        &self,
+        vertex_map: &[u32],
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<Morph, MorphError> {
+        let n = self.base.len();
+        if let Some((position, &index)) = vertex_map
+            .iter()
+            .enumerate()
+            .find(|(_, &v)| v as usize >= n)
+        {
+            return Err(MorphError::VertexMapOutOfRange {
+                position,
+                index,
+                vertices: n,
+            });
+        }
+        let gather = |values: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            vertex_map.iter().map(|&v| values[v as usize]).collect()
+        };
+        let targets = self
+            .targets
+            .iter()
+            .map(|t| MorphTarget {
+                name: t.name.clone(),
+                deltas: gather(&t.deltas),
+            })
+            .collect();
+        Morph::from_parts(triangles, gather(&self.base), targets, self.weights.clone())
+    }
+
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    pub fn base(&self) -> &[[f32; 3]] {
+        &self.base
+    }
+
+    pub fn targets(&self) -> &[MorphTarget] {
+        &self.targets
+    }
+
+    pub fn weights(&self) -> &Weights {
+        &self.weights
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.base.len()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// True when `V(t)` is exactly the linear blend of `V(0)` and `V(1)`, i.e. the
+    /// GPU's two-pose blend reproduces it at every `t`.
+    pub fn is_linear(&self) -> bool {
+        matches!(self.weights, Weights::TwoPose { .. })
+    }
+
+    /// The target weights at `t` (clamped to `[0, 1]`; NaN reads as 0).
+    pub fn weights_at(&self, t: f32) -> Vec<f32> {
+        let mut out = Vec::new();
+        self.weights_at_into(t, &mut out);
+        out
+    }
+
+    fn weights_at_into(&self, t: f32, out: &mut Vec<f32>) {
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        match &self.weights {
+            Weights::TwoPose { w0, w1 } => {
+                out.clear();
+                out.extend(w0.iter().zip(w1).map(|(&a, &b)| a + (b - a) * t));
+            }
+            Weights::Animated(track) => track.sample_into(t * track.duration(), out),
+        }
+    }
+
+    /// The positions `V(t)`.
+    pub fn positions_at(&self, t: f32) -> Vec<[f32; 3]> {
+        let mut out = Vec::new();
+        self.positions_at_into(t, &mut out);
+        out
+    }
+
+    /// The positions `V(t)` into `out` (resized to the vertex count), so frame
+    /// loops reuse one allocation.
+    pub fn positions_at_into(&self, t: f32, out: &mut Vec<[f32; 3]>) {
+        let mut weights = Vec::with_capacity(self.targets.len());
+        self.weights_at_into(t, &mut weights);
+        out.clear();
+        out.extend_from_slice(&self.base);
+        for (target, &w) in self.targets.iter().zip(&weights) {
+            // Animations hold most targets at 0 most of the time: skipping them
+            // also keeps base + 0·D bit-identical to the base.
+            if w == 0.0 {
+                continue;
+            }
+            for (p, d) in out.iter_mut().zip(&target.deltas) {
+                p[0] += w * d[0];
+                p[1] += w * d[1];
+                p[2] += w * d[2];
+            }
+        }
+    }
+
+    /// `V(0)`, the first pose the GPU runtime stores.
+    pub fn v0(&self) -> Vec<[f32; 3]> {
+        self.positions_at(0.0)
+    }
+
+    /// `V(1)`, the second pose the GPU runtime stores.
+    pub fn v1(&self) -> Vec<[f32; 3]> {
+        self.positions_at(1.0)
+    }
+}
+
+fn check_triangles(triangles: &[[u32; 3]], vertices: usize) -> Result<(), MorphError> {
+    for (t, tri) in triangles.iter().enumerate() {
+        if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertices) {
+            return Err(MorphError::IndexOutOfRange {
+                triangle: t,
+                index,
+                vertices,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn check_finite(pose: &str, values: &[[f32; 3]]) -> Result<(), MorphError> {
+    match values.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        Some(vertex) => Err(MorphError::NonFinite {
+            pose: pose.to_string(),
+            vertex,
+            value: values[vertex],
+        }),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn asset(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("assets")
+            .join(name)
+    }
+
+    fn close(a: &[[f32; 3]], b: &[[f32; 3]], tolerance: f32) -> bool {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(p, q)| (0..3).all(|c| (p[c] - q[c]).abs() <= tolerance))
+    }
+
+    fn target(path: &Path, name: &str) -> Morph {
+        Morph::from_gltf(
+            path,
+            &LoadOptions::default(),
+            &MorphSource::Target(name.to_string()),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn body_target_and_animation() {
+        let path = asset("makehuman_body.glb");
+        let old = target(&path, "caucasian-female-old");
+        assert_eq!((old.vertex_count(), old.triangle_count()), (13_380, 26_756));
+        assert!(old.is_linear());
+        assert_eq!(old.v0(), old.base());
+        assert_ne!(old.v1(), old.v0());
+        // Linear: the midpoint pose is the average of the end poses.
+        let (v0, v1) = (old.v0(), old.v1());
+        let mid: Vec<[f32; 3]> = v0
+            .iter()
+            .zip(&v1)
+            .map(|(a, b)| {
+                [
+                    (a[0] + b[0]) / 2.0,
+                    (a[1] + b[1]) / 2.0,
+                    (a[2] + b[2]) / 2.0,
+                ]
+            })
+            .collect();
+        assert!(close(&old.positions_at(0.5), &mid, 1e-6));
+
+        let animated = Morph::from_gltf(
+            &path,
+            &LoadOptions::default(),
+            &MorphSource::Animation("morph".to_string()),
+        )
+        .unwrap();
+        assert!(!animated.is_linear());
+        assert_eq!(animated.targets().len(), 4);
+        // Keys at 0..8 s; target i peaks at 2i+1 s: t = 1/8 is 1 s, t = 3/8 is 3 s.
+        assert_eq!(animated.weights_at(0.125), vec![1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(animated.weights_at(0.375), vec![0.0, 1.0, 0.0, 0.0]);
+        assert_eq!(animated.weights_at(0.0625), vec![0.5, 0.0, 0.0, 0.0]);
+        assert_eq!(animated.weights_at(1.0), vec![0.0; 4]);
+        // At 3 s the animation shows exactly the second target's V(1).
+        assert!(close(&animated.positions_at(0.375), &old.v1(), 1e-6));
+    }
+
+    #[test]
+    fn head_has_eight_targets() {
+        let path = asset("makehuman_head.glb");
+        let jaw = target(&path, "jawOpen");
+        assert_eq!((jaw.vertex_count(), jaw.triangle_count()), (4_437, 8_818));
+        let by_index = target(&path, "0");
+        assert_eq!(by_index.v1(), jaw.v1());
+        let animated = Morph::from_gltf(
+            &path,
+            &LoadOptions::default(),
+            &MorphSource::Animation("0".to_string()),
+        )
+        .unwrap();
+        assert_eq!(animated.targets().len(), 8);
+        let err = Morph::from_gltf(
+            &path,
+            &LoadOptions::default(),
+            &MorphSource::Target("smile".to_string()),
+        )
+        .unwrap_err();
+        let message = err.to_string();
+        assert!(matches!(err, MorphError::NoSuchTarget { .. }));
+        assert!(
+            message
+                .contains("no morph target 'smile'; the file has: 0 'jawOpen', 1 'mouthSmileLeft'")
+                && message.contains("7 'mouthPucker'"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn cube_animation_matches_its_targets() {
+        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
+        let options = LoadOptions::default();
+        let animated = Morph::from_gltf(
+            &path,
+            &options,
+            &MorphSource::Animation("Square".to_string()),
+        )
+        .unwrap();
+        assert_eq!(
+            (animated.vertex_count(), animated.triangle_count()),
+            (24, 12)
+        );
+        let Weights::Animated(track) = animated.weights() else {
+            panic!("expected an animated morph");
+        };
+        assert_eq!((track.keyframes(), track.targets()), (127, 2));
+        assert!((track.duration() - 4.2).abs() < 1e-4);
+        // Keyframe 1 at 1/30 s holds weights (0.001284, 0) in the file.
+        let w = animated.weights_at((1.0 / 30.0) / track.duration());
+        assert!(
+            (w[0] - 0.001_284).abs() < 1e-5 && w[1].abs() < 1e-7,
+            "{w:?}"
+        );
+        // V(t) = base + Σ w_i(t) D_i where D_i = V_i(1) − base from the target morphs.
+        let targets = [target(&path, "0"), target(&path, "1")];
+        let t = 0.37;
+        let w = animated.weights_at(t);
+        let ends: Vec<Vec<[f32; 3]>> = targets.iter().map(|m| m.v1()).collect();
+        let expected: Vec<[f32; 3]> = (0..animated.vertex_count())
+            .map(|v| {
+                let base = animated.base()[v];
+                let moved = |c: usize| {
+                    base[c] + w[0] * (ends[0][v][c] - base[c]) + w[1] * (ends[1][v][c] - base[c])
+                };
+                [moved(0), moved(1), moved(2)]
+            })
+            .collect();
+        assert!(close(&animated.positions_at(t), &expected, 1e-6));
+        let missing =
+            Morph::from_gltf(&path, &options, &MorphSource::Animation("Walk".to_string()))
+                .unwrap_err();
+        assert!(
+            missing
+                .to_string()
+                .contains("no animation 'Walk'; the file has: 0 'Square'"),
+            "{missing}"
+        );
+    }
+
+    #[test]
+    fn default_weights_morph_ends_at_the_default_pose() {
+        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
+        let morph =
+            Morph::from_gltf(&path, &LoadOptions::default(), &MorphSource::DefaultWeights).unwrap();
+        // The cube's default weights are (0, 0): both poses are the base.
+        assert_eq!(morph.v0(), morph.v1());
+        assert_eq!(morph.v0(), morph.base());
+    }
+
+    fn quad(z: f32) -> IndexedMesh {
+        IndexedMesh::new(
+            vec![[0.0, 0.0, z], [1.0, 0.0, z], [1.0, 1.0, z], [0.0, 1.0, z]],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+    }
+
+    #[test]
+    fn from_meshes_blends_and_reports_mismatches() {
+        let morph = Morph::from_meshes(&quad(0.0), &quad(2.0)).unwrap();
+        assert_eq!(morph.positions_at(0.25)[2], [1.0, 1.0, 0.5]);
+        assert_eq!(morph.v1(), quad(2.0).positions);
+
+        let mut flipped = quad(2.0);
+        flipped.triangles[1] = [0, 3, 2];
+        let err = Morph::from_meshes(&quad(0.0), &flipped).unwrap_err();
+        assert!(matches!(
+            err,
+            MorphError::TriangleMismatch {
+                index: 1,
+                a: [0, 2, 3],
+                b: [0, 3, 2]
+            }
+        ));
+        assert!(err
+            .to_string()
+            .contains("triangle 1: [0, 2, 3] versus [0, 3, 2]"));
+
+        let mut fewer = quad(2.0);
+        fewer.positions.pop();
+        fewer.triangles.pop();
+        assert!(matches!(
+            Morph::from_meshes(&quad(0.0), &fewer),
+            Err(MorphError::PoseSizeMismatch { a: 4, b: 3 })
+        ));
+        let mut one_triangle = quad(2.0);
+        one_triangle.triangles.pop();
+        assert!(matches!(
+            Morph::from_meshes(&quad(0.0), &one_triangle),
+            Err(MorphError::TriangleCountMismatch { a: 2, b: 1 })
+        ));
+    }
+
+    #[test]
+    fn select_applies_one_mapping_to_every_pose() {
+        let morph = Morph::from_meshes(&quad(0.0), &quad(2.0)).unwrap();
+        // Keep vertices 2, 0, 3 (renumbered 0, 1, 2) and the triangle (0, 2, 3).
+        let kept = morph.select(&[2, 0, 3], vec![[1, 0, 2]]).unwrap();
+        assert_eq!(
+            kept.v0(),
+            vec![[1.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+        );
+        assert_eq!(
+            kept.v1(),
+            vec![[1.0, 1.0, 2.0], [0.0, 0.0, 2.0], [0.0, 1.0, 2.0]]
+        );
+        assert!(matches!(
+            morph.select(&[0, 9], vec![[0, 1, 1]]),
+            Err(MorphError::VertexMapOutOfRange {
+                position: 1,
+                index: 9,
+                vertices: 4
+            })
+        ));
+        assert!(matches!(
+            morph.select(&[0, 1], vec![[0, 1, 2]]),
+            Err(MorphError::IndexOutOfRange {
+                triangle: 0,
+                index: 2,
+                vertices: 2
+            })
+        ));
+    }
+
+    #[test]
+    fn select_applies_a_cleaning_result_to_every_target() {
+        use crate::mesh::clean::{clean, CleanOptions};
+        let morph = target(&asset("makehuman_body.glb"), "caucasian-male-baby");
+        let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
+        let cleaned = clean(&base, &CleanOptions { weld: true }).unwrap();
+        let kept = morph
+            .select(&cleaned.vertex_map, cleaned.mesh.triangles.clone())
+            .unwrap();
+        assert_eq!(kept.v0(), cleaned.mesh.positions);
+        let v1 = morph.v1();
+        let expected: Vec<[f32; 3]> = cleaned.vertex_map.iter().map(|&v| v1[v as usize]).collect();
+        assert_eq!(kept.v1(), expected);
+    }
+
+    #[test]
+    fn transformed_morph_moves_deltas_with_the_node() {
+        // The cube's node scales by 100 and rotates: target offsets scale too.
+        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
+        let source = MorphSource::Target("1".to_string());
+        let plain = Morph::from_gltf(&path, &LoadOptions::default(), &source).unwrap();
+        let placed = LoadOptions {
+            apply_transforms: true,
+            ..LoadOptions::default()
+        };
+        let moved = Morph::from_gltf(&path, &placed, &source).unwrap();
+        let length = |m: &Morph, v: usize| {
+            let (a, b) = (m.v0()[v], m.v1()[v]);
+            ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+        };
+        let v = (0..plain.vertex_count())
+            .max_by(|&a, &b| length(&plain, a).total_cmp(&length(&plain, b)))
+            .unwrap();
+        assert!(length(&plain, v) > 0.01);
+        assert!((length(&moved, v) / length(&plain, v) - 100.0).abs() < 1e-2);
+    }
+
+    #[test]
+    fn from_parts_checks_lengths() {
+        let base = quad(0.0).positions;
+        let short = MorphTarget {
+            name: "short".to_string(),
+            deltas: vec![[0.0; 3]; 3],
+        };
+        let err = Morph::from_parts(
+            vec![[0, 1, 2]],
+            base.clone(),
+            vec![short],
+            Weights::TwoPose {
+                w0: vec![0.0],
+                w1: vec![1.0],
+            },
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("'short' has 3 deltas for 4 vertices"),
+            "{err}"
+        );
+        let err = Morph::from_parts(
+            vec![[0, 1, 2]],
+            base,
+            vec![],
+            Weights::TwoPose {
+                w0: vec![0.0],
+                w1: vec![],
+            },
+        )
+        .unwrap_err();
+        assert!(matches!(
+            err,
+            MorphError::WeightCount {
+                weights: 1,
+                targets: 0
+            }
+        ));
+    }
 }

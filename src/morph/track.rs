@@ -1,0 +1,267 @@
+//! Keyframed morph-target weights: a glTF animation sampler whose channel
+//! targets `weights`, evaluated at any time with the interpolation rules of
+//! glTF 2.0 (§3.11 and Appendix C).
+
+use super::MorphError;
+use std::cmp::Ordering;
+
+/// How values between two keyframes are computed (glTF `sampler.interpolation`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interpolation {
+    /// The value of the last keyframe at or before the time.
+    Step,
+    /// Linear blend of the two surrounding keyframes.
+    Linear,
+    /// Cubic Hermite spline; every keyframe stores an in-tangent, a value and an out-tangent.
+    CubicSpline,
+}
+
+impl Interpolation {
+    /// The glTF spelling, for messages and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interpolation::Step => "STEP",
+            Interpolation::Linear => "LINEAR",
+            Interpolation::CubicSpline => "CUBICSPLINE",
+        }
+    }
+}
+
+/// Weights of `targets` morph targets over time. Immutable after [`WeightTrack::new`]
+/// so the sampling code can index without checks failing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WeightTrack {
+    interpolation: Interpolation,
+    times: Vec<f32>,
+    /// Per keyframe: `targets` values, or for CUBICSPLINE `targets` in-tangents,
+    /// `targets` values, `targets` out-tangents (the glTF output layout).
+    values: Vec<f32>,
+    targets: usize,
+}
+
+impl WeightTrack {
+    /// Checks what sampling relies on: at least one keyframe, finite strictly
+    /// increasing times (glTF requires strictly increasing input), finite values,
+    /// and exactly `keyframes × targets` values (× 3 for CUBICSPLINE).
+    pub fn new(
+        interpolation: Interpolation,
+        times: Vec<f32>,
+        values: Vec<f32>,
+        targets: usize,
+    ) -> Result<WeightTrack, MorphError> {
+        if times.is_empty() || targets == 0 {
+            return Err(MorphError::TrackEmpty {
+                keyframes: times.len(),
+                targets,
+            });
+        }
+        for (k, pair) in times.windows(2).enumerate() {
+            if pair[0].partial_cmp(&pair[1]) != Some(Ordering::Less) {
+                return Err(MorphError::TrackTimes {
+                    keyframe: k + 1,
+                    previous: pair[0],
+                    time: pair[1],
+                });
+            }
+        }
+        if let Some(k) = times.iter().position(|t| !t.is_finite()) {
+            return Err(MorphError::TrackTimes {
+                keyframe: k,
+                previous: if k == 0 { f32::NAN } else { times[k - 1] },
+                time: times[k],
+            });
+        }
+        let per_key = if interpolation == Interpolation::CubicSpline {
+            3 * targets
+        } else {
+            targets
+        };
+        let expected = times.len().checked_mul(per_key);
+        if expected != Some(values.len()) {
+            return Err(MorphError::TrackValueCount {
+                interpolation: interpolation.name(),
+                keyframes: times.len(),
+                targets,
+                expected: times.len().saturating_mul(per_key),
+                values: values.len(),
+            });
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(MorphError::TrackValue { index: i });
+        }
+        Ok(WeightTrack {
+            interpolation,
+            times,
+            values,
+            targets,
+        })
+    }
+
+    pub fn interpolation(&self) -> Interpolation {
+        self.interpolation
+    }
+
+    pub fn keyframes(&self) -> usize {
+        self.times.len()
+    }
+
+    pub fn targets(&self) -> usize {
+        self.targets
+    }
+
+    /// Time of the last keyframe: glTF animations play from time 0, so this is
+    /// the length of the animation.
+    pub fn duration(&self) -> f32 {
+        self.times.last().copied().unwrap_or(0.0)
+    }
+
+    /// The weights at `time` (seconds) into `out` (resized to `targets`).
+    /// Before the first keyframe and after the last the end values hold (the
+    /// glTF clamping rule); a NaN time reads as before the first keyframe.
+    pub fn sample_into(&self, time: f32, out: &mut Vec<f32>) {
+        out.clear();
+        let n = self.targets;
+        // Number of keyframes at or before `time`: 0 = before the first one.
+        let after = self.times.partition_point(|&k| k <= time);
+        if after == 0 || after == self.times.len() {
+            let k = if after == 0 { 0 } else { after - 1 };
+            out.extend_from_slice(self.value(k));
+            return;
+        }
+        let k = after - 1;
+        let (t0, t1) = (self.times[k], self.times[k + 1]);
+        let dt = t1 - t0;
+        let s = (time - t0) / dt;
+        match self.interpolation {
+            Interpolation::Step => out.extend_from_slice(self.value(k)),
+            Interpolation::Linear => {
+                let (a, b) = (self.value(k), self.value(k + 1));
+                out.extend(a.iter().zip(b).map(|(&a, &b)| a + (b - a) * s));
+            }
+            Interpolation::CubicSpline => {
+                // Appendix C: p(s) = h00 v_k + h10 dt b_k + h01 v_k+1 + h11 dt a_k+1,
+                // with b_k the out-tangent of k and a_k+1 the in-tangent of k+1.
+                let (s2, s3) = (s * s, s * s * s);
+                let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+                let h10 = (s3 - 2.0 * s2 + s) * dt;
+                let h01 = -2.0 * s3 + 3.0 * s2;
+                let h11 = (s3 - s2) * dt;
+                let key0 = &self.values[k * 3 * n..(k + 1) * 3 * n];
+                let key1 = &self.values[(k + 1) * 3 * n..(k + 2) * 3 * n];
+                out.extend((0..n).map(|i| {
+                    h00 * key0[n + i] + h10 * key0[2 * n + i] + h01 * key1[n + i] + h11 * key1[i]
+                }));
+            }
+        }
+    }
+
+    /// The keyframe's values (not its tangents).
+    fn value(&self, k: usize) -> &[f32] {
+        let n = self.targets;
+        match self.interpolation {
+            Interpolation::CubicSpline => &self.values[k * 3 * n + n..k * 3 * n + 2 * n],
+            _ => &self.values[k * n..(k + 1) * n],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(track: &WeightTrack, time: f32) -> Vec<f32> {
+        let mut out = Vec::new();
+        track.sample_into(time, &mut out);
+        out
+    }
+
+    fn close(a: &[f32], b: &[f32]) -> bool {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-5)
+    }
+
+    /// Two targets, keyframes at 1 s, 2 s, 4 s.
+    fn times() -> Vec<f32> {
+        vec![1.0, 2.0, 4.0]
+    }
+
+    #[test]
+    fn linear_interpolates_and_clamps() {
+        let values = vec![0.0, 1.0, 1.0, 0.0, 0.5, 0.5];
+        let track = WeightTrack::new(Interpolation::Linear, times(), values, 2).unwrap();
+        assert_eq!(sample(&track, 0.0), vec![0.0, 1.0], "before the first key");
+        assert_eq!(sample(&track, 1.0), vec![0.0, 1.0]);
+        assert!(close(&sample(&track, 1.25), &[0.25, 0.75]));
+        assert_eq!(sample(&track, 2.0), vec![1.0, 0.0]);
+        // 3 s is halfway between (1, 0) and (0.5, 0.5).
+        assert!(close(&sample(&track, 3.0), &[0.75, 0.25]));
+        assert_eq!(sample(&track, 4.0), vec![0.5, 0.5]);
+        assert_eq!(sample(&track, 9.0), vec![0.5, 0.5], "after the last key");
+        assert_eq!(track.duration(), 4.0);
+    }
+
+    #[test]
+    fn step_holds_the_previous_key() {
+        let values = vec![0.0, 1.0, 1.0, 0.0, 0.5, 0.5];
+        let track = WeightTrack::new(Interpolation::Step, times(), values, 2).unwrap();
+        assert_eq!(sample(&track, -1.0), vec![0.0, 1.0]);
+        assert_eq!(sample(&track, 1.999), vec![0.0, 1.0]);
+        assert_eq!(sample(&track, 2.0), vec![1.0, 0.0]);
+        assert_eq!(sample(&track, 3.9), vec![1.0, 0.0]);
+        assert_eq!(sample(&track, 5.0), vec![0.5, 0.5]);
+    }
+
+    #[test]
+    fn cubic_spline_matches_hand_computed_hermite() {
+        // One target; keys at 1 s and 2 s and 4 s: (in, value, out) per key.
+        let values = vec![
+            9.0, 0.0, 2.0, // key 0: value 0, out-tangent 2 (in-tangent unused)
+            -1.0, 1.0, 4.0, // key 1: value 1, in-tangent -1, out-tangent 4
+            3.0, 0.0, 7.0, // key 2: value 0, in-tangent 3 (out-tangent unused)
+        ];
+        let track = WeightTrack::new(Interpolation::CubicSpline, times(), values, 1).unwrap();
+        // Segment 0, dt = 1, s = 0.5: h00 = 0.5, h10 = 0.125, h01 = 0.5, h11 = -0.125.
+        // p = 0.5*0 + 0.125*1*2 + 0.5*1 + (-0.125)*1*(-1) = 0.25 + 0.5 + 0.125 = 0.875
+        assert!(close(&sample(&track, 1.5), &[0.875]));
+        // Segment 1, dt = 2, time 2.5 → s = 0.25: h00 = 0.84375, h10 = 0.140625*2,
+        // h01 = 0.15625, h11 = -0.046875*2.
+        // p = 0.84375*1 + 0.28125*4 + 0.15625*0 + (-0.09375)*3 = 0.84375 + 1.125 - 0.28125 = 1.6875
+        assert!(close(&sample(&track, 2.5), &[1.6875]));
+        // At keys and outside: the key values, never a tangent.
+        assert_eq!(sample(&track, 2.0), vec![1.0]);
+        assert_eq!(sample(&track, 0.0), vec![0.0]);
+        assert_eq!(sample(&track, 10.0), vec![0.0]);
+    }
+
+    #[test]
+    fn single_keyframe_is_constant() {
+        let track = WeightTrack::new(Interpolation::Linear, vec![0.5], vec![0.3], 1).unwrap();
+        assert_eq!(sample(&track, 0.0), vec![0.3]);
+        assert_eq!(sample(&track, 7.0), vec![0.3]);
+    }
+
+    #[test]
+    fn rejects_inconsistent_tracks() {
+        let bad_count = WeightTrack::new(Interpolation::CubicSpline, times(), vec![0.0; 6], 2);
+        assert!(matches!(
+            bad_count,
+            Err(MorphError::TrackValueCount {
+                keyframes: 3,
+                values: 6,
+                ..
+            })
+        ));
+        let unordered =
+            WeightTrack::new(Interpolation::Linear, vec![0.0, 2.0, 1.0], vec![0.0; 3], 1);
+        assert!(matches!(
+            unordered,
+            Err(MorphError::TrackTimes { keyframe: 2, .. })
+        ));
+        let nan_time = WeightTrack::new(Interpolation::Linear, vec![f32::NAN], vec![0.0], 1);
+        assert!(matches!(
+            nan_time,
+            Err(MorphError::TrackTimes { keyframe: 0, .. })
+        ));
+        let empty = WeightTrack::new(Interpolation::Step, vec![], vec![], 1);
+        assert!(matches!(empty, Err(MorphError::TrackEmpty { .. })));
+    }
+}
