@@ -337,13 +337,12 @@ struct State<'o> {
 }
 
 impl<'o> State<'o> {
-    fn new(positions: &'o [[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
-        let n = positions.len();
-        let pos = positions;
+    fn new(pos: &'o [[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
+        let n = pos.len();
         let vt = VertexTriangles::new(&tris, n);
         let edges = EdgeMap::new(&tris);
         let kind = classify(&tris, &vt, &edges);
-        let quadric = quadrics(&pos, &tris, &edges, options);
+        let quadric = quadrics(pos, &tris, &edges, options);
 
         let mut start = Vec::with_capacity(n);
         let mut len = Vec::with_capacity(n);
