@@ -23,7 +23,13 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("simplify man.off");
     group.sample_size(20);
     group.bench_function("morphlod full sequence", |b| {
-        b.iter(|| simplify(black_box(&mesh.positions), black_box(&mesh.triangles), &SimplifyOptions::default()))
+        b.iter(|| {
+            simplify(
+                black_box(&mesh.positions),
+                black_box(&mesh.triangles),
+                &SimplifyOptions::default(),
+            )
+        })
     });
     group.bench_function("meshopt to 1%", |b| {
         b.iter(|| {

@@ -195,13 +195,17 @@ impl Quadric {
 
 /// Indexed binary min-heap of vertices keyed by `(cost, vertex)` (the vertex
 /// breaks ties, so the result is deterministic), with each vertex's chosen
-/// target beside its cost.
+/// target beside it. Keys live inside the heap array so sifting compares
+/// neighbouring memory instead of chasing per-vertex arrays.
 struct Queue {
-    heap: Vec<u32>,
+    heap: Vec<(f64, u32)>,
     /// Position of each vertex in `heap`, or `NONE`.
     slot: Vec<u32>,
-    cost: Vec<f64>,
     target: Vec<u32>,
+}
+
+fn before(a: (f64, u32), b: (f64, u32)) -> bool {
+    a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).is_lt()
 }
 
 impl Queue {
@@ -209,42 +213,33 @@ impl Queue {
         Self {
             heap: Vec::with_capacity(n),
             slot: vec![NONE; n],
-            cost: vec![0.0; n],
             target: vec![NONE; n],
         }
     }
 
-    fn before(&self, a: u32, b: u32) -> bool {
-        self.cost[a as usize]
-            .total_cmp(&self.cost[b as usize])
-            .then(a.cmp(&b))
-            .is_lt()
-    }
-
-    fn queued(&self, v: u32) -> bool {
-        self.slot[v as usize] != NONE
+    /// The queued cost of `v` (`None` when not queued).
+    fn cost(&self, v: u32) -> Option<f64> {
+        match self.slot[v as usize] {
+            NONE => None,
+            i => Some(self.heap[i as usize].0),
+        }
     }
 
     /// Whether `(cost, v)` would come before everything queued.
     fn beats_top(&self, cost: f64, v: u32) -> bool {
-        self.heap.first().is_none_or(|&top| {
-            cost.total_cmp(&self.cost[top as usize])
-                .then(v.cmp(&top))
-                .is_le()
-        })
+        self.heap.first().is_none_or(|&top| !before(top, (cost, v)))
     }
 
     fn set(&mut self, v: u32, cost: f64, target: u32) {
-        self.cost[v as usize] = cost;
         self.target[v as usize] = target;
         let i = match self.slot[v as usize] {
             NONE => {
-                self.heap.push(v);
+                self.heap.push((cost, v));
                 self.heap.len() - 1
             }
             i => i as usize,
         };
-        self.slot[v as usize] = i as u32;
+        self.heap[i] = (cost, v);
         let i = self.sift_up(i);
         self.sift_down(i);
     }
@@ -255,43 +250,40 @@ impl Queue {
             return;
         }
         self.slot[v as usize] = NONE;
-        let last = self.heap.pop().unwrap_or(v);
-        if last != v {
+        let last = self.heap.pop().unwrap_or((0.0, v));
+        if last.1 != v {
             self.heap[i as usize] = last;
-            self.slot[last as usize] = i;
             let i = self.sift_up(i as usize);
             self.sift_down(i);
         }
     }
 
-    fn pop(&mut self) -> Option<u32> {
-        let top = *self.heap.first()?;
-        self.remove(top);
-        Some(top)
-    }
-
-    fn place(&mut self, i: usize, v: u32) {
-        self.heap[i] = v;
-        self.slot[v as usize] = i as u32;
+    /// Takes the cheapest vertex with its cost and target.
+    fn pop(&mut self) -> Option<(u32, f64, u32)> {
+        let (cost, v) = *self.heap.first()?;
+        self.remove(v);
+        Some((v, cost, self.target[v as usize]))
     }
 
     fn sift_up(&mut self, mut i: usize) -> usize {
-        let v = self.heap[i];
+        let e = self.heap[i];
         while i > 0 {
             let parent = (i - 1) / 2;
             let p = self.heap[parent];
-            if !self.before(v, p) {
+            if !before(e, p) {
                 break;
             }
-            self.place(i, p);
+            self.heap[i] = p;
+            self.slot[p.1 as usize] = i as u32;
             i = parent;
         }
-        self.place(i, v);
+        self.heap[i] = e;
+        self.slot[e.1 as usize] = i as u32;
         i
     }
 
     fn sift_down(&mut self, mut i: usize) {
-        let v = self.heap[i];
+        let e = self.heap[i];
         let n = self.heap.len();
         loop {
             let left = 2 * i + 1;
@@ -299,19 +291,21 @@ impl Queue {
                 break;
             }
             let right = left + 1;
-            let child = if right < n && self.before(self.heap[right], self.heap[left]) {
+            let child = if right < n && before(self.heap[right], self.heap[left]) {
                 right
             } else {
                 left
             };
             let c = self.heap[child];
-            if !self.before(c, v) {
+            if !before(c, e) {
                 break;
             }
-            self.place(i, c);
+            self.heap[i] = c;
+            self.slot[c.1 as usize] = i as u32;
             i = child;
         }
-        self.place(i, v);
+        self.heap[i] = e;
+        self.slot[e.1 as usize] = i as u32;
     }
 }
 
@@ -343,13 +337,12 @@ struct State<'o> {
 }
 
 impl<'o> State<'o> {
-    fn new(positions: &'o [[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
-        let n = positions.len();
-        let pos = positions;
+    fn new(pos: &'o [[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
+        let n = pos.len();
         let vt = VertexTriangles::new(&tris, n);
         let edges = EdgeMap::new(&tris);
         let kind = classify(&tris, &vt, &edges);
-        let quadric = quadrics(&pos, &tris, &edges, options);
+        let quadric = quadrics(pos, &tris, &edges, options);
 
         let mut start = Vec::with_capacity(n);
         let mut len = Vec::with_capacity(n);
@@ -405,10 +398,9 @@ impl<'o> State<'o> {
             self.rerank(v);
         }
         loop {
-            while let Some(u) = self.queue.pop() {
-                let w = self.queue.target[u as usize];
+            while let Some((u, cost, w)) = self.queue.pop() {
                 if self.is_valid(u, w) {
-                    self.collapse(u, w, self.queue.cost[u as usize]);
+                    self.collapse(u, w, cost);
                     continue;
                 }
                 // The cheapest target went invalid (its 2-ring changed since it was
@@ -673,17 +665,15 @@ impl<'o> State<'o> {
             // (target u gone, border rules depend on the new edges, or not queued)
             // is ranked afresh.
             let xi = x as usize;
-            if self.kind[xi] == Kind::Interior && self.queue.queued(x) && self.queue.target[xi] != u
-            {
-                let c = self.quadric[xi].error(pw);
-                if c.total_cmp(&self.queue.cost[xi])
-                    .then(w.cmp(&self.queue.target[xi]))
-                    .is_lt()
-                {
-                    self.queue.set(x, c, w);
+            let target = self.queue.target[xi];
+            match self.queue.cost(x) {
+                Some(old) if self.kind[xi] == Kind::Interior && target != u => {
+                    let c = self.quadric[xi].error(pw);
+                    if c.total_cmp(&old).then(w.cmp(&target)).is_lt() {
+                        self.queue.set(x, c, w);
+                    }
                 }
-            } else {
-                self.rerank(x);
+                _ => self.rerank(x),
             }
         }
         self.around = around;

@@ -1,6 +1,6 @@
 //! Geometric quality of our collapse sequences against `meshopt::simplify`.
 //!
-//! For each real mesh, the reference mesh of our sequence at 10%, 5% and 2% of
+//! For each real mesh (cow, bunny, man, the MakeHuman body), the reference mesh of our sequence at 10%, 5% and 2% of
 //! the triangles is compared, by symmetric Hausdorff distance and RMS (Metro-style
 //! surface sampling, [`morphlod::metrics`]), with meshoptimizer's result at the
 //! same triangle count, both against the original. meshopt is given an error
@@ -21,12 +21,15 @@ use morphlod::IndexedMesh;
 const SAMPLES: usize = 200_000;
 
 fn load(name: &str) -> IndexedMesh {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets").join(name);
-    let mesh = match path.extension().and_then(|e| e.to_str()) {
-        Some("off") => morphlod::io::off::load(&path),
-        _ => morphlod::io::obj::load(&path),
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
+    // glTF: the base mesh with its node transform, as the renderer would place it.
+    let options = morphlod::io::LoadOptions {
+        apply_transforms: true,
+        ..Default::default()
     };
-    match mesh {
+    match morphlod::io::load_mesh(&path, &options) {
         Ok(m) => m,
         Err(e) => panic!("{name}: {e}"),
     }
@@ -63,43 +66,63 @@ fn meshopt_simplify(mesh: &IndexedMesh, target: usize) -> Vec<[u32; 3]> {
 }
 
 /// Error of `tris` (over the original vertex buffer) against the original surface.
-fn error(mesh: &IndexedMesh, original: &SurfaceIndex, original_samples: &[glam::DVec3], tris: &[[u32; 3]]) -> ErrorStats {
+fn error(
+    mesh: &IndexedMesh,
+    original: &SurfaceIndex,
+    original_samples: &[glam::DVec3],
+    tris: &[[u32; 3]],
+) -> ErrorStats {
     let index = SurfaceIndex::new(&mesh.positions, tris).expect("indices in range");
     let samples = sample_surface(&mesh.positions, tris, SAMPLES, 2).expect("indices in range");
-    symmetric(directed_error(&samples, original), directed_error(original_samples, &index))
+    symmetric(
+        directed_error(&samples, original),
+        directed_error(original_samples, &index),
+    )
 }
 
 #[test]
 #[ignore = "prints the quality table; run in release"]
 fn quality_vs_meshopt() {
     println!(
-        "{:<10} {:>5} {:>7} | {:>10} {:>10} | {:>10} {:>10} | {:>6} {:>6}",
+        "{:<18} {:>5} {:>11} | {:>10} {:>10} | {:>10} {:>10} | {:>6} {:>6}",
         "mesh", "keep", "tris", "H ours", "H meshopt", "RMS ours", "RMS mopt", "H x", "RMS x"
     );
     let mut worst = (0.0f64, 0.0f64);
-    for name in ["cow.off", "bunny.obj", "man.off"] {
+    for name in ["cow.off", "bunny.obj", "man.off", "makehuman_body.glb"] {
         let mesh = load(name);
         mesh.validate().unwrap();
-        let seq = simplify(&mesh.positions, &mesh.triangles, &SimplifyOptions::default());
+        let seq = simplify(
+            &mesh.positions,
+            &mesh.triangles,
+            &SimplifyOptions::default(),
+        );
         seq.validate().unwrap();
         let original = SurfaceIndex::new(&mesh.positions, &mesh.triangles).unwrap();
-        let original_samples = sample_surface(&mesh.positions, &mesh.triangles, SAMPLES, 1).unwrap();
+        let original_samples =
+            sample_surface(&mesh.positions, &mesh.triangles, SAMPLES, 1).unwrap();
         let diagonal = {
             let (lo, hi) = mesh.bounds().unwrap();
-            ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt() as f64
+            ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
+                as f64
         };
         for percent in [10usize, 5, 2] {
             let target = mesh.triangles.len() * percent / 100;
             let theirs = meshopt_simplify(&mesh, target);
-            let ours = seq.reference_mesh(&mesh.triangles, lod_for(&seq, &mesh.triangles, theirs.len()));
+            let ours = seq.reference_mesh(
+                &mesh.triangles,
+                lod_for(&seq, &mesh.triangles, theirs.len()),
+            );
             let e_ours = error(&mesh, &original, &original_samples, &ours);
             let e_theirs = error(&mesh, &original, &original_samples, &theirs);
-            let ratio = (e_ours.hausdorff / e_theirs.hausdorff, e_ours.rms / e_theirs.rms);
+            let ratio = (
+                e_ours.hausdorff / e_theirs.hausdorff,
+                e_ours.rms / e_theirs.rms,
+            );
             worst = (worst.0.max(ratio.0), worst.1.max(ratio.1));
             // Errors in percent of the bounding box diagonal, as Metro reports them.
             let pct = |d: f64| 100.0 * d / diagonal;
             println!(
-                "{:<10} {:>4}% {:>3}/{:<3} | {:>9.4}% {:>9.4}% | {:>9.4}% {:>9.4}% | {:>6.3} {:>6.3}",
+                "{:<18} {:>4}% {:>5}/{:<5} | {:>9.4}% {:>9.4}% | {:>9.4}% {:>9.4}% | {:>6.3} {:>6.3}",
                 name,
                 percent,
                 ours.len(),
@@ -113,5 +136,8 @@ fn quality_vs_meshopt() {
             );
         }
     }
-    println!("worst ratio ours/meshopt: Hausdorff {:.3}, RMS {:.3} (goal <= 1.15)", worst.0, worst.1);
+    println!(
+        "worst ratio ours/meshopt: Hausdorff {:.3}, RMS {:.3} (goal <= 1.15)",
+        worst.0, worst.1
+    );
 }
