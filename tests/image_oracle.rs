@@ -4,12 +4,14 @@
 //!
 //! * `strips_render_like_reference_lists`: every asset, ≥ 20 `(t, lod)` states reached by a
 //!   random walk of `set_lod` whose dirty logs reach the object only through
-//!   `Object::apply_dirty`, so a wrong dirty range shows as a wrong image.
+//!   `Object::apply_dirty`, so a wrong dirty range shows as a wrong image. The reference
+//!   triangles are drawn in the rotation the strip draw gives them (see `ReferenceLists`).
 //! * `back_face_culling_hides_nothing`: culled and unculled strip renders of closed meshes are
 //!   identical, and the comparison catches one triangle with flipped parity.
 //! * `one_draw_per_frame_and_upload_bytes`: one draw per object per frame over linear and
 //!   exponential LOD sweeps; bytes uploaded per frame against a full index re-upload.
 //! * `two_objects_share_one_pipeline`: a crowd of two in one pass, two draws, both visible.
+//! * `apply_dirty_rejects_bad_input`: typed errors, nothing changed on error.
 //!
 //! Every test uses `gpu::test_context`: it fails when no adapter exists and `CI=true`, and
 //! skips with a printed reason elsewhere.
@@ -56,7 +58,9 @@ struct Lod {
 }
 
 fn asset_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name)
 }
 
 fn load_static(name: &'static str) -> Input {
@@ -407,7 +411,11 @@ fn back_face_culling_hides_nothing() -> Result<(), GpuError> {
             let regions = regions(&model, &state);
             let a = render(&culled, &input, view_proj, &regions)?;
             let b = render(&unculled, &input, view_proj, &regions)?;
-            assert!(coverage(&a) * 20 >= (SIZE * SIZE) as usize, "{}: coverage", input.name);
+            assert!(
+                coverage(&a) * 20 >= (SIZE * SIZE) as usize,
+                "{}: coverage",
+                input.name
+            );
             if a != b {
                 let what = format!("{} culled vs unculled at lod {lod}", input.name);
                 fail_with_images(&what, &a, &b);
@@ -627,9 +635,16 @@ fn two_objects_share_one_pipeline() -> Result<(), GpuError> {
     let draws = (a.draw_calls() - before_a) + (b.draw_calls() - before_b);
     assert_eq!(draws, 2, "two objects in one pass: two draw calls");
     let (covered_a, covered_b) = (coverage(&alone_a), coverage(&alone_b));
-    assert!(covered_a > 2000 && covered_b > 1000, "{covered_a} {covered_b}");
+    assert!(
+        covered_a > 2000 && covered_b > 1000,
+        "{covered_a} {covered_b}"
+    );
     let mut seen = (0, 0);
-    for ((pa, pb), pt) in alone_a.pixels().zip(alone_b.pixels()).zip(together.pixels()) {
+    for ((pa, pb), pt) in alone_a
+        .pixels()
+        .zip(alone_b.pixels())
+        .zip(together.pixels())
+    {
         let expected = match (pa.0 != CLEAR_RGBA, pb.0 != CLEAR_RGBA) {
             (true, true) => panic!("the two objects must not overlap on screen"),
             (true, false) => {
@@ -642,7 +657,10 @@ fn two_objects_share_one_pipeline() -> Result<(), GpuError> {
             }
             (false, false) => pa,
         };
-        assert_eq!(pt, expected, "the crowd pass must show each object as alone");
+        assert_eq!(
+            pt, expected,
+            "the crowd pass must show each object as alone"
+        );
     }
     assert_eq!(seen, (covered_a, covered_b));
     eprintln!("crowd of 2: {covered_a} + {covered_b} px, 2 draws in one pass");
@@ -659,7 +677,12 @@ fn apply_dirty_rejects_bad_input() -> Result<(), GpuError> {
         return Ok(());
     };
     let pipeline = MorphPipeline::new(&ctx.device, Target::COLOR_FORMAT, None);
-    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+    let v = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
     let regions = [vec![0, 1, 2, 3], vec![3, 2, 1]];
     let mut object = Object::new(&ctx.device, &pipeline, Topology::Strip, &v, &v, &regions)?;
     let buffer = [0, 1, 2, 3, 3, 2, 1];
@@ -667,17 +690,59 @@ fn apply_dirty_rejects_bad_input() -> Result<(), GpuError> {
     let dirty = |ranges: Vec<DirtyRange>, lengths: Vec<u32>| Dirty { ranges, lengths };
 
     let err = object.apply_dirty(&dirty(vec![], vec![]), &buffer[..6], &[4, 3]);
-    assert!(matches!(err, Err(GpuError::LayoutMismatch { indices: 6, capacity: 7, .. })));
+    assert!(matches!(
+        err,
+        Err(GpuError::LayoutMismatch {
+            indices: 6,
+            capacity: 7,
+            ..
+        })
+    ));
     let err = object.apply_dirty(&dirty(vec![], vec![]), &buffer, &[4]);
-    assert!(matches!(err, Err(GpuError::LayoutMismatch { strips: 1, regions: 2, .. })));
+    assert!(matches!(
+        err,
+        Err(GpuError::LayoutMismatch {
+            strips: 1,
+            regions: 2,
+            ..
+        })
+    ));
     let err = object.apply_dirty(&dirty(vec![range(2, 0, 1)], vec![]), &buffer, &[4, 3]);
-    assert!(matches!(err, Err(GpuError::NoSuchRegion { region: 2, regions: 2 })));
+    assert!(matches!(
+        err,
+        Err(GpuError::NoSuchRegion {
+            region: 2,
+            regions: 2
+        })
+    ));
     let err = object.apply_dirty(&dirty(vec![range(1, 1, 4)], vec![]), &buffer, &[4, 3]);
-    assert!(matches!(err, Err(GpuError::DirtyRange { region: 1, end: 4, capacity: 3, .. })));
+    assert!(matches!(
+        err,
+        Err(GpuError::DirtyRange {
+            region: 1,
+            end: 4,
+            capacity: 3,
+            ..
+        })
+    ));
     let err = object.apply_dirty(&dirty(vec![range(1, 2, 1)], vec![]), &buffer, &[4, 3]);
-    assert!(matches!(err, Err(GpuError::DirtyRange { start: 2, end: 1, .. })));
+    assert!(matches!(
+        err,
+        Err(GpuError::DirtyRange {
+            start: 2,
+            end: 1,
+            ..
+        })
+    ));
     let err = object.apply_dirty(&dirty(vec![], vec![0]), &buffer, &[5, 3]);
-    assert!(matches!(err, Err(GpuError::RegionOverflow { region: 0, len: 5, capacity: 4 })));
+    assert!(matches!(
+        err,
+        Err(GpuError::RegionOverflow {
+            region: 0,
+            len: 5,
+            capacity: 4
+        })
+    ));
     // A bad index in the range is rejected even though a valid range precedes it.
     let bad = [0, 1, 2, 3, 9, 2, 1];
     let err = object.apply_dirty(
@@ -685,8 +750,19 @@ fn apply_dirty_rejects_bad_input() -> Result<(), GpuError> {
         &bad,
         &[4, 3],
     );
-    assert!(matches!(err, Err(GpuError::IndexOutOfRange { region: 1, index: 9, .. })));
-    assert_eq!(object.prepare(&ctx.queue), gpu::Upload::default(), "errors change nothing");
+    assert!(matches!(
+        err,
+        Err(GpuError::IndexOutOfRange {
+            region: 1,
+            index: 9,
+            ..
+        })
+    ));
+    assert_eq!(
+        object.prepare(&ctx.queue),
+        gpu::Upload::default(),
+        "errors change nothing"
+    );
 
     // A valid update: region 0 shrinks to [0, 1, 3] (one changed index, one length), region 1
     // is marked dirty but unchanged, so only 4 index bytes and one 20-byte record go up.

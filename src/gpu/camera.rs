@@ -142,8 +142,8 @@ mod tests {
                 Projection::Perspective { vertical_fov: 0.8 },
                 Projection::Orthographic,
             ] {
-                let camera = fit_to_bounds(min, max, direction, aspect, projection)
-                    .expect("valid input");
+                let camera =
+                    fit_to_bounds(min, max, direction, aspect, projection).expect("valid input");
                 let m = camera.view_proj();
                 let mut extent = 0.0f32;
                 for k in 0..8 {
@@ -169,8 +169,20 @@ mod tests {
         let persp = Projection::Perspective { vertical_fov: 1.0 };
         assert!(ok(fit_to_bounds([0.0; 3], [0.0; 3], Vec3::Z, 1.0, persp)));
         assert!(!ok(fit_to_bounds([1.0; 3], [0.0; 3], Vec3::Z, 1.0, persp)));
-        assert!(!ok(fit_to_bounds([f32::NAN; 3], [0.0; 3], Vec3::Z, 1.0, persp)));
-        assert!(!ok(fit_to_bounds([0.0; 3], [1.0; 3], Vec3::ZERO, 1.0, persp)));
+        assert!(!ok(fit_to_bounds(
+            [f32::NAN; 3],
+            [0.0; 3],
+            Vec3::Z,
+            1.0,
+            persp
+        )));
+        assert!(!ok(fit_to_bounds(
+            [0.0; 3],
+            [1.0; 3],
+            Vec3::ZERO,
+            1.0,
+            persp
+        )));
         assert!(!ok(fit_to_bounds([0.0; 3], [1.0; 3], Vec3::Z, 0.0, persp)));
         let wide = Projection::Perspective { vertical_fov: 4.0 };
         assert!(!ok(fit_to_bounds([0.0; 3], [1.0; 3], Vec3::Z, 1.0, wide)));

@@ -15,8 +15,8 @@ use std::ops::Range;
 use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
 use super::pipeline::{MorphPipeline, ShadeMode, Uniforms};
-use crate::lodstrips::Dirty;
 use super::{GpuError, RESTART};
+use crate::lodstrips::Dirty;
 
 /// Dirty spans closer than this many bytes are uploaded as one write by default. Each
 /// `write_buffer` costs a staging allocation and a copy command; re-sending a few hundred
@@ -324,7 +324,8 @@ impl Object {
                 });
             }
             let copied = clip(range.start..range.end, live);
-            let source = &indices[(span.start + copied.start) as usize..(span.start + copied.end) as usize];
+            let source =
+                &indices[(span.start + copied.start) as usize..(span.start + copied.end) as usize];
             check_indices(region, source, self.vertex_count, self.topology)?;
         }
         // Apply pass: nothing below can fail.
