@@ -11,17 +11,37 @@
 //!   region. The CPU edits regions; [`Object::prepare`] uploads only the changed byte ranges and
 //!   [`Object::render`] draws every region with exactly one `multi_draw_indexed_indirect`.
 //! * [`Target`] — an offscreen colour + depth target and its readback into an `image::RgbaImage`.
+//! * [`camera`] — a view and projection fitted to an object's bounds.
 //!
 //! The caller owns the device, queue and render pass (the `prepare` / `render` split of
 //! egui-wgpu and glyphon), so an object drops into any existing wgpu renderer.
+//!
+//! # Driving an object from the LOD runtime
+//!
+//! Make the object from the runtime's LOD-0 strips (region `r` = strip `r` of `S0`), then per
+//! frame: move the runtime (`set_lod`), hand its `take_dirty()` with its `indices()` and
+//! `lengths()` to [`Object::apply_dirty`], call [`Object::prepare`] and [`Object::render`].
+//! Only the dirty ranges are read and uploaded.
+//!
+//! # A crowd: many objects, one pipeline
+//!
+//! Any number of objects share one [`MorphPipeline`] (created once per colour/depth format and
+//! cull mode): it holds the shader module, the one bind group layout (binding 0: the
+//! [`Uniforms`] block) and the strip and list pipelines. Each [`Object`] owns what differs per
+//! instance — its vertex, index and indirect buffers, its uniform buffer (t, camera, model
+//! matrix, colour) and the bind group pointing at it — so a pass draws N objects with N
+//! `multi_draw_indexed_indirect` calls, one `set_bind_group` and buffer binding each, and no
+//! shader or layout duplication. Objects of the same asset still own separate index buffers,
+//! because each may sit at its own LOD and frame.
 
+pub mod camera;
 mod context;
 mod object;
 mod pipeline;
 mod target;
 
 pub use context::{test_context, Context};
-pub use object::{Object, Topology, Upload};
+pub use object::{Object, Topology, Upload, MERGE_GAP_BYTES};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
 pub use target::{save_png, Target};
 
@@ -66,6 +86,22 @@ pub enum GpuError {
     /// A region number past the last region.
     #[error("region {region} does not exist; the object has {regions} regions")]
     NoSuchRegion { region: usize, regions: usize },
+    /// A LOD runtime's buffers do not have this object's region layout.
+    #[error("the LOD runtime has {indices} indices and {strips} strips but the object was made with {capacity} indices in {regions} regions; make the object from the same S0 as the runtime")]
+    LayoutMismatch {
+        indices: usize,
+        strips: usize,
+        capacity: usize,
+        regions: usize,
+    },
+    /// A dirty range that does not lie inside its region.
+    #[error("dirty range {start}..{end} of region {region} does not fit its capacity of {capacity} indices")]
+    DirtyRange {
+        region: usize,
+        start: u32,
+        end: u32,
+        capacity: u32,
+    },
     /// More live indices than the region's fixed capacity (its `S0` strip length).
     #[error("region {region} holds at most {capacity} indices, got {len}")]
     RegionOverflow {

@@ -16,11 +16,12 @@ use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
 use super::pipeline::{MorphPipeline, ShadeMode, Uniforms};
 use super::{GpuError, RESTART};
+use crate::lodstrips::Dirty;
 
-/// Dirty spans closer than this many bytes are uploaded as one write. Each `write_buffer`
-/// costs a staging allocation and a copy command; re-sending a few hundred unchanged bytes
-/// is cheaper than a second call.
-const MERGE_GAP_BYTES: u64 = 256;
+/// Dirty spans closer than this many bytes are uploaded as one write by default. Each
+/// `write_buffer` costs a staging allocation and a copy command; re-sending a few hundred
+/// unchanged bytes is cheaper than a second call. [`Object::set_merge_gap`] changes it.
+pub const MERGE_GAP_BYTES: u64 = 256;
 
 /// Size of one indirect draw record.
 const ARGS_BYTES: u64 = size_of::<DrawIndexedIndirectArgs>() as u64;
@@ -82,6 +83,7 @@ pub struct Object {
     uniforms: Uniforms,
     uniforms_dirty: bool,
     draw_calls: u64,
+    merge_gap_bytes: u64,
 }
 
 impl Object {
@@ -209,6 +211,7 @@ impl Object {
             uniforms,
             uniforms_dirty: false,
             draw_calls: 0,
+            merge_gap_bytes: MERGE_GAP_BYTES,
         })
     }
 
@@ -279,6 +282,106 @@ impl Object {
         Ok(())
     }
 
+    /// Applies what a LOD runtime changed since its last `take_dirty` (a [`Dirty`] from
+    /// [`crate::lodstrips::LodState::take_dirty`], or from any runtime with the same contract):
+    /// `indices` is the runtime's whole index buffer and `lengths` the live length of every
+    /// strip, laid out exactly like this object's regions (region `r` of both starts at the same
+    /// offset), as [`crate::lodstrips::LodState::indices`] / `lengths` are.
+    ///
+    /// The contract: every position of a live strip whose value changed lies in one of
+    /// `dirty.ranges`, and every strip whose live length changed is in `dirty.lengths`.
+    /// Only those ranges are read, not whole regions, and each is clipped to the strip's live
+    /// length (stale tails are never drawn) and trimmed of unchanged ends before it is marked
+    /// for upload: a step that was undone before this call (coarsen then refine) uploads
+    /// nothing. Everything is checked before anything changes; on error the object is as before.
+    pub fn apply_dirty(
+        &mut self,
+        dirty: &Dirty,
+        indices: &[u32],
+        lengths: &[u32],
+    ) -> Result<(), GpuError> {
+        if indices.len() != self.indices.len() || lengths.len() != self.args.len() {
+            return Err(GpuError::LayoutMismatch {
+                indices: indices.len(),
+                strips: lengths.len(),
+                capacity: self.indices.len(),
+                regions: self.args.len(),
+            });
+        }
+        // Check pass: region numbers, capacities, and the indices each range will copy.
+        for &strip in &dirty.lengths {
+            self.check_live_length(strip as usize, lengths)?;
+        }
+        for range in &dirty.ranges {
+            let region = range.strip as usize;
+            let (span, live) = self.check_live_length(region, lengths)?;
+            if range.start > range.end || range.end > span.end - span.start {
+                return Err(GpuError::DirtyRange {
+                    region,
+                    start: range.start,
+                    end: range.end,
+                    capacity: span.end - span.start,
+                });
+            }
+            let copied = clip(range.start..range.end, live);
+            let source =
+                &indices[(span.start + copied.start) as usize..(span.start + copied.end) as usize];
+            check_indices(region, source, self.vertex_count, self.topology)?;
+        }
+        // Apply pass: nothing below can fail.
+        for range in &dirty.ranges {
+            let region = range.strip as usize;
+            let start = self.region_starts[region];
+            let copied = clip(range.start..range.end, lengths[region]);
+            let span = (start + copied.start) as usize..(start + copied.end) as usize;
+            let (mirror, source) = (&mut self.indices[span.clone()], &indices[span]);
+            let Some(first) = mirror.iter().zip(source).position(|(old, new)| old != new) else {
+                continue;
+            };
+            // `first` differs, so a last differing position exists (at worst `first`).
+            let last = mirror
+                .iter()
+                .zip(source)
+                .rposition(|(old, new)| old != new)
+                .unwrap_or(first);
+            mirror[first..=last].copy_from_slice(&source[first..=last]);
+            let at = start + copied.start;
+            self.dirty_indices
+                .push(at + first as u32..at + last as u32 + 1);
+        }
+        for &strip in &dirty.lengths {
+            let region = strip as usize;
+            if self.args[region].index_count != lengths[region] {
+                self.args[region].index_count = lengths[region];
+                self.dirty_args.push(strip..strip + 1);
+            }
+        }
+        Ok(())
+    }
+
+    /// The span of `region` and its new live length from `lengths`, checked against capacity.
+    fn check_live_length(
+        &self,
+        region: usize,
+        lengths: &[u32],
+    ) -> Result<(Range<u32>, u32), GpuError> {
+        let span = self.region_range(region).ok_or(GpuError::NoSuchRegion {
+            region,
+            regions: self.region_count(),
+        })?;
+        // `lengths` has one entry per region (checked by the caller), so this index exists.
+        let live = lengths[region];
+        let capacity = span.end - span.start;
+        if live > capacity {
+            return Err(GpuError::RegionOverflow {
+                region,
+                len: live as usize,
+                capacity: capacity as usize,
+            });
+        }
+        Ok((span, live))
+    }
+
     /// Sets the blend parameter between `V(0)` (`t = 0`) and `V(1)` (`t = 1`).
     pub fn set_t(&mut self, t: f32) -> Result<(), GpuError> {
         if !(0.0..=1.0).contains(&t) {
@@ -338,18 +441,27 @@ impl Object {
         self.uniforms_dirty = true;
     }
 
+    /// Sets how far apart (in bytes of one buffer) two dirty spans may lie and still be sent
+    /// as one `write_buffer` ([`MERGE_GAP_BYTES`] by default). 0 sends exactly the changed
+    /// bytes in more calls; larger values send fewer, bigger writes.
+    pub fn set_merge_gap(&mut self, bytes: u64) {
+        self.merge_gap_bytes = bytes;
+    }
+
     /// Uploads everything changed since the last call: coalesced index spans, coalesced
     /// indirect records and the uniforms, each with `queue.write_buffer`. Call before the
     /// render pass that draws this object is submitted.
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
         let mut upload = Upload::default();
-        for span in coalesce(&mut self.dirty_indices, (MERGE_GAP_BYTES / 4) as u32) {
+        let gap = |unit: u64| u32::try_from(self.merge_gap_bytes / unit).unwrap_or(u32::MAX);
+        let (index_gap, args_gap) = (gap(4), gap(ARGS_BYTES));
+        for span in coalesce(&mut self.dirty_indices, index_gap) {
             let data = &self.indices[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * 4..u64::from(span.end) * 4;
             queue.write_buffer(&self.index_buffer, bytes.start, bytemuck::cast_slice(data));
             upload.index_ranges.push(bytes);
         }
-        for span in coalesce(&mut self.dirty_args, (MERGE_GAP_BYTES / ARGS_BYTES) as u32) {
+        for span in coalesce(&mut self.dirty_args, args_gap) {
             let data = &self.args[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * ARGS_BYTES..u64::from(span.end) * ARGS_BYTES;
             queue.write_buffer(
@@ -412,6 +524,11 @@ fn check_indices(
         }),
         None => Ok(()),
     }
+}
+
+/// The part of `range` below `live` (empty when it starts past it).
+fn clip(range: Range<u32>, live: u32) -> Range<u32> {
+    range.start.min(live)..range.end.min(live)
 }
 
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
