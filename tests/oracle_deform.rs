@@ -149,9 +149,17 @@ impl Frames<'_> {
             canonical_multiset(reference),
             "{at}: drawn triangles differ from the reference of frame {k} at LOD {l}"
         );
-        assert_eq!(mirror.lens.as_slice(), state.lengths(), "{at}: mirror lengths");
+        assert_eq!(
+            mirror.lens.as_slice(),
+            state.lengths(),
+            "{at}: mirror lengths"
+        );
         for s in 0..mirror.strip_count() {
-            assert_eq!(Some(mirror.strip(s)), state.strip(s), "{at}: mirror strip {s}");
+            assert_eq!(
+                Some(mirror.strip(s)),
+                state.strip(s),
+                "{at}: mirror strip {s}"
+            );
         }
         assert!(state.index_count() <= self.asset.s0.indices.len());
     }
@@ -224,7 +232,9 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
         // Compare strategies at some frame switches and big jumps.
         let other = (k != k0 || l0.abs_diff(expected) > 8) && rng.below(6) == 0;
         let before = other.then(|| state.clone());
-        let how = state.set_with(&model, t, lod, strategy).expect("valid request");
+        let how = state
+            .set_with(&model, t, lod, strategy)
+            .expect("valid request");
         used[usize::from(how == Strategy::Rebuild)] += 1;
         assert_eq!(state.frame(), k, "{at}: frame for t = {t}");
         assert_eq!(state.lod(), expected, "{at}: LOD for {lod:?} in frame {k}");
@@ -232,7 +242,11 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
         mirror.upload(&dirty, state.indices(), state.lengths());
         let (hash, count) = frames.hashes[k][expected];
         assert_eq!(mirror.count, count, "{at}: drawn triangle count");
-        assert_eq!(state.triangle_count(), count, "{at}: reported triangle count");
+        assert_eq!(
+            state.triangle_count(),
+            count,
+            "{at}: reported triangle count"
+        );
         assert_eq!(mirror.hash, hash, "{at}: drawn multiset hash ({how:?})");
         if let Some(mut twin) = before {
             let flip = if how == Strategy::Rebuild {
@@ -269,14 +283,26 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
 fn makehuman_head_animation() {
     let morph = load_morph("makehuman_head.glb", MorphSource::Animation("morph".into()));
     let asset = build_asset(&morph, 12);
-    walk("makehuman_head 'morph'", morph.triangles(), &asset, 10_000, 1);
+    walk(
+        "makehuman_head 'morph'",
+        morph.triangles(),
+        &asset,
+        10_000,
+        1,
+    );
 }
 
 #[test]
 fn makehuman_body_animation() {
     let morph = load_morph("makehuman_body.glb", MorphSource::Animation("morph".into()));
     let asset = build_asset(&morph, 10);
-    walk("makehuman_body 'morph'", morph.triangles(), &asset, 10_000, 2);
+    walk(
+        "makehuman_body 'morph'",
+        morph.triangles(),
+        &asset,
+        10_000,
+        2,
+    );
 }
 
 #[test]
@@ -383,10 +409,7 @@ fn bad_assets_and_requests_are_rejected() {
         }),
         DeformError::Sequence { frame: 1, .. }
     ));
-    for e in [
-        bad(&|a| a.frames.clear()),
-        bad(&|a| a.v0[2][1] = f32::NAN),
-    ] {
+    for e in [bad(&|a| a.frames.clear()), bad(&|a| a.v0[2][1] = f32::NAN)] {
         assert!(!e.to_string().is_empty());
     }
 

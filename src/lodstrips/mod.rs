@@ -1,7 +1,13 @@
-//! The LodStrips model for one collapse sequence over the common strips `S0`:
-//! change lists recorded by replaying the sequence over the strips
-//! ([`build`]), and the runtime that applies them in both directions to an
-//! index buffer laid out as one fixed region per strip ([`runtime`]).
+//! The LodStrips model over the common strips `S0`: change lists recorded by
+//! replaying a collapse sequence over the strips ([`build`]), and the runtime
+//! that applies them in both directions to an index buffer laid out as one
+//! fixed region per strip ([`runtime`]).
+//!
+//! The data is split so that a deforming object shares everything it can:
+//! [`StripLayout`] (`S0` and the region table) exists once per object, and
+//! each sampled frame owns only a [`FrameChanges`] (its collapse targets,
+//! change stream, triangle table and the entry lifetimes of one-pass
+//! rebuilds). [`LodStrips`] pairs one layout with one frame for a static mesh.
 //!
 //! Each LOD step `l` (collapse `u → w`) is recorded as
 //! * rewrites: the positions in the strips that hold `u` at LOD `l`

@@ -139,8 +139,7 @@ pub fn reference_hashes(tris: &[[u32; 3]], seq: &CollapseSequence) -> Vec<(u64, 
 
 /// Multiset hash of a triangle list.
 pub fn multiset_hash(tris: &[[u32; 3]]) -> u64 {
-    tris.iter()
-        .fold(0u64, |h, &t| h.wrapping_add(tri_hash(t)))
+    tris.iter().fold(0u64, |h, &t| h.wrapping_add(tri_hash(t)))
 }
 
 /// The GPU's view of the index buffer, updated only from the dirty log, with
