@@ -168,9 +168,10 @@ impl DeformingModel {
         let vertex_count =
             u32::try_from(n).map_err(|_| DeformError::TooManyVertices { vertices: n })?;
         let layout = StripLayout::new(&asset.s0, vertex_count).map_err(|e| match e {
-            BuildError::TooLarge { what, .. } if what == "the vertex count" => {
-                DeformError::TooManyVertices { vertices: n }
-            }
+            BuildError::TooLarge {
+                what: "the vertex count",
+                ..
+            } => DeformError::TooManyVertices { vertices: n },
             e => DeformError::Strips(e),
         })?;
         let built: Vec<Result<Frame, DeformError>> = asset
