@@ -10,7 +10,10 @@
 //! * `build/model`: `DeformingModel::new` from the Asset (32 frames' change lists).
 //!
 //! Before the timings it prints the sizes: bytes per frame in RAM (change
-//! stream alone, and everything a frame holds) and per vertex.
+//! stream alone, and everything a frame holds) and per vertex, and the same
+//! runtime figures in CPU time of the thread (from `/proc/thread-self/schedstat`,
+//! Linux; fastest of 5 rounds): on a shared, overloaded machine the wall
+//! clock that criterion reports also counts time spent waiting for a core.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -74,10 +77,99 @@ fn report_sizes(asset: &Asset, model: &DeformingModel) {
     );
 }
 
+/// Nanoseconds this thread has run on a CPU, if the kernel reports it.
+fn cpu_ns() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
+/// CPU time of `work` divided by `units`, fastest of 5 rounds.
+fn cpu_per(units: u64, mut work: impl FnMut()) -> Option<f64> {
+    let mut best = f64::MAX;
+    for _ in 0..5 {
+        let start = cpu_ns()?;
+        work();
+        best = best.min((cpu_ns()? - start) as f64 / units.max(1) as f64);
+    }
+    Some(best)
+}
+
+/// The LOD targets of the exponential sweep (jumps of max, max/2, ...,
+/// alternating up and down, then back to 0) and the collapses they apply.
+fn exponential_targets(max: usize) -> (Vec<usize>, u64) {
+    let mut targets = Vec::new();
+    let (mut span, mut at, mut up, mut moved) = (max, 0usize, true, 0u64);
+    while span > 0 {
+        let next = if up {
+            (at + span).min(max)
+        } else {
+            at.saturating_sub(span)
+        };
+        moved += at.abs_diff(next) as u64;
+        targets.push(next);
+        at = next;
+        up = !up;
+        span /= 2;
+    }
+    moved += at as u64;
+    targets.push(0);
+    (targets, moved)
+}
+
+fn report_cpu_times(model: &DeformingModel) {
+    let far = 16.0 / (FRAMES - 1) as f32;
+    let mut line = String::from("CPU time:");
+    for (name, how) in [
+        ("switch steps", Strategy::Steps),
+        ("switch rebuild", Strategy::Rebuild),
+        ("switch auto", Strategy::Auto),
+    ] {
+        let mut state = DeformingLod::new(model);
+        let _ = state.set(model, 0.0, Lod::Fraction(0.5));
+        // Enough work per round that the scheduler-tick granularity of the
+        // CPU-time counter (a few ms) stays below a few percent.
+        let rounds = if how == Strategy::Steps { 200 } else { 4000 };
+        let per = cpu_per(rounds, || {
+            for i in 0..rounds {
+                let t = if i % 2 == 0 { far } else { 0.0 };
+                let _ = state.set_with(model, t, Lod::Fraction(0.5), how);
+                black_box(state.take_dirty());
+            }
+        });
+        line += &format!(" {name} {:.1} µs;", per.unwrap_or(f64::NAN) / 1000.0);
+    }
+    let max = model.frame_changes(0).map_or(0, |f| f.max_lod());
+    let mut state = DeformingLod::new(model);
+    let repeats = 40;
+    let linear = cpu_per(2 * max as u64 * repeats, || {
+        for _ in 0..repeats {
+            for l in (1..=max).chain((0..max).rev()) {
+                let _ = state.set_with(model, 0.0, Lod::Steps(l), Strategy::Steps);
+            }
+            black_box(state.take_dirty());
+        }
+    });
+    let (targets, moved) = exponential_targets(max);
+    let exponential = cpu_per(moved * repeats, || {
+        for _ in 0..repeats {
+            for &l in &targets {
+                let _ = state.set_with(model, 0.0, Lod::Steps(l), Strategy::Steps);
+            }
+            black_box(state.take_dirty());
+        }
+    });
+    println!(
+        "{line} LOD step linear {:.1} ns/collapse, exponential {:.1} ns/collapse",
+        linear.unwrap_or(f64::NAN),
+        exponential.unwrap_or(f64::NAN)
+    );
+}
+
 fn bench(c: &mut Criterion) {
     let asset = body_asset();
     let model = DeformingModel::new(&asset).expect("model builds");
     report_sizes(&asset, &model);
+    report_cpu_times(&model);
     let mut group = c.benchmark_group("deform");
     group
         .sample_size(20)
@@ -118,22 +210,7 @@ fn bench(c: &mut Criterion) {
             black_box(state.take_dirty());
         })
     });
-    let mut targets = Vec::new();
-    let (mut span, mut at, mut up, mut moved) = (max, 0usize, true, 0u64);
-    while span > 0 {
-        let next = if up {
-            (at + span).min(max)
-        } else {
-            at.saturating_sub(span)
-        };
-        moved += at.abs_diff(next) as u64;
-        targets.push(next);
-        at = next;
-        up = !up;
-        span /= 2;
-    }
-    moved += at as u64;
-    targets.push(0);
+    let (targets, moved) = exponential_targets(max);
     group.throughput(Throughput::Elements(moved));
     group.bench_function("sweep/exponential", |b| {
         b.iter(|| {
