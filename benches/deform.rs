@@ -75,6 +75,18 @@ fn report_sizes(asset: &Asset, model: &DeformingModel) {
         mean(&all) / n as f64,
         model.layout().byte_size() as f64 / 1000.0,
     );
+    let copies = mean(
+        &(0..model.frame_count())
+            .filter_map(|k| model.frame_changes(k).map(|f| f.copy_count()))
+            .collect::<Vec<_>>(),
+    );
+    println!(
+        "  of which: collapse targets {:.1} KB, triangle + error tables {:.1} KB, rebuild lifetimes {:.1} KB ({} S0 slots x 4 B + {copies:.0} copies x 16 B)",
+        collapses * 8.0 / 1000.0,
+        collapses * 8.0 / 1000.0,
+        (asset.s0.indices.len() as f64 * 4.0 + copies * 16.0) / 1000.0,
+        asset.s0.indices.len(),
+    );
 }
 
 /// Nanoseconds this thread has run on a CPU, if the kernel reports it.
