@@ -21,6 +21,12 @@
 //!
 //! The runtime applies these records blindly; the oracle (tests/oracle.rs)
 //! checks the drawn multiset against the reference mesh after every step.
+//!
+//! Alongside, the build tracks where every buffer entry comes from (`Tokens`):
+//! an `S0` slot or a copy made by a resize, with the LOD range it is alive in
+//! and one order per strip of every entry ever alive. That is what lets the
+//! runtime rebuild any LOD of a frame in one pass, bit-identical to stepping
+//! (tests/oracle_deform.rs compares the two).
 
 use thiserror::Error;
 
