@@ -20,11 +20,14 @@
 //!   at any LOD, the oracle every test compares against.
 //! * [`strip`] turns triangles into generalized triangle strips `S0`.
 //! * [`lodstrips`] records the change lists and applies them at run time.
+//! * [`deform`] is the per-object runtime of a deforming mesh: every sampled frame's change
+//!   lists over one shared `S0`, `set(t, lod)` with frame switches.
 //! * [`metrics`] measures geometric error (Hausdorff / RMS by surface sampling).
 //! * [`gpu`] renders with wgpu: the caller owns the device, queue and render pass.
 
 pub mod asset;
 pub mod collapse;
+pub mod deform;
 pub mod error;
 pub mod gpu;
 pub mod io;
@@ -38,6 +41,7 @@ pub mod topology;
 
 pub use asset::Asset;
 pub use collapse::{Collapse, CollapseSequence};
+pub use deform::{DeformingLod, DeformingModel, Lod};
 pub use error::Error;
 pub use mesh::IndexedMesh;
 pub use morph::Morph;

@@ -16,198 +16,18 @@
 //!   from the same inputs, moved straight from LOD 0 (same index contents and
 //!   lengths, which this model guarantees: every LOD has one buffer state).
 
-use morphlod::collapse::{canonical, canonical_multiset, Collapse, CollapseSequence};
+mod common;
+
+use common::{degenerate, random_sequence, reference_hashes, Mirror, Rng};
+use morphlod::collapse::{canonical_multiset, Collapse, CollapseSequence};
 use morphlod::lodstrips::{LodState, LodStrips};
-use morphlod::strip::{strip_triangles, stripify, Strips};
+use morphlod::strip::{stripify, Strips};
 use proptest::prelude::*;
 
 /// Meshes up to this size get a full multiset check after every step.
 const FULL_EVERY_STEP_TRIANGLES: usize = 3000;
 /// Bigger meshes get one every this many steps.
 const FULL_STRIDE: usize = 97;
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        mix(self.0)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
-
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-fn tri_hash(t: [u32; 3]) -> u64 {
-    let c = canonical(t);
-    mix(mix(mix(u64::from(c[0]) + 1) ^ u64::from(c[1])) ^ (u64::from(c[2]) << 1))
-}
-
-fn degenerate(t: [u32; 3]) -> bool {
-    t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
-}
-
-/// A random valid sequence: half-edge collapses along current edges of the
-/// mapped mesh, in random direction, until `steps` or no triangle is left.
-fn random_sequence(tris: &[[u32; 3]], n: usize, steps: usize, rng: &mut Rng) -> CollapseSequence {
-    let mut mapped = tris.to_vec();
-    let mut incident: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for (t, tri) in tris.iter().enumerate() {
-        for &v in tri {
-            incident[v as usize].push(t as u32);
-        }
-    }
-    let mut live: Vec<u32> = (0..tris.len() as u32)
-        .filter(|&t| !degenerate(tris[t as usize]))
-        .collect();
-    let mut collapses = Vec::new();
-    while collapses.len() < steps && !live.is_empty() {
-        let k = rng.below(live.len());
-        let t = live[k] as usize;
-        if degenerate(mapped[t]) {
-            live.swap_remove(k);
-            continue;
-        }
-        let c = rng.below(3);
-        let (mut u, mut w) = (mapped[t][c], mapped[t][(c + 1) % 3]);
-        if rng.next() & 1 == 0 {
-            std::mem::swap(&mut u, &mut w);
-        }
-        let moved = std::mem::take(&mut incident[u as usize]);
-        for &m in &moved {
-            for v in mapped[m as usize].iter_mut() {
-                if *v == u {
-                    *v = w;
-                }
-            }
-        }
-        incident[w as usize].extend(moved);
-        collapses.push(Collapse { u, w, error: 0.0 });
-    }
-    let seq = CollapseSequence {
-        vertex_count: n as u32,
-        collapses,
-    };
-    seq.validate().expect("generated sequence is valid");
-    seq
-}
-
-/// Reference multiset hash and triangle count at every LOD, in one pass.
-fn reference_hashes(tris: &[[u32; 3]], seq: &CollapseSequence) -> Vec<(u64, usize)> {
-    let n = seq.vertex_count as usize;
-    let mut mapped = tris.to_vec();
-    let mut incident: Vec<Vec<u32>> = vec![Vec::new(); n];
-    let mut hash = 0u64;
-    let mut count = 0usize;
-    for (t, tri) in tris.iter().enumerate() {
-        for &v in tri {
-            incident[v as usize].push(t as u32);
-        }
-        if !degenerate(*tri) {
-            hash = hash.wrapping_add(tri_hash(*tri));
-            count += 1;
-        }
-    }
-    let mut out = vec![(hash, count)];
-    for c in &seq.collapses {
-        let moved = std::mem::take(&mut incident[c.u as usize]);
-        for &m in &moved {
-            let old = mapped[m as usize];
-            if !old.contains(&c.u) {
-                continue;
-            }
-            if !degenerate(old) {
-                hash = hash.wrapping_sub(tri_hash(old));
-                count -= 1;
-            }
-            let new = old.map(|v| if v == c.u { c.w } else { v });
-            if !degenerate(new) {
-                hash = hash.wrapping_add(tri_hash(new));
-                count += 1;
-            }
-            mapped[m as usize] = new;
-        }
-        incident[c.w as usize].extend(moved);
-        out.push((hash, count));
-    }
-    out
-}
-
-/// The GPU's view of the index buffer, updated only from the dirty log.
-struct Mirror {
-    indices: Vec<u32>,
-    lens: Vec<u32>,
-    strip_hash: Vec<u64>,
-    strip_count: Vec<usize>,
-    hash: u64,
-    count: usize,
-}
-
-impl Mirror {
-    fn new(model: &LodStrips, state: &LodState) -> Mirror {
-        let mut m = Mirror {
-            indices: state.indices().to_vec(),
-            lens: state.lengths().to_vec(),
-            strip_hash: vec![0; model.strip_count()],
-            strip_count: vec![0; model.strip_count()],
-            hash: 0,
-            count: 0,
-        };
-        for s in 0..model.strip_count() {
-            m.rehash(model, s);
-        }
-        m
-    }
-
-    fn strip(&self, model: &LodStrips, s: usize) -> &[u32] {
-        let base = model.region_offsets()[s] as usize;
-        &self.indices[base..base + self.lens[s] as usize]
-    }
-
-    fn rehash(&mut self, model: &LodStrips, s: usize) {
-        let (mut h, mut c) = (0u64, 0usize);
-        for t in strip_triangles(self.strip(model, s)) {
-            h = h.wrapping_add(tri_hash(t));
-            c += 1;
-        }
-        self.hash = self.hash.wrapping_sub(self.strip_hash[s]).wrapping_add(h);
-        self.count = self.count - self.strip_count[s] + c;
-        self.strip_hash[s] = h;
-        self.strip_count[s] = c;
-    }
-
-    fn upload(&mut self, model: &LodStrips, state: &mut LodState) {
-        let dirty = state.take_dirty();
-        let mut touched: Vec<usize> = Vec::new();
-        for r in &dirty.ranges {
-            let base = model.region_offsets()[r.strip as usize] as usize;
-            let (a, b) = (base + r.start as usize, base + r.end as usize);
-            self.indices[a..b].copy_from_slice(&state.indices()[a..b]);
-            touched.push(r.strip as usize);
-        }
-        for &s in &dirty.lengths {
-            self.lens[s as usize] = state.lengths()[s as usize];
-            touched.push(s as usize);
-        }
-        touched.sort_unstable();
-        touched.dedup();
-        for s in touched {
-            self.rehash(model, s);
-        }
-    }
-
-    fn triangles(&self, model: &LodStrips) -> Vec<[u32; 3]> {
-        (0..model.strip_count())
-            .flat_map(|s| strip_triangles(self.strip(model, s)).collect::<Vec<_>>())
-            .collect()
-    }
-}
 
 /// Drives `steps` random `set_lod` calls and checks the invariant (see module docs).
 fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize, rng: &mut Rng) {
@@ -218,9 +38,9 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
     let s0_len = strips.indices.len();
     let every_step = tris.len() <= FULL_EVERY_STEP_TRIANGLES;
     let mut state = LodState::new(&model);
-    let mut mirror = Mirror::new(&model, &state);
+    let mut mirror = Mirror::new(model.region_offsets(), state.indices(), state.lengths());
     let full = |l: usize, mirror: &Mirror, state: &LodState| {
-        let drawn = canonical_multiset(mirror.triangles(&model));
+        let drawn = canonical_multiset(mirror.triangles());
         let expected = canonical_multiset(seq.reference_mesh(tris, l));
         assert_eq!(
             drawn, expected,
@@ -233,7 +53,7 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
         );
         for s in 0..model.strip_count() {
             assert_eq!(
-                Some(mirror.strip(&model, s)),
+                Some(mirror.strip(s)),
                 state.strip(s),
                 "mirror strip {s} at LOD {l}"
             );
@@ -257,7 +77,8 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
         };
         state.set_lod(&model, target).expect("same model");
         assert_eq!(state.lod(), target);
-        mirror.upload(&model, &mut state);
+        let dirty = state.take_dirty();
+        mirror.upload(&dirty, state.indices(), state.lengths());
         let (hash, count) = reference[target];
         assert_eq!(
             mirror.count, count,

@@ -21,15 +21,21 @@
 //!
 //! The runtime applies these records blindly; the oracle (tests/oracle.rs)
 //! checks the drawn multiset against the reference mesh after every step.
+//!
+//! Alongside, the build tracks where every buffer entry comes from (`Tokens`):
+//! an `S0` slot or a copy made by a resize, with the LOD range it is alive in
+//! and one order per strip of every entry ever alive. That is what lets the
+//! runtime rebuild any LOD of a frame in one pass, bit-identical to stepping
+//! (tests/oracle_deform.rs compares the two).
 
 use thiserror::Error;
 
 use super::runtime::cut;
 use super::{
-    kind_len, push_footer, push_group, push_header, push_var, zigzag, LodStrips, KIND_B, KIND_BC,
-    KIND_BCC, KIND_C, KIND_NONE,
+    kind_len, push_footer, push_group, push_header, push_var, zigzag, CopyEntry, FrameChanges,
+    StripLayout, CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
 };
-use crate::collapse::{CollapseSequence, SequenceError};
+use crate::collapse::{CollapseSequence, SequenceError, NEVER};
 use crate::strip::Strips;
 
 /// Why a model cannot be built from these strips and this sequence.
@@ -45,6 +51,8 @@ pub enum BuildError {
         index: u32,
         vertices: usize,
     },
+    #[error("the collapse sequence is for {sequence} vertices but the strips index a {strips}-vertex mesh; build both from the same mesh")]
+    VertexCount { sequence: usize, strips: usize },
     #[error("{what} is {value}, above the supported {limit}; split the mesh")]
     TooLarge {
         what: &'static str,
@@ -68,9 +76,8 @@ fn live_windows(strip: &[u32]) -> u32 {
         .count() as u32
 }
 
-fn check_inputs(s0: &Strips, seq: &CollapseSequence) -> Result<(), BuildError> {
-    seq.validate()?;
-    let vertices = seq.vertex_count as usize;
+pub(super) fn layout(s0: &Strips, vertex_count: u32) -> Result<StripLayout, BuildError> {
+    let vertices = vertex_count as usize;
     if vertices > VERTEX_LIMIT {
         return Err(BuildError::TooLarge {
             what: "the vertex count",
@@ -119,22 +126,70 @@ fn check_inputs(s0: &Strips, seq: &CollapseSequence) -> Result<(), BuildError> {
             vertices,
         });
     }
-    Ok(())
-}
-
-pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, BuildError> {
-    check_inputs(s0, seq)?;
     let region_offsets = if s0.offsets.is_empty() {
         vec![0]
     } else {
         s0.offsets.clone()
     };
+    let triangles_at_0: u32 = region_offsets
+        .windows(2)
+        .map(|w| live_windows(&s0.indices[w[0] as usize..w[1] as usize]))
+        .sum();
+    Ok(StripLayout {
+        region_offsets,
+        s0: s0.indices.clone(),
+        vertex_count,
+        triangles_at_0,
+    })
+}
+
+/// The build's view of entry lifetimes: a token per strip entry (`S0` slots
+/// are tokens `0..|S0|`, copies follow), kept parallel to the live strips, and
+/// the order of all tokens ever alive as a linked list per strip. A copy is
+/// linked right after the last token of the run it replaces: every token
+/// between there and the run's right neighbour is dead for good, so the order
+/// of the tokens alive at any LOD is the strip's order at that LOD.
+struct Tokens {
+    /// Token at each buffer position (same layout as the buffer).
+    at: Vec<u32>,
+    /// Next token in the strip's order, or `NEVER` at the end.
+    next: Vec<u32>,
+    /// Death LOD of every token (`NEVER` while alive).
+    death: Vec<u32>,
+    /// `(value, birth)` of the copy tokens: token `|S0| + i` is `copies[i]`.
+    copies: Vec<(u32, u32)>,
+}
+
+pub(super) fn frame(
+    layout: &StripLayout,
+    seq: &CollapseSequence,
+) -> Result<FrameChanges, BuildError> {
+    seq.validate()?;
+    if seq.vertex_count != layout.vertex_count {
+        return Err(BuildError::VertexCount {
+            sequence: seq.vertex_count as usize,
+            strips: layout.vertex_count as usize,
+        });
+    }
+    let region_offsets = &layout.region_offsets;
     let strips = region_offsets.len() - 1;
-    let mut buf = s0.indices.clone();
+    let mut buf = layout.s0.clone();
+    let total = buf.len();
     let mut lens: Vec<usize> = region_offsets
         .windows(2)
         .map(|w| (w[1] - w[0]) as usize)
         .collect();
+    let mut tokens = Tokens {
+        at: (0..total as u32).collect(),
+        next: (1..=total as u32).collect(),
+        death: vec![NEVER; total],
+        copies: Vec::new(),
+    };
+    for w in region_offsets.windows(2) {
+        if w[1] > w[0] {
+            tokens.next[w[1] as usize - 1] = NEVER;
+        }
+    }
 
     // Vertex → sorted strips that may hold it (a superset: merged on collapse).
     let mut strips_of: Vec<Vec<u32>> = vec![Vec::new(); seq.vertex_count as usize];
@@ -147,18 +202,21 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
             }
         }
     }
-    let triangles_at_0: u32 = (0..strips)
-        .map(|s| live_windows(&buf[region_offsets[s] as usize..region_offsets[s + 1] as usize]))
-        .sum();
 
     let mut stream: Vec<u8> = Vec::new();
+    let mut cursors: Vec<u32> = Vec::new();
+    let mut triangles: Vec<u32> = Vec::with_capacity(seq.len() + 1);
+    triangles.push(layout.triangles_at_0);
     let mut rewrites: Vec<u8> = Vec::new();
     let mut resizes: Vec<u8> = Vec::new();
     let mut positions: Vec<u32> = Vec::new();
     let mut touched: Vec<(u32, u32)> = Vec::new();
     let mut needed: Vec<bool> = Vec::new();
     let mut merged: Vec<u32> = Vec::new();
-    for c in &seq.collapses {
+    for (step, c) in seq.collapses.iter().enumerate() {
+        if step % CURSOR_STRIDE == 0 {
+            cursors.push(stream.len() as u32);
+        }
         let (u, w) = (c.u, c.w);
         rewrites.clear();
         resizes.clear();
@@ -210,7 +268,12 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
             let cap = region_offsets[s as usize + 1] as usize;
             let live = lens[s as usize];
             let (new_live, count) = reduce(
-                &mut buf[base..cap],
+                Region {
+                    values: &mut buf[base..cap],
+                    tokens: &mut tokens,
+                    base,
+                    death: step as u32 + 1,
+                },
                 live,
                 group as u32,
                 &mut needed,
@@ -226,15 +289,93 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
         stream.extend_from_slice(&resizes);
         let body = (stream.len() - start) as u32;
         push_footer(&mut stream, body);
+        triangles.push(triangles[step] - removed);
     }
-    Ok(LodStrips {
-        region_offsets,
-        s0: s0.indices.clone(),
+    cursors.push(stream.len() as u32);
+    Ok(FrameChanges {
         collapses: seq.collapses.iter().map(|c| [c.u, c.w]).collect(),
         stream,
-        triangles_at_0,
-        id: super::NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        cursors,
+        triangles,
+        copies: flatten_copies(region_offsets, &tokens),
+        death: {
+            let mut death = tokens.death;
+            death.truncate(total);
+            death
+        },
     })
+}
+
+/// The copies in the order of their strips' token lists, each placed after
+/// the last `S0` slot that precedes it (a strip's list starts with its first
+/// `S0` slot: copies are only ever linked after an existing token).
+fn flatten_copies(region_offsets: &[u32], tokens: &Tokens) -> Vec<CopyEntry> {
+    let s0_len = tokens.at.len() as u32;
+    let mut out = Vec::with_capacity(tokens.copies.len());
+    for w in region_offsets.windows(2) {
+        if w[1] == w[0] {
+            continue;
+        }
+        let mut t = w[0];
+        let mut after = w[0];
+        while t != NEVER {
+            if t < s0_len {
+                after = t;
+            } else {
+                let (value, birth) = tokens.copies[(t - s0_len) as usize];
+                out.push(CopyEntry {
+                    after,
+                    value,
+                    birth,
+                    death: tokens.death[t as usize],
+                });
+            }
+            t = tokens.next[t as usize];
+        }
+    }
+    out
+}
+
+/// A strip's region of the build buffer with the token bookkeeping beside it.
+struct Region<'a> {
+    values: &'a mut [u32],
+    tokens: &'a mut Tokens,
+    /// Start of the region in the whole buffer (and in `tokens.at`).
+    base: usize,
+    /// The LOD from which this step's cuts hold (the step index + 1).
+    death: u32,
+}
+
+impl Region<'_> {
+    /// Cuts `values[i..i+len]` of the live `values[..live]` like
+    /// [`cut`], and records the lifetimes: the run's tokens die, the
+    /// replacement's copies are born and linked after the run's last token.
+    fn cut(&mut self, live: usize, i: usize, len: usize, kind: u16) -> usize {
+        let at = &mut self.tokens.at[self.base..self.base + live];
+        let mut link = at[i + len - 1];
+        let after_run = self.tokens.next[link as usize];
+        for &t in &at[i..i + len] {
+            self.tokens.death[t as usize] = self.death;
+        }
+        let copy_count = kind_len(kind);
+        for k in 0..copy_count {
+            // Cuts write B copies first, then C copies (see `cut`).
+            let from = if k == 0 && kind != KIND_C {
+                i - 1
+            } else {
+                i + len
+            };
+            let id = (self.tokens.death.len()) as u32;
+            self.tokens.copies.push((self.values[from], self.death));
+            self.tokens.death.push(NEVER);
+            self.tokens.next.push(after_run);
+            self.tokens.next[link as usize] = id;
+            link = id;
+            at[i + k] = id;
+        }
+        at.copy_within(i + len..live, i + copy_count);
+        cut(&mut self.values[..live], i, len, kind)
+    }
 }
 
 /// Cuts the unneeded runs of the strip `region[..live]` right to left,
@@ -242,7 +383,7 @@ pub(super) fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, Bu
 /// Records name the strip by its rewrite group in this step (`group`): a
 /// strip is only reduced where the step rewrote it, and the index is smaller.
 fn reduce(
-    region: &mut [u32],
+    mut region: Region,
     live: usize,
     group: u32,
     needed: &mut Vec<bool>,
@@ -251,7 +392,7 @@ fn reduce(
     needed.clear();
     needed.resize(live, false);
     for k in 0..live.saturating_sub(2) {
-        if !degenerate(region[k], region[k + 1], region[k + 2]) {
+        if !degenerate(region.values[k], region.values[k + 1], region.values[k + 2]) {
             needed[k..k + 3].fill(true);
         }
     }
@@ -273,18 +414,18 @@ fn reduce(
             let len = j & !1;
             (len > 0).then_some((0, len, KIND_NONE))
         } else {
-            junction(&region[..current], i, j).map(|kind| (i, j - i, kind))
+            junction(&region.values[..current], i, j).map(|kind| (i, j - i, kind))
         };
         if let Some((at, len, kind)) = cut_at {
             push_var(out, group);
             push_var(out, at as u32);
             push_var(out, ((len as u32) << 3) | u32::from(kind));
-            let mut previous = if at > 0 { region[at - 1] } else { 0 };
-            for &v in &region[at..at + len] {
+            let mut previous = if at > 0 { region.values[at - 1] } else { 0 };
+            for &v in &region.values[at..at + len] {
                 push_var(out, zigzag(v, previous));
                 previous = v;
             }
-            current = cut(&mut region[..current], at, len, kind);
+            current = region.cut(current, at, len, kind);
             count += 1;
         }
         j = i;
@@ -345,7 +486,7 @@ fn junction(strip: &[u32], i: usize, j: usize) -> Option<u16> {
 mod tests {
     use super::*;
     use crate::collapse::{canonical_multiset, Collapse};
-    use crate::lodstrips::{LodError, LodState};
+    use crate::lodstrips::{LodError, LodState, LodStrips};
     use crate::strip::strip_triangles;
 
     fn seq(n: u32, pairs: &[(u32, u32)]) -> CollapseSequence {

@@ -1,7 +1,13 @@
-//! The LodStrips model for one collapse sequence over the common strips `S0`:
-//! change lists recorded by replaying the sequence over the strips
-//! ([`build`]), and the runtime that applies them in both directions to an
-//! index buffer laid out as one fixed region per strip ([`runtime`]).
+//! The LodStrips model over the common strips `S0`: change lists recorded by
+//! replaying a collapse sequence over the strips ([`build`]), and the runtime
+//! that applies them in both directions to an index buffer laid out as one
+//! fixed region per strip ([`runtime`]).
+//!
+//! The data is split so that a deforming object shares everything it can:
+//! [`StripLayout`] (`S0` and the region table) exists once per object, and
+//! each sampled frame owns only a [`FrameChanges`] (its collapse targets,
+//! change stream, triangle table and the entry lifetimes of one-pass
+//! rebuilds). [`LodStrips`] pairs one layout with one frame for a static mesh.
 //!
 //! Each LOD step `l` (collapse `u → w`) is recorded as
 //! * rewrites: the positions in the strips that hold `u` at LOD `l`
@@ -27,6 +33,7 @@ mod runtime;
 pub use build::BuildError;
 pub use runtime::{Dirty, DirtyRange, LodError, LodState};
 
+use crate::collapse::CollapseSequence;
 use crate::strip::Strips;
 
 /// Replacement kinds of a resize: the run `s[i..i+len]` is replaced by copies
@@ -47,39 +54,26 @@ fn kind_len(kind: u16) -> usize {
     }
 }
 
-/// The model: the region layout of `S0`, the collapse targets and the change stream.
+/// The index-buffer layout shared by every frame of a deforming object: `S0`
+/// and its region table. Frames differ only in their [`FrameChanges`].
 #[derive(Clone, Debug, Default)]
-pub struct LodStrips {
+pub struct StripLayout {
     /// Region `i` of the index buffer is `region_offsets[i]..region_offsets[i+1]`
     /// (the length of strip `i` in `S0`).
     region_offsets: Vec<u32>,
     /// `S0` itself: the buffer contents at LOD 0.
     s0: Vec<u32>,
-    /// `(u, w)` of each step.
-    collapses: Vec<[u32; 2]>,
-    /// The change stream, see the module docs.
-    stream: Vec<u8>,
+    /// Vertices the strips index into.
+    vertex_count: u32,
     /// Triangles drawn at LOD 0.
     triangles_at_0: u32,
-    /// Identifies the model a [`LodState`] was made for (clones share it).
-    id: u64,
 }
 
-/// Source of model ids: a state must only follow the stream it was made for.
-static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
-
-impl LodStrips {
-    /// Records the change lists of `seq` over the strips `s0`.
-    pub fn build(
-        s0: &Strips,
-        seq: &crate::collapse::CollapseSequence,
-    ) -> Result<LodStrips, BuildError> {
-        build::build(s0, seq)
-    }
-
-    /// The highest LOD (number of collapses).
-    pub fn max_lod(&self) -> usize {
-        self.collapses.len()
+impl StripLayout {
+    /// Checks `s0` (offsets well formed, every index below `vertex_count`) and
+    /// takes it as the common layout.
+    pub fn new(s0: &Strips, vertex_count: u32) -> Result<StripLayout, BuildError> {
+        build::layout(s0, vertex_count)
     }
 
     /// Number of strips, i.e. of index-buffer regions (one draw each).
@@ -92,19 +86,181 @@ impl LodStrips {
         &self.region_offsets
     }
 
-    /// Bytes of the change lists alone (the stream).
+    /// `S0`: the index buffer at LOD 0, all regions full.
+    pub fn s0(&self) -> &[u32] {
+        &self.s0
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.vertex_count as usize
+    }
+
+    /// Triangles drawn at LOD 0.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles_at_0 as usize
+    }
+
+    /// Bytes of `S0` and the region table.
+    pub fn byte_size(&self) -> usize {
+        (self.s0.len() + self.region_offsets.len()) * 4 + 8
+    }
+}
+
+/// A strip entry that is not an `S0` slot: a copy of a neighbour written by a
+/// resize (replacement kinds `B`, `C`, `BC`, `BCC`). It lives in the strip for
+/// LODs `birth..death` and sits, in the strip's order of all entries ever
+/// alive, right after the `S0` slot `after` (and after earlier copies there).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct CopyEntry {
+    after: u32,
+    /// The neighbour's value when copied; at LOD `l ≥ birth` the entry holds
+    /// `anc_l(value)` because every later rewrite maps it along.
+    value: u32,
+    birth: u32,
+    death: u32,
+}
+
+/// One collapse sequence's change lists over a [`StripLayout`]: what a frame
+/// of a deforming object owns.
+///
+/// Besides the change stream it keeps the *entry lifetimes* that let a state
+/// be rebuilt at any LOD in one pass ([`runtime`]): every value the buffer
+/// ever holds at LOD `l` is `anc_l` of an `S0` slot's value or of a copied
+/// neighbour's value, and resizes only remove contiguous runs and put copies in
+/// their place, so the buffer at LOD `l` is exactly the entries alive at `l`,
+/// in a fixed order, mapped through `anc_l`.
+#[derive(Clone, Debug, Default)]
+pub struct FrameChanges {
+    /// `(u, w)` of each step.
+    collapses: Vec<[u32; 2]>,
+    /// The change stream, see the module docs.
+    stream: Vec<u8>,
+    /// Stream position where step `j · CURSOR_STRIDE` starts.
+    cursors: Vec<u32>,
+    /// Triangles drawn at each LOD `0..=max_lod`.
+    triangles: Vec<u32>,
+    /// Per `S0` slot: the first LOD at which it is cut out (`NEVER` if never).
+    death: Vec<u32>,
+    /// Copies, sorted by `after` (then by order within the strip).
+    copies: Vec<CopyEntry>,
+}
+
+/// Every this many steps the stream position is kept, so a rebuilt state
+/// finds its cursor by walking at most this many step footers backward.
+const CURSOR_STRIDE: usize = 64;
+
+impl FrameChanges {
+    /// Records the change lists of `seq` over `layout`.
+    pub fn build(layout: &StripLayout, seq: &CollapseSequence) -> Result<FrameChanges, BuildError> {
+        build::frame(layout, seq)
+    }
+
+    /// The highest LOD (number of collapses).
+    pub fn max_lod(&self) -> usize {
+        self.collapses.len()
+    }
+
+    /// Triangles drawn at each LOD `0..=max_lod()`; never increasing.
+    pub fn triangle_counts(&self) -> &[u32] {
+        &self.triangles
+    }
+
+    /// Bytes of the change stream alone.
     pub fn change_bytes(&self) -> usize {
         self.stream.len()
     }
 
-    /// Bytes of the whole model: `S0`, its region table, the collapse targets
-    /// and the change lists.
+    /// Number of copy entries (see the type docs), for size reports.
+    pub fn copy_count(&self) -> usize {
+        self.copies.len()
+    }
+
+    /// Bytes this frame holds in RAM: collapse targets, change stream, cursor
+    /// samples, the triangle table and the entry lifetimes used by rebuilds.
     pub fn byte_size(&self) -> usize {
-        self.s0.len() * 4
-            + self.region_offsets.len() * 4
-            + self.collapses.len() * 8
-            + self.change_bytes()
-            + 4
+        self.collapses.len() * 8
+            + self.stream.len()
+            + (self.cursors.len() + self.triangles.len() + self.death.len()) * 4
+            + self.copies.len() * std::mem::size_of::<CopyEntry>()
+    }
+
+    /// Stream position where step `lod` starts: from the next kept cursor,
+    /// walk back over step footers (at most `CURSOR_STRIDE - 1` of them).
+    fn cursor_at(&self, lod: usize) -> usize {
+        let lod = lod.min(self.max_lod());
+        let sample = lod.div_ceil(CURSOR_STRIDE);
+        let (mut step, mut at) = match self.cursors.get(sample) {
+            Some(&at) if sample * CURSOR_STRIDE <= self.max_lod() => {
+                (sample * CURSOR_STRIDE, at as usize)
+            }
+            _ => (self.max_lod(), self.stream.len()),
+        };
+        while step > lod {
+            at = step_start_before(&self.stream, at);
+            step -= 1;
+        }
+        at
+    }
+
+    /// Work units of a one-pass rebuild at `lod` (entries to visit plus
+    /// survivors to resolve), for choosing between a rebuild and stepping.
+    pub fn rebuild_work(&self, layout: &StripLayout, lod: usize) -> usize {
+        self.death.len() + self.copies.len() + layout.vertex_count() + lod.min(self.max_lod())
+    }
+}
+
+/// The model for one collapse sequence: its layout and its change lists.
+#[derive(Clone, Debug, Default)]
+pub struct LodStrips {
+    layout: StripLayout,
+    frame: FrameChanges,
+    /// Identifies the model a [`LodState`] was made for (clones share it).
+    id: u64,
+}
+
+/// Source of model ids: a state must only follow the stream it was made for.
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+/// A fresh model id.
+pub(crate) fn next_id() -> u64 {
+    NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
+impl LodStrips {
+    /// Records the change lists of `seq` over the strips `s0`.
+    pub fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, BuildError> {
+        let layout = StripLayout::new(s0, seq.vertex_count)?;
+        let frame = FrameChanges::build(&layout, seq)?;
+        Ok(LodStrips {
+            layout,
+            frame,
+            id: next_id(),
+        })
+    }
+
+    /// The highest LOD (number of collapses).
+    pub fn max_lod(&self) -> usize {
+        self.frame.max_lod()
+    }
+
+    /// Number of strips, i.e. of index-buffer regions (one draw each).
+    pub fn strip_count(&self) -> usize {
+        self.layout.strip_count()
+    }
+
+    /// Region offsets into the index buffer (`strip_count() + 1` entries).
+    pub fn region_offsets(&self) -> &[u32] {
+        self.layout.region_offsets()
+    }
+
+    /// Bytes of the change lists alone (the stream).
+    pub fn change_bytes(&self) -> usize {
+        self.frame.change_bytes()
+    }
+
+    /// Bytes of the whole model: the layout and the frame's data.
+    pub fn byte_size(&self) -> usize {
+        self.layout.byte_size() + self.frame.byte_size()
     }
 }
 

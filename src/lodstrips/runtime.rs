@@ -8,8 +8,8 @@
 //! allocated per change; the scratch vectors are reused.
 
 use super::{
-    kind_len, read_group, read_header, read_var, step_start_before, unzigzag, var_len, LodStrips,
-    KIND_B, KIND_BC, KIND_BCC, KIND_C,
+    kind_len, read_group, read_header, read_var, step_start_before, unzigzag, var_len,
+    FrameChanges, LodStrips, StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
 };
 
 /// Why a state cannot move.
@@ -55,24 +55,32 @@ pub struct LodState {
     scratch: Vec<usize>,
     /// Strips of the current step's rewrite groups (resizes name strips by group).
     group_strips: Vec<u32>,
+    /// Survivors, scratch of [`LodState::rebuild`].
+    anc: Vec<u32>,
 }
 
 impl LodState {
     /// The state at LOD 0: the buffer holds `S0`, nothing is dirty.
     pub fn new(model: &LodStrips) -> LodState {
-        let strips = model.strip_count();
+        LodState::at_s0(&model.layout, model.id)
+    }
+
+    /// The state at LOD 0 of any frame over `layout`, tagged with the id of
+    /// the model that owns the layout.
+    pub(crate) fn at_s0(layout: &StripLayout, model_id: u64) -> LodState {
+        let strips = layout.strip_count();
         LodState {
-            model_id: model.id,
-            region_offsets: model.region_offsets.clone(),
-            indices: model.s0.clone(),
-            lens: model
+            model_id,
+            region_offsets: layout.region_offsets.clone(),
+            indices: layout.s0.clone(),
+            lens: layout
                 .region_offsets
                 .windows(2)
                 .map(|w| w[1] - w[0])
                 .collect(),
             lod: 0,
             cursor: 0,
-            triangles: model.triangles_at_0,
+            triangles: layout.triangles_at_0,
             dirty_lo: vec![u32::MAX; strips],
             dirty_hi: vec![0; strips],
             dirty_strips: Vec::new(),
@@ -80,7 +88,13 @@ impl LodState {
             len_strips: Vec::new(),
             scratch: Vec::new(),
             group_strips: Vec::new(),
+            anc: Vec::new(),
         }
+    }
+
+    /// The id of the model this state follows.
+    pub(crate) fn model_id(&self) -> u64 {
+        self.model_id
     }
 
     pub fn lod(&self) -> usize {
@@ -126,14 +140,77 @@ impl LodState {
         if model.id != self.model_id {
             return Err(LodError::WrongModel);
         }
-        let lod = lod.min(model.max_lod());
+        self.step_to(&model.frame, lod);
+        Ok(())
+    }
+
+    /// Moves to `lod` (clamped) by applying `frame`'s steps one at a time.
+    /// The state must be at some LOD of `frame` (or at LOD 0 of any frame:
+    /// `S0` is every frame's LOD 0).
+    pub(crate) fn step_to(&mut self, frame: &FrameChanges, lod: usize) {
+        let lod = lod.min(frame.max_lod());
         while self.lod < lod {
-            self.coarsen(model);
+            self.coarsen(frame);
         }
         while self.lod > lod {
-            self.refine(model);
+            self.refine(frame);
         }
-        Ok(())
+    }
+
+    /// Sets the state to `frame` at `lod` (clamped) in one pass, whatever
+    /// frame and LOD it was at: the survivors `anc` of every vertex first
+    /// (walking the first `lod` collapses backward, as
+    /// [`CollapseSequence::survivors`](crate::collapse::CollapseSequence::survivors)),
+    /// then every strip as its entries alive at `lod` mapped through `anc`
+    /// (see [`FrameChanges`]). The result is the very buffer that stepping
+    /// from LOD 0 produces, so later steps can replay recorded positions.
+    /// Every live strip is marked dirty.
+    pub(crate) fn rebuild(&mut self, layout: &StripLayout, frame: &FrameChanges, lod: usize) {
+        let lod = lod.min(frame.max_lod());
+        self.anc.clear();
+        self.anc.extend(0..layout.vertex_count);
+        for &[u, w] in frame.collapses[..lod].iter().rev() {
+            self.anc[u as usize] = self.anc[w as usize];
+        }
+        let l = lod as u32;
+        let copies = &frame.copies;
+        let mut ci = 0;
+        for s in 0..layout.strip_count() {
+            let start = layout.region_offsets[s] as usize;
+            let end = layout.region_offsets[s + 1] as usize;
+            let mut q = start;
+            let mut p = start;
+            while p < end {
+                // `S0` slots up to the next copy anchor, then its copies.
+                let stop = match copies.get(ci) {
+                    Some(c) if (c.after as usize) < end => c.after as usize + 1,
+                    _ => end,
+                };
+                for (&v, &death) in layout.s0[p..stop].iter().zip(&frame.death[p..stop]) {
+                    if death > l {
+                        self.indices[q] = self.anc[v as usize];
+                        q += 1;
+                    }
+                }
+                p = stop;
+                while let Some(c) = copies.get(ci).filter(|c| c.after as usize + 1 == stop) {
+                    if c.birth <= l && l < c.death {
+                        self.indices[q] = self.anc[c.value as usize];
+                        q += 1;
+                    }
+                    ci += 1;
+                }
+            }
+            let live = (q - start) as u32;
+            if live != self.lens[s] {
+                self.lens[s] = live;
+                self.mark_len(s);
+            }
+            self.mark(s, 0, live);
+        }
+        self.lod = lod;
+        self.triangles = frame.triangles[lod];
+        self.cursor = frame.cursor_at(lod);
     }
 
     /// Hands the dirty log to the uploader and clears it.
@@ -178,7 +255,7 @@ impl LodState {
     }
 
     /// Applies step `self.lod`: rewrites `u → w`, then the resizes in order.
-    fn coarsen(&mut self, model: &LodStrips) {
+    fn coarsen(&mut self, model: &FrameChanges) {
         let s = &model.stream;
         let [_, w] = model.collapses[self.lod];
         let mut at = self.cursor;
@@ -192,7 +269,7 @@ impl LodState {
             for _ in 0..len {
                 read_var(s, &mut at);
             }
-            let base = model.region_offsets[strip] as usize;
+            let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
             let region = &mut self.indices[base..base + live];
             let new_live = cut(region, i, len, kind);
@@ -209,7 +286,7 @@ impl LodState {
 
     /// Undoes step `self.lod - 1`: restores the resizes in reverse order, then
     /// writes `u` back.
-    fn refine(&mut self, model: &LodStrips) {
+    fn refine(&mut self, model: &FrameChanges) {
         let s = &model.stream;
         let start = step_start_before(s, self.cursor);
         let [u, _] = model.collapses[self.lod - 1];
@@ -243,7 +320,7 @@ impl LodState {
             let i = read_var(s, &mut at) as usize;
             let lk = read_var(s, &mut at);
             let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
-            let base = model.region_offsets[strip] as usize;
+            let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
             let new_live = live + len - kind_len(kind);
             let region = &mut self.indices[base..base + new_live];
@@ -265,7 +342,7 @@ impl LodState {
 
     /// Writes `value` at every position of the rewrite groups starting at
     /// `at`; returns the stream position after them.
-    fn rewrite(&mut self, model: &LodStrips, mut at: usize, groups: u32, value: u32) -> usize {
+    fn rewrite(&mut self, model: &FrameChanges, mut at: usize, groups: u32, value: u32) -> usize {
         let s = &model.stream;
         let mut strip = 0usize;
         self.group_strips.clear();
@@ -273,7 +350,7 @@ impl LodState {
             let (delta, count) = read_group(s, &mut at);
             strip += delta as usize;
             self.group_strips.push(strip as u32);
-            let base = model.region_offsets[strip] as usize;
+            let base = self.region_offsets[strip] as usize;
             let mut pos = 0u32;
             let mut lo = u32::MAX;
             for _ in 0..count {

@@ -1,0 +1,369 @@
+//! The per-object LOD runtime of a deforming mesh: one [`StripLayout`] (`S0`
+//! and its regions) shared by every sampled frame, one [`FrameChanges`] per
+//! frame, and the state that [`DeformingLod::set`] moves to any `(t, lod)`.
+//!
+//! This is its own module rather than part of [`lodstrips`](crate::lodstrips)
+//! because it owns what only a deforming object has: an [`Asset`]'s validation,
+//! the mapping from `t` to a frame, the LOD parameter ([`Lod`]) resolved
+//! against per-frame tables, and the choice between the two ways to switch
+//! frames. `lodstrips` stays the single-sequence model (change lists and how
+//! to apply them), which this module drives.
+//!
+//! A move to `(k', l')` from `(k, l)` costs either
+//! * stepping: `|l − l'|` steps inside a frame, or `l + l'` steps across frames
+//!   (refine to LOD 0, where every frame's buffer is `S0`, then coarsen under
+//!   the new frame); or
+//! * a rebuild: one pass over all strip entries plus the survivors of all
+//!   vertices (`FrameChanges::rebuild_work`), independent of `l`.
+//!
+//! [`Strategy::Auto`] takes the cheaper by [`STEP_COST`], the measured cost of
+//! one step in rebuild work units (`cargo bench --bench deform`). Both produce
+//! the identical buffer (tests/oracle_deform.rs checks it), so the choice is
+//! invisible except in time and in how much the dirty log holds.
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::asset::Asset;
+use crate::collapse::{CollapseSequence, SequenceError};
+use crate::lodstrips::{BuildError, Dirty, FrameChanges, LodState, StripLayout};
+
+/// The level of detail to show, resolved against the current frame's tables.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lod {
+    /// This many collapses (clamped to the frame's count); 0 = full detail.
+    Steps(usize),
+    /// The paper's parameter in `[0, 1]` (clamped): 0 = full detail, 1 = the
+    /// coarsest LOD; `round(f · max_lod)` collapses.
+    Fraction(f32),
+    /// A triangle budget: the finest LOD drawing at most this many triangles
+    /// (the coarsest LOD if even that draws more).
+    Triangles(usize),
+    /// An object-space error bound, in the mesh's units (a distance): the
+    /// coarsest LOD whose collapses all have an error of at most this. The
+    /// simplifier records a mean squared distance (see
+    /// [`Collapse::error`](crate::collapse::Collapse)); it is compared as its
+    /// square root. Negative bounds give full detail.
+    MaxError(f32),
+}
+
+impl Lod {
+    /// The object-space error that projects to `pixels` on screen at
+    /// `distance` from a perspective camera with vertical field of view
+    /// `fov_y` (radians) and a viewport `viewport_height` pixels tall: one
+    /// pixel spans `2 · distance · tan(fov_y / 2) / viewport_height` units.
+    pub fn screen_error(pixels: f32, distance: f32, fov_y: f32, viewport_height: f32) -> Lod {
+        let units_per_pixel = 2.0 * distance * (fov_y * 0.5).tan() / viewport_height;
+        Lod::MaxError(pixels * units_per_pixel)
+    }
+}
+
+/// How [`DeformingLod::set_with`] reaches the requested state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// The cheaper of the two below, by the cost model (module docs).
+    Auto,
+    /// Apply recorded steps (across frames: refine to 0, then coarsen).
+    Steps,
+    /// Rebuild all strips in one pass.
+    Rebuild,
+}
+
+/// Cost of one incremental step in rebuild work units (one entry visited or
+/// one survivor resolved). Measured by `cargo bench --bench deform` on
+/// makehuman_body (32 frames, 50% LOD): a frame switch by 13,376 steps took
+/// 1.67 ms (125 ns a step), the one-pass rebuild of about 52,000 units took
+/// 117 µs (2.3 ns a unit), so a step costs about 55 units; 50 leans toward
+/// stepping, whose dirty log is smaller.
+pub const STEP_COST: usize = 50;
+
+/// Why a [`DeformingModel`] cannot be made from an asset.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum DeformError {
+    #[error("the asset has no frames; build it with at least one sampled frame")]
+    NoFrames,
+    #[error("V(0) has {v0} vertices but V(1) has {v1}; both poses must come from one morph")]
+    PoseSizeMismatch { v0: usize, v1: usize },
+    #[error(
+        "{pose} vertex {vertex} is not finite ({value:?}); rebuild the asset from clean input"
+    )]
+    NonFinite {
+        pose: &'static str,
+        vertex: usize,
+        value: [f32; 3],
+    },
+    #[error("the asset has {vertices} vertices, more than the 2^31 the strips can index; split the mesh")]
+    TooManyVertices { vertices: usize },
+    #[error("the strips S0 are invalid: {0}")]
+    Strips(BuildError),
+    #[error("frame {frame}'s collapse sequence is for {sequence} vertices, the poses have {vertices}; rebuild the asset")]
+    FrameVertexCount {
+        frame: usize,
+        sequence: usize,
+        vertices: usize,
+    },
+    #[error("frame {frame}'s collapse sequence is invalid: {source}; rebuild the asset")]
+    Sequence { frame: usize, source: SequenceError },
+    #[error("frame {frame}'s change lists cannot be built: {source}")]
+    Frame { frame: usize, source: BuildError },
+}
+
+/// Why [`DeformingLod::set`] refused a request (the state is unchanged).
+#[derive(Debug, Error, Clone, Copy, PartialEq)]
+pub enum SetError {
+    #[error("t is NaN; pass a time in [0, 1]")]
+    TimeNaN,
+    #[error("the LOD {0:?} holds NaN; pass a number")]
+    LodNaN(Lod),
+    #[error("this DeformingLod was made for another DeformingModel; make one with DeformingLod::new(&model) per model")]
+    WrongModel,
+}
+
+/// One sampled frame: its change lists and its LOD tables.
+#[derive(Clone, Debug)]
+struct Frame {
+    changes: FrameChanges,
+    /// `errors[l]`: the largest collapse error among the first `l`, as a
+    /// distance (square root of the recorded mean squared distance); never
+    /// decreasing, `errors[0] = 0`.
+    errors: Vec<f32>,
+}
+
+/// Every frame's LOD model over one shared `S0`.
+#[derive(Clone, Debug)]
+pub struct DeformingModel {
+    layout: StripLayout,
+    frames: Vec<Frame>,
+    id: u64,
+}
+
+impl DeformingModel {
+    /// Validates `asset` (poses of one length and finite, `S0` well formed
+    /// and in range, every frame's sequence valid for that vertex count, at
+    /// least one frame) and builds every frame's change lists, in parallel.
+    pub fn new(asset: &Asset) -> Result<DeformingModel, DeformError> {
+        if asset.frames.is_empty() {
+            return Err(DeformError::NoFrames);
+        }
+        let n = asset.v0.len();
+        if asset.v1.len() != n {
+            return Err(DeformError::PoseSizeMismatch {
+                v0: n,
+                v1: asset.v1.len(),
+            });
+        }
+        for (pose, positions) in [("V(0)", &asset.v0), ("V(1)", &asset.v1)] {
+            if let Some((vertex, &value)) = positions
+                .iter()
+                .enumerate()
+                .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
+            {
+                return Err(DeformError::NonFinite {
+                    pose,
+                    vertex,
+                    value,
+                });
+            }
+        }
+        let vertex_count =
+            u32::try_from(n).map_err(|_| DeformError::TooManyVertices { vertices: n })?;
+        let layout = StripLayout::new(&asset.s0, vertex_count).map_err(|e| match e {
+            BuildError::TooLarge {
+                what: "the vertex count",
+                ..
+            } => DeformError::TooManyVertices { vertices: n },
+            e => DeformError::Strips(e),
+        })?;
+        let built: Vec<Result<Frame, DeformError>> = asset
+            .frames
+            .par_iter()
+            .enumerate()
+            .map(|(frame, seq)| build_frame(&layout, frame, seq))
+            .collect();
+        let frames = built.into_iter().collect::<Result<Vec<Frame>, _>>()?;
+        Ok(DeformingModel {
+            layout,
+            frames,
+            id: crate::lodstrips::next_id(),
+        })
+    }
+
+    /// Number of sampled frames `|r|`.
+    pub fn frame_count(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// The shared layout: `S0` and the region table.
+    pub fn layout(&self) -> &StripLayout {
+        &self.layout
+    }
+
+    /// Frame `k`'s change lists, or `None` past the last frame.
+    pub fn frame_changes(&self, k: usize) -> Option<&FrameChanges> {
+        self.frames.get(k).map(|f| &f.changes)
+    }
+
+    /// The frame shown at time `t`: `round(t · (|r| − 1))`, `t` clamped to `[0, 1]`.
+    pub fn frame_at(&self, t: f32) -> Result<usize, SetError> {
+        if t.is_nan() {
+            return Err(SetError::TimeNaN);
+        }
+        let last = self.frames.len() - 1;
+        Ok(((t.clamp(0.0, 1.0) * last as f32).round() as usize).min(last))
+    }
+
+    /// `lod` as a step count of frame `k` (clamped to the last frame).
+    pub fn resolve(&self, k: usize, lod: Lod) -> Result<usize, SetError> {
+        let frame = &self.frames[k.min(self.frames.len() - 1)];
+        let max = frame.changes.max_lod();
+        Ok(match lod {
+            Lod::Steps(l) => l.min(max),
+            Lod::Fraction(f) if f.is_nan() => return Err(SetError::LodNaN(lod)),
+            Lod::Fraction(f) => ((f.clamp(0.0, 1.0) * max as f32).round() as usize).min(max),
+            Lod::Triangles(budget) => {
+                let budget = u32::try_from(budget).unwrap_or(u32::MAX);
+                let tris = frame.changes.triangle_counts();
+                tris.partition_point(|&t| t > budget).min(max)
+            }
+            Lod::MaxError(e) if e.is_nan() => return Err(SetError::LodNaN(lod)),
+            Lod::MaxError(e) => frame.errors.partition_point(|&x| x <= e).saturating_sub(1),
+        })
+    }
+
+    /// Bytes of the per-frame data in RAM (change lists, tables), per frame.
+    pub fn frame_bytes(&self) -> Vec<usize> {
+        self.frames
+            .iter()
+            .map(|f| f.changes.byte_size() + f.errors.len() * 4)
+            .collect()
+    }
+}
+
+fn build_frame(
+    layout: &StripLayout,
+    frame: usize,
+    seq: &CollapseSequence,
+) -> Result<Frame, DeformError> {
+    if seq.vertex_count as usize != layout.vertex_count() {
+        return Err(DeformError::FrameVertexCount {
+            frame,
+            sequence: seq.vertex_count as usize,
+            vertices: layout.vertex_count(),
+        });
+    }
+    seq.validate()
+        .map_err(|source| DeformError::Sequence { frame, source })?;
+    let changes =
+        FrameChanges::build(layout, seq).map_err(|source| DeformError::Frame { frame, source })?;
+    let errors = seq.errors().iter().map(|&e| e.max(0.0).sqrt()).collect();
+    Ok(Frame { changes, errors })
+}
+
+/// The strips of one [`DeformingModel`] at some `(frame, lod)`, with the log
+/// of what changed since the GPU uploader last looked.
+#[derive(Clone, Debug)]
+pub struct DeformingLod {
+    state: LodState,
+    frame: usize,
+}
+
+impl DeformingLod {
+    /// Frame 0 at LOD 0: the buffer holds `S0`, nothing is dirty.
+    pub fn new(model: &DeformingModel) -> DeformingLod {
+        DeformingLod {
+            state: LodState::at_s0(&model.layout, model.id),
+            frame: 0,
+        }
+    }
+
+    /// Moves to time `t` (frame `round(t · (|r| − 1))`, `t` clamped to
+    /// `[0, 1]`) at `lod` resolved in that frame, the cheaper way.
+    pub fn set(&mut self, model: &DeformingModel, t: f32, lod: Lod) -> Result<(), SetError> {
+        self.set_with(model, t, lod, Strategy::Auto).map(|_| ())
+    }
+
+    /// [`set`](Self::set) with the strategy chosen by the caller; returns the
+    /// one used (`Steps` or `Rebuild`).
+    pub fn set_with(
+        &mut self,
+        model: &DeformingModel,
+        t: f32,
+        lod: Lod,
+        strategy: Strategy,
+    ) -> Result<Strategy, SetError> {
+        if self.state.model_id() != model.id {
+            return Err(SetError::WrongModel);
+        }
+        let k = model.frame_at(t)?;
+        let l = model.resolve(k, lod)?;
+        let frame = &model.frames[k].changes;
+        let steps = if k == self.frame {
+            self.state.lod().abs_diff(l)
+        } else {
+            self.state.lod() + l
+        };
+        let used = match strategy {
+            Strategy::Auto if steps * STEP_COST <= frame.rebuild_work(&model.layout, l) => {
+                Strategy::Steps
+            }
+            Strategy::Auto => Strategy::Rebuild,
+            chosen => chosen,
+        };
+        if used == Strategy::Rebuild {
+            self.state.rebuild(&model.layout, frame, l);
+        } else {
+            if k != self.frame {
+                self.state.step_to(&model.frames[self.frame].changes, 0);
+            }
+            self.state.step_to(frame, l);
+        }
+        self.frame = k;
+        Ok(used)
+    }
+
+    /// The current frame.
+    pub fn frame(&self) -> usize {
+        self.frame
+    }
+
+    /// The current LOD in steps of the current frame.
+    pub fn lod(&self) -> usize {
+        self.state.lod()
+    }
+
+    /// Non-degenerate triangles the current strips draw.
+    pub fn triangle_count(&self) -> usize {
+        self.state.triangle_count()
+    }
+
+    /// Total live indices over all strips.
+    pub fn index_count(&self) -> usize {
+        self.state.index_count()
+    }
+
+    /// The whole index buffer (all regions, live parts and stale tails).
+    pub fn indices(&self) -> &[u32] {
+        self.state.indices()
+    }
+
+    /// Live length of every strip (its draw's `index_count`).
+    pub fn lengths(&self) -> &[u32] {
+        self.state.lengths()
+    }
+
+    /// Live indices of strip `i`, or `None` past the last strip.
+    pub fn strip(&self, i: usize) -> Option<&[u32]> {
+        self.state.strip(i)
+    }
+
+    /// Region offsets into [`indices`](Self::indices) (`strip count + 1` entries).
+    pub fn region_offsets(&self) -> &[u32] {
+        self.state.region_offsets()
+    }
+
+    /// Hands the dirty log to the uploader and clears it. After a rebuild it
+    /// names every live strip; the uploader coalesces.
+    pub fn take_dirty(&mut self) -> Dirty {
+        self.state.take_dirty()
+    }
+}

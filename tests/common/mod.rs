@@ -1,0 +1,226 @@
+//! Helpers shared by the oracle tests (tests/oracle.rs, tests/oracle_deform.rs):
+//! a seeded RNG, random collapse sequences, the reference multiset hash of
+//! every LOD in one pass, and a GPU mirror updated only through the dirty log.
+//!
+//! Each test binary compiles this module and uses a subset of it.
+#![allow(dead_code)]
+
+use morphlod::collapse::{canonical, Collapse, CollapseSequence};
+use morphlod::lodstrips::Dirty;
+use morphlod::strip::strip_triangles;
+
+/// SplitMix64: small, seedable, good enough to drive random walks.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        mix(self.0)
+    }
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+    /// Uniform in `[0, 1)`.
+    pub fn unit(&mut self) -> f32 {
+        (self.next() >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+pub fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Hash of an oriented triangle, equal for its three rotations; a multiset
+/// hashes to the wrapping sum of its members.
+pub fn tri_hash(t: [u32; 3]) -> u64 {
+    let c = canonical(t);
+    mix(mix(mix(u64::from(c[0]) + 1) ^ u64::from(c[1])) ^ (u64::from(c[2]) << 1))
+}
+
+pub fn degenerate(t: [u32; 3]) -> bool {
+    t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
+}
+
+/// A random valid sequence: half-edge collapses along current edges of the
+/// mapped mesh, in random direction, until `steps` or no triangle is left.
+pub fn random_sequence(
+    tris: &[[u32; 3]],
+    n: usize,
+    steps: usize,
+    rng: &mut Rng,
+) -> CollapseSequence {
+    let mut mapped = tris.to_vec();
+    let mut incident: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (t, tri) in tris.iter().enumerate() {
+        for &v in tri {
+            incident[v as usize].push(t as u32);
+        }
+    }
+    let mut live: Vec<u32> = (0..tris.len() as u32)
+        .filter(|&t| !degenerate(tris[t as usize]))
+        .collect();
+    let mut collapses = Vec::new();
+    while collapses.len() < steps && !live.is_empty() {
+        let k = rng.below(live.len());
+        let t = live[k] as usize;
+        if degenerate(mapped[t]) {
+            live.swap_remove(k);
+            continue;
+        }
+        let c = rng.below(3);
+        let (mut u, mut w) = (mapped[t][c], mapped[t][(c + 1) % 3]);
+        if rng.next() & 1 == 0 {
+            std::mem::swap(&mut u, &mut w);
+        }
+        let moved = std::mem::take(&mut incident[u as usize]);
+        for &m in &moved {
+            for v in mapped[m as usize].iter_mut() {
+                if *v == u {
+                    *v = w;
+                }
+            }
+        }
+        incident[w as usize].extend(moved);
+        // Errors grow along the sequence in plateaus of three equal values,
+        // so maximum-error LODs meet ties.
+        let error = (collapses.len() / 3) as f32 * 0.01;
+        collapses.push(Collapse { u, w, error });
+    }
+    let seq = CollapseSequence {
+        vertex_count: n as u32,
+        collapses,
+    };
+    seq.validate().expect("generated sequence is valid");
+    seq
+}
+
+/// Reference multiset hash and triangle count at every LOD, in one pass.
+pub fn reference_hashes(tris: &[[u32; 3]], seq: &CollapseSequence) -> Vec<(u64, usize)> {
+    let n = seq.vertex_count as usize;
+    let mut mapped = tris.to_vec();
+    let mut incident: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut hash = 0u64;
+    let mut count = 0usize;
+    for (t, tri) in tris.iter().enumerate() {
+        for &v in tri {
+            incident[v as usize].push(t as u32);
+        }
+        if !degenerate(*tri) {
+            hash = hash.wrapping_add(tri_hash(*tri));
+            count += 1;
+        }
+    }
+    let mut out = vec![(hash, count)];
+    for c in &seq.collapses {
+        let moved = std::mem::take(&mut incident[c.u as usize]);
+        for &m in &moved {
+            let old = mapped[m as usize];
+            if !old.contains(&c.u) {
+                continue;
+            }
+            if !degenerate(old) {
+                hash = hash.wrapping_sub(tri_hash(old));
+                count -= 1;
+            }
+            let new = old.map(|v| if v == c.u { c.w } else { v });
+            if !degenerate(new) {
+                hash = hash.wrapping_add(tri_hash(new));
+                count += 1;
+            }
+            mapped[m as usize] = new;
+        }
+        incident[c.w as usize].extend(moved);
+        out.push((hash, count));
+    }
+    out
+}
+
+/// Multiset hash of a triangle list.
+pub fn multiset_hash(tris: &[[u32; 3]]) -> u64 {
+    tris.iter().fold(0u64, |h, &t| h.wrapping_add(tri_hash(t)))
+}
+
+/// The GPU's view of the index buffer, updated only from the dirty log, with
+/// the multiset hash and count of what it draws kept per strip.
+pub struct Mirror {
+    region_offsets: Vec<u32>,
+    pub indices: Vec<u32>,
+    pub lens: Vec<u32>,
+    strip_hash: Vec<u64>,
+    strip_count: Vec<usize>,
+    pub hash: u64,
+    pub count: usize,
+}
+
+impl Mirror {
+    /// A mirror of a state's buffer as first uploaded whole.
+    pub fn new(region_offsets: &[u32], indices: &[u32], lengths: &[u32]) -> Mirror {
+        let strips = region_offsets.len() - 1;
+        let mut m = Mirror {
+            region_offsets: region_offsets.to_vec(),
+            indices: indices.to_vec(),
+            lens: lengths.to_vec(),
+            strip_hash: vec![0; strips],
+            strip_count: vec![0; strips],
+            hash: 0,
+            count: 0,
+        };
+        for s in 0..strips {
+            m.rehash(s);
+        }
+        m
+    }
+
+    pub fn strip_count(&self) -> usize {
+        self.region_offsets.len() - 1
+    }
+
+    pub fn strip(&self, s: usize) -> &[u32] {
+        let base = self.region_offsets[s] as usize;
+        &self.indices[base..base + self.lens[s] as usize]
+    }
+
+    fn rehash(&mut self, s: usize) {
+        let (mut h, mut c) = (0u64, 0usize);
+        for t in strip_triangles(self.strip(s)) {
+            h = h.wrapping_add(tri_hash(t));
+            c += 1;
+        }
+        self.hash = self.hash.wrapping_sub(self.strip_hash[s]).wrapping_add(h);
+        self.count = self.count - self.strip_count[s] + c;
+        self.strip_hash[s] = h;
+        self.strip_count[s] = c;
+    }
+
+    /// Copies exactly the ranges and lengths the dirty log names.
+    pub fn upload(&mut self, dirty: &Dirty, indices: &[u32], lengths: &[u32]) {
+        let mut touched: Vec<usize> = Vec::new();
+        for r in &dirty.ranges {
+            let base = self.region_offsets[r.strip as usize] as usize;
+            let (a, b) = (base + r.start as usize, base + r.end as usize);
+            assert!(
+                b <= self.region_offsets[r.strip as usize + 1] as usize,
+                "dirty range {r:?} leaves its region"
+            );
+            self.indices[a..b].copy_from_slice(&indices[a..b]);
+            touched.push(r.strip as usize);
+        }
+        for &s in &dirty.lengths {
+            self.lens[s as usize] = lengths[s as usize];
+            touched.push(s as usize);
+        }
+        touched.sort_unstable();
+        touched.dedup();
+        for s in touched {
+            self.rehash(s);
+        }
+    }
+
+    pub fn triangles(&self) -> Vec<[u32; 3]> {
+        (0..self.strip_count())
+            .flat_map(|s| strip_triangles(self.strip(s)).collect::<Vec<_>>())
+            .collect()
+    }
+}

@@ -1,0 +1,451 @@
+//! The oracle for deforming meshes: random walks of `DeformingLod::set(t, lod)`
+//! checked against the reference mesh of DESIGN.md for the CURRENT frame's
+//! collapse sequence at the current LOD.
+//!
+//! The test assets are built here (stripify `T` once, simplify `V(t_k)` per
+//! frame); the production builder lives elsewhere and is not needed for this.
+//!
+//! What is checked when:
+//! * After EVERY step: the frame is `round(t (|r|-1))`, the LOD is what the
+//!   `Lod` request means by its definition (computed here from the sequence's
+//!   own tables: reference triangle counts, `errors()`), and the multiset hash
+//!   and count of the triangles drawn by a GPU mirror (updated only through
+//!   `take_dirty`) equal the reference of that frame at that LOD, as does
+//!   `triangle_count()`.
+//! * Full checks every `FULL_STRIDE`-th step, at every switch whose strategy
+//!   is compared, and at the end: exact sorted multiset against
+//!   `reference_mesh`, mirror strips == state strips.
+//! * Strategy equivalence: at random frame switches and LOD jumps, a clone of
+//!   the state is moved with the other strategy (steps vs one-pass rebuild),
+//!   and both must hold identical strips (later steps replay recorded
+//!   positions, so the buffer must be identical, not only draw the same).
+//! * End of walk: the walked state equals fresh states moved straight to the
+//!   final `(frame, lod)` by either strategy.
+
+mod common;
+
+use common::{multiset_hash, random_sequence, reference_hashes, Mirror, Rng};
+use morphlod::collapse::{canonical_multiset, CollapseSequence};
+use morphlod::deform::{DeformError, SetError, Strategy};
+use morphlod::io::LoadOptions;
+use morphlod::morph::{Morph, MorphSource};
+use morphlod::simplify::{simplify, SimplifyOptions};
+use morphlod::strip::stripify;
+use morphlod::{Asset, DeformingLod, DeformingModel, Lod};
+use rayon::prelude::*;
+
+/// A full multiset check every this many steps.
+const FULL_STRIDE: usize = 97;
+
+/// The asset of `morph` sampled at `frames` frames, built the way the paper
+/// does: `S0` once on `T`, one QEM sequence per pose `V(t_k)`.
+fn build_asset(morph: &Morph, frames: usize) -> Asset {
+    let tris = morph.triangles();
+    let s0 = stripify(tris, morph.vertex_count());
+    let sequences: Vec<CollapseSequence> = (0..frames)
+        .into_par_iter()
+        .map(|k| {
+            let t = k as f32 / (frames - 1).max(1) as f32;
+            simplify(&morph.positions_at(t), tris, &SimplifyOptions::default())
+        })
+        .collect();
+    Asset {
+        v0: morph.v0(),
+        v1: morph.v1(),
+        s0,
+        frames: sequences,
+    }
+}
+
+fn load_morph(file: &str, source: MorphSource) -> Morph {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(file);
+    Morph::from_gltf(&path, &LoadOptions::default(), &source)
+        .unwrap_or_else(|e| panic!("{file}: {e}"))
+}
+
+/// Strips of two states, compared entry by entry.
+fn same_strips(a: &DeformingLod, b: &DeformingLod, what: &str) {
+    assert_eq!(a.lengths(), b.lengths(), "{what}: strip lengths differ");
+    for s in 0..a.lengths().len() {
+        assert_eq!(a.strip(s), b.strip(s), "{what}: strip {s} differs");
+    }
+}
+
+/// Per-frame reference tables.
+struct Frames<'a> {
+    tris: &'a [[u32; 3]],
+    asset: &'a Asset,
+    /// `(multiset hash, count)` of the reference mesh at every LOD.
+    hashes: Vec<Vec<(u64, usize)>>,
+    /// `errors()` of every sequence (squared distances).
+    errors: Vec<Vec<f32>>,
+}
+
+impl Frames<'_> {
+    /// The LOD `lod` means in frame `k`, by the definitions in `Lod`'s docs,
+    /// computed from the reference tables by linear scans.
+    fn expected(&self, k: usize, lod: Lod) -> usize {
+        let max = self.asset.frames[k].len();
+        match lod {
+            Lod::Steps(l) => l.min(max),
+            Lod::Fraction(f) => (f.clamp(0.0, 1.0) * max as f32).round() as usize,
+            Lod::Triangles(n) => self.hashes[k]
+                .iter()
+                .position(|&(_, c)| c <= n)
+                .unwrap_or(max),
+            Lod::MaxError(e) => self.errors[k]
+                .iter()
+                .rposition(|&x| x.sqrt() <= e)
+                .unwrap_or(0),
+        }
+    }
+
+    /// A request of a random kind that means LOD `target` of frame `k` (or,
+    /// for budgets and bounds between two tables entries, a nearby LOD).
+    fn request(&self, k: usize, target: usize, rng: &mut Rng) -> Lod {
+        let max = self.asset.frames[k].len();
+        match rng.below(4) {
+            0 => Lod::Steps(if target == max && rng.below(2) == 0 {
+                max + 1 + rng.below(5)
+            } else {
+                target
+            }),
+            1 => match rng.below(8) {
+                0 => Lod::Fraction(-0.5),
+                1 => Lod::Fraction(1.5),
+                _ => Lod::Fraction((target as f32 + rng.unit() - 0.5) / max.max(1) as f32),
+            },
+            2 => {
+                let count = self.hashes[k][target].1;
+                Lod::Triangles(match rng.below(3) {
+                    0 => count.saturating_sub(1),
+                    1 => count + 1,
+                    _ => count,
+                })
+            }
+            _ => {
+                let e = self.errors[k][target].sqrt();
+                Lod::MaxError(match rng.below(4) {
+                    0 => e * 1.0001,
+                    1 => e * 0.9999,
+                    2 if target == 0 => -1.0,
+                    _ => e,
+                })
+            }
+        }
+    }
+
+    fn full_check(&self, k: usize, l: usize, mirror: &Mirror, state: &DeformingLod, at: &str) {
+        let reference = self.asset.frames[k].reference_mesh(self.tris, l);
+        assert_eq!(
+            (multiset_hash(&reference), reference.len()),
+            self.hashes[k][l],
+            "{at}: one-pass reference tables disagree with reference_mesh"
+        );
+        assert_eq!(
+            canonical_multiset(mirror.triangles()),
+            canonical_multiset(reference),
+            "{at}: drawn triangles differ from the reference of frame {k} at LOD {l}"
+        );
+        assert_eq!(
+            mirror.lens.as_slice(),
+            state.lengths(),
+            "{at}: mirror lengths"
+        );
+        for s in 0..mirror.strip_count() {
+            assert_eq!(
+                Some(mirror.strip(s)),
+                state.strip(s),
+                "{at}: mirror strip {s}"
+            );
+        }
+        assert!(state.index_count() <= self.asset.s0.indices.len());
+    }
+}
+
+/// Drives `steps` random `set` calls over `(t, lod)`; see the module docs.
+fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
+    let model = DeformingModel::new(asset).expect("model builds");
+    let frames = Frames {
+        tris,
+        asset,
+        hashes: asset
+            .frames
+            .par_iter()
+            .map(|seq| reference_hashes(tris, seq))
+            .collect(),
+        errors: asset.frames.iter().map(|seq| seq.errors()).collect(),
+    };
+    let r = asset.frames.len();
+    let last = (r - 1).max(1) as f32;
+    let mut rng = Rng(seed);
+    let mut state = DeformingLod::new(&model);
+    let mut mirror = Mirror::new(state.region_offsets(), state.indices(), state.lengths());
+    frames.full_check(0, 0, &mirror, &state, name);
+    let mut used = [0usize; 2];
+    let mut compared = 0usize;
+    for step in 0..steps {
+        let at = format!("{name} step {step}");
+        let k0 = state.frame();
+        let (t, k) = match rng.below(8) {
+            // A new frame: anywhere, a neighbour, an end, or out of range.
+            0 => {
+                let k = rng.below(r);
+                ((k as f32 + rng.unit() * 0.9 - 0.45) / last, k)
+            }
+            1 => {
+                let k = if rng.below(2) == 0 {
+                    (k0 + 1).min(r - 1)
+                } else {
+                    k0.saturating_sub(1)
+                };
+                (k as f32 / last, k)
+            }
+            2 => match rng.below(4) {
+                0 => (0.0, 0),
+                1 => (1.0, r - 1),
+                2 => (-3.0, 0),
+                _ => (7.5, r - 1),
+            },
+            // The same frame, somewhere within its rounding window.
+            _ => ((k0 as f32 + rng.unit() * 0.9 - 0.45) / last, k0),
+        };
+        let max = asset.frames[k].len();
+        let l0 = state.lod().min(max);
+        let target = match rng.below(16) {
+            0 => 0,
+            1 => max,
+            2 | 3 => rng.below(max + 1),
+            4 => max / 2,
+            5..=9 => (l0 + 1 + rng.below(3)).min(max),
+            _ => l0.saturating_sub(1 + rng.below(3)),
+        };
+        let lod = frames.request(k, target, &mut rng);
+        let expected = frames.expected(k, lod);
+        let strategy = match rng.below(10) {
+            0 => Strategy::Steps,
+            1 => Strategy::Rebuild,
+            _ => Strategy::Auto,
+        };
+        // Compare strategies at some frame switches and big jumps.
+        let other = (k != k0 || l0.abs_diff(expected) > 8) && rng.below(6) == 0;
+        let before = other.then(|| state.clone());
+        let how = state
+            .set_with(&model, t, lod, strategy)
+            .expect("valid request");
+        used[usize::from(how == Strategy::Rebuild)] += 1;
+        assert_eq!(state.frame(), k, "{at}: frame for t = {t}");
+        assert_eq!(state.lod(), expected, "{at}: LOD for {lod:?} in frame {k}");
+        let dirty = state.take_dirty();
+        mirror.upload(&dirty, state.indices(), state.lengths());
+        let (hash, count) = frames.hashes[k][expected];
+        assert_eq!(mirror.count, count, "{at}: drawn triangle count");
+        assert_eq!(
+            state.triangle_count(),
+            count,
+            "{at}: reported triangle count"
+        );
+        assert_eq!(mirror.hash, hash, "{at}: drawn multiset hash ({how:?})");
+        if let Some(mut twin) = before {
+            let flip = if how == Strategy::Rebuild {
+                Strategy::Steps
+            } else {
+                Strategy::Rebuild
+            };
+            assert_eq!(twin.set_with(&model, t, lod, flip), Ok(flip));
+            same_strips(&state, &twin, &format!("{at}: {how:?} vs {flip:?}"));
+            assert_eq!(twin.triangle_count(), count);
+            compared += 1;
+        }
+        if step % FULL_STRIDE == 0 || step + 1 == steps {
+            frames.full_check(k, expected, &mirror, &state, &at);
+        }
+    }
+    eprintln!(
+        "{name}: {r} frames, {steps} steps ({} by steps, {} by rebuild, {compared} compared)",
+        used[0], used[1]
+    );
+    assert!(used[0] > 0 && used[1] > 0, "both strategies ran");
+    // Fresh states moved straight to the final (frame, lod), both ways.
+    let t = state.frame() as f32 / last;
+    for how in [Strategy::Steps, Strategy::Rebuild] {
+        let mut fresh = DeformingLod::new(&model);
+        fresh
+            .set_with(&model, t, Lod::Steps(state.lod()), how)
+            .expect("valid request");
+        same_strips(&state, &fresh, &format!("{name}: walked vs fresh {how:?}"));
+    }
+}
+
+#[test]
+fn makehuman_head_animation() {
+    let morph = load_morph("makehuman_head.glb", MorphSource::Animation("morph".into()));
+    let asset = build_asset(&morph, 12);
+    walk(
+        "makehuman_head 'morph'",
+        morph.triangles(),
+        &asset,
+        10_000,
+        1,
+    );
+}
+
+#[test]
+fn makehuman_body_animation() {
+    let morph = load_morph("makehuman_body.glb", MorphSource::Animation("morph".into()));
+    let asset = build_asset(&morph, 10);
+    walk(
+        "makehuman_body 'morph'",
+        morph.triangles(),
+        &asset,
+        10_000,
+        2,
+    );
+}
+
+#[test]
+fn makehuman_body_baby_target() {
+    let morph = load_morph(
+        "makehuman_body.glb",
+        MorphSource::Target("caucasian-male-baby".into()),
+    );
+    let asset = build_asset(&morph, 8);
+    walk("makehuman_body baby", morph.triangles(), &asset, 10_000, 3);
+}
+
+#[test]
+fn animated_morph_cube() {
+    let path = "AnimatedMorphCube-glTF/AnimatedMorphCube.gltf";
+    let morph = load_morph(path, MorphSource::Animation("0".into()));
+    let asset = build_asset(&morph, 16);
+    walk("AnimatedMorphCube", morph.triangles(), &asset, 10_000, 4);
+}
+
+/// Frames whose sequences have nothing in common: random collapse orders
+/// over a grid with holes (every frame a different order and length), which
+/// stresses rebuilds and switches far more than neighbouring poses do.
+#[test]
+fn unrelated_random_frames() {
+    let (w, h) = (24u32, 16u32);
+    let mut tris = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            if (x * 7 + y * 3) % 11 == 0 {
+                continue;
+            }
+            let a = y * (w + 1) + x;
+            let (b, c, d) = (a + 1, a + w + 1, a + w + 2);
+            tris.push([a, b, d]);
+            tris.push([a, d, c]);
+        }
+    }
+    let n = ((w + 1) * (h + 1)) as usize;
+    let mut rng = Rng(77);
+    let sequences: Vec<CollapseSequence> = (0..9)
+        .map(|k| {
+            let steps = if k == 4 { 0 } else { usize::MAX - k };
+            random_sequence(&tris, n, steps, &mut rng)
+        })
+        .collect();
+    let asset = Asset {
+        v0: vec![[0.0; 3]; n],
+        v1: vec![[1.0; 3]; n],
+        s0: stripify(&tris, n),
+        frames: sequences,
+    };
+    walk("random frames", &tris, &asset, 10_000, 5);
+}
+
+#[test]
+fn bad_assets_and_requests_are_rejected() {
+    let tris = vec![[0, 1, 2], [0, 2, 3]];
+    let good = Asset {
+        v0: vec![[0.0; 3]; 4],
+        v1: vec![[1.0; 3]; 4],
+        s0: stripify(&tris, 4),
+        frames: vec![random_sequence(&tris, 4, 2, &mut Rng(1))],
+    };
+    let model = DeformingModel::new(&good).expect("valid asset");
+    let bad = |edit: &dyn Fn(&mut Asset)| {
+        let mut a = good.clone();
+        edit(&mut a);
+        DeformingModel::new(&a).expect_err("invalid asset accepted")
+    };
+    assert_eq!(bad(&|a| a.frames.clear()), DeformError::NoFrames);
+    assert!(matches!(
+        bad(&|a| a.v1.pop().map(drop).unwrap_or(())),
+        DeformError::PoseSizeMismatch { v0: 4, v1: 3 }
+    ));
+    assert!(matches!(
+        bad(&|a| a.v0[2][1] = f32::NAN),
+        DeformError::NonFinite {
+            pose: "V(0)",
+            vertex: 2,
+            ..
+        }
+    ));
+    assert!(matches!(
+        bad(&|a| a.s0.indices[0] = 9),
+        DeformError::Strips(_)
+    ));
+    assert!(matches!(
+        bad(&|a| a.s0.offsets.push(99)),
+        DeformError::Strips(_)
+    ));
+    assert!(matches!(
+        bad(&|a| a.frames.push(CollapseSequence {
+            vertex_count: 5,
+            collapses: Vec::new()
+        })),
+        DeformError::FrameVertexCount { frame: 1, .. }
+    ));
+    assert!(matches!(
+        bad(&|a| {
+            let mut s = a.frames[0].clone();
+            s.collapses.push(s.collapses[0]);
+            a.frames.push(s);
+        }),
+        DeformError::Sequence { frame: 1, .. }
+    ));
+    for e in [bad(&|a| a.frames.clear()), bad(&|a| a.v0[2][1] = f32::NAN)] {
+        assert!(!e.to_string().is_empty());
+    }
+
+    let mut state = DeformingLod::new(&model);
+    assert_eq!(
+        state.set(&model, f32::NAN, Lod::Steps(1)),
+        Err(SetError::TimeNaN)
+    );
+    assert!(matches!(
+        state.set(&model, 0.5, Lod::Fraction(f32::NAN)),
+        Err(SetError::LodNaN(_))
+    ));
+    assert!(matches!(
+        state.set(&model, 0.5, Lod::MaxError(f32::NAN)),
+        Err(SetError::LodNaN(_))
+    ));
+    let other = DeformingModel::new(&good).expect("valid asset");
+    assert_eq!(
+        state.set(&other, 0.5, Lod::Steps(1)),
+        Err(SetError::WrongModel)
+    );
+    // Refused requests leave the state alone.
+    assert_eq!((state.frame(), state.lod()), (0, 0));
+    assert!(state.take_dirty().ranges.is_empty());
+    state
+        .set(&model, 1.0, Lod::Fraction(1.0))
+        .expect("valid request");
+    assert_eq!(state.lod(), 2);
+}
+
+#[test]
+fn screen_error_projects_pixels_to_object_units() {
+    // 90° field of view, 1000 pixels tall, 10 units away: the viewport spans
+    // 20 units, so 2 pixels are 0.04 units.
+    match Lod::screen_error(2.0, 10.0, std::f32::consts::FRAC_PI_2, 1000.0) {
+        Lod::MaxError(e) => assert!((e - 0.04).abs() < 1e-6, "{e}"),
+        other => panic!("{other:?}"),
+    }
+}
