@@ -19,4 +19,10 @@ pub enum Error {
     /// Creating, updating or reading back GPU resources failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
+    /// An asset's data cannot make a deforming LOD model.
+    #[error(transparent)]
+    Deform(#[from] crate::deform::DeformError),
+    /// A `(t, lod)` request was refused (NaN, or a state made for another model).
+    #[error(transparent)]
+    Set(#[from] crate::deform::SetError),
 }

@@ -12,6 +12,7 @@
 //!   [`Object::render`] draws every region with exactly one `multi_draw_indexed_indirect`.
 //! * [`Target`] — an offscreen colour + depth target and its readback into an `image::RgbaImage`.
 //! * [`camera`] — a view and projection fitted to an object's bounds.
+//! * [`sheet`] — contact sheets: one object rendered headless over a grid of `(t, lod)` states.
 //!
 //! The caller owns the device, queue and render pass (the `prepare` / `render` split of
 //! egui-wgpu and glyphon), so an object drops into any existing wgpu renderer.
@@ -38,6 +39,7 @@ pub mod camera;
 mod context;
 mod object;
 mod pipeline;
+pub mod sheet;
 mod target;
 
 pub use context::{test_context, Context};

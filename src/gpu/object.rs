@@ -49,8 +49,14 @@ pub struct Upload {
 impl Upload {
     /// Total bytes written.
     pub fn bytes(&self) -> u64 {
+        self.geometry_bytes() + self.uniform_bytes
+    }
+
+    /// Bytes of index and indirect data written: what a LOD change cost, without the uniforms
+    /// that every frame of an animation rewrites anyway.
+    pub fn geometry_bytes(&self) -> u64 {
         let sum = |ranges: &[Range<u64>]| ranges.iter().map(|r| r.end - r.start).sum::<u64>();
-        sum(&self.index_ranges) + sum(&self.indirect_ranges) + self.uniform_bytes
+        sum(&self.index_ranges) + sum(&self.indirect_ranges)
     }
 
     /// Number of `queue.write_buffer` calls.
