@@ -77,6 +77,10 @@ pub struct Asset {
 pub const MAGIC: [u8; 8] = *b"\x89MLD\r\n\x1a\n";
 /// The format version this build writes and the newest it reads.
 pub const VERSION: u16 = 1;
+/// Most frames a file may hold. Repeated frames cost two bytes in the file
+/// but a whole sequence in memory, so this bounds what a small file can make
+/// the decoder allocate; it is far more than any animation needs.
+pub const MAX_FRAMES: usize = 4096;
 /// Size of the fixed header.
 pub const HEADER_LEN: usize = 32;
 
@@ -100,7 +104,9 @@ pub enum AssetError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("not a .mlod file: it starts with {found:02x?} instead of the .mlod magic {MAGIC:02x?}")]
+    #[error(
+        "not a .mlod file: it starts with {found:02x?} instead of the .mlod magic {MAGIC:02x?}"
+    )]
     WrongMagic { found: Vec<u8> },
     #[error("the file is {length} bytes, shorter than the {HEADER_LEN}-byte .mlod header: it was cut off")]
     TruncatedHeader { length: usize },
@@ -116,7 +122,9 @@ pub enum AssetError {
     TrailingBytes { expected: u64, found: u64 },
     #[error("checksum mismatch: the header says CRC-32 {stored:#010x}, the body has {computed:#010x}: the file is damaged")]
     Checksum { stored: u32, computed: u32 },
-    #[error("the section table lists {count} sections (at most {MAX_SECTIONS}) in a {body}-byte body")]
+    #[error(
+        "the section table lists {count} sections (at most {MAX_SECTIONS}) in a {body}-byte body"
+    )]
     SectionTable { count: u32, body: u64 },
     #[error("section '{tag}' spans bytes {offset}..{offset}+{length}, outside the body's section area ({start}..{body})")]
     SectionOutOfRange {
@@ -131,11 +139,7 @@ pub enum AssetError {
     #[error("the required section '{tag}' is missing")]
     MissingSection { tag: String },
     #[error("section '{tag}' is {length} bytes, not a whole number of {unit}-byte records")]
-    SectionSize {
-        tag: String,
-        length: u64,
-        unit: u64,
-    },
+    SectionSize { tag: String, length: u64, unit: u64 },
     #[error("V0 has {v0} vertices but V1 has {v1}: the poses must match")]
     PoseSizeMismatch { v0: usize, v1: usize },
     #[error("the poses have {vertices} vertices, more than 32-bit indices address")]
@@ -177,10 +181,7 @@ pub enum AssetError {
     #[error("the asset has no frames; it needs at least one collapse sequence")]
     NoFrames,
     #[error("frame {frame}: {source}")]
-    Sequence {
-        frame: usize,
-        source: SequenceError,
-    },
+    Sequence { frame: usize, source: SequenceError },
     #[error("frame {frame}, collapse {step}: neighbour symbol {symbol} is past vertex {vertex}'s {neighbours} neighbours and the escape")]
     NeighbourSymbol {
         frame: usize,
@@ -189,7 +190,9 @@ pub enum AssetError {
         symbol: u64,
         neighbours: usize,
     },
-    #[error("frame {frame}, collapse {step}: the error {value} is not a finite, non-negative number")]
+    #[error(
+        "frame {frame}, collapse {step}: the error {value} is not a finite, non-negative number"
+    )]
     BadError {
         frame: usize,
         step: usize,
@@ -434,9 +437,7 @@ pub fn inspect(bytes: &[u8]) -> Result<(Asset, AssetInfo), AssetError> {
             .iter()
             .find(|(t, _)| *t == tag)
             .map(|&(_, range)| &body[range.0..range.1])
-            .ok_or_else(|| AssetError::MissingSection {
-                tag: tag_name(tag),
-            })
+            .ok_or_else(|| AssetError::MissingSection { tag: tag_name(tag) })
     };
     let v0 = decode_pose(section(TAG_V0)?, "V0")?;
     let v1 = decode_pose(section(TAG_V1)?, "V1")?;
@@ -681,10 +682,14 @@ impl<'a> Reader<'a> {
     }
 
     fn byte(&mut self, what: &dyn Fn() -> String) -> Result<u8, AssetError> {
-        let byte = self.data.get(self.pos).copied().ok_or_else(|| AssetError::Truncated {
-            tag: self.tag,
-            what: what(),
-        })?;
+        let byte = self
+            .data
+            .get(self.pos)
+            .copied()
+            .ok_or_else(|| AssetError::Truncated {
+                tag: self.tag,
+                what: what(),
+            })?;
         self.pos += 1;
         Ok(byte)
     }
@@ -740,7 +745,10 @@ fn decode_strips(data: &[u8], n: usize) -> Result<Strips, AssetError> {
         // Deltas wrap at 32 bits (see `encode_strips`): undo that to report the offset written.
         let offset = (prev + delta) & 0xFFFF_FFFF;
         let first_nonzero = strip == 0 && offset != 0;
-        if delta > u64::from(u32::MAX) || offset < prev || offset > index_count as u64 || first_nonzero
+        if delta > u64::from(u32::MAX)
+            || offset < prev
+            || offset > index_count as u64
+            || first_nonzero
         {
             return Err(AssetError::StripOffsets {
                 strip,
@@ -1045,8 +1053,13 @@ fn decode_frame(
             });
         }
     }
-    // Each vertex collapses at most once.
-    let count = r.count(&header("collapse count"), n)?;
+    // Each vertex collapses at most once, and each collapse takes at least
+    // `width` bits for `u` and one bit for each of its two codes.
+    let bits_left = data.len().saturating_sub(r.pos) * 8;
+    let count = r.count(
+        &header("collapse count"),
+        n.min(bits_left / (width as usize + 2)),
+    )?;
     let sequence_error = |source| AssetError::Sequence { frame, source };
     let mut bits = BitReader {
         data: &data[r.pos..],
@@ -1108,7 +1121,10 @@ fn decode_frame(
             }
         };
         if w == u {
-            return Err(sequence_error(SequenceError::SelfCollapse { step, vertex: u }));
+            return Err(sequence_error(SequenceError::SelfCollapse {
+                step,
+                vertex: u,
+            }));
         }
         let error_bits = prev_error.wrapping_add(unzigzag(bits.exp_golomb(order_error)?));
         // 0x7F7F is the largest finite bfloat16 with the sign bit clear.
@@ -1151,7 +1167,10 @@ fn decode_frames(
 ) -> Result<(Vec<CollapseSequence>, Vec<FrameInfo>), AssetError> {
     let mut r = Reader::new(data, "FRMS");
     // Each frame takes at least its length byte and its mode byte.
-    let count = r.count(&|| "the frame count".into(), data.len() / 2)?;
+    let count = r.count(
+        &|| "the frame count".into(),
+        (data.len() / 2).min(MAX_FRAMES),
+    )?;
     if count == 0 {
         return Err(AssetError::NoFrames);
     }

@@ -23,9 +23,7 @@ use thiserror::Error;
 /// Default number of sampled frames `|r|`.
 pub const DEFAULT_FRAMES: usize = 32;
 
-/// Most sampled frames a build accepts: far more than any animation needs,
-/// and it keeps a mistyped `--frames` from queueing hours of work.
-pub const MAX_FRAMES: usize = 4096;
+pub use crate::asset::MAX_FRAMES;
 
 /// Why a build failed.
 #[derive(Debug, Error, Clone, PartialEq)]

@@ -391,20 +391,40 @@ fn huge_counts_in_tiny_bodies() {
         Asset::from_bytes(&file),
         Err(AssetError::CountTooLarge { tag: "S0", .. })
     ));
-    // A frame claiming 2^62 collapses over 4 vertices.
+    // A frame claiming 2^62 collapses over 4 vertices (with bits for 16).
     let mut frame = vec![1, 2, 0, 0];
     frame.extend_from_slice(&huge);
+    frame.extend_from_slice(&[0; 8]);
     let mut frames = vec![1, frame.len() as u8];
     frames.extend_from_slice(&frame);
     let file = file_with_sections(&[
         (b"V0  ", pose.clone()),
         (b"V1  ", pose.clone()),
         (b"S0  ", s0),
-        (b"FRMS", frames),
+        (b"FRMS", frames.clone()),
     ]);
     assert!(matches!(
         Asset::from_bytes(&file),
         Err(AssetError::CountTooLarge { tag: "FRMS", count, limit: 4, .. }) if count == 1 << 62
+    ));
+    // 4 collapses claimed, bits for 1 only: refused before allocating.
+    let mut frame = vec![1, 2, 0, 0, 4, 0];
+    let mut frames = vec![1, frame.len() as u8];
+    frames.append(&mut frame);
+    let file = file_with_sections(&[
+        (b"V0  ", vec![0u8; 48]),
+        (b"V1  ", vec![0u8; 48]),
+        (b"S0  ", vec![0, 0]),
+        (b"FRMS", frames),
+    ]);
+    assert!(matches!(
+        Asset::from_bytes(&file),
+        Err(AssetError::CountTooLarge {
+            tag: "FRMS",
+            count: 4,
+            limit: 2,
+            ..
+        })
     ));
     // A section table of 2^32 - 1 entries.
     let mut file = file_with_sections(&[(b"V0  ", pose)]);
@@ -498,7 +518,11 @@ fn frames_repeat_nothing_or_are_missing() {
     frames.extend_from_slice(&frame);
     assert!(matches!(
         Asset::from_bytes(&with_frames(frames)),
-        Err(AssetError::BadError { frame: 0, step: 0, .. })
+        Err(AssetError::BadError {
+            frame: 0,
+            step: 0,
+            ..
+        })
     ));
 }
 

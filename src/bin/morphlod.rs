@@ -174,7 +174,10 @@ fn asset_info(path: &Path) -> Result<String, String> {
     let start = Instant::now();
     let (_, info) = inspect(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
     let decode = start.elapsed();
-    let mut out = format!("{}\n  format            morphlod asset (.mlod)\n", path.display());
+    let mut out = format!(
+        "{}\n  format            morphlod asset (.mlod)\n",
+        path.display()
+    );
     out += &format!("{info}\n");
     out += &format!("  decode            {}\n", ms(decode));
     Ok(out)
@@ -209,17 +212,15 @@ fn build(args: &BuildArgs) -> Result<(), String> {
         cleaned.report
     );
 
-    let bar = std::io::stderr()
-        .is_terminal()
-        .then(|| {
-            let bar = ProgressBar::new(args.frames as u64);
-            if let Ok(style) =
-                ProgressStyle::with_template("frames {bar:40} {pos}/{len} [{elapsed_precise}]")
-            {
-                bar.set_style(style);
-            }
-            bar
-        });
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let bar = ProgressBar::new(args.frames as u64);
+        if let Ok(style) =
+            ProgressStyle::with_template("frames {bar:40} {pos}/{len} [{elapsed_precise}]")
+        {
+            bar.set_style(style);
+        }
+        bar
+    });
     let progress = |p: Progress| match &bar {
         Some(bar) => bar.set_position(p.frames_done as u64),
         None => eprintln!("frame {}/{} done", p.frames_done, p.frames),
@@ -253,7 +254,10 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     print!("{}", stage_table(&report, load_time, clean_time));
     println!("  encode            {}", ms(encode_time));
     println!("  write             {} (atomic save)", ms(write_time));
-    println!("  decode            {} (what loading the file costs)", ms(decode_time));
+    println!(
+        "  decode            {} (what loading the file costs)",
+        ms(decode_time)
+    );
     println!("  total             {}", ms(total.elapsed()));
     println!("asset {}\n{info}", args.output.display());
     Ok(())
