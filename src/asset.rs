@@ -1055,11 +1055,17 @@ fn decode_frame(
     }
     // Each vertex collapses at most once, and each collapse takes at least
     // `width` bits for `u` and one bit for each of its two codes.
-    let bits_left = data.len().saturating_sub(r.pos) * 8;
-    let count = r.count(
-        &header("collapse count"),
-        n.min(bits_left / (width as usize + 2)),
-    )?;
+    let count = r.varint(&header("collapse count"))?;
+    let limit = n.min(r.remaining() * 8 / (width as usize + 2));
+    if count > limit as u64 {
+        return Err(AssetError::CountTooLarge {
+            tag: "FRMS",
+            what: header("collapse count")(),
+            count,
+            limit: limit as u64,
+        });
+    }
+    let count = count as usize;
     let sequence_error = |source| AssetError::Sequence { frame, source };
     let mut bits = BitReader {
         data: &data[r.pos..],
