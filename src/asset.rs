@@ -435,8 +435,8 @@ pub fn inspect(bytes: &[u8]) -> Result<(Asset, AssetInfo), AssetError> {
     let section = |tag: [u8; 4]| -> Result<&[u8], AssetError> {
         table
             .iter()
-            .find(|(t, _)| *t == tag)
-            .map(|&(_, range)| &body[range.0..range.1])
+            .find(|s| s.tag == tag)
+            .map(|s| &body[s.start..s.end])
             .ok_or_else(|| AssetError::MissingSection { tag: tag_name(tag) })
     };
     let v0 = decode_pose(section(TAG_V0)?, "V0")?;
@@ -462,9 +462,9 @@ pub fn inspect(bytes: &[u8]) -> Result<(Asset, AssetInfo), AssetError> {
         table_bytes: table.len() * SECTION_ENTRY_LEN,
         sections: table
             .iter()
-            .map(|&(tag, range)| SectionInfo {
-                tag: tag_name(tag),
-                bytes: range.1 - range.0,
+            .map(|s| SectionInfo {
+                tag: tag_name(s.tag),
+                bytes: s.end - s.start,
             })
             .collect(),
         vertices: n,
@@ -537,12 +537,16 @@ fn check_header(bytes: &[u8]) -> Result<(u32, &[u8]), AssetError> {
     Ok((u32_at(bytes, 12), body))
 }
 
+/// One entry of the section table: the tag and the byte range in the body.
+struct Section {
+    tag: [u8; 4],
+    start: usize,
+    end: usize,
+}
+
 /// The section table: each section's tag and byte range in the body, all
 /// after the table. Unknown tags are kept (and skipped by the caller).
-fn read_section_table(
-    body: &[u8],
-    count: u32,
-) -> Result<Vec<([u8; 4], (usize, usize))>, AssetError> {
+fn read_section_table(body: &[u8], count: u32) -> Result<Vec<Section>, AssetError> {
     let table_len = count as usize * SECTION_ENTRY_LEN;
     if count > MAX_SECTIONS || table_len > body.len() {
         return Err(AssetError::SectionTable {
@@ -550,7 +554,7 @@ fn read_section_table(
             body: body.len() as u64,
         });
     }
-    let mut table: Vec<([u8; 4], (usize, usize))> = Vec::with_capacity(count as usize);
+    let mut table: Vec<Section> = Vec::with_capacity(count as usize);
     for entry in body[..table_len].chunks_exact(SECTION_ENTRY_LEN) {
         let tag = [entry[0], entry[1], entry[2], entry[3]];
         let offset = u64_at(entry, 8);
@@ -565,11 +569,15 @@ fn read_section_table(
                 body: body.len() as u64,
             });
         }
-        if table.iter().any(|(t, _)| *t == tag) {
+        if table.iter().any(|s| s.tag == tag) {
             return Err(AssetError::DuplicateSection { tag: tag_name(tag) });
         }
         // Both fit in the body, so in usize.
-        table.push((tag, (offset as usize, (offset + length) as usize)));
+        table.push(Section {
+            tag,
+            start: offset as usize,
+            end: (offset + length) as usize,
+        });
     }
     Ok(table)
 }
@@ -585,7 +593,7 @@ fn pose_bytes(pose: &[[f32; 3]]) -> Vec<u8> {
 }
 
 fn decode_pose(data: &[u8], pose: &'static str) -> Result<Vec<[f32; 3]>, AssetError> {
-    if data.len() % 12 != 0 {
+    if !data.len().is_multiple_of(12) {
         return Err(AssetError::SectionSize {
             tag: pose.to_string(),
             length: data.len() as u64,
