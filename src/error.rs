@@ -16,6 +16,12 @@ pub enum Error {
     /// Building a morph from its inputs failed (pose sizes or connectivity differ, ...).
     #[error(transparent)]
     Morph(#[from] crate::morph::MorphError),
+    /// Building the per-frame LOD asset failed.
+    #[error(transparent)]
+    Build(#[from] crate::build::BuildError),
+    /// Reading or writing a `.mlod` asset file failed.
+    #[error(transparent)]
+    Asset(#[from] crate::asset::AssetError),
     /// Creating, updating or reading back GPU resources failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),

@@ -18,6 +18,7 @@
 //! * [`simplify`] produces a quadric-error half-edge [`CollapseSequence`].
 //! * [`collapse`] defines what a collapse sequence means: survivors and the reference mesh
 //!   at any LOD, the oracle every test compares against.
+//! * [`build`] runs the per-frame builder: a [`Morph`] to an [`Asset`] (`.mlod`, see [`asset`]).
 //! * [`strip`] turns triangles into generalized triangle strips `S0`.
 //! * [`lodstrips`] records the change lists and applies them at run time.
 //! * [`deform`] is the per-object runtime of a deforming mesh: every sampled frame's change
@@ -26,6 +27,7 @@
 //! * [`gpu`] renders with wgpu: the caller owns the device, queue and render pass.
 
 pub mod asset;
+pub mod build;
 pub mod collapse;
 pub mod deform;
 pub mod error;
@@ -40,6 +42,7 @@ pub mod strip;
 pub mod topology;
 
 pub use asset::Asset;
+pub use build::Builder;
 pub use collapse::{Collapse, CollapseSequence};
 pub use deform::{DeformingLod, DeformingModel, Lod};
 pub use error::Error;

@@ -1,0 +1,297 @@
+//! The per-frame builder: a [`Morph`] in, an [`Asset`] out.
+//!
+//! `S0` is stripified once, on the triangulation `T` shared by every pose;
+//! each sampled frame `k` of `|r|` gets its own collapse sequence, computed by
+//! the simplifier on the pose `V(t_k)`, `t_k = k / (|r| - 1)`. Frames are
+//! independent, so they run on the rayon pool, and the stripifier runs beside
+//! them (`rayon::join`): on two cores the strips cost no wall time.
+//!
+//! Each collapse error is rounded to the precision the `.mlod` file keeps
+//! ([`crate::asset::quantize_error`]), so a built asset equals the asset read
+//! back from its file, bit for bit.
+
+use crate::asset::{quantize_error, Asset};
+use crate::collapse::CollapseSequence;
+use crate::morph::Morph;
+use crate::simplify::{simplify, SimplifyOptions};
+use crate::strip::stripify;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+use thiserror::Error;
+
+/// Default number of sampled frames `|r|`.
+pub const DEFAULT_FRAMES: usize = 32;
+
+pub use crate::asset::MAX_FRAMES;
+
+/// Why a build failed.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum BuildError {
+    #[error("{frames} frames requested: a build needs 1 to {max} frames (1 samples t = 0 only)", max = MAX_FRAMES)]
+    FrameCount { frames: usize },
+    #[error("triangle {triangle} repeats a vertex ({corners:?}): strips would drop it and no longer cover T; clean the mesh first (mesh::clean)")]
+    DegenerateTriangle { triangle: usize, corners: [u32; 3] },
+    #[error("the morph has {vertices} vertices; strips reserve index 0xFFFFFFFF, so at most 4294967295 fit")]
+    TooManyVertices { vertices: usize },
+    #[error("frame {frame} (t = {t}): vertex {vertex} of the pose is not finite ({value:?}); the morph's weights or targets overflow there")]
+    NonFinitePose {
+        frame: usize,
+        t: f32,
+        vertex: usize,
+        value: [f32; 3],
+    },
+}
+
+/// How far a build is: sent after each finished frame, from worker threads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    pub frames_done: usize,
+    pub frames: usize,
+}
+
+/// What a build did and how long each stage took.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BuildReport {
+    pub vertices: usize,
+    pub triangles: usize,
+    pub strips: usize,
+    pub strip_indices: usize,
+    /// Collapses (LOD steps) of each frame.
+    pub collapses: Vec<usize>,
+    /// Stripifying `T` (runs beside the frames).
+    pub strip_time: Duration,
+    /// Per frame: evaluating the pose and simplifying it, on its worker thread.
+    pub frame_times: Vec<Duration>,
+    /// Wall time of all frames together.
+    pub frames_wall: Duration,
+    /// Wall time of the whole build.
+    pub wall: Duration,
+    /// Worker threads in the rayon pool.
+    pub threads: usize,
+}
+
+impl BuildReport {
+    /// The summed thread time of all frames (the CPU cost, not the wall time).
+    pub fn frames_cpu(&self) -> Duration {
+        self.frame_times.iter().sum()
+    }
+}
+
+/// Builds an [`Asset`] from a morph whose mesh is already cleaned (no
+/// triangle repeating a vertex; see [`crate::mesh::clean`] and [`Morph::select`]).
+pub struct Builder<'a> {
+    morph: &'a Morph,
+    frames: usize,
+    simplify: SimplifyOptions,
+    progress: Option<&'a (dyn Fn(Progress) + Sync)>,
+}
+
+impl<'a> Builder<'a> {
+    pub fn new(morph: &'a Morph) -> Self {
+        Self {
+            morph,
+            frames: DEFAULT_FRAMES,
+            simplify: SimplifyOptions::default(),
+            progress: None,
+        }
+    }
+
+    /// The number of sampled frames `|r|` (default [`DEFAULT_FRAMES`]); 1
+    /// samples `t = 0` only, which the runtime then uses for every `t`.
+    pub fn frames(mut self, frames: usize) -> Self {
+        self.frames = frames;
+        self
+    }
+
+    pub fn simplify_options(mut self, options: SimplifyOptions) -> Self {
+        self.simplify = options;
+        self
+    }
+
+    /// Called after each frame, from whichever thread finished it.
+    pub fn progress(mut self, callback: &'a (dyn Fn(Progress) + Sync)) -> Self {
+        self.progress = Some(callback);
+        self
+    }
+
+    pub fn build(&self) -> Result<(Asset, BuildReport), BuildError> {
+        let start = Instant::now();
+        let morph = self.morph;
+        let frames = self.frames;
+        if frames == 0 || frames > MAX_FRAMES {
+            return Err(BuildError::FrameCount { frames });
+        }
+        let n = morph.vertex_count();
+        if n >= u32::MAX as usize {
+            return Err(BuildError::TooManyVertices { vertices: n });
+        }
+        let triangles = morph.triangles();
+        if let Some((triangle, &corners)) = triangles
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+        {
+            return Err(BuildError::DegenerateTriangle { triangle, corners });
+        }
+
+        let done = AtomicUsize::new(0);
+        let frame = |k: usize| -> Result<(CollapseSequence, Duration), BuildError> {
+            let begin = Instant::now();
+            let t = if frames == 1 {
+                0.0
+            } else {
+                k as f32 / (frames - 1) as f32
+            };
+            let pose = morph.positions_at(t);
+            if let Some((vertex, &value)) = pose
+                .iter()
+                .enumerate()
+                .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
+            {
+                return Err(BuildError::NonFinitePose {
+                    frame: k,
+                    t,
+                    vertex,
+                    value,
+                });
+            }
+            let mut sequence = simplify(&pose, triangles, &self.simplify);
+            for c in &mut sequence.collapses {
+                c.error = quantize_error(c.error);
+            }
+            let elapsed = begin.elapsed();
+            let frames_done = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if let Some(report) = self.progress {
+                report(Progress {
+                    frames_done,
+                    frames,
+                });
+            }
+            Ok((sequence, elapsed))
+        };
+        let ((s0, strip_time), (built, frames_wall)) = rayon::join(
+            || {
+                let begin = Instant::now();
+                (stripify(triangles, n), begin.elapsed())
+            },
+            || {
+                let begin = Instant::now();
+                let built: Result<Vec<_>, BuildError> =
+                    (0..frames).into_par_iter().map(frame).collect();
+                (built, begin.elapsed())
+            },
+        );
+        let (sequences, frame_times): (Vec<CollapseSequence>, Vec<Duration>) =
+            built?.into_iter().unzip();
+        let report = BuildReport {
+            vertices: n,
+            triangles: triangles.len(),
+            strips: s0.len(),
+            strip_indices: s0.indices.len(),
+            collapses: sequences.iter().map(CollapseSequence::len).collect(),
+            strip_time,
+            frame_times,
+            frames_wall,
+            wall: start.elapsed(),
+            threads: rayon::current_num_threads(),
+        };
+        let asset = Asset {
+            v0: morph.v0(),
+            v1: morph.v1(),
+            s0,
+            frames: sequences,
+        };
+        Ok((asset, report))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collapse::canonical_multiset;
+
+    /// A 3×3 grid of vertices (8 triangles) whose middle row rises with `t`.
+    fn grid_morph() -> Morph {
+        let mut v0 = Vec::new();
+        let mut v1 = Vec::new();
+        for y in 0..3 {
+            for x in 0..3 {
+                v0.push([x as f32, y as f32, 0.0]);
+                v1.push([x as f32, y as f32, if y == 1 { 1.0 } else { 0.0 }]);
+            }
+        }
+        let mut tris = Vec::new();
+        for y in 0..2u32 {
+            for x in 0..2u32 {
+                let a = y * 3 + x;
+                tris.push([a, a + 1, a + 4]);
+                tris.push([a, a + 4, a + 3]);
+            }
+        }
+        Morph::from_poses(tris, v0, v1).unwrap()
+    }
+
+    #[test]
+    fn frames_sample_their_poses() {
+        let morph = grid_morph();
+        let (asset, report) = Builder::new(&morph).frames(3).build().unwrap();
+        assert_eq!(asset.frames.len(), 3);
+        assert_eq!(report.frame_times.len(), 3);
+        assert_eq!(asset.v0, morph.v0());
+        assert_eq!(asset.v1, morph.v1());
+        for (k, seq) in asset.frames.iter().enumerate() {
+            let mut expected = simplify(
+                &morph.positions_at(k as f32 / 2.0),
+                morph.triangles(),
+                &SimplifyOptions::default(),
+            );
+            for c in &mut expected.collapses {
+                c.error = quantize_error(c.error);
+            }
+            assert_eq!(seq, &expected, "frame {k}");
+            seq.validate().unwrap();
+        }
+        assert_eq!(
+            canonical_multiset(asset.s0.triangles()),
+            canonical_multiset(morph.triangles().iter().copied())
+        );
+    }
+
+    #[test]
+    fn one_frame_is_t_zero_and_zero_frames_fail() {
+        let morph = grid_morph();
+        let (asset, _) = Builder::new(&morph).frames(1).build().unwrap();
+        assert_eq!(asset.frames.len(), 1);
+        assert!(matches!(
+            Builder::new(&morph).frames(0).build(),
+            Err(BuildError::FrameCount { frames: 0 })
+        ));
+    }
+
+    #[test]
+    fn progress_reaches_every_frame() {
+        let morph = grid_morph();
+        let seen = AtomicUsize::new(0);
+        let callback = |p: Progress| {
+            assert_eq!(p.frames, 5);
+            seen.fetch_max(p.frames_done, Ordering::Relaxed);
+        };
+        Builder::new(&morph)
+            .frames(5)
+            .progress(&callback)
+            .build()
+            .unwrap();
+        assert_eq!(seen.load(Ordering::Relaxed), 5);
+    }
+
+    #[test]
+    fn degenerate_triangles_are_refused() {
+        let v = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let morph = Morph::from_poses(vec![[0, 1, 2], [0, 1, 1]], v.clone(), v).unwrap();
+        assert!(matches!(
+            Builder::new(&morph).build(),
+            Err(BuildError::DegenerateTriangle { triangle: 1, .. })
+        ));
+    }
+}
