@@ -6,11 +6,15 @@ use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use morphlod::asset::{inspect, save_bytes, MAGIC};
 use morphlod::build::{BuildReport, Builder, Progress, DEFAULT_FRAMES};
+use morphlod::deform::{DeformingModel, Lod};
+use morphlod::gpu::sheet::{render_sheet, SheetOptions};
+use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::{load_mesh, Format, LoadOptions};
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::mesh::IndexedMesh;
 use morphlod::morph::{Morph, MorphSource};
 use morphlod::topology::analyze;
+use morphlod::Asset;
 use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -23,8 +27,9 @@ use std::time::{Duration, Instant};
     about = "Continuous LOD triangle strips for morphing meshes"
 )]
 struct Cli {
+    /// Without a subcommand, `demo` runs on the embedded default asset.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 #[derive(Subcommand)]
@@ -34,6 +39,11 @@ enum Command {
     Info(InfoArgs),
     /// Build a .mlod asset: per-frame LOD collapse sequences over common strips.
     Build(BuildArgs),
+    /// Render a .mlod asset headless to a PNG: one cell per (t, lod), columns t, rows LOD.
+    Render(RenderArgs),
+    /// The main job on the embedded default (makehuman_head.glb, jawOpen): build the
+    /// per-frame LOD model, then render contact sheets headless to PNG files.
+    Demo(DemoArgs),
 }
 
 #[derive(Args)]
@@ -64,6 +74,49 @@ struct BuildArgs {
 }
 
 #[derive(Args)]
+struct RenderArgs {
+    /// The .mlod asset to render.
+    asset: PathBuf,
+    /// Times t in [0, 1], comma-separated: one column each.
+    #[arg(long = "t", value_delimiter = ',', default_value = "0.5")]
+    ts: Vec<f32>,
+    /// LOD fractions in [0, 1] (0 = full detail), comma-separated: one row each.
+    #[arg(long, value_delimiter = ',', default_value = "0")]
+    lod: Vec<f32>,
+    /// `base` shades the surface, `strips` gives every strip its own colour.
+    #[arg(long, value_enum, default_value_t = Colour::Base)]
+    color: Colour,
+    /// Cell size in pixels.
+    #[arg(long, default_value_t = 384)]
+    size: u32,
+    /// The PNG to write.
+    #[arg(short, long, value_name = "OUT.png")]
+    output: PathBuf,
+}
+
+#[derive(Args)]
+struct DemoArgs {
+    /// Where to write the contact sheets (PNG).
+    #[arg(short, long, value_name = "DIR", default_value = "out")]
+    output: PathBuf,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Colour {
+    Base,
+    Strips,
+}
+
+impl Colour {
+    fn shade(self) -> ShadeMode {
+        match self {
+            Colour::Base => ShadeMode::BaseColour,
+            Colour::Strips => ShadeMode::StripColours,
+        }
+    }
+}
+
+#[derive(Args)]
 struct InfoArgs {
     /// Mesh files (.obj, .off, .ply, .gltf, .glb) or .mlod assets.
     #[arg(required = true)]
@@ -78,15 +131,21 @@ struct InfoArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match cli.command {
-        Command::Info(args) => info(&args),
-        Command::Build(args) => match build(&args) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(message) => {
-                eprintln!("error: {message}");
-                ExitCode::FAILURE
-            }
-        },
+    let done = match cli.command {
+        Some(Command::Info(args)) => return info(&args),
+        Some(Command::Build(args)) => build(&args),
+        Some(Command::Render(args)) => render(&args),
+        Some(Command::Demo(args)) => demo(&args),
+        None => demo(&DemoArgs {
+            output: PathBuf::from("out"),
+        }),
+    };
+    match done {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::FAILURE
+        }
     }
 }
 
@@ -196,21 +255,9 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     };
     let morph = load_morph(args, &options)?;
     let load_time = total.elapsed();
-
-    // Cleaning decisions (welds, dropped triangles) are taken on V(0) and
-    // applied to every pose through `select`, so all poses keep one connectivity.
     let clean_start = Instant::now();
-    let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
-    let cleaned = clean(&base, &CleanOptions { weld: args.weld }).map_err(|e| e.to_string())?;
-    let morph = morph
-        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
-        .map_err(|e| e.to_string())?;
+    let morph = clean_morph(morph, args.weld)?;
     let clean_time = clean_start.elapsed();
-    println!(
-        "cleaning (weld {})\n{}",
-        if args.weld { "on" } else { "off" },
-        cleaned.report
-    );
 
     let bar = std::io::stderr().is_terminal().then(|| {
         let bar = ProgressBar::new(args.frames as u64);
@@ -261,6 +308,21 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     println!("  total             {}", ms(total.elapsed()));
     println!("asset {}\n{info}", args.output.display());
     Ok(())
+}
+
+/// Cleaning decisions (welds, dropped triangles) are taken on V(0) and applied to every
+/// pose through `select`, so all poses keep one connectivity. Prints the cleaning summary.
+fn clean_morph(morph: Morph, weld: bool) -> Result<Morph, String> {
+    let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
+    let cleaned = clean(&base, &CleanOptions { weld }).map_err(|e| e.to_string())?;
+    println!(
+        "cleaning (weld {})\n{}",
+        if weld { "on" } else { "off" },
+        cleaned.report
+    );
+    morph
+        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
+        .map_err(|e| e.to_string())
 }
 
 fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> {
@@ -324,4 +386,99 @@ fn stage_table(report: &BuildReport, load: Duration, clean: Duration) -> String 
     );
     out += &format!("  build wall        {}\n", ms(report.wall));
     out
+}
+
+/// Renders one asset's (t, lod) grid to a PNG and prints what each cell drew.
+fn render(args: &RenderArgs) -> Result<(), String> {
+    let bytes = std::fs::read(&args.asset).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let options = SheetOptions {
+        cell: args.size,
+        shade: args.color.shade(),
+        ..SheetOptions::default()
+    };
+    let lods: Vec<Lod> = args.lod.iter().map(|&f| Lod::Fraction(f)).collect();
+    render_to_png(&asset, &args.ts, &lods, &options, &args.output)
+}
+
+/// The default asset, compiled in so `cargo run` works from any directory of the checkout.
+const DEMO_INPUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_head.glb");
+const DEMO_TARGET: &str = "jawOpen";
+const DEMO_FRAMES: usize = 16;
+
+fn demo(args: &DemoArgs) -> Result<(), String> {
+    println!("morphlod demo: {DEMO_INPUT}, target '{DEMO_TARGET}', {DEMO_FRAMES} frames");
+    let source = MorphSource::Target(DEMO_TARGET.into());
+    let morph = Morph::from_gltf(Path::new(DEMO_INPUT), &LoadOptions::default(), &source)
+        .map_err(|e| e.to_string())?;
+    let morph = clean_morph(morph, false)?;
+    let (asset, report) = Builder::new(&morph)
+        .frames(DEMO_FRAMES)
+        .build()
+        .map_err(|e| e.to_string())?;
+    print!("{}", stage_table(&report, Duration::ZERO, Duration::ZERO));
+    std::fs::create_dir_all(&args.output).map_err(|e| format!("{}: {e}", args.output.display()))?;
+    let path = args.output.join("demo.mlod");
+    asset.save(&path).map_err(|e| e.to_string())?;
+    println!("asset written to {}", path.display());
+
+    let ts = [0.0, 0.25, 0.5, 0.75, 1.0];
+    let lods = [
+        Lod::Fraction(0.0),
+        Lod::Fraction(0.75),
+        Lod::Fraction(0.9),
+        Lod::Fraction(0.97),
+    ];
+    for (shade, name) in [
+        (ShadeMode::BaseColour, "demo.png"),
+        (ShadeMode::StripColours, "demo_strips.png"),
+    ] {
+        let options = SheetOptions {
+            shade,
+            ..SheetOptions::default()
+        };
+        render_to_png(&asset, &ts, &lods, &options, &args.output.join(name))?;
+    }
+    Ok(())
+}
+
+/// Renders headless (no window is opened: this works on machines without a display) and
+/// says where the image went.
+fn render_to_png(
+    asset: &Asset,
+    ts: &[f32],
+    lods: &[Lod],
+    options: &SheetOptions,
+    output: &Path,
+) -> Result<(), String> {
+    let model = DeformingModel::new(asset).map_err(|e| e.to_string())?;
+    let context = Context::headless().map_err(|e| e.to_string())?;
+    let adapter = context.adapter_info();
+    let (sheet, cells) =
+        render_sheet(&context, asset, &model, ts, lods, options).map_err(|e| e.to_string())?;
+    save_png(&sheet, output).map_err(|e| e.to_string())?;
+    println!(
+        "rendered on {} ({:?}); columns t, rows LOD",
+        adapter.name, adapter.backend
+    );
+    println!("      t    lod  frame  collapses  triangles  indices  idx/tri  uploaded");
+    for c in &cells {
+        let fraction = match c.lod {
+            Lod::Fraction(f) => format!("{f:.2}"),
+            other => format!("{other:?}"),
+        };
+        println!(
+            "  {:5.2}  {:>5}  {:5}  {:9}  {:9}  {:7}  {:7.2}  {:6} B",
+            c.t,
+            fraction,
+            c.frame,
+            c.steps,
+            c.triangles,
+            c.indices,
+            c.indices as f64 / c.triangles.max(1) as f64,
+            c.upload_bytes
+        );
+    }
+    println!("image written to {}", output.display());
+    Ok(())
 }
