@@ -2,7 +2,7 @@
 //! its morph targets and the weight animations that drive them, plus a summary
 //! of the file for `morphlod info`.
 //!
-//! Everything goes through one internal [`Document`]: the GLB container is split
+//! Everything goes through one internal `Document`: the GLB container is split
 //! here (the `gltf` crate's GLB reader subtracts the header size from the
 //! declared length unchecked), the JSON is parsed and validated by the `gltf`
 //! crate after a pre-check its validator needs, every buffer is resolved and
