@@ -1090,42 +1090,28 @@ fn decode_frame(
     let mut collapses = Vec::with_capacity(count);
     let mut prev_error = 0i64;
     for step in 0..count {
-        let u = bits.get(width)? as u32;
-        if u as usize >= n {
-            return Err(sequence_error(SequenceError::VertexOutOfRange {
+        // Both ends of an explicit collapse must name a vertex that is still alive: the
+        // union-find below indexes with them.
+        let live = |vertex: u32, rank: &[u32]| match rank.get(vertex as usize) {
+            None => Err(sequence_error(SequenceError::VertexOutOfRange {
                 step,
-                vertex: u,
+                vertex,
                 vertices: n,
-            }));
-        }
-        if rank[u as usize] != NEVER {
-            return Err(sequence_error(SequenceError::AlreadyCollapsed {
+            })),
+            Some(&r) if r != NEVER => Err(sequence_error(SequenceError::AlreadyCollapsed {
                 step,
-                vertex: u,
-                earlier: rank[u as usize] as usize,
-            }));
-        }
+                vertex,
+                earlier: r as usize,
+            })),
+            Some(_) => Ok(vertex),
+        };
+        let u = live(bits.get(width)? as u32, &rank)?;
         let fan = neighbours.of(u);
         let symbol = bits.exp_golomb(order_w)?;
         let w = match fan.get(symbol as usize) {
             Some(&y) => find(&mut parent, y),
             None if symbol as usize == fan.len() => {
-                let w = bits.get(width)? as u32;
-                if w as usize >= n {
-                    return Err(sequence_error(SequenceError::VertexOutOfRange {
-                        step,
-                        vertex: w,
-                        vertices: n,
-                    }));
-                }
-                if rank[w as usize] != NEVER {
-                    return Err(sequence_error(SequenceError::AlreadyCollapsed {
-                        step,
-                        vertex: w,
-                        earlier: rank[w as usize] as usize,
-                    }));
-                }
-                w
+                live(bits.get(width)? as u32, &rank)?
             }
             None => {
                 return Err(AssetError::NeighbourSymbol {

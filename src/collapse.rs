@@ -51,6 +51,19 @@ pub struct CollapseSequence {
 pub const NEVER: u32 = u32::MAX;
 
 impl CollapseSequence {
+    /// A sequence from `(u, w)` pairs with no recorded error (an order chosen by hand or by
+    /// another tool; LOD selection by error then sees 0 everywhere). Check it with
+    /// [`validate`](Self::validate) before use.
+    pub fn from_pairs(vertex_count: u32, pairs: &[(u32, u32)]) -> CollapseSequence {
+        CollapseSequence {
+            vertex_count,
+            collapses: pairs
+                .iter()
+                .map(|&(u, w)| Collapse { u, w, error: 0.0 })
+                .collect(),
+        }
+    }
+
     /// The number of LOD steps: LODs run from 0 (full detail) to `len()`.
     pub fn len(&self) -> usize {
         self.collapses.len()
@@ -161,13 +174,7 @@ mod tests {
     use super::*;
 
     fn seq(n: u32, pairs: &[(u32, u32)]) -> CollapseSequence {
-        CollapseSequence {
-            vertex_count: n,
-            collapses: pairs
-                .iter()
-                .map(|&(u, w)| Collapse { u, w, error: 0.0 })
-                .collect(),
-        }
+        CollapseSequence::from_pairs(n, pairs)
     }
 
     #[test]

@@ -485,18 +485,12 @@ fn junction(strip: &[u32], i: usize, j: usize) -> Option<u16> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::collapse::{canonical_multiset, Collapse};
+    use crate::collapse::canonical_multiset;
     use crate::lodstrips::{LodError, LodState, LodStrips};
     use crate::strip::strip_triangles;
 
     fn seq(n: u32, pairs: &[(u32, u32)]) -> CollapseSequence {
-        CollapseSequence {
-            vertex_count: n,
-            collapses: pairs
-                .iter()
-                .map(|&(u, w)| Collapse { u, w, error: 0.0 })
-                .collect(),
-        }
+        CollapseSequence::from_pairs(n, pairs)
     }
 
     fn drawn(model: &LodStrips, state: &LodState) -> Vec<[u32; 3]> {
