@@ -222,6 +222,7 @@ fn key(cost: f64, v: u32) -> u128 {
 /// Above every [`key`]: "no candidate".
 const NO_KEY: u128 = u128::MAX;
 
+/// The cost a [`key`] was made from, bit for bit.
 fn key_cost(key: u128) -> f64 {
     let ordered = (key >> 32) as u64;
     f64::from_bits(if ordered >> 63 == 1 {
@@ -231,6 +232,7 @@ fn key_cost(key: u128) -> f64 {
     })
 }
 
+/// The vertex a [`key`] was made for.
 fn key_vertex(key: u128) -> u32 {
     key as u32
 }
