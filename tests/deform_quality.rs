@@ -1,0 +1,258 @@
+//! The reason per-frame sequences exist: geometric error over the animation.
+//!
+//! For a morph, at 10% and 5% of the triangles, the mean over 64 evenly spaced
+//! `t ∈ [0, 1]` of the symmetric Hausdorff distance (and RMS) between a LOD mesh
+//! at `t` and the full mesh `V(t)`, for
+//! * (a) per-frame sequences: |r| = 32 frames sampled at `t_k = k/31`, each
+//!   simplified on its own pose; at `t` the frame `k = round(31 t)` is used, its
+//!   reference mesh at the first LOD with at most the target triangle count,
+//!   over the exact positions `V(t)` (as the GPU blends them);
+//! * (b) one sequence computed at `t = 0` used for every `t` (frame 0 of (a));
+//! * (c) `meshopt::simplify` run on `V(t)` itself, to the same triangle count:
+//!   a per-pose optimum, not continuous.
+//!
+//! Errors are in percent of the bounding-box diagonal of `V(t)`, Metro-style
+//! surface sampling ([`morphlod::metrics`]). The goal for the body with
+//! the baby target (a large deformation): (a) ≤ 0.7 × (b) and (a) ≤ 1.2 × (c).
+//! The head with its expression animation (a small deformation) is the
+//! control: there (a) ≈ (b) is expected.
+//!
+//! `cargo test --profile bench --test deform_quality -- --ignored --nocapture`
+
+use std::path::Path;
+
+use morphlod::collapse::CollapseSequence;
+use morphlod::io::LoadOptions;
+use morphlod::mesh::clean::{clean, CleanOptions};
+use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
+use morphlod::morph::{Morph, MorphSource};
+use morphlod::simplify::{simplify, SimplifyOptions};
+use morphlod::IndexedMesh;
+use rayon::prelude::*;
+
+/// Sampled frames of the per-frame builder (the CLI's default).
+const FRAMES: usize = 32;
+/// Evaluation times, evenly spaced over `[0, 1]`.
+const TIMES: usize = 64;
+/// Samples per surface and comparison (plus every vertex of the surface).
+const SAMPLES: usize = 50_000;
+const PERCENTS: [usize; 2] = [10, 5];
+
+/// The morph over cleaned connectivity (no repeated-vertex or duplicate
+/// triangle, no unused vertex), as the asset builder simplifies it.
+fn load(name: &str, source: MorphSource) -> Morph {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
+    let morph = match Morph::from_gltf(&path, &LoadOptions::default(), &source) {
+        Ok(m) => m,
+        Err(e) => panic!("{name}: {e}"),
+    };
+    let base = IndexedMesh {
+        positions: morph.v0(),
+        triangles: morph.triangles().to_vec(),
+    };
+    let cleaned = clean(&base, &CleanOptions::default()).expect("a valid glTF mesh");
+    morph
+        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
+        .expect("clean's vertex map is in range")
+}
+
+/// The first LOD with at most `target` triangles (every collapse removes at
+/// least one, so counts strictly fall along a sequence).
+fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
+    let (mut lo, mut hi) = (0, seq.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if seq.reference_mesh(tris, mid).len() <= target {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+fn meshopt_simplify(positions: &[[f32; 3]], tris: &[[u32; 3]], target: usize) -> Vec<[u32; 3]> {
+    let indices: Vec<u32> = tris.iter().flatten().copied().collect();
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(positions), 12, 0)
+        .expect("tightly packed positions");
+    // An error limit of the whole extent: only the triangle count stops it.
+    let out = meshopt::simplify(
+        &indices,
+        &adapter,
+        target * 3,
+        1.0,
+        meshopt::SimplifyOptions::None,
+        None,
+    );
+    out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+}
+
+/// Error of the LOD triangles `lod` against the full surface, both over `positions`.
+fn error(
+    positions: &[[f32; 3]],
+    full: &SurfaceIndex,
+    full_samples: &[glam::DVec3],
+    lod: &[[u32; 3]],
+    seed: u64,
+) -> ErrorStats {
+    let index = SurfaceIndex::new(positions, lod).expect("indices in range");
+    let samples = sample_surface(positions, lod, SAMPLES, seed).expect("indices in range");
+    symmetric(
+        directed_error(&samples, full),
+        directed_error(full_samples, &index),
+    )
+}
+
+/// Per time: for each percent, (a), (b), (c) as (Hausdorff %, RMS %, triangles).
+type Row = Vec<[(f64, f64, usize); 3]>;
+
+fn table(file: &str, source: MorphSource) -> Vec<[(f64, f64); 3]> {
+    let name = format!("{file} ({source:?})");
+    let morph = load(file, source);
+    let tris = morph.triangles();
+    let frames: Vec<CollapseSequence> = (0..FRAMES)
+        .into_par_iter()
+        .map(|k| {
+            let t = k as f32 / (FRAMES - 1) as f32;
+            simplify(&morph.positions_at(t), tris, &SimplifyOptions::default())
+        })
+        .collect();
+    for seq in &frames {
+        seq.validate().expect("a valid sequence");
+    }
+    let targets: Vec<usize> = PERCENTS.iter().map(|p| tris.len() * p / 100).collect();
+    // Each frame's LOD triangles at each target: index lists do not depend on
+    // t, only the positions they are drawn with do.
+    let lods: Vec<Vec<Vec<[u32; 3]>>> = frames
+        .par_iter()
+        .map(|seq| {
+            targets
+                .iter()
+                .map(|&target| seq.reference_mesh(tris, lod_for(seq, tris, target)))
+                .collect()
+        })
+        .collect();
+
+    let rows: Vec<Row> = (0..TIMES)
+        .into_par_iter()
+        .map(|i| {
+            let t = i as f32 / (TIMES - 1) as f32;
+            let k = (t * (FRAMES - 1) as f32).round() as usize;
+            let pos = morph.positions_at(t);
+            let mesh = IndexedMesh {
+                positions: pos.clone(),
+                triangles: tris.to_vec(),
+            };
+            let (lo, hi) = mesh.bounds().expect("a non-empty mesh");
+            let diagonal = (0..3)
+                .map(|a| ((hi[a] - lo[a]) as f64).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
+            let full_samples = sample_surface(&pos, tris, SAMPLES, 1).expect("indices in range");
+            targets
+                .iter()
+                .enumerate()
+                .map(|(p, &target)| {
+                    let theirs = meshopt_simplify(&pos, tris, target);
+                    let candidates = [&lods[k][p], &lods[0][p], &theirs];
+                    candidates.map(|lod| {
+                        assert!(
+                            !lod.is_empty() && lod.len() <= target,
+                            "{name} t={t}: {} triangles for a target of {target}",
+                            lod.len()
+                        );
+                        let e = error(&pos, &full, &full_samples, lod, 2);
+                        assert!(e.hausdorff.is_finite() && e.rms.is_finite());
+                        (
+                            100.0 * e.hausdorff / diagonal,
+                            100.0 * e.rms / diagonal,
+                            lod.len(),
+                        )
+                    })
+                })
+                .collect()
+        })
+        .collect();
+
+    println!(
+        "\n{name}: {} triangles, {FRAMES} frames, mean over {TIMES} t (% of V(t) diagonal)",
+        tris.len()
+    );
+    println!(
+        "{:>5} | {:>9} {:>9} {:>9} | {:>9} {:>9} {:>9} | {:>6} {:>6} | {:>17}",
+        "keep",
+        "H (a)",
+        "H (b)",
+        "H (c)",
+        "RMS (a)",
+        "RMS (b)",
+        "RMS (c)",
+        "a/b",
+        "a/c",
+        "mean tris a/b/c"
+    );
+    let mut out = Vec::new();
+    for (p, percent) in PERCENTS.iter().enumerate() {
+        let mean = |m: usize, f: &dyn Fn((f64, f64, usize)) -> f64| {
+            rows.iter().map(|r| f(r[p][m])).sum::<f64>() / rows.len() as f64
+        };
+        let h = [0, 1, 2].map(|m| mean(m, &|x| x.0));
+        let rms = [0, 1, 2].map(|m| mean(m, &|x| x.1));
+        let count = [0, 1, 2].map(|m| mean(m, &|x| x.2 as f64));
+        println!(
+            "{:>4}% | {:>8.4}% {:>8.4}% {:>8.4}% | {:>8.4}% {:>8.4}% {:>8.4}% | {:>6.3} {:>6.3} | {:>5.0} {:>5.0} {:>5.0}",
+            percent,
+            h[0], h[1], h[2],
+            rms[0], rms[1], rms[2],
+            h[0] / h[1],
+            h[0] / h[2],
+            count[0], count[1], count[2]
+        );
+        out.push([0, 1, 2].map(|m| (h[m], rms[m])));
+    }
+    // Where along the animation the methods part: (a) and (b) coincide at
+    // t = 0 and drift apart as the pose leaves the one (b) was built on.
+    for (p, percent) in PERCENTS.iter().enumerate() {
+        let along: Vec<String> = [0, TIMES / 4, TIMES / 2, 3 * TIMES / 4, TIMES - 1]
+            .iter()
+            .map(|&i| {
+                let r = rows[i][p];
+                format!(
+                    "t={:.2}: {:.3}/{:.3}/{:.3}",
+                    i as f64 / (TIMES - 1) as f64,
+                    r[0].0,
+                    r[1].0,
+                    r[2].0
+                )
+            })
+            .collect();
+        println!(
+            "{percent:>4}% H% (a)/(b)/(c) along t | {}",
+            along.join(" | ")
+        );
+    }
+    out
+}
+
+#[test]
+#[ignore = "prints the quality-over-the-animation table; run with --profile bench"]
+fn quality_over_the_animation() {
+    let body = table(
+        "makehuman_body.glb",
+        MorphSource::Target("caucasian-male-baby".into()),
+    );
+    for (p, row) in PERCENTS.iter().zip(&body) {
+        let (a, b, c) = (row[0].0, row[1].0, row[2].0);
+        println!(
+            "body {p}%: (a) <= 0.7 (b): {} ({:.3}), (a) <= 1.2 (c): {} ({:.3})",
+            if a <= 0.7 * b { "met" } else { "NOT met" },
+            a / b,
+            if a <= 1.2 * c { "met" } else { "NOT met" },
+            a / c
+        );
+    }
+    table("makehuman_head.glb", MorphSource::Animation("morph".into()));
+}
