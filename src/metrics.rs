@@ -13,7 +13,7 @@
 
 use glam::DVec3;
 
-use crate::mesh::MeshError;
+use crate::mesh::{validate_indices, MeshError};
 
 /// Distances from the samples of one surface to the other surface (object units).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -97,21 +97,6 @@ pub fn directed_error(samples: &[DVec3], target: &SurfaceIndex) -> DirectedError
     out
 }
 
-/// Checks every index against the vertex count (the error names the first bad one).
-fn check_indices(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Result<(), MeshError> {
-    let n = positions.len();
-    for (t, tri) in triangles.iter().enumerate() {
-        if let Some(&index) = tri.iter().find(|&&i| i as usize >= n) {
-            return Err(MeshError::IndexOutOfRange {
-                triangle: t,
-                index,
-                vertices: n,
-            });
-        }
-    }
-    Ok(())
-}
-
 fn dvec(p: [f32; 3]) -> DVec3 {
     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
@@ -145,7 +130,7 @@ pub fn sample_surface(
     count: usize,
     seed: u64,
 ) -> Result<Vec<DVec3>, MeshError> {
-    check_indices(positions, triangles)?;
+    validate_indices(triangles, positions.len())?;
     let corners = |t: &[u32; 3]| t.map(|v| dvec(positions[v as usize]));
     let mut cumulative = Vec::with_capacity(triangles.len());
     let mut total = 0.0;
@@ -205,7 +190,7 @@ pub struct SurfaceIndex {
 
 impl SurfaceIndex {
     pub fn new(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Result<Self, MeshError> {
-        check_indices(positions, triangles)?;
+        validate_indices(triangles, positions.len())?;
         let tris: Vec<[DVec3; 3]> = triangles
             .iter()
             .map(|t| t.map(|v| dvec(positions[v as usize])))

@@ -66,17 +66,7 @@ impl IndexedMesh {
             });
         }
         validate_positions(&self.positions)?;
-        let n = self.positions.len();
-        for (t, tri) in self.triangles.iter().enumerate() {
-            if let Some(&index) = tri.iter().find(|&&i| i as usize >= n) {
-                return Err(MeshError::IndexOutOfRange {
-                    triangle: t,
-                    index,
-                    vertices: n,
-                });
-            }
-        }
-        Ok(())
+        validate_indices(&self.triangles, self.positions.len())
     }
 
     /// Axis-aligned bounds `(min, max)`; `None` for a mesh without vertices.
@@ -97,6 +87,20 @@ pub fn validate_positions(positions: &[[f32; 3]]) -> Result<(), MeshError> {
         }),
         None => Ok(()),
     }
+}
+
+/// Fails on the first triangle with an index `>= vertex_count` (the error names it).
+pub fn validate_indices(triangles: &[[u32; 3]], vertex_count: usize) -> Result<(), MeshError> {
+    for (t, tri) in triangles.iter().enumerate() {
+        if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertex_count) {
+            return Err(MeshError::IndexOutOfRange {
+                triangle: t,
+                index,
+                vertices: vertex_count,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Axis-aligned bounds `(min, max)` of a point set; `None` when it is empty.
