@@ -1110,9 +1110,7 @@ fn decode_frame(
         let symbol = bits.exp_golomb(order_w)?;
         let w = match fan.get(symbol as usize) {
             Some(&y) => find(&mut parent, y),
-            None if symbol as usize == fan.len() => {
-                live(bits.get(width)? as u32, &rank)?
-            }
+            None if symbol as usize == fan.len() => live(bits.get(width)? as u32, &rank)?,
             None => {
                 return Err(AssetError::NeighbourSymbol {
                     frame,
