@@ -14,7 +14,7 @@
 //!   `render`; what applications use.
 //! * [`Target`] — an offscreen colour + depth target and its readback into an `image::RgbaImage`.
 //! * [`camera`] — a view and projection fitted to an object's bounds.
-//! * [`bench`] — the frame-rate benchmark: LOD sweeps drawn as strips, as lists, at full detail.
+//! * [`bench`](mod@bench) — the frame-rate benchmark: LOD sweeps drawn as strips, as lists, at full detail.
 //! * [`sheet`] — contact sheets: one object rendered headless over a grid of `(t, lod)` states.
 //!
 //! The caller owns the device, queue and render pass (the `prepare` / `render` split of
