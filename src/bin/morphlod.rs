@@ -7,6 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use morphlod::asset::{inspect, save_bytes, MAGIC};
 use morphlod::build::{BuildReport, Builder, Progress, DEFAULT_FRAMES};
 use morphlod::deform::{DeformingModel, Lod};
+use morphlod::gpu::bench::{run_bench, BenchOptions};
 use morphlod::gpu::sheet::{render_sheet, SheetOptions};
 use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::{load_mesh, Format, LoadOptions};
@@ -18,6 +19,7 @@ use morphlod::Asset;
 use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 #[derive(Parser)]
@@ -41,6 +43,9 @@ enum Command {
     Build(BuildArgs),
     /// Render a .mlod asset headless to a PNG: one cell per (t, lod), columns t, rows LOD.
     Render(RenderArgs),
+    /// Frame-rate benchmark of a .mlod asset headless: linear and exponential LOD sweeps over
+    /// the animation, drawn as LOD strips, as triangle lists of the same LOD, and at full detail.
+    Bench(BenchArgs),
     /// The main job on the embedded default (makehuman_head.glb, jawOpen): build the
     /// per-frame LOD model, then render contact sheets headless to PNG files.
     Demo(DemoArgs),
@@ -95,6 +100,21 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+struct BenchArgs {
+    /// The .mlod asset to benchmark.
+    asset: PathBuf,
+    /// Frames per sweep.
+    #[arg(long, default_value_t = 240)]
+    frames: usize,
+    /// Width and height of the offscreen target, in pixels.
+    #[arg(long, default_value_t = 512)]
+    size: u32,
+    /// Also write every frame's measurements to this JSON file.
+    #[arg(long, value_name = "OUT.json")]
+    json: Option<PathBuf>,
+}
+
+#[derive(Args)]
 struct DemoArgs {
     /// Where to write the contact sheets (PNG).
     #[arg(short, long, value_name = "DIR", default_value = "out")]
@@ -135,6 +155,7 @@ fn main() -> ExitCode {
         Some(Command::Info(args)) => return info(&args),
         Some(Command::Build(args)) => build(&args),
         Some(Command::Render(args)) => render(&args),
+        Some(Command::Bench(args)) => bench(&args),
         Some(Command::Demo(args)) => demo(&args),
         None => demo(&DemoArgs {
             output: PathBuf::from("out"),
@@ -414,6 +435,30 @@ fn render(args: &RenderArgs) -> Result<(), String> {
     render_to_png(&asset, &args.ts, &lods, &options, &args.output)
 }
 
+/// Runs the frame-rate benchmark and prints its summary (and writes the rows as JSON).
+fn bench(args: &BenchArgs) -> Result<(), String> {
+    let bytes = std::fs::read(&args.asset).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let model = Arc::new(DeformingModel::new(&asset).map_err(|e| e.to_string())?);
+    let context = Context::headless().map_err(|e| e.to_string())?;
+    let info = context.adapter_info();
+    println!(
+        "bench on {} ({:?}, {:?}): {} frames per sweep, {}x{} target",
+        info.name, info.backend, info.device_type, args.frames, args.size, args.size
+    );
+    let options = BenchOptions {
+        frames: args.frames,
+        size: args.size,
+    };
+    let report = run_bench(&context, &asset, &model, &options).map_err(|e| e.to_string())?;
+    print!("{}", report.summary());
+    if let Some(path) = &args.json {
+        std::fs::write(path, report.to_json()).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("rows written to {}", path.display());
+    }
+    Ok(())
+}
+
 /// The default asset, compiled in so `cargo run` works from any directory of the checkout.
 const DEMO_INPUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_head.glb");
 const DEMO_TARGET: &str = "jawOpen";
@@ -464,7 +509,7 @@ fn render_to_png(
     options: &SheetOptions,
     output: &Path,
 ) -> Result<(), String> {
-    let model = DeformingModel::new(asset).map_err(|e| e.to_string())?;
+    let model = Arc::new(DeformingModel::new(asset).map_err(|e| e.to_string())?);
     let context = Context::headless().map_err(|e| e.to_string())?;
     let adapter = context.adapter_info();
     let (sheet, cells) =

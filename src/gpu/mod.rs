@@ -10,8 +10,11 @@
 //!   buffer cut into fixed regions (one per strip of `S0`), and one `DrawIndexedIndirectArgs` per
 //!   region. The CPU edits regions; [`Object::prepare`] uploads only the changed byte ranges and
 //!   [`Object::render`] draws every region with exactly one `multi_draw_indexed_indirect`.
+//! * [`LodObject`] — an [`Object`] driven by its CPU LOD runtime: `set(t, lod)`, `prepare`,
+//!   `render`; what applications use.
 //! * [`Target`] — an offscreen colour + depth target and its readback into an `image::RgbaImage`.
 //! * [`camera`] — a view and projection fitted to an object's bounds.
+//! * [`bench`](mod@bench) — the frame-rate benchmark: LOD sweeps drawn as strips, as lists, at full detail.
 //! * [`sheet`] — contact sheets: one object rendered headless over a grid of `(t, lod)` states.
 //!
 //! The caller owns the device, queue and render pass (the `prepare` / `render` split of
@@ -35,14 +38,17 @@
 //! shader or layout duplication. Objects of the same asset still own separate index buffers,
 //! because each may sit at its own LOD and frame.
 
+pub mod bench;
 pub mod camera;
 mod context;
+mod lod_object;
 mod object;
 mod pipeline;
 pub mod sheet;
 mod target;
 
 pub use context::{test_context, Context};
+pub use lod_object::LodObject;
 pub use object::{Object, Topology, Upload, MERGE_GAP_BYTES};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
 pub use target::{save_png, Target};

@@ -1,17 +1,19 @@
 //! Contact sheets: one deforming object rendered headless at a grid of `(t, lod)` states, the
 //! way the papers' figures show a morph (columns: time, rows: level of detail).
 //!
-//! The object is driven exactly as an application would drive it — [`DeformingLod::set`], its
-//! dirty log into [`Object::apply_dirty`], [`Object::prepare`], one multi-draw — so a sheet also
-//! reports what each state cost: triangles and indices drawn, bytes uploaded.
+//! The object is driven exactly as an application would drive it — a [`LodObject`]:
+//! `set(t, lod)`, `prepare`, one multi-draw — so a sheet also reports what each state cost:
+//! triangles and indices drawn, bytes uploaded.
+
+use std::sync::Arc;
 
 use glam::Vec3;
 use image::RgbaImage;
 
-use super::camera::{fit_to_bounds, Projection};
-use super::{Context, MorphPipeline, Object, ShadeMode, Target, Topology};
+use super::camera::{fit_to_bounds, Camera, Projection};
+use super::{Context, LodObject, MorphPipeline, ShadeMode, Target};
 use crate::asset::Asset;
-use crate::deform::{DeformingLod, DeformingModel, Lod};
+use crate::deform::{DeformingModel, Lod};
 use crate::Error;
 
 /// How a sheet looks.
@@ -64,7 +66,7 @@ const CLEAR: wgpu::Color = wgpu::Color {
 pub fn render_sheet(
     context: &Context,
     asset: &Asset,
-    model: &DeformingModel,
+    model: &Arc<DeformingModel>,
     ts: &[f32],
     lods: &[Lod],
     options: &SheetOptions,
@@ -73,32 +75,8 @@ pub fn render_sheet(
     let queue = &context.queue;
     let target = Target::new(device, options.cell, options.cell, CLEAR)?;
     let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let regions: Vec<Vec<u32>> = (0..asset.s0.len())
-        .filter_map(|i| asset.s0.strip(i).map(<[u32]>::to_vec))
-        .collect();
-    let mut object = Object::new(
-        device,
-        &pipeline,
-        Topology::Strip,
-        &asset.v0,
-        &asset.v1,
-        &regions,
-    )?;
-    // Frame the union of both poses so the object does not jump between columns.
-    let both: Vec<[f32; 3]> = asset.v0.iter().chain(&asset.v1).copied().collect();
-    let (min, max) = crate::mesh::bounds(&both).ok_or(crate::mesh::MeshError::Empty {
-        vertices: 0,
-        triangles: asset.s0.indices.len(),
-    })?;
-    let camera = fit_to_bounds(
-        min,
-        max,
-        options.direction,
-        1.0,
-        Projection::Perspective {
-            vertical_fov: 30f32.to_radians(),
-        },
-    )?;
+    let mut object = LodObject::new(device, &pipeline, asset, Arc::clone(model))?;
+    let camera = frame_both_poses(asset, options.direction)?;
     object.set_view_proj(camera.view_proj());
     object.set_color([0.85, 0.62, 0.5, 1.0]);
     object.set_light(-options.direction + Vec3::Y * 0.5, 0.25)?;
@@ -107,21 +85,18 @@ pub fn render_sheet(
     let (w, h) = (options.cell, options.cell);
     let mut sheet = RgbaImage::new(w * ts.len() as u32, h * lods.len() as u32);
     let mut cells = Vec::with_capacity(ts.len() * lods.len());
-    let mut state = DeformingLod::new(model);
     for (row, &lod) in lods.iter().enumerate() {
         for (col, &t) in ts.iter().enumerate() {
-            state.set(model, t, lod)?;
-            let dirty = state.take_dirty();
-            object.apply_dirty(&dirty, state.indices(), state.lengths())?;
-            object.set_t(t)?;
+            object.set(t, lod)?;
             let upload = object.prepare(queue);
-            let image = target.render(device, queue, &mut [&mut object])?;
+            let image = target.render(device, queue, &mut [object.object_mut()])?;
             image::imageops::replace(
                 &mut sheet,
                 &image,
                 i64::from(col as u32 * w),
                 i64::from(row as u32 * h),
             );
+            let state = object.state();
             cells.push(Cell {
                 t,
                 lod,
@@ -134,4 +109,24 @@ pub fn render_sheet(
         }
     }
     Ok((sheet, cells))
+}
+
+/// A perspective camera looking along `direction` that frames the union of both poses, so the
+/// object does not jump between frames of an animation.
+pub fn frame_both_poses(asset: &Asset, direction: Vec3) -> Result<Camera, Error> {
+    let both: Vec<[f32; 3]> = asset.v0.iter().chain(&asset.v1).copied().collect();
+    let (min, max) = crate::mesh::bounds(&both).ok_or(crate::mesh::MeshError::Empty {
+        vertices: 0,
+        triangles: asset.s0.indices.len(),
+    })?;
+    let camera = fit_to_bounds(
+        min,
+        max,
+        direction,
+        1.0,
+        Projection::Perspective {
+            vertical_fov: 30f32.to_radians(),
+        },
+    )?;
+    Ok(camera)
 }

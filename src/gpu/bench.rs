@@ -1,0 +1,459 @@
+//! The frame-rate benchmark of the papers: a deforming object animated over `t = 0 → 1` while
+//! its LOD sweeps from full detail to the coarsest, linearly and exponentially, drawn three ways
+//! in the same run on the same adapter:
+//!
+//! * **strips** — a [`LodObject`]: `set(t, lod)`, `prepare`, one multi-draw;
+//! * **list** — the same triangles as a plain triangle list, rebuilt and re-uploaded per frame
+//!   (what an application without LOD strips does to show the same LOD);
+//! * **full** — full detail without LOD: the strips `S0` and, for the full-detail ratio, the
+//!   same triangles as a list, both uploaded once.
+//!
+//! The list of a frame is the live strips decoded into triangles
+//! ([`crate::strip::strip_triangles`]): one pass over the live indices, cheaper than
+//! [`CollapseSequence::reference_mesh`](crate::collapse::CollapseSequence::reference_mesh)
+//! (which resolves every vertex's survivor and maps every original triangle) and drawing the
+//! identical triangle multiset (the oracle tests check strips against the reference mesh).
+//!
+//! GPU frame time is the wall time of `queue.submit` plus `device.poll(wait)` for one pass that
+//! draws one object into an offscreen target: it includes the staged `write_buffer` copies the
+//! submit flushes. CPU time of `set` and `prepare` is measured around the calls.
+//! No plot is drawn (no plotting crate in the dependencies); the JSON rows hold the curves.
+
+use std::fmt::Write as _;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::lod_object::s0_regions;
+use super::sheet::frame_both_poses;
+use super::{Context, GpuError, LodObject, MorphPipeline, Object, Target, Topology};
+use crate::asset::Asset;
+use crate::deform::{DeformingModel, Lod};
+use crate::strip::strip_triangles;
+use crate::Error;
+
+/// A frame at 24 frames per second, in milliseconds: the budget the CPU cost is compared to.
+pub const FRAME_24FPS_MS: f64 = 1000.0 / 24.0;
+
+/// How LOD moves over the animation (`x = frame / (frames − 1)`, `t = x`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sweep {
+    /// LOD fraction `x`.
+    Linear,
+    /// LOD fraction `(1024^x − 1) / 1023`: long near full detail, fast at the end, so most
+    /// frames change the LOD by few collapses.
+    Exponential,
+}
+
+impl Sweep {
+    /// The sweep's name in tables and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sweep::Linear => "linear",
+            Sweep::Exponential => "exponential",
+        }
+    }
+
+    /// The LOD fraction at position `x` in `[0, 1]`.
+    pub fn fraction(self, x: f32) -> f32 {
+        match self {
+            Sweep::Linear => x,
+            Sweep::Exponential => (1024f32.powf(x) - 1.0) / 1023.0,
+        }
+    }
+}
+
+/// Benchmark settings.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchOptions {
+    /// Frames per sweep (at least 2).
+    pub frames: usize,
+    /// Width and height of the offscreen target, in pixels.
+    pub size: u32,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions {
+            frames: 240,
+            size: 512,
+        }
+    }
+}
+
+/// What one frame of one sweep measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameRow {
+    pub sweep: Sweep,
+    pub frame: usize,
+    pub t: f32,
+    /// The requested LOD fraction.
+    pub lod: f32,
+    /// The sampled animation frame and the LOD in its collapses.
+    pub asset_frame: usize,
+    pub steps: usize,
+    /// Triangles and live indices the strips draw.
+    pub triangles: usize,
+    pub indices: usize,
+    /// CPU time of `LodObject::set` and `LodObject::prepare`, microseconds.
+    pub set_us: f64,
+    pub prepare_us: f64,
+    /// Index and indirect bytes the strips uploaded this frame.
+    pub upload_bytes: u64,
+    /// Draw calls the strips object issued this frame.
+    pub draws: u64,
+    pub strips_ms: f64,
+    /// Triangles of the list and the CPU time to decode it, microseconds.
+    pub list_triangles: usize,
+    pub list_build_us: f64,
+    /// Index and indirect bytes the list uploaded this frame.
+    pub list_upload_bytes: u64,
+    pub list_ms: f64,
+    /// Full detail without LOD: strips `S0` and the same triangles as a list.
+    pub full_strips_ms: f64,
+    pub full_list_ms: f64,
+}
+
+/// A whole benchmark run.
+#[derive(Clone, Debug)]
+pub struct BenchReport {
+    pub adapter: String,
+    pub backend: String,
+    pub device_type: String,
+    pub vertices: usize,
+    /// Triangles and bytes of the whole strip index buffer at full detail.
+    pub full_triangles: usize,
+    pub full_index_bytes: u64,
+    pub rows: Vec<FrameRow>,
+}
+
+/// Runs both sweeps over `asset` (with its runtime `model`) on `context`'s device.
+pub fn run_bench(
+    context: &Context,
+    asset: &Asset,
+    model: &Arc<DeformingModel>,
+    options: &BenchOptions,
+) -> Result<BenchReport, Error> {
+    let (device, queue) = (&context.device, &context.queue);
+    let frames = options.frames.max(2);
+    let target = Target::new(device, options.size, options.size, wgpu::Color::BLACK)?;
+    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let camera = frame_both_poses(asset, glam::Vec3::new(-0.35, -0.15, -1.0))?.view_proj();
+
+    let regions = s0_regions(model);
+    // Strip by strip: the regions hold no restart between strips.
+    let full_list: Vec<u32> = regions
+        .iter()
+        .flat_map(|strip| strip_triangles(strip))
+        .flatten()
+        .collect();
+    let full_triangles = full_list.len() / 3;
+    let list_object = |live: &[u32]| {
+        Object::new(
+            device,
+            &pipeline,
+            Topology::List,
+            &asset.v0,
+            &asset.v1,
+            &[live.to_vec()],
+        )
+    };
+    let mut full_strips = Object::new(
+        device,
+        &pipeline,
+        Topology::Strip,
+        &asset.v0,
+        &asset.v1,
+        &s0_regions(model),
+    )?;
+    let mut full = list_object(&full_list)?;
+    // The per-frame list starts as the full list too: its region has room for every triangle.
+    let mut list = list_object(&full_list)?;
+    for object in [&mut full_strips, &mut full, &mut list] {
+        object.set_view_proj(camera);
+    }
+
+    let mut rows = Vec::with_capacity(2 * frames);
+    for sweep in [Sweep::Linear, Sweep::Exponential] {
+        let mut strips = LodObject::new(device, &pipeline, asset, Arc::clone(model))?;
+        strips.set_view_proj(camera);
+        // Warm-up: first draws create pipelines' backing state and fill caches.
+        strips.prepare(queue);
+        gpu_frame(device, queue, &target, strips.object_mut())?;
+        for i in 0..frames {
+            let x = i as f32 / (frames - 1) as f32;
+            let (t, lod) = (x, sweep.fraction(x));
+
+            let start = Instant::now();
+            strips.set(t, Lod::Fraction(lod))?;
+            let set_us = micros(start);
+            let start = Instant::now();
+            let upload = strips.prepare(queue);
+            let prepare_us = micros(start);
+            let draws_before = strips.object().draw_calls();
+            let strips_ms = gpu_frame(device, queue, &target, strips.object_mut())?;
+            let draws = strips.object().draw_calls() - draws_before;
+
+            let start = Instant::now();
+            let live: Vec<u32> = (0..strips.object().region_count())
+                .filter_map(|s| strips.state().strip(s))
+                .flat_map(strip_triangles)
+                .flatten()
+                .collect();
+            let list_build_us = micros(start);
+            list.write_region(0, &live)?;
+            list.set_t(t)?;
+            let list_upload = list.prepare(queue);
+            let list_ms = gpu_frame(device, queue, &target, &mut list)?;
+
+            full_strips.set_t(t)?;
+            full_strips.prepare(queue);
+            let full_strips_ms = gpu_frame(device, queue, &target, &mut full_strips)?;
+            full.set_t(t)?;
+            full.prepare(queue);
+            let full_list_ms = gpu_frame(device, queue, &target, &mut full)?;
+
+            let state = strips.state();
+            rows.push(FrameRow {
+                sweep,
+                frame: i,
+                t,
+                lod,
+                asset_frame: state.frame(),
+                steps: state.lod(),
+                triangles: state.triangle_count(),
+                indices: state.index_count(),
+                set_us,
+                prepare_us,
+                upload_bytes: upload.geometry_bytes(),
+                draws,
+                strips_ms,
+                list_triangles: live.len() / 3,
+                list_build_us,
+                list_upload_bytes: list_upload.geometry_bytes(),
+                list_ms,
+                full_strips_ms,
+                full_list_ms,
+            });
+        }
+    }
+    let info = context.adapter_info();
+    Ok(BenchReport {
+        adapter: info.name,
+        backend: format!("{:?}", info.backend),
+        device_type: format!("{:?}", info.device_type),
+        vertices: asset.v0.len(),
+        full_triangles,
+        full_index_bytes: model.layout().s0().len() as u64 * 4,
+        rows,
+    })
+}
+
+fn micros(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e6
+}
+
+/// Draws `object` alone into `target` and returns the milliseconds of submit + wait.
+fn gpu_frame(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    target: &Target,
+    object: &mut Object,
+) -> Result<f64, GpuError> {
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = target.begin_pass(&mut encoder);
+        object.render(&mut pass);
+    }
+    let command = encoder.finish();
+    let start = Instant::now();
+    queue.submit([command]);
+    device.poll(wgpu::PollType::wait_indefinitely())?;
+    Ok(start.elapsed().as_secs_f64() * 1e3)
+}
+
+fn mean(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    values.iter().sum::<f64>() / values.len() as f64
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    match sorted.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => sorted[n / 2],
+        n => 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]),
+    }
+}
+
+/// Pearson correlation of two equally long series (0 when either is constant).
+fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let (ma, mb) = (mean(a), mean(b));
+    let (mut cov, mut va, mut vb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        cov += (x - ma) * (y - mb);
+        va += (x - ma) * (x - ma);
+        vb += (y - mb) * (y - mb);
+    }
+    if va == 0.0 || vb == 0.0 {
+        return 0.0;
+    }
+    cov / (va * vb).sqrt()
+}
+
+impl BenchReport {
+    fn column(&self, sweep: Sweep, f: impl Fn(&FrameRow) -> f64) -> Vec<f64> {
+        self.rows
+            .iter()
+            .filter(|r| r.sweep == sweep)
+            .map(f)
+            .collect()
+    }
+
+    /// The summary table and the goals, met or not, as text.
+    pub fn summary(&self) -> String {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "adapter: {} ({}, {}); {} vertices, {} triangles, full index buffer {} bytes",
+            self.adapter,
+            self.backend,
+            self.device_type,
+            self.vertices,
+            self.full_triangles,
+            self.full_index_bytes
+        );
+        let _ = writeln!(
+            out,
+            "{:<12} {:<20} {:>12} {:>12}",
+            "sweep", "measure", "mean", "median"
+        );
+        type Column = (&'static str, fn(&FrameRow) -> f64);
+        let columns: [Column; 11] = [
+            ("triangles", |r| r.triangles as f64),
+            ("set us", |r| r.set_us),
+            ("prepare us", |r| r.prepare_us),
+            ("upload B (strips)", |r| r.upload_bytes as f64),
+            ("list build us", |r| r.list_build_us),
+            ("upload B (list)", |r| r.list_upload_bytes as f64),
+            ("GPU ms strips", |r| r.strips_ms),
+            ("GPU ms list", |r| r.list_ms),
+            ("GPU ms full strips", |r| r.full_strips_ms),
+            ("GPU ms full list", |r| r.full_list_ms),
+            ("strips/list", |r| r.strips_ms / r.list_ms.max(1e-9)),
+        ];
+        for sweep in [Sweep::Linear, Sweep::Exponential] {
+            for (name, f) in columns {
+                let values = self.column(sweep, f);
+                let _ = writeln!(
+                    out,
+                    "{:<12} {:<20} {:>12.3} {:>12.3}",
+                    sweep.name(),
+                    name,
+                    mean(&values),
+                    median(&values)
+                );
+            }
+        }
+
+        let all = |f: fn(&FrameRow) -> f64| -> Vec<f64> { self.rows.iter().map(f).collect() };
+        let full_ratio =
+            median(&all(|r| r.full_strips_ms)) / median(&all(|r| r.full_list_ms)).max(1e-9);
+        let cpu = mean(&all(|r| (r.set_us + r.prepare_us) / 1e3));
+        let cpu_max = all(|r| (r.set_us + r.prepare_us) / 1e3)
+            .into_iter()
+            .fold(0.0, f64::max);
+        let cpu_percent = 100.0 * cpu / FRAME_24FPS_MS;
+        let upload = mean(&self.column(Sweep::Exponential, |r| r.upload_bytes as f64));
+        let upload_percent = 100.0 * upload / (self.full_index_bytes.max(1) as f64);
+        let linear_tris = self.column(Sweep::Linear, |r| r.triangles as f64);
+        let linear_ms = self.column(Sweep::Linear, |r| r.strips_ms);
+        let falls = correlation(&linear_tris, &linear_ms);
+        let met = |ok: bool| if ok { "met" } else { "NOT met" };
+        let _ = writeln!(out, "goals:");
+        let _ = writeln!(
+            out,
+            "  full-detail strips / list GPU time (medians): {full_ratio:.3} (goal <= 1.05: {})",
+            met(full_ratio <= 1.05)
+        );
+        let _ = writeln!(
+            out,
+            "  frame time vs triangles, linear sweep, correlation: {falls:.3} (goal > 0, time falls with triangles: {})",
+            met(falls > 0.0)
+        );
+        let _ = writeln!(
+            out,
+            "  CPU set+prepare: mean {cpu:.4} ms = {cpu_percent:.3}% of a 24 fps frame, max {cpu_max:.4} ms (goal <= 1%: {})",
+            met(cpu_percent <= 1.0)
+        );
+        let _ = writeln!(
+            out,
+            "  exponential sweep upload: mean {upload:.0} B = {upload_percent:.2}% of a full index upload (goal <= 5%: {})",
+            met(upload_percent <= 5.0)
+        );
+        out
+    }
+
+    /// The run as JSON: adapter, sizes and one object per frame row.
+    pub fn to_json(&self) -> String {
+        let mut out = String::new();
+        let _ = write!(
+            out,
+            "{{\"adapter\":{},\"backend\":{},\"device_type\":{},\"vertices\":{},\"full_triangles\":{},\"full_index_bytes\":{},\"rows\":[",
+            json_string(&self.adapter),
+            json_string(&self.backend),
+            json_string(&self.device_type),
+            self.vertices,
+            self.full_triangles,
+            self.full_index_bytes
+        );
+        for (i, r) in self.rows.iter().enumerate() {
+            let _ = write!(
+                out,
+                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"draws\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4}}}",
+                if i == 0 { "" } else { "," },
+                r.sweep.name(),
+                r.frame,
+                r.t,
+                r.lod,
+                r.asset_frame,
+                r.steps,
+                r.triangles,
+                r.indices,
+                r.set_us,
+                r.prepare_us,
+                r.upload_bytes,
+                r.draws,
+                r.strips_ms,
+                r.list_triangles,
+                r.list_build_us,
+                r.list_upload_bytes,
+                r.list_ms,
+                r.full_strips_ms,
+                r.full_list_ms
+            );
+        }
+        out.push_str("\n]}\n");
+        out
+    }
+}
+
+/// `s` as a JSON string literal.
+fn json_string(s: &str) -> String {
+    let mut out = String::with_capacity(s.len() + 2);
+    out.push('"');
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            c if (c as u32) < 0x20 => {
+                let _ = write!(out, "\\u{:04x}", c as u32);
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}

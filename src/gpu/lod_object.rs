@@ -1,0 +1,145 @@
+//! A deforming LOD object on the GPU: the CPU runtime ([`DeformingLod`]) and the GPU
+//! [`Object`] it drives, behind the `set` / `prepare` / `render` calls an application makes.
+//!
+//! This is the one place that wires the two together (dirty log into
+//! [`Object::apply_dirty`], `t` into the uniforms), so contact sheets, benchmarks and
+//! applications drive an object the same way.
+//!
+//! The object holds its [`DeformingModel`] through an [`Arc`]: the model (every frame's change
+//! lists, megabytes for a body) is read-only after it is built and shared by every instance of
+//! an asset — a crowd of N objects holds one model and N small runtimes. An `Arc` instead of a
+//! borrow keeps the object free of lifetimes, so it can live in an application's state next to
+//! the device it was made on.
+
+use std::sync::Arc;
+
+use super::{GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
+use crate::asset::Asset;
+use crate::deform::{DeformingLod, DeformingModel, Lod};
+use crate::Error;
+
+/// One deforming mesh with continuous LOD, ready to draw with one multi-draw per frame.
+pub struct LodObject {
+    model: Arc<DeformingModel>,
+    state: DeformingLod,
+    object: Object,
+}
+
+impl LodObject {
+    /// Uploads the poses of `asset` and the strips `S0` of `model` (one region per strip) on
+    /// `device`; the object starts at `t = 0`, full detail.
+    ///
+    /// `model` must be made from `asset` ([`DeformingModel::new`]); a model whose strips name
+    /// vertices past the asset's poses is rejected with [`GpuError::IndexOutOfRange`].
+    pub fn new(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        asset: &Asset,
+        model: Arc<DeformingModel>,
+    ) -> Result<LodObject, Error> {
+        let object = Object::new(
+            device,
+            pipeline,
+            Topology::Strip,
+            &asset.v0,
+            &asset.v1,
+            &s0_regions(&model),
+        )?;
+        let state = DeformingLod::new(&model);
+        Ok(LodObject {
+            model,
+            state,
+            object,
+        })
+    }
+
+    /// Moves to time `t` (in `[0, 1]`) at `lod`: runs the CPU model, hands its dirty log to the
+    /// GPU object's mirror and sets the blend parameter. Nothing is uploaded until
+    /// [`prepare`](Self::prepare). On error nothing changed.
+    pub fn set(&mut self, t: f32, lod: Lod) -> Result<(), Error> {
+        if !(0.0..=1.0).contains(&t) {
+            // Checked before the runtime moves, so a refused `t` leaves both sides as they were.
+            return Err(GpuError::InvalidParameter {
+                what: "blend parameter t",
+                value: t.to_string(),
+                expected: "t must lie in [0, 1]",
+            }
+            .into());
+        }
+        self.state.set(&self.model, t, lod)?;
+        let dirty = self.state.take_dirty();
+        self.object
+            .apply_dirty(&dirty, self.state.indices(), self.state.lengths())?;
+        self.object.set_t(t)?;
+        Ok(())
+    }
+
+    /// Uploads what changed since the last call (index and indirect spans, uniforms).
+    pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
+        self.object.prepare(queue)
+    }
+
+    /// Draws the object with exactly one `multi_draw_indexed_indirect`.
+    pub fn render(&mut self, pass: &mut wgpu::RenderPass<'_>) {
+        self.object.render(pass);
+    }
+
+    /// Sets projection * view (see [`Object::set_view_proj`]).
+    pub fn set_view_proj(&mut self, view_proj: glam::Mat4) {
+        self.object.set_view_proj(view_proj);
+    }
+
+    /// Sets the object-to-world transform.
+    pub fn set_model(&mut self, model: glam::Mat4) {
+        self.object.set_model(model);
+    }
+
+    /// Sets the base colour (linear rgb, alpha written as is).
+    pub fn set_color(&mut self, color: [f32; 4]) {
+        self.object.set_color(color);
+    }
+
+    /// Sets the world-space direction towards the light and the ambient term.
+    pub fn set_light(&mut self, towards_light: glam::Vec3, ambient: f32) -> Result<(), GpuError> {
+        self.object.set_light(towards_light, ambient)
+    }
+
+    /// Chooses base colour or one colour per strip.
+    pub fn set_shade_mode(&mut self, mode: ShadeMode) {
+        self.object.set_shade_mode(mode);
+    }
+
+    /// The CPU runtime: current frame, LOD, triangle and index counts, live strips.
+    pub fn state(&self) -> &DeformingLod {
+        &self.state
+    }
+
+    /// The GPU object (region layout, indirect records, draw count).
+    pub fn object(&self) -> &Object {
+        &self.object
+    }
+
+    /// Mutable access to the GPU object, e.g. to draw it in a pass with other objects through
+    /// [`super::Target::render`].
+    pub fn object_mut(&mut self) -> &mut Object {
+        &mut self.object
+    }
+
+    /// The model this object runs.
+    pub fn model(&self) -> &Arc<DeformingModel> {
+        &self.model
+    }
+}
+
+/// The strips of `S0` as `model`'s runtime lays them out: region `r` = strip `r`, so the
+/// runtime's dirty logs address the object's regions directly.
+pub(crate) fn s0_regions(model: &DeformingModel) -> Vec<Vec<u32>> {
+    let layout = model.layout();
+    let s0 = layout.s0();
+    // The layout checked its offsets against S0 when it was made; `get` keeps this total anyway.
+    layout
+        .region_offsets()
+        .windows(2)
+        .map(|w| s0.get(w[0] as usize..w[1] as usize).unwrap_or(&[]).to_vec())
+        .collect()
+}

@@ -1,0 +1,206 @@
+//! `gpu::LodObject` and the frame-rate benchmark on a real adapter (lavapipe in CI).
+//!
+//! * `lod_object_renders_like_a_hand_driven_object`: over a walk of `(t, lod)` states, a
+//!   `LodObject` renders pixel for pixel like a `gpu::Object` driven by hand from its own
+//!   `DeformingLod` (the wiring the LodObject replaces), with one draw per frame; a refused `t`
+//!   changes nothing.
+//! * `bench_rows_are_consistent`: a short `run_bench` on a small morphing grid: row count, one
+//!   draw per frame, triangle counts equal to the reference mesh of DESIGN.md
+//!   (`CollapseSequence::reference_mesh`) and to the list drawn beside, uploads exactly where
+//!   the strips changed, and the JSON holds every row.
+//!
+//! Every test uses `gpu::test_context`: it fails when no adapter exists and `CI=true`, and
+//! skips with a printed reason elsewhere.
+
+use std::sync::Arc;
+
+use morphlod::gpu::bench::{run_bench, BenchOptions, Sweep};
+use morphlod::gpu::{self, LodObject, MorphPipeline, Object, Target, Topology};
+use morphlod::strip::strip_triangles;
+use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Error, Lod, Morph};
+
+/// An `n × n` vertex grid in the xy plane (`V(0)`) that bulges along z (`V(1)`), built into an
+/// asset of `frames` sampled frames.
+fn grid_asset(n: u32, frames: usize) -> Asset {
+    let mut v0 = Vec::new();
+    let mut v1 = Vec::new();
+    for y in 0..n {
+        for x in 0..n {
+            let (fx, fy) = (x as f32 / (n - 1) as f32, y as f32 / (n - 1) as f32);
+            // Slightly uneven heights so the simplifier's errors are not all tied.
+            let z0 = 0.05 * (7.0 * fx + 3.0 * fy).sin();
+            v0.push([fx - 0.5, fy - 0.5, z0]);
+            let bulge = (std::f32::consts::PI * fx).sin() * (std::f32::consts::PI * fy).sin();
+            v1.push([fx - 0.5, fy - 0.5, z0 + 0.4 * bulge]);
+        }
+    }
+    let mut triangles = Vec::new();
+    for y in 0..n - 1 {
+        for x in 0..n - 1 {
+            let i = y * n + x;
+            triangles.push([i, i + 1, i + n]);
+            triangles.push([i + 1, i + n + 1, i + n]);
+        }
+    }
+    let morph = Morph::from_poses(triangles, v0, v1).expect("valid grid morph");
+    Builder::new(&morph)
+        .frames(frames)
+        .build()
+        .expect("grid asset builds")
+        .0
+}
+
+#[test]
+fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
+    let Some(ctx) = gpu::test_context()? else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let asset = grid_asset(12, 5);
+    let model = Arc::new(DeformingModel::new(&asset)?);
+    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let target = Target::new(device, 96, 96, wgpu::Color::BLUE)?;
+
+    let mut lod_object = LodObject::new(device, &pipeline, &asset, Arc::clone(&model))?;
+    let regions: Vec<Vec<u32>> = (0..asset.s0.len())
+        .filter_map(|i| asset.s0.strip(i).map(<[u32]>::to_vec))
+        .collect();
+    let mut by_hand = Object::new(
+        device,
+        &pipeline,
+        Topology::Strip,
+        &asset.v0,
+        &asset.v1,
+        &regions,
+    )?;
+    let mut state = DeformingLod::new(&model);
+    let camera = gpu::sheet::frame_both_poses(&asset, glam::Vec3::new(0.3, -0.4, -1.0))?;
+    lod_object.set_view_proj(camera.view_proj());
+    by_hand.set_view_proj(camera.view_proj());
+
+    let states = [
+        (0.0, 0.0),
+        (0.0, 0.6),
+        (0.3, 0.6),
+        (0.5, 0.9),
+        (0.5, 0.2),
+        (1.0, 1.0),
+        (0.75, 0.4),
+        (0.1, 0.0),
+    ];
+    let mut coarse_seen = false;
+    for (frame, &(t, lod)) in states.iter().enumerate() {
+        lod_object.set(t, Lod::Fraction(lod))?;
+        lod_object.prepare(queue);
+        let image = target.render(device, queue, &mut [lod_object.object_mut()])?;
+
+        state.set(&model, t, Lod::Fraction(lod))?;
+        let dirty = state.take_dirty();
+        by_hand.apply_dirty(&dirty, state.indices(), state.lengths())?;
+        by_hand.set_t(t)?;
+        by_hand.prepare(queue);
+        let expected = target.render(device, queue, &mut [&mut by_hand])?;
+
+        assert_eq!(
+            lod_object.state().triangle_count(),
+            state.triangle_count(),
+            "state {frame}: triangle counts differ"
+        );
+        coarse_seen |= state.triangle_count() < asset.s0.indices.len() / 3;
+        assert!(
+            image == expected,
+            "state {frame} (t {t}, lod {lod}): LodObject image differs from the hand-driven object"
+        );
+        assert_eq!(
+            lod_object.object().draw_calls(),
+            frame as u64 + 1,
+            "one multi-draw per frame"
+        );
+    }
+    assert!(coarse_seen, "the walk never left full detail");
+
+    // A refused t changes neither the runtime nor the GPU mirror.
+    let before = (
+        lod_object.state().frame(),
+        lod_object.state().lod(),
+        counts(lod_object.object()),
+    );
+    assert!(lod_object.set(1.5, Lod::Fraction(0.0)).is_err());
+    assert!(lod_object.set(f32::NAN, Lod::Fraction(0.0)).is_err());
+    assert_eq!(
+        before,
+        (
+            lod_object.state().frame(),
+            lod_object.state().lod(),
+            counts(lod_object.object()),
+        )
+    );
+    Ok(())
+}
+
+/// The live length of every region.
+fn counts(object: &Object) -> Vec<u32> {
+    object
+        .indirect_args()
+        .iter()
+        .map(|a| a.index_count)
+        .collect()
+}
+
+#[test]
+fn bench_rows_are_consistent() -> Result<(), Error> {
+    let Some(ctx) = gpu::test_context()? else {
+        return Ok(());
+    };
+    let asset = grid_asset(10, 4);
+    let model = Arc::new(DeformingModel::new(&asset)?);
+    let frames = 7;
+    let report = run_bench(&ctx, &asset, &model, &BenchOptions { frames, size: 48 })?;
+    let original: Vec<[u32; 3]> = (0..asset.s0.len())
+        .filter_map(|i| asset.s0.strip(i))
+        .flat_map(strip_triangles)
+        .collect();
+    assert_eq!(report.full_triangles, original.len());
+    assert_eq!(report.full_index_bytes, asset.s0.indices.len() as u64 * 4);
+    assert_eq!(report.rows.len(), 2 * frames);
+
+    for sweep in [Sweep::Linear, Sweep::Exponential] {
+        let rows: Vec<_> = report.rows.iter().filter(|r| r.sweep == sweep).collect();
+        assert_eq!(rows.len(), frames);
+        // Every sweep starts from a fresh object at frame 0, full detail.
+        let mut previous = (0usize, 0usize, asset.s0.indices.len());
+        for row in &rows {
+            let at = format!("{} frame {}", sweep.name(), row.frame);
+            assert_eq!(row.draws, 1, "{at}: one draw per frame");
+            let reference = asset.frames[row.asset_frame].reference_mesh(&original, row.steps);
+            assert_eq!(row.triangles, reference.len(), "{at}: reference mesh");
+            assert_eq!(row.list_triangles, row.triangles, "{at}: list beside");
+            let now = (row.asset_frame, row.steps, row.indices);
+            if row.indices != previous.2 {
+                assert!(
+                    row.upload_bytes > 0,
+                    "{at}: strips changed, nothing uploaded"
+                );
+            }
+            if now == previous || (row.steps == 0 && previous.1 == 0) {
+                assert_eq!(row.upload_bytes, 0, "{at}: nothing changed, bytes uploaded");
+            }
+            assert!(row.strips_ms > 0.0 && row.list_ms > 0.0 && row.full_strips_ms > 0.0);
+            previous = now;
+        }
+        let first = rows.first().expect("rows");
+        assert_eq!((first.steps, first.triangles), (0, original.len()));
+        let last = rows.last().expect("rows");
+        let last_frame = asset.frames.len() - 1;
+        assert_eq!(
+            (last.asset_frame, last.steps),
+            (last_frame, asset.frames[last_frame].len()),
+            "{}: the sweep ends at the coarsest LOD of the last frame",
+            sweep.name()
+        );
+    }
+    let json = report.to_json();
+    assert_eq!(json.matches("\"sweep\":").count(), report.rows.len());
+    assert!(report.summary().contains("goals:"));
+    Ok(())
+}
