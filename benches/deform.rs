@@ -22,10 +22,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use morphlod::deform::Strategy;
 use morphlod::io::LoadOptions;
 use morphlod::morph::{Morph, MorphSource};
-use morphlod::simplify::{simplify, SimplifyOptions};
-use morphlod::strip::stripify;
-use morphlod::{Asset, CollapseSequence, DeformingLod, DeformingModel, Lod};
-use rayon::prelude::*;
+use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Lod};
 
 const FRAMES: usize = 32;
 
@@ -37,20 +34,11 @@ fn body_asset() -> Asset {
         &MorphSource::Animation("morph".into()),
     )
     .expect("makehuman_body.glb loads");
-    let tris = morph.triangles();
-    let frames: Vec<CollapseSequence> = (0..FRAMES)
-        .into_par_iter()
-        .map(|k| {
-            let t = k as f32 / (FRAMES - 1) as f32;
-            simplify(&morph.positions_at(t), tris, &SimplifyOptions::default())
-        })
-        .collect();
-    Asset {
-        v0: morph.v0(),
-        v1: morph.v1(),
-        s0: stripify(tris, morph.vertex_count()),
-        frames,
-    }
+    let (asset, _) = Builder::new(&morph)
+        .frames(FRAMES)
+        .build()
+        .expect("the body builds");
+    asset
 }
 
 fn report_sizes(asset: &Asset, model: &DeformingModel) {

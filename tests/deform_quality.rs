@@ -3,7 +3,7 @@
 //! For a morph, at 10% and 5% of the triangles, the mean over 64 evenly spaced
 //! `t ∈ [0, 1]` of the symmetric Hausdorff distance (and RMS) between a LOD mesh
 //! at `t` and the full mesh `V(t)`, for
-//! * (a) per-frame sequences: |r| = 32 frames sampled at `t_k = k/31`, each
+//! * (a) per-frame sequences as [`Builder`] makes them: |r| = 32 frames sampled at `t_k = k/31`, each
 //!   simplified on its own pose; at `t` the frame `k = round(31 t)` is used, its
 //!   reference mesh at the first LOD with at most the target triangle count,
 //!   over the exact positions `V(t)` (as the GPU blends them);
@@ -26,7 +26,9 @@ use morphlod::io::LoadOptions;
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
 use morphlod::morph::{Morph, MorphSource};
-use morphlod::simplify::{simplify, SimplifyOptions};
+use morphlod::Builder;
+
+mod common;
 use morphlod::IndexedMesh;
 use rayon::prelude::*;
 
@@ -73,22 +75,6 @@ fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
     lo
 }
 
-fn meshopt_simplify(positions: &[[f32; 3]], tris: &[[u32; 3]], target: usize) -> Vec<[u32; 3]> {
-    let indices: Vec<u32> = tris.iter().flatten().copied().collect();
-    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(positions), 12, 0)
-        .expect("tightly packed positions");
-    // An error limit of the whole extent: only the triangle count stops it.
-    let out = meshopt::simplify(
-        &indices,
-        &adapter,
-        target * 3,
-        1.0,
-        meshopt::SimplifyOptions::None,
-        None,
-    );
-    out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
-}
-
 /// Error of the LOD triangles `lod` against the full surface, both over `positions`.
 fn error(
     positions: &[[f32; 3]],
@@ -112,13 +98,11 @@ fn table(file: &str, source: MorphSource) -> Vec<[(f64, f64); 3]> {
     let name = format!("{file} ({source:?})");
     let morph = load(file, source);
     let tris = morph.triangles();
-    let frames: Vec<CollapseSequence> = (0..FRAMES)
-        .into_par_iter()
-        .map(|k| {
-            let t = k as f32 / (FRAMES - 1) as f32;
-            simplify(&morph.positions_at(t), tris, &SimplifyOptions::default())
-        })
-        .collect();
+    let (asset, _) = Builder::new(&morph)
+        .frames(FRAMES)
+        .build()
+        .expect("the morph builds");
+    let frames = asset.frames;
     for seq in &frames {
         seq.validate().expect("a valid sequence");
     }
@@ -156,7 +140,7 @@ fn table(file: &str, source: MorphSource) -> Vec<[(f64, f64); 3]> {
                 .iter()
                 .enumerate()
                 .map(|(p, &target)| {
-                    let theirs = meshopt_simplify(&pos, tris, target);
+                    let theirs = common::meshopt_simplify(&pos, tris, target);
                     let candidates = [&lods[k][p], &lods[0][p], &theirs];
                     candidates.map(|lod| {
                         assert!(

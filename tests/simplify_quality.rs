@@ -17,6 +17,8 @@ use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, S
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::IndexedMesh;
 
+mod common;
+
 /// Samples per surface: enough that the RMS is stable to well under 1%.
 const SAMPLES: usize = 200_000;
 
@@ -48,21 +50,6 @@ fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
         }
     }
     lo
-}
-
-fn meshopt_simplify(mesh: &IndexedMesh, target: usize) -> Vec<[u32; 3]> {
-    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
-        .expect("tightly packed positions");
-    let out = meshopt::simplify(
-        &indices,
-        &adapter,
-        target * 3,
-        1.0,
-        meshopt::SimplifyOptions::None,
-        None,
-    );
-    out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
 }
 
 /// Error of `tris` (over the original vertex buffer) against the original surface.
@@ -107,7 +94,7 @@ fn quality_vs_meshopt() {
         };
         for percent in [10usize, 5, 2] {
             let target = mesh.triangles.len() * percent / 100;
-            let theirs = meshopt_simplify(&mesh, target);
+            let theirs = common::meshopt_simplify(&mesh.positions, &mesh.triangles, target);
             let ours = seq.reference_mesh(
                 &mesh.triangles,
                 lod_for(&seq, &mesh.triangles, theirs.len()),

@@ -1,6 +1,8 @@
 //! Helpers shared by the oracle tests (tests/oracle.rs, tests/oracle_deform.rs):
 //! a seeded RNG, random collapse sequences, the reference multiset hash of
-//! every LOD in one pass, and a GPU mirror updated only through the dirty log.
+//! every LOD in one pass, and a GPU mirror updated only through the dirty log;
+//! and by the quality tables (tests/simplify_quality.rs, tests/deform_quality.rs):
+//! the peer simplifier, meshopt, run the same way for both.
 //!
 //! Each test binary compiles this module and uses a subset of it.
 #![allow(dead_code)]
@@ -223,4 +225,21 @@ impl Mirror {
             .flat_map(|s| strip_triangles(self.strip(s)).collect::<Vec<_>>())
             .collect()
     }
+}
+
+/// `meshopt::simplify` to `target` triangles. The error limit is the whole extent, so only
+/// the triangle count stops it.
+pub fn meshopt_simplify(positions: &[[f32; 3]], tris: &[[u32; 3]], target: usize) -> Vec<[u32; 3]> {
+    let indices: Vec<u32> = tris.iter().flatten().copied().collect();
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(positions), 12, 0)
+        .expect("tightly packed positions");
+    let out = meshopt::simplify(
+        &indices,
+        &adapter,
+        target * 3,
+        1.0,
+        meshopt::SimplifyOptions::None,
+        None,
+    );
+    out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
 }
