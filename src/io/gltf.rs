@@ -954,9 +954,28 @@ fn split_glb<'a>(path: &Path, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [
     }
 }
 
-/// The `gltf` validator indexes `accessors[POSITION]` unchecked; catch a bad
-/// index first so validation reports instead of panicking.
+/// What the `gltf` validator misses, checked before it and the accessors run:
+/// it indexes `accessors[POSITION]` unchecked, and it validates an animation's
+/// samplers but never its channels, so an unknown target path or an
+/// out-of-range target node would reach `Checked::unwrap` or an unchecked index
+/// in the crate's accessors and panic.
 fn precheck(root: &gltf::json::Root) -> Result<(), String> {
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            if channel.target.node.value() >= root.nodes.len() {
+                return Err(format!(
+                    "animations[{a}].channels[{c}].target.node refers to node {}, but the file has {} nodes",
+                    channel.target.node.value(),
+                    root.nodes.len()
+                ));
+            }
+            if channel.target.path == gltf::json::validation::Checked::Invalid {
+                return Err(format!(
+                    "animations[{a}].channels[{c}].target.path is not one of translation, rotation, scale, weights"
+                ));
+            }
+        }
+    }
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             for (semantic, index) in &primitive.attributes {

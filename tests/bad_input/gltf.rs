@@ -380,6 +380,41 @@ fn animation_times_not_increasing() {
     assert!(err.to_string().contains("strictly increasing"), "{err}");
 }
 
+/// The `gltf` crate validates an animation's samplers but not its channels; an
+/// unknown target path used to panic in `Checked::unwrap` (found by the
+/// mutation proptest below), an out-of-range target node in an unchecked index.
+#[test]
+fn animation_channel_with_unknown_path_or_node() {
+    for (test, from, to, says) in [
+        (
+            "channel_path",
+            r#""path": "weights""#,
+            r#""path": "weighus""#,
+            "target.path",
+        ),
+        (
+            "channel_node",
+            r#""target": {"node": 0"#,
+            r#""target": {"node": 7"#,
+            "target.node",
+        ),
+    ] {
+        let path = glb_variant(test, from, to);
+        for err in [
+            morphlod::io::gltf::inspect(&path).unwrap_err(),
+            load(&path).unwrap_err(),
+        ] {
+            assert!(matches!(err, LoadError::GltfJson { .. }), "{err:?}");
+            assert!(err.to_string().contains(says), "{err}");
+        }
+        let err = animated(&path).unwrap_err();
+        assert!(
+            matches!(err, MorphError::Load(LoadError::GltfJson { .. })),
+            "{err:?}"
+        );
+    }
+}
+
 #[test]
 fn cyclic_node_hierarchy_terminates() {
     // A node that is its own child: placing the mesh must not loop forever.
