@@ -705,10 +705,17 @@ impl<'a> Reader<'a> {
         Ok(byte)
     }
 
-    fn bytes(&mut self, len: usize) -> &'a [u8] {
-        let out = &self.data[self.pos..self.pos + len];
+    fn bytes(&mut self, len: usize, what: &dyn Fn() -> String) -> Result<&'a [u8], AssetError> {
+        let out = self
+            .data
+            .get(self.pos..)
+            .and_then(|rest| rest.get(..len))
+            .ok_or_else(|| AssetError::Truncated {
+                tag: self.tag,
+                what: what(),
+            })?;
         self.pos += len;
-        out
+        Ok(out)
     }
 
     fn finish(&self) -> Result<(), AssetError> {
@@ -1178,8 +1185,10 @@ fn decode_frames(
     let mut parts = Vec::with_capacity(count);
     for frame in 0..count {
         let start = r.pos;
+        // The limit is what remains before the length itself is read, so the
+        // read of the frame's bytes below checks again.
         let len = r.count(&|| format!("frame {frame}'s length"), r.remaining())?;
-        let bytes = r.bytes(len);
+        let bytes = r.bytes(len, &|| format!("frame {frame}'s {len} bytes"))?;
         parts.push((bytes, r.pos - start));
     }
     r.finish()?;
