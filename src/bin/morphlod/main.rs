@@ -22,6 +22,8 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod plot;
+
 #[derive(Parser)]
 #[command(
     name = "morphlod",
@@ -112,6 +114,9 @@ struct BenchArgs {
     /// Also write every frame's measurements to this JSON file.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
+    /// Also plot frame time and triangles over both sweeps to this PNG file.
+    #[arg(long, value_name = "OUT.png")]
+    plot: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -455,6 +460,10 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     if let Some(path) = &args.json {
         std::fs::write(path, report.to_json()).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("rows written to {}", path.display());
+    }
+    if let Some(path) = &args.plot {
+        plot::write_plot(&report, path)?;
+        println!("plot written to {}", path.display());
     }
     Ok(())
 }

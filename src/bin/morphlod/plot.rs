@@ -1,0 +1,157 @@
+//! `morphlod bench --plot`: the bench rows as a picture for the README — per sweep, GPU frame
+//! time of the LOD strips, the same LOD as a list and full detail (left axis), and the
+//! triangles the strips draw (right axis), over the sweep's frames.
+//!
+//! plotters draws into an RGB buffer and `image` writes the PNG, so the two crates share one
+//! encoder; labels use the embedded font because CI machines have no system fonts.
+
+use std::path::Path;
+
+use morphlod::gpu::bench::{BenchReport, FrameRow, Sweep};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+
+const FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSansMono.ttf");
+const FAMILY: &str = "morphlod-mono";
+const WIDTH: u32 = 1200;
+const PANEL_HEIGHT: u32 = 420;
+
+/// One drawn quantity: its colour, legend and how to read it off a row.
+struct Series {
+    colour: RGBColor,
+    label: &'static str,
+    value: fn(&FrameRow) -> f64,
+}
+
+const TIMES: [Series; 4] = [
+    Series {
+        colour: RGBColor(31, 119, 180),
+        label: "LOD strips",
+        value: |row| row.strips_ms,
+    },
+    Series {
+        colour: RGBColor(255, 127, 14),
+        label: "same LOD, triangle list",
+        value: |row| row.list_ms,
+    },
+    Series {
+        colour: RGBColor(44, 160, 44),
+        label: "full detail, strips S0",
+        value: |row| row.full_strips_ms,
+    },
+    Series {
+        colour: RGBColor(214, 39, 40),
+        label: "full detail, triangle list",
+        value: |row| row.full_list_ms,
+    },
+];
+
+const TRIANGLES: RGBColor = RGBColor(110, 110, 110);
+
+/// Draws one panel per sweep present in `report` and writes them as one PNG at `path`.
+pub fn write_plot(report: &BenchReport, path: &Path) -> Result<(), String> {
+    // Registering twice only replaces the same face, so repeated calls are harmless.
+    register_font(FAMILY, FontStyle::Normal, FONT)
+        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
+    let sweeps: Vec<Sweep> = [Sweep::Linear, Sweep::Exponential]
+        .into_iter()
+        .filter(|&sweep| report.rows.iter().any(|row| row.sweep == sweep))
+        .collect();
+    if sweeps.is_empty() {
+        return Err("the bench report has no rows to plot".into());
+    }
+    let height = PANEL_HEIGHT * sweeps.len() as u32;
+    let mut pixels = vec![255u8; (WIDTH * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
+        let panels = root.split_evenly((sweeps.len(), 1));
+        for (panel, &sweep) in panels.iter().zip(&sweeps) {
+            let rows: Vec<&FrameRow> = report.rows.iter().filter(|r| r.sweep == sweep).collect();
+            draw_panel(panel, report, sweep, &rows).map_err(|e| format!("plot: {e}"))?;
+        }
+        root.present().map_err(|e| format!("plot: {e}"))?;
+    }
+    let image = image::RgbImage::from_raw(WIDTH, height, pixels)
+        .ok_or("plot: the pixel buffer does not match the image size")?;
+    image
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn draw_panel(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    report: &BenchReport,
+    sweep: Sweep,
+    rows: &[&FrameRow],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let frames = rows.len().max(2) as f64 - 1.0;
+    let max_ms = rows
+        .iter()
+        .flat_map(|row| TIMES.iter().map(move |s| (s.value)(row)))
+        .fold(0.0f64, f64::max)
+        .max(1e-3)
+        * 1.1;
+    let max_triangles = report.full_triangles.max(1) as f64 * 1.05;
+    let caption = format!(
+        "{} sweep: {} ({}), {} vertices, {} triangles at full detail",
+        sweep.name(),
+        report.adapter,
+        report.device_type,
+        report.vertices,
+        report.full_triangles
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (FAMILY, 18))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(64)
+        .right_y_label_area_size(80)
+        .build_cartesian_2d(0.0..frames, 0.0..max_ms)?
+        .set_secondary_coord(0.0..frames, 0.0..max_triangles);
+    chart
+        .configure_mesh()
+        .x_desc("frame of the sweep (t from 0 to 1, LOD coarsening)")
+        .y_desc("GPU frame time, ms")
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y:.1}"))
+        .label_style((FAMILY, 13))
+        .axis_desc_style((FAMILY, 14))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()?;
+    chart
+        .configure_secondary_axes()
+        .y_desc("triangles drawn (LOD strips)")
+        .y_label_formatter(&|y| format!("{y:.0}"))
+        .label_style((FAMILY, 13))
+        .axis_desc_style((FAMILY, 14))
+        .draw()?;
+    for series in &TIMES {
+        let points = rows
+            .iter()
+            .enumerate()
+            .map(|(i, row)| (i as f64, (series.value)(row)));
+        let style = series.colour.stroke_width(2);
+        chart
+            .draw_series(LineSeries::new(points, style))?
+            .label(series.label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
+    }
+    let triangles = rows
+        .iter()
+        .enumerate()
+        .map(|(i, row)| (i as f64, row.triangles as f64));
+    let style = TRIANGLES.stroke_width(1);
+    chart
+        .draw_secondary_series(LineSeries::new(triangles, style))?
+        .label("triangles (right axis)")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FAMILY, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
