@@ -47,7 +47,7 @@ const TIMES: [Series; 4] = [
     },
 ];
 
-const TRIANGLES: RGBColor = RGBColor(110, 110, 110);
+const TRIANGLES: RGBColor = RGBColor(148, 103, 189);
 
 /// Draws one panel per sweep present in `report` and writes them as one PNG at `path`.
 pub fn write_plot(report: &BenchReport, path: &Path) -> Result<(), String> {
@@ -154,4 +154,83 @@ fn draw_panel(
         .border_style(BLACK)
         .draw()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(sweep: Sweep, frame: usize) -> FrameRow {
+        let x = frame as f64;
+        FrameRow {
+            sweep,
+            frame,
+            t: frame as f32 / 9.0,
+            lod: frame as f32 / 9.0,
+            asset_frame: frame / 3,
+            steps: frame * 10,
+            triangles: 1000 - frame * 100,
+            indices: 1200 - frame * 110,
+            set_us: 1.0,
+            prepare_us: 1.0,
+            upload_bytes: 64,
+            draws: 1,
+            strips_ms: 3.0 - 0.2 * x,
+            list_triangles: 1000 - frame * 100,
+            list_build_us: 1.0,
+            list_upload_bytes: 128,
+            list_ms: 2.5 - 0.2 * x,
+            full_strips_ms: 3.0,
+            full_list_ms: 2.8,
+        }
+    }
+
+    fn report(rows: Vec<FrameRow>) -> BenchReport {
+        BenchReport {
+            adapter: "test adapter".into(),
+            backend: "Vulkan".into(),
+            device_type: "Cpu".into(),
+            vertices: 500,
+            full_triangles: 1000,
+            full_index_bytes: 4800,
+            rows,
+        }
+    }
+
+    #[test]
+    fn plot_has_one_panel_per_sweep_with_every_series_drawn() {
+        let rows = (0..10)
+            .map(|i| row(Sweep::Linear, i))
+            .chain((0..10).map(|i| row(Sweep::Exponential, i)))
+            .collect();
+        let dir = std::env::temp_dir().join(format!("morphlod-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("plot.png");
+        write_plot(&report(rows), &path).unwrap();
+        let image = image::open(&path).unwrap().to_rgb8();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(image.dimensions(), (WIDTH, 2 * PANEL_HEIGHT));
+        // Every series' colour appears in both panels left of the legend (upper right), so
+        // the lines were drawn, not only their legend samples.
+        for half in 0..2 {
+            let rows = half * PANEL_HEIGHT..(half + 1) * PANEL_HEIGHT;
+            let colours: Vec<RGBColor> =
+                TIMES.iter().map(|s| s.colour).chain([TRIANGLES]).collect();
+            for colour in colours {
+                let found = rows.clone().any(|y| {
+                    (0..WIDTH * 2 / 3)
+                        .any(|x| image.get_pixel(x, y).0 == [colour.0, colour.1, colour.2])
+                });
+                assert!(found, "colour {colour:?} missing in panel {half}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_report_without_rows_is_an_error_not_an_empty_picture() {
+        let path = std::env::temp_dir().join("morphlod-never-written.png");
+        let error = write_plot(&report(Vec::new()), &path).unwrap_err();
+        assert!(error.contains("no rows"), "{error}");
+        assert!(!path.exists());
+    }
 }
