@@ -2,7 +2,10 @@
 //
 // Vertex stage: every vertex has its position in pose 0 (buffer slot 0, location 0) and in
 // pose 1 (buffer slot 1, location 1); the drawn position is mix(v0, v1, t) with the exact t
-// of the frame. The connectivity (the index buffer) is edited on the CPU; positions never are.
+// of the frame, plus sum_k w_k D_k over the morph targets of a weight animation (target k's
+// delta for vertex i at deltas[3 (k n + i)], read by vertex index, so the index buffer
+// addresses targets and poses alike). The connectivity (the index buffer) is edited on the
+// CPU; positions never are.
 //
 // Fragment stage: normals come from screen-space derivatives of the world position,
 // n = normalize(cross(dpdy(p), dpdx(p))), not from a per-vertex normal attribute. Why:
@@ -29,9 +32,15 @@ struct Uniforms {
     t: f32,
     // 0: base colour; 1: one colour per strip (region), from the instance index.
     mode: u32,
+    // Morph targets added to the blend (0 for two-pose objects) and the vertex count n.
+    target_count: u32,
+    vertex_count: u32,
+    // Weight of target k: target_weights[k / 4][k % 4] (uniform arrays need 16-byte elements).
+    target_weights: array<vec4<f32>, 16>,
 }
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
+@group(0) @binding(1) var<storage, read> deltas: array<f32>;
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -46,8 +55,17 @@ fn vs_main(
     @location(0) v0: vec3<f32>,
     @location(1) v1: vec3<f32>,
     @builtin(instance_index) instance: u32,
+    @builtin(vertex_index) vertex: u32,
 ) -> VertexOut {
-    let local = mix(v0, v1, u.t);
+    var local = mix(v0, v1, u.t);
+    for (var k = 0u; k < u.target_count; k++) {
+        let w = u.target_weights[k / 4u][k % 4u];
+        // Animations hold most targets at weight 0 most of the time: skip their reads.
+        if w != 0.0 {
+            let at = 3u * (k * u.vertex_count + vertex);
+            local += w * vec3<f32>(deltas[at], deltas[at + 1u], deltas[at + 2u]);
+        }
+    }
     let world = u.model * vec4<f32>(local, 1.0);
     var out: VertexOut;
     out.clip = u.view_proj * world;

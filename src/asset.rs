@@ -18,12 +18,17 @@
 //!   "S0  "           index count, offset count (strips + 1), offsets as LEB128
 //!                    deltas, indices as zigzag LEB128 deltas to the previous index
 //!   "FRMS"           frame count, then per frame its byte length and its bytes
+//!   "TGTS"           optional, only for weight animations (see [`TargetBlend`]):
+//!                    interpolation u8 (0 STEP, 1 LINEAR, 2 CUBICSPLINE) | target count K
+//!                    LEB128 | keyframe count N LEB128 | N f32 times | the track's f32
+//!                    values (N × K, × 3 for CUBICSPLINE) | K × vertices f32 x, y, z deltas
 //! ```
 //!
 //! The magic is PNG's trick: the high byte catches 7-bit transfers, the
 //! CR LF / LF pair catches newline translation, `^Z` stops DOS `type`.
 //! Sections are found through the table, so a later minor addition (an extra
 //! section) is skipped by this reader; an incompatible change bumps the version.
+//! "TGTS" is such an addition: a reader that predates it draws the two-pose blend.
 //!
 //! # Frame coding
 //!
@@ -59,6 +64,7 @@
 //! Every failure is a typed [`AssetError`]; no input panics.
 
 use crate::collapse::{Collapse, CollapseSequence, SequenceError, NEVER};
+use crate::morph::{Interpolation, MorphError, TargetBlend, WeightTrack};
 use crate::strip::{strip_triangles, Strips};
 use rayon::prelude::*;
 use std::fmt;
@@ -74,7 +80,14 @@ pub struct Asset {
     pub v1: Vec<[f32; 3]>,
     pub s0: Strips,
     pub frames: Vec<CollapseSequence>,
+    /// For an asset made from a weight animation: the targets the GPU adds to `V(0)` so it
+    /// draws the animation, not only the blend of its end poses. `None` for two-pose morphs.
+    pub blend: Option<TargetBlend>,
 }
+
+/// Most morph targets an asset may blend on the GPU (the uniform block holds one weight per
+/// target). More than any animation of one mesh drives; a file asking for more is refused.
+pub const MAX_TARGETS: usize = 64;
 
 /// The first 8 bytes of every `.mlod` file.
 pub const MAGIC: [u8; 8] = *b"\x89MLD\r\n\x1a\n";
@@ -91,6 +104,7 @@ const TAG_V0: [u8; 4] = *b"V0  ";
 const TAG_V1: [u8; 4] = *b"V1  ";
 const TAG_S0: [u8; 4] = *b"S0  ";
 const TAG_FRAMES: [u8; 4] = *b"FRMS";
+const TAG_TARGETS: [u8; 4] = *b"TGTS";
 const SECTION_ENTRY_LEN: usize = 24;
 /// More sections than any version will define: bounds the table before it is read.
 const MAX_SECTIONS: u32 = 64;
@@ -207,6 +221,26 @@ pub enum AssetError {
         declared: usize,
         used: usize,
     },
+    #[error("section 'TGTS' holds {targets} morph targets; it must hold 1 to {MAX_TARGETS}")]
+    TargetCount { targets: usize },
+    #[error("section 'TGTS' names interpolation {code}, which is none of 0 (STEP), 1 (LINEAR), 2 (CUBICSPLINE)")]
+    TargetInterpolation { code: u8 },
+    #[error("section 'TGTS' is {length} bytes, but {targets} targets with {keyframes} keyframes over {vertices} vertices take {expected}: the file is damaged")]
+    TargetSize {
+        length: usize,
+        targets: usize,
+        keyframes: usize,
+        vertices: usize,
+        expected: u64,
+    },
+    #[error("section 'TGTS': the weight track is invalid: {source}")]
+    TargetTrack { source: MorphError },
+    #[error("section 'TGTS': target {target}, vertex {vertex} has a delta that is not finite ({value:?})")]
+    NonFiniteDelta {
+        target: usize,
+        vertex: usize,
+        value: [f32; 3],
+    },
     #[error("section '{tag}' is {length} bytes but its data ends after {used}")]
     SectionTrailing {
         tag: &'static str,
@@ -248,6 +282,8 @@ pub struct AssetInfo {
     pub strips: usize,
     pub strip_indices: usize,
     pub frames: Vec<FrameInfo>,
+    /// Morph targets blended on the GPU (0 for a two-pose asset).
+    pub targets: usize,
 }
 
 impl AssetInfo {
@@ -283,6 +319,13 @@ impl fmt::Display for AssetInfo {
             self.frames.len(),
             repeats
         )?;
+        if self.targets > 0 {
+            writeln!(
+                f,
+                "  GPU targets       {} (weight animation blended on the GPU)",
+                self.targets
+            )?;
+        }
         writeln!(
             f,
             "  LODs per frame    min {}, max {}, mean {:.1}",
@@ -355,12 +398,15 @@ impl Asset {
             put_varint(&mut frames_section, f.len() as u64);
             frames_section.extend_from_slice(f);
         }
-        let sections: [([u8; 4], Vec<u8>); 4] = [
+        let mut sections: Vec<([u8; 4], Vec<u8>)> = vec![
             (TAG_V0, pose_bytes(&self.v0)),
             (TAG_V1, pose_bytes(&self.v1)),
             (TAG_S0, encode_strips(&self.s0)),
             (TAG_FRAMES, frames_section),
         ];
+        if let Some(blend) = &self.blend {
+            sections.push((TAG_TARGETS, encode_targets(blend)));
+        }
 
         let mut body = Vec::new();
         let mut offset = (sections.len() * SECTION_ENTRY_LEN) as u64;
@@ -457,6 +503,10 @@ pub fn inspect(bytes: &[u8]) -> Result<(Asset, AssetInfo), AssetError> {
     let s0 = decode_strips(section(TAG_S0)?, n)?;
     let neighbours = Neighbours::new(&s0, n);
     let (frames, frame_infos) = decode_frames(section(TAG_FRAMES)?, n, &neighbours)?;
+    let blend = match section(TAG_TARGETS) {
+        Ok(data) => Some(decode_targets(data, n)?),
+        Err(_) => None,
+    };
 
     let info = AssetInfo {
         version: VERSION,
@@ -478,8 +528,16 @@ pub fn inspect(bytes: &[u8]) -> Result<(Asset, AssetInfo), AssetError> {
         strips: s0.len(),
         strip_indices: s0.indices.len(),
         frames: frame_infos,
+        targets: blend.as_ref().map_or(0, |b| b.deltas.len()),
     };
-    Ok((Asset { v0, v1, s0, frames }, info))
+    let asset = Asset {
+        v0,
+        v1,
+        s0,
+        frames,
+        blend,
+    };
+    Ok((asset, info))
 }
 
 fn tag_name(tag: [u8; 4]) -> String {
@@ -618,6 +676,83 @@ fn decode_pose(data: &[u8], pose: &'static str) -> Result<Vec<[f32; 3]>, AssetEr
             }
         })
         .collect()
+}
+
+fn encode_targets(blend: &TargetBlend) -> Vec<u8> {
+    let track = &blend.track;
+    let mut out = vec![match track.interpolation() {
+        Interpolation::Step => 0,
+        Interpolation::Linear => 1,
+        Interpolation::CubicSpline => 2,
+    }];
+    put_varint(&mut out, blend.deltas.len() as u64);
+    put_varint(&mut out, track.keyframes() as u64);
+    for v in track.times().iter().chain(track.values()) {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for deltas in &blend.deltas {
+        out.extend_from_slice(&pose_bytes(deltas));
+    }
+    out
+}
+
+/// The "TGTS" section: every size is fixed by the two counts and the vertex count, so the
+/// whole length is checked before anything is allocated.
+fn decode_targets(data: &[u8], n: usize) -> Result<TargetBlend, AssetError> {
+    let mut r = Reader::new(data, "TGTS");
+    let interpolation = match r.byte(&|| "the interpolation".into())? {
+        0 => Interpolation::Step,
+        1 => Interpolation::Linear,
+        2 => Interpolation::CubicSpline,
+        code => return Err(AssetError::TargetInterpolation { code }),
+    };
+    let targets = r.count(&|| "the target count".into(), MAX_TARGETS)?;
+    if targets == 0 {
+        return Err(AssetError::TargetCount { targets });
+    }
+    let keyframes = r.count(&|| "the keyframe count".into(), r.remaining() / 4)?;
+    let per_key = if interpolation == Interpolation::CubicSpline {
+        3 * targets
+    } else {
+        targets
+    };
+    // keyframes ≤ bytes / 4 and targets ≤ 64 keep these products far below u64's range.
+    let floats = keyframes as u64 * (1 + per_key as u64) + targets as u64 * n as u64 * 3;
+    if floats * 4 != r.remaining() as u64 {
+        return Err(AssetError::TargetSize {
+            length: data.len(),
+            targets,
+            keyframes,
+            vertices: n,
+            expected: (data.len() - r.remaining()) as u64 + floats * 4,
+        });
+    }
+    let mut floats = |count: usize, what: &'static str| -> Result<Vec<f32>, AssetError> {
+        let bytes = r.bytes(count * 4, &|| what.into())?;
+        Ok(bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_bits(u32_at(c, 0)))
+            .collect())
+    };
+    let times = floats(keyframes, "the keyframe times")?;
+    let values = floats(keyframes * per_key, "the track values")?;
+    let track = WeightTrack::new(interpolation, times, values, targets)
+        .map_err(|source| AssetError::TargetTrack { source })?;
+    let deltas = (0..targets)
+        .map(|target| {
+            let bytes = r.bytes(n * 12, &|| format!("the deltas of target {target}"))?;
+            decode_pose(bytes, "TGTS").map_err(|e| match e {
+                AssetError::NonFinitePosition { vertex, value, .. } => AssetError::NonFiniteDelta {
+                    target,
+                    vertex,
+                    value,
+                },
+                other => other,
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    r.finish()?;
+    Ok(TargetBlend { deltas, track })
 }
 
 fn put_varint(out: &mut Vec<u8>, mut value: u64) {

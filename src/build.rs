@@ -41,6 +41,8 @@ pub enum BuildError {
         vertex: usize,
         value: [f32; 3],
     },
+    #[error("the animation drives {targets} morph targets; the GPU blends at most {max}: bake some into the base mesh or split the animation", max = crate::asset::MAX_TARGETS)]
+    TooManyTargets { targets: usize },
 }
 
 /// How far a build is: sent after each finished frame, from worker threads.
@@ -134,6 +136,12 @@ impl<'a> Builder<'a> {
         {
             return Err(BuildError::DegenerateTriangle { triangle, corners });
         }
+        let blend = morph.target_blend();
+        if let Some(targets) = blend.as_ref().map(|b| b.deltas.len()) {
+            if targets > crate::asset::MAX_TARGETS {
+                return Err(BuildError::TooManyTargets { targets });
+            }
+        }
 
         let done = AtomicUsize::new(0);
         let frame = |k: usize| -> Result<(CollapseSequence, Duration), BuildError> {
@@ -201,6 +209,7 @@ impl<'a> Builder<'a> {
             v1: morph.v1(),
             s0,
             frames: sequences,
+            blend,
         };
         Ok((asset, report))
     }

@@ -127,6 +127,7 @@ fn tiny_asset() -> Asset {
                 error: 0.5,
             }],
         }],
+        blend: None,
     }
 }
 
@@ -523,6 +524,102 @@ fn frames_repeat_nothing_or_are_missing() {
             step: 0,
             ..
         })
+    ));
+}
+
+/// The sections of a file the library wrote, read back through its table.
+fn sections_of(bytes: &[u8]) -> Vec<([u8; 4], Vec<u8>)> {
+    let count = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let body = &bytes[HEADER_LEN..];
+    (0..count)
+        .map(|i| {
+            let entry = &body[i * 24..(i + 1) * 24];
+            let offset = u64::from_le_bytes(entry[8..16].try_into().unwrap()) as usize;
+            let length = u64::from_le_bytes(entry[16..24].try_into().unwrap()) as usize;
+            (
+                entry[..4].try_into().unwrap(),
+                body[offset..offset + length].to_vec(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn animation_targets_round_trip_and_bad_target_sections_are_refused() {
+    // The cube's asset comes from its weight animation: its targets travel in "TGTS".
+    let (cube, bytes) = cube();
+    let blend = cube
+        .blend
+        .as_ref()
+        .expect("an animated asset keeps its targets");
+    assert_eq!(blend.deltas.len(), 2);
+    assert_eq!(inspect(bytes).unwrap().1.targets, 2);
+    assert!(sections_of(bytes).iter().any(|(tag, _)| tag == b"TGTS"));
+    assert!(!sections_of(&grid().1).iter().any(|(tag, _)| tag == b"TGTS"));
+
+    // The tiny asset (4 vertices) with a hand-written "TGTS": LINEAR, one target, two keys.
+    let base: Vec<([u8; 4], Vec<u8>)> = sections_of(&tiny_asset().to_bytes());
+    let floats =
+        |values: &[f32]| -> Vec<u8> { values.iter().flat_map(|v| v.to_le_bytes()).collect() };
+    let section =
+        |interpolation: u8, targets: u8, times: &[f32], values: &[f32], deltas: &[f32]| {
+            let mut data = vec![interpolation, targets, times.len() as u8];
+            data.extend(floats(times));
+            data.extend(floats(values));
+            data.extend(floats(deltas));
+            data
+        };
+    let file = |targets: Vec<u8>| {
+        let mut sections: Vec<(&[u8; 4], Vec<u8>)> =
+            base.iter().map(|(tag, data)| (tag, data.clone())).collect();
+        sections.push((b"TGTS", targets));
+        file_with_sections(&sections)
+    };
+    let deltas = [0.0, 0.0, 1.0].repeat(4);
+    let good = Asset::from_bytes(&file(section(1, 1, &[0.0, 2.0], &[0.0, 1.0], &deltas))).unwrap();
+    let blend = good.blend.unwrap();
+    assert_eq!(blend.deltas, vec![vec![[0.0, 0.0, 1.0]; 4]]);
+    assert_eq!(blend.track.keyframes(), 2);
+
+    let err = |data: Vec<u8>| Asset::from_bytes(&file(data)).unwrap_err();
+    assert!(matches!(
+        err(section(7, 1, &[0.0, 2.0], &[0.0, 1.0], &deltas)),
+        AssetError::TargetInterpolation { code: 7 }
+    ));
+    assert!(matches!(
+        err(section(1, 0, &[0.0, 2.0], &[0.0, 1.0], &[])),
+        AssetError::TargetCount { targets: 0 }
+    ));
+    assert!(matches!(
+        err(section(1, 65, &[0.0, 2.0], &[0.0, 1.0], &deltas)),
+        AssetError::CountTooLarge { .. }
+    ));
+    assert!(matches!(
+        err(section(1, 1, &[0.0, 2.0], &[0.0, 1.0], &deltas[..11])),
+        AssetError::TargetSize {
+            targets: 1,
+            keyframes: 2,
+            vertices: 4,
+            ..
+        }
+    ));
+    assert!(matches!(
+        err(section(1, 1, &[2.0, 0.0], &[0.0, 1.0], &deltas)),
+        AssetError::TargetTrack { .. }
+    ));
+    assert!(matches!(
+        err(section(1, 1, &[0.0, 2.0], &[0.0, f32::NAN], &deltas)),
+        AssetError::TargetTrack { .. }
+    ));
+    let mut bad_delta = deltas.clone();
+    bad_delta[7] = f32::INFINITY;
+    assert!(matches!(
+        err(section(1, 1, &[0.0, 2.0], &[0.0, 1.0], &bad_delta)),
+        AssetError::NonFiniteDelta {
+            target: 0,
+            vertex: 2,
+            ..
+        }
     ));
 }
 

@@ -9,6 +9,10 @@
 //!   (`CollapseSequence::reference_mesh`) and to the list drawn beside, uploads exactly where
 //!   the strips changed, and the JSON holds every row.
 //!
+//! * `weight_animation_plays_on_the_gpu`: an asset built from makehuman_head's weight
+//!   animation (8 targets, both end poses equal to the base) renders, at several `t`, like a
+//!   static object holding the CPU's exact pose `Morph::positions_at(t)`, and visibly moves.
+//!
 //! Every test uses `gpu::test_context`: it fails when no adapter exists and `CI=true`, and
 //! skips with a printed reason elsewhere.
 
@@ -16,6 +20,8 @@ use std::sync::Arc;
 
 use morphlod::gpu::bench::{run_bench, BenchOptions, Sweep};
 use morphlod::gpu::{self, LodObject, MorphPipeline, Object, Target, Topology};
+use morphlod::io::LoadOptions;
+use morphlod::morph::MorphSource;
 use morphlod::strip::strip_triangles;
 use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Error, Lod, Morph};
 
@@ -139,6 +145,120 @@ fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
 }
 
 /// The live length of every region.
+#[test]
+fn weight_animation_plays_on_the_gpu() -> Result<(), Error> {
+    let Some(ctx) = gpu::test_context()? else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
+    let source = MorphSource::Animation("morph".into());
+    let morph = Morph::from_gltf(&path, &LoadOptions::default(), &source).expect("head animation");
+    let asset = Builder::new(&morph)
+        .frames(3)
+        .build()
+        .expect("head builds")
+        .0;
+    assert!(asset.blend.is_some(), "an animated asset keeps its targets");
+    assert_eq!(
+        asset.v0, asset.v1,
+        "the head's animation starts and ends at the base pose"
+    );
+    let model = Arc::new(DeformingModel::new(&asset)?);
+    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let size = 256;
+    let target = Target::new(device, size, size, wgpu::Color::BLACK)?;
+    // Face on: the expressions move the mouth, eyes and brows towards the viewer's side.
+    let camera = gpu::sheet::frame_both_poses(&asset, glam::Vec3::new(0.0, 0.0, -1.0))?;
+    let regions: Vec<Vec<u32>> = (0..asset.s0.len())
+        .filter_map(|i| asset.s0.strip(i).map(<[u32]>::to_vec))
+        .collect();
+    let mut animated = LodObject::new(device, &pipeline, &asset, Arc::clone(&model))?;
+    animated.set_view_proj(camera.view_proj());
+    let render_pose = |pose: &[[f32; 3]]| -> Result<image::RgbaImage, Error> {
+        let mut fixed = Object::new(device, &pipeline, Topology::Strip, pose, pose, &regions)?;
+        fixed.set_view_proj(camera.view_proj());
+        fixed.prepare(queue);
+        Ok(target.render(device, queue, &mut [&mut fixed])?)
+    };
+    let rest = render_pose(&asset.v0)?;
+    let differing = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+    };
+    let mut most_moved = 0;
+    for t in [0.1, 0.3, 0.45, 0.7, 0.9] {
+        animated.set(t, Lod::Fraction(0.0))?;
+        animated.prepare(queue);
+        let image = target.render(device, queue, &mut [animated.object_mut()])?;
+        let exact = render_pose(&morph.positions_at(t))?;
+        let moved = differing(&exact, &rest);
+        most_moved = most_moved.max(moved);
+        // V(0) + Σ c_k D_k and base + Σ w_k D_k round differently in the last bit, which can
+        // flip a few pixels on silhouettes and depth ties; the animation moves far more.
+        let mismatch = differing(&image, &exact);
+        assert!(
+            mismatch * 20 <= moved.max(20) && mismatch <= (size * size / 500) as usize,
+            "t {t}: {mismatch} pixels differ from the CPU pose (the animation moved {moved})"
+        );
+    }
+    assert!(
+        most_moved > 200,
+        "the animation moved only {most_moved} pixels: the test would not see a static GPU pose"
+    );
+    Ok(())
+}
+
+#[test]
+fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
+    let Some(ctx) = gpu::test_context()? else {
+        return Ok(());
+    };
+    let device = &ctx.device;
+    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let pose = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let mut object = Object::new(
+        device,
+        &pipeline,
+        Topology::Strip,
+        &pose,
+        &pose,
+        &[vec![0, 1, 2]],
+    )?;
+    let one = vec![[0.0, 0.0, 1.0]; 3];
+    assert!(matches!(
+        object.set_targets(device, &pipeline, &[one.clone(), vec![[0.0; 3]; 2]]),
+        Err(gpu::GpuError::TargetLength {
+            target: 1,
+            len: 2,
+            vertices: 3
+        })
+    ));
+    assert!(matches!(
+        object.set_targets(device, &pipeline, &vec![one.clone(); 65]),
+        Err(gpu::GpuError::TargetCount {
+            targets: 65,
+            max: 64
+        })
+    ));
+    let mut nan = one.clone();
+    nan[2][1] = f32::NAN;
+    assert!(matches!(
+        object.set_targets(device, &pipeline, &[nan]),
+        Err(gpu::GpuError::NonFiniteDelta {
+            target: 0,
+            vertex: 2,
+            ..
+        })
+    ));
+    // Refused targets left the object without any: a weight for one target is refused too.
+    assert!(object.set_target_weights(&[0.5]).is_err());
+    object.set_targets(device, &pipeline, &[one])?;
+    object.set_target_weights(&[0.5])?;
+    assert!(object.set_target_weights(&[0.5, 0.5]).is_err());
+    assert!(object.set_target_weights(&[f32::INFINITY]).is_err());
+    Ok(())
+}
+
 fn counts(object: &Object) -> Vec<u32> {
     object
         .indirect_args()

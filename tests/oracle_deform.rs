@@ -54,6 +54,7 @@ fn build_asset(morph: &Morph, frames: usize) -> Asset {
         v1: morph.v1(),
         s0,
         frames: sequences,
+        blend: morph.target_blend(),
     }
 }
 
@@ -354,6 +355,7 @@ fn unrelated_random_frames() {
         v1: vec![[1.0; 3]; n],
         s0: stripify(&tris, n),
         frames: sequences,
+        blend: None,
     };
     walk("random frames", &tris, &asset, 10_000, 5);
 }
@@ -366,6 +368,7 @@ fn bad_assets_and_requests_are_rejected() {
         v1: vec![[1.0; 3]; 4],
         s0: stripify(&tris, 4),
         frames: vec![random_sequence(&tris, 4, 2, &mut Rng(1))],
+        blend: None,
     };
     let model = DeformingModel::new(&good).expect("valid asset");
     let bad = |edit: &dyn Fn(&mut Asset)| {

@@ -168,8 +168,13 @@ pub fn run_bench(
     let mut full = list_object(&full_list)?;
     // The per-frame list starts as the full list too: its region has room for every triangle.
     let mut list = list_object(&full_list)?;
+    // An animated asset's targets go to every object, so all three draw the same pose.
+    let track = asset.blend.as_ref().map(|blend| &blend.track);
     for object in [&mut full_strips, &mut full, &mut list] {
         object.set_view_proj(camera);
+        if let Some(blend) = &asset.blend {
+            object.set_targets(device, &pipeline, &blend.deltas)?;
+        }
     }
 
     let mut rows = Vec::with_capacity(2 * frames);
@@ -201,14 +206,14 @@ pub fn run_bench(
                 .collect();
             let list_build_us = micros(start);
             list.write_region(0, &live)?;
-            list.set_t(t)?;
+            list.set_pose(t, track)?;
             let list_upload = list.prepare(queue);
             let list_ms = gpu_frame(device, queue, &target, &mut list)?;
 
-            full_strips.set_t(t)?;
+            full_strips.set_pose(t, track)?;
             full_strips.prepare(queue);
             let full_strips_ms = gpu_frame(device, queue, &target, &mut full_strips)?;
-            full.set_t(t)?;
+            full.set_pose(t, track)?;
             full.prepare(queue);
             let full_list_ms = gpu_frame(device, queue, &target, &mut full)?;
 

@@ -13,9 +13,11 @@
 
 use std::sync::Arc;
 
+use super::object::check_t;
 use super::{GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
 use crate::asset::Asset;
 use crate::deform::{DeformingLod, DeformingModel, Lod};
+use crate::morph::WeightTrack;
 use crate::Error;
 
 /// One deforming mesh with continuous LOD, ready to draw with one multi-draw per frame.
@@ -23,6 +25,8 @@ pub struct LodObject {
     model: Arc<DeformingModel>,
     state: DeformingLod,
     object: Object,
+    /// The weight track of an asset made from a weight animation (its targets live on the GPU).
+    track: Option<WeightTrack>,
 }
 
 impl LodObject {
@@ -30,14 +34,16 @@ impl LodObject {
     /// `device`; the object starts at `t = 0`, full detail.
     ///
     /// `model` must be made from `asset` ([`DeformingModel::new`]); a model whose strips name
-    /// vertices past the asset's poses is rejected with [`GpuError::IndexOutOfRange`].
+    /// vertices past the asset's poses is rejected with [`GpuError::IndexOutOfRange`]. An
+    /// asset with morph targets ([`Asset::blend`]) uploads them too, and [`set`](Self::set)
+    /// plays its weight animation on the GPU.
     pub fn new(
         device: &wgpu::Device,
         pipeline: &MorphPipeline,
         asset: &Asset,
         model: Arc<DeformingModel>,
     ) -> Result<LodObject, Error> {
-        let object = Object::new(
+        let mut object = Object::new(
             device,
             pipeline,
             Topology::Strip,
@@ -45,11 +51,26 @@ impl LodObject {
             &asset.v1,
             &s0_regions(&model),
         )?;
+        let track = match &asset.blend {
+            Some(blend) => {
+                if blend.track.targets() != blend.deltas.len() {
+                    return Err(GpuError::TrackMismatch {
+                        track: blend.track.targets(),
+                        targets: blend.deltas.len(),
+                    }
+                    .into());
+                }
+                object.set_targets(device, pipeline, &blend.deltas)?;
+                Some(blend.track.clone())
+            }
+            None => None,
+        };
         let state = DeformingLod::new(&model);
         Ok(LodObject {
             model,
             state,
             object,
+            track,
         })
     }
 
@@ -57,20 +78,13 @@ impl LodObject {
     /// GPU object's mirror and sets the blend parameter. Nothing is uploaded until
     /// [`prepare`](Self::prepare). On error nothing changed.
     pub fn set(&mut self, t: f32, lod: Lod) -> Result<(), Error> {
-        if !(0.0..=1.0).contains(&t) {
-            // Checked before the runtime moves, so a refused `t` leaves both sides as they were.
-            return Err(GpuError::InvalidParameter {
-                what: "blend parameter t",
-                value: t.to_string(),
-                expected: "t must lie in [0, 1]",
-            }
-            .into());
-        }
+        // Checked before the runtime moves, so a refused `t` leaves both sides as they were.
+        check_t(t)?;
         self.state.set(&self.model, t, lod)?;
         let dirty = self.state.take_dirty();
         self.object
             .apply_dirty(&dirty, self.state.indices(), self.state.lengths())?;
-        self.object.set_t(t)?;
+        self.object.set_pose(t, self.track.as_ref())?;
         Ok(())
     }
 

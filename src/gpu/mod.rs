@@ -127,6 +127,26 @@ pub enum GpuError {
         vertices: u32,
         restart_allowed: bool,
     },
+    /// More morph targets than the uniform block has weights for.
+    #[error("{targets} morph targets given; an object blends at most {max}")]
+    TargetCount { targets: usize, max: usize },
+    /// An asset whose weight track and morph targets disagree in number.
+    #[error("the asset's weight track drives {track} targets but it holds {targets} delta arrays; rebuild the asset")]
+    TrackMismatch { track: usize, targets: usize },
+    /// A morph target whose delta array does not have one entry per vertex.
+    #[error("morph target {target} has {len} deltas but the object has {vertices} vertices; give one delta per vertex")]
+    TargetLength {
+        target: usize,
+        len: usize,
+        vertices: usize,
+    },
+    /// A morph-target delta that is NaN or infinite.
+    #[error("morph target {target}, vertex {vertex}: the delta {value:?} is not finite")]
+    NonFiniteDelta {
+        target: usize,
+        vertex: usize,
+        value: [f32; 3],
+    },
     /// A shading or blending parameter that would make the shader produce NaN.
     #[error("invalid {what}: {value}; {expected}")]
     InvalidParameter {

@@ -1,6 +1,8 @@
 //! One deforming mesh on the GPU, laid out as DESIGN.md "GPU layout" says.
 //!
 //! * `V(0)` and `V(1)` live in two vertex buffers, uploaded once; the shader blends them with `t`.
+//!   An object may also carry morph targets ([`Object::set_targets`]) in a storage buffer,
+//!   added with per-frame weights: how a weight animation moves on the GPU.
 //! * The index buffer is cut into fixed regions, one per strip of `S0`, each as long as that
 //!   strip at full detail. A region's live indices are packed at its start; the rest is stale
 //!   and never drawn.
@@ -16,7 +18,9 @@ use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
 use super::pipeline::{MorphPipeline, ShadeMode, Uniforms};
 use super::{GpuError, RESTART};
+use crate::asset::MAX_TARGETS;
 use crate::lodstrips::Dirty;
+use crate::morph::WeightTrack;
 
 /// Dirty spans closer than this many bytes are uploaded as one write by default. Each
 /// `write_buffer` costs a staging allocation and a copy command; re-sending a few hundred
@@ -75,6 +79,9 @@ pub struct Object {
     index_buffer: wgpu::Buffer,
     indirect_buffer: wgpu::Buffer,
     uniform_buffer: wgpu::Buffer,
+    /// Morph-target deltas, or a 16-byte placeholder while the object has none (a binding
+    /// cannot be empty).
+    target_buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     /// Region r spans indices `region_starts[r]..region_starts[r + 1]`.
     region_starts: Vec<u32>,
@@ -187,14 +194,8 @@ impl Object {
             contents: bytemuck::bytes_of(&uniforms),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("morphlod uniforms"),
-            layout: pipeline.bind_group_layout(),
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniform_buffer.as_entire_binding(),
-            }],
-        });
+        let target_buffer = no_targets(device);
+        let bind_group = bind_group(device, pipeline, &uniform_buffer, &target_buffer);
         let render_pipeline = match topology {
             Topology::Strip => pipeline.strip().clone(),
             Topology::List => pipeline.list().clone(),
@@ -208,6 +209,7 @@ impl Object {
             index_buffer,
             indirect_buffer,
             uniform_buffer,
+            target_buffer,
             bind_group,
             region_starts,
             indices,
@@ -390,13 +392,7 @@ impl Object {
 
     /// Sets the blend parameter between `V(0)` (`t = 0`) and `V(1)` (`t = 1`).
     pub fn set_t(&mut self, t: f32) -> Result<(), GpuError> {
-        if !(0.0..=1.0).contains(&t) {
-            return Err(GpuError::InvalidParameter {
-                what: "blend parameter t",
-                value: t.to_string(),
-                expected: "t must lie in [0, 1]",
-            });
-        }
+        check_t(t)?;
         self.uniforms.t = t;
         self.uniforms_dirty = true;
         Ok(())
@@ -406,6 +402,110 @@ impl Object {
     pub fn set_view_proj(&mut self, view_proj: glam::Mat4) {
         self.uniforms.view_proj = view_proj.to_cols_array_2d();
         self.uniforms_dirty = true;
+    }
+
+    /// Uploads morph targets (one delta per vertex each) that the shader adds to the blended
+    /// pose with the weights of [`set_target_weights`](Self::set_target_weights), all 0 until
+    /// then; an empty slice removes them. `pipeline` must be the one the object was made with.
+    /// Nothing changes when an error is returned.
+    pub fn set_targets(
+        &mut self,
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        targets: &[Vec<[f32; 3]>],
+    ) -> Result<(), GpuError> {
+        let vertices = self.vertex_count as usize;
+        if targets.len() > MAX_TARGETS {
+            return Err(GpuError::TargetCount {
+                targets: targets.len(),
+                max: MAX_TARGETS,
+            });
+        }
+        for (target, deltas) in targets.iter().enumerate() {
+            if deltas.len() != vertices {
+                return Err(GpuError::TargetLength {
+                    target,
+                    len: deltas.len(),
+                    vertices,
+                });
+            }
+            if let Some((vertex, &value)) = deltas
+                .iter()
+                .enumerate()
+                .find(|(_, d)| !d.iter().all(|c| c.is_finite()))
+            {
+                return Err(GpuError::NonFiniteDelta {
+                    target,
+                    vertex,
+                    value,
+                });
+            }
+        }
+        let bytes = (targets.len() * vertices * 12) as u64;
+        let limits = device.limits();
+        let max = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        check_size("morph-target", bytes, max)?;
+        self.target_buffer = if targets.is_empty() {
+            no_targets(device)
+        } else {
+            let flat: Vec<[f32; 3]> = targets.iter().flatten().copied().collect();
+            device.create_buffer_init(&BufferInitDescriptor {
+                label: Some("morphlod morph targets"),
+                contents: bytemuck::cast_slice(&flat),
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        self.bind_group = bind_group(device, pipeline, &self.uniform_buffer, &self.target_buffer);
+        self.uniforms.target_count = targets.len() as u32;
+        self.uniforms.vertex_count = self.vertex_count;
+        self.uniforms.target_weights = [[0.0; 4]; MAX_TARGETS / 4];
+        self.uniforms_dirty = true;
+        Ok(())
+    }
+
+    /// Sets the pose at animation time `t ∈ [0, 1]`: `mix(V(0), V(1), t)` for a two-pose
+    /// object (`track` `None`), or `V(0)` plus the targets weighted by `track`'s offsets at `t`
+    /// ([`WeightTrack::offsets_at`]) for an object whose targets came from that weight
+    /// animation (see [`crate::morph::TargetBlend`]).
+    pub fn set_pose(&mut self, t: f32, track: Option<&WeightTrack>) -> Result<(), GpuError> {
+        check_t(t)?;
+        match track {
+            Some(track) => {
+                let mut offsets = Vec::with_capacity(track.targets());
+                track.offsets_at(t, &mut offsets);
+                self.set_target_weights(&offsets)?;
+                self.set_t(0.0)
+            }
+            None => self.set_t(t),
+        }
+    }
+
+    /// Sets the weight of every morph target (one per target of
+    /// [`set_targets`](Self::set_targets), finite).
+    pub fn set_target_weights(&mut self, weights: &[f32]) -> Result<(), GpuError> {
+        if weights.len() != self.uniforms.target_count as usize {
+            return Err(GpuError::InvalidParameter {
+                what: "morph-target weights",
+                value: format!("{} weights", weights.len()),
+                expected: "give one weight per morph target of set_targets",
+            });
+        }
+        if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
+            return Err(GpuError::InvalidParameter {
+                what: "morph-target weight",
+                value: w.to_string(),
+                expected: "weights must be finite",
+            });
+        }
+        let mut packed = [[0.0; 4]; MAX_TARGETS / 4];
+        for (k, &w) in weights.iter().enumerate() {
+            packed[k / 4][k % 4] = w;
+        }
+        self.uniforms.target_weights = packed;
+        self.uniforms_dirty = true;
+        Ok(())
     }
 
     /// Sets the object-to-world transform.
@@ -501,6 +601,50 @@ impl Object {
     pub fn draw_calls(&self) -> u64 {
         self.draw_calls
     }
+}
+
+/// The binding of an object without morph targets: never read (the shader loops over zero
+/// targets), but a bind group cannot leave it empty.
+fn no_targets(device: &wgpu::Device) -> wgpu::Buffer {
+    device.create_buffer_init(&BufferInitDescriptor {
+        label: Some("morphlod no targets"),
+        contents: &[0; 16],
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
+fn bind_group(
+    device: &wgpu::Device,
+    pipeline: &MorphPipeline,
+    uniforms: &wgpu::Buffer,
+    targets: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("morphlod uniforms and targets"),
+        layout: pipeline.bind_group_layout(),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniforms.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: targets.as_entire_binding(),
+            },
+        ],
+    })
+}
+
+/// The blend parameter must lie in `[0, 1]` (NaN does not).
+pub(crate) fn check_t(t: f32) -> Result<(), GpuError> {
+    if !(0.0..=1.0).contains(&t) {
+        return Err(GpuError::InvalidParameter {
+            what: "blend parameter t",
+            value: t.to_string(),
+            expected: "t must lie in [0, 1]",
+        });
+    }
+    Ok(())
 }
 
 fn check_size(what: &'static str, bytes: u64, max: u64) -> Result<(), GpuError> {

@@ -6,6 +6,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::asset::MAX_TARGETS;
+
 /// The WGSL source of the morph shader (`shaders/morph.wgsl`).
 pub const MORPH_WGSL: &str = include_str!("../../shaders/morph.wgsl");
 
@@ -29,7 +31,7 @@ impl ShadeMode {
 }
 
 /// The uniform block of `morph.wgsl`, byte for byte (WGSL uniform layout: two `mat4x4`, two
-/// `vec4`, then `t` and `mode`; the struct size rounds up to a multiple of 16).
+/// `vec4`, four 32-bit scalars, then the target weights as `vec4`s).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Uniforms {
@@ -40,7 +42,12 @@ pub struct Uniforms {
     pub light: [f32; 4],
     pub t: f32,
     pub mode: u32,
-    pub _pad: [u32; 2],
+    /// Morph targets added to the blended pose (0: none) and the vertex count, the stride
+    /// between two targets in the delta buffer.
+    pub target_count: u32,
+    pub vertex_count: u32,
+    /// Weight of target `k` in `target_weights[k / 4][k % 4]`.
+    pub target_weights: [[f32; 4]; MAX_TARGETS / 4],
 }
 
 impl Uniforms {
@@ -54,7 +61,9 @@ impl Uniforms {
             light: [0.0, 0.0, 1.0, 0.2],
             t: 0.0,
             mode: ShadeMode::BaseColour.shader_value(),
-            _pad: [0; 2],
+            target_count: 0,
+            vertex_count: 0,
+            target_weights: [[0.0; 4]; MAX_TARGETS / 4],
         }
     }
 
@@ -104,16 +113,30 @@ impl MorphPipeline {
         });
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("morph uniforms"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(size_of::<Uniforms>() as u64),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(size_of::<Uniforms>() as u64),
+                    },
+                    count: None,
                 },
-                count: None,
-            }],
+                // Morph-target deltas (f32 x, y, z per vertex per target), read by vertex
+                // index; objects without targets bind a small placeholder.
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(4),
+                    },
+                    count: None,
+                },
+            ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("morph"),
@@ -259,6 +282,12 @@ mod tests {
             ("light", std::mem::offset_of!(Uniforms, light)),
             ("t", std::mem::offset_of!(Uniforms, t)),
             ("mode", std::mem::offset_of!(Uniforms, mode)),
+            ("target_count", std::mem::offset_of!(Uniforms, target_count)),
+            ("vertex_count", std::mem::offset_of!(Uniforms, vertex_count)),
+            (
+                "target_weights",
+                std::mem::offset_of!(Uniforms, target_weights),
+            ),
         ];
         let expected: Vec<(String, u32)> = expected
             .iter()

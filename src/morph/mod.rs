@@ -8,10 +8,11 @@
 //! * **animated** ([`Weights::Animated`]): a glTF weight animation played over its
 //!   duration, `t = τ / duration`. `V(t)` is then generally not linear in `t`.
 //!
-//! The GPU runtime stores only `V(0)` and `V(1)` and blends them linearly with `t`:
-//! for two-pose morphs that is exact, for animated morphs it is an approximation
-//! (exact at `t = 0` and `t = 1` only). The CPU side ([`Morph::positions_at`], used
-//! to simplify each sampled frame) evaluates the animation exactly at any `t`.
+//! The GPU runtime stores `V(0)` and `V(1)` and blends them linearly with `t`: for
+//! two-pose morphs that is exact. For animated morphs the asset also carries a
+//! [`TargetBlend`] (the targets the animation drives and its weight track), and the GPU
+//! draws `V(0) + Σ (w_i(t) − w_i(0)) D_i`, the same surface as [`Morph::positions_at`]
+//! up to float rounding.
 
 mod track;
 
@@ -446,6 +447,39 @@ impl Morph {
     pub fn v1(&self) -> Vec<[f32; 3]> {
         self.positions_at(1.0)
     }
+
+    /// What the GPU needs besides `V(0)` and `V(1)` to draw this morph exactly: `None` for a
+    /// two-pose morph (the linear blend is exact), otherwise the targets that the animation
+    /// drives (nonzero weight at some key) with its track restricted to them.
+    pub fn target_blend(&self) -> Option<TargetBlend> {
+        let Weights::Animated(track) = &self.weights else {
+            return None;
+        };
+        let driven: Vec<usize> = (0..self.targets.len())
+            .filter(|&k| track.drives(k))
+            .collect();
+        Some(TargetBlend {
+            deltas: driven
+                .iter()
+                .map(|&k| self.targets[k].deltas.clone())
+                .collect(),
+            track: track.select(&driven),
+        })
+    }
+}
+
+/// The morph targets of a weight animation, for drawing it on the GPU: the drawn position at
+/// `t` is `V(0) + Σ_k c_k(t) D_k` with `c_k(t) = w_k(t) − w_k(0)` ([`WeightTrack::offsets_at`]),
+/// which equals `base + Σ_k w_k(t) D_k` because `V(0) = base + Σ_k w_k(0) D_k`. Storing the
+/// offsets from `V(0)` rather than the base keeps `V(0)` the pose every other part of the
+/// runtime (bounds, cameras, the two-pose blend) already knows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TargetBlend {
+    /// Per target, one delta per vertex.
+    pub deltas: Vec<Vec<[f32; 3]>>,
+    /// The weights of these targets (one track column per entry of `deltas`), played over
+    /// `t ∈ [0, 1]` as `track(t · duration)`.
+    pub track: WeightTrack,
 }
 
 fn check_triangles(triangles: &[[u32; 3]], vertices: usize) -> Result<(), MorphError> {
@@ -537,6 +571,90 @@ mod tests {
         assert_eq!(animated.weights_at(1.0), vec![0.0; 4]);
         // At 3 s the animation shows exactly the second target's V(1).
         assert!(close(&animated.positions_at(0.375), &old.v1(), 1e-6));
+    }
+
+    /// What the GPU draws for a weight animation, computed on the CPU: `V(0)` plus the
+    /// blend's targets weighted by the track's offsets.
+    fn gpu_pose(v0: &[[f32; 3]], blend: &TargetBlend, t: f32) -> Vec<[f32; 3]> {
+        let mut offsets = Vec::new();
+        blend.track.offsets_at(t, &mut offsets);
+        let mut out = v0.to_vec();
+        for (deltas, &c) in blend.deltas.iter().zip(&offsets) {
+            for (p, d) in out.iter_mut().zip(deltas) {
+                for axis in 0..3 {
+                    p[axis] += c * d[axis];
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn target_blend_reproduces_the_animation_from_v0() {
+        for (file, driven) in [
+            ("makehuman_body.glb", 4),
+            ("makehuman_head.glb", 8),
+            ("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf", 2),
+        ] {
+            let animated = Morph::from_gltf(
+                &asset(file),
+                &LoadOptions::default(),
+                &MorphSource::Animation("0".to_string()),
+            )
+            .unwrap();
+            let blend = animated.target_blend().expect("an animation needs targets");
+            assert_eq!(blend.deltas.len(), driven, "{file}");
+            assert_eq!(blend.track.targets(), driven, "{file}");
+            let v0 = animated.v0();
+            let mut moved = false;
+            for t in [0.0, 0.0625, 0.2, 0.375, 0.5, 0.61, 0.9, 1.0] {
+                let expected = animated.positions_at(t);
+                assert!(
+                    close(&gpu_pose(&v0, &blend, t), &expected, 1e-5),
+                    "{file} t={t}"
+                );
+                moved |= expected != v0;
+            }
+            assert!(
+                moved,
+                "{file}: the animation never leaves V(0); the test shows nothing"
+            );
+        }
+        let two_pose = target(&asset("makehuman_head.glb"), "jawOpen");
+        assert_eq!(two_pose.target_blend(), None);
+    }
+
+    #[test]
+    fn target_blend_keeps_only_driven_targets() {
+        let tris = vec![[0, 1, 2]];
+        let base = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let deltas = |z: f32| vec![[0.0, 0.0, z]; 3];
+        let targets = vec![
+            MorphTarget {
+                name: "idle".into(),
+                deltas: deltas(5.0),
+            },
+            MorphTarget {
+                name: "lift".into(),
+                deltas: deltas(1.0),
+            },
+        ];
+        let track = WeightTrack::new(
+            Interpolation::Linear,
+            vec![0.0, 2.0],
+            vec![0.0, 0.0, 0.0, 1.0],
+            2,
+        )
+        .unwrap();
+        let morph =
+            Morph::from_parts(tris, base.clone(), targets, Weights::Animated(track)).unwrap();
+        let blend = morph.target_blend().unwrap();
+        assert_eq!(blend.deltas, vec![deltas(1.0)]);
+        assert!(close(
+            &gpu_pose(&base, &blend, 0.5),
+            &morph.positions_at(0.5),
+            0.0
+        ));
     }
 
     #[test]

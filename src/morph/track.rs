@@ -155,6 +155,59 @@ impl WeightTrack {
         }
     }
 
+    /// The weights played over `t ∈ [0, 1]` (time `t · duration`, as [`super::Morph`] plays
+    /// an animation) minus the weights at `t = 0`, into `out`: what the GPU adds to `V(0)`
+    /// (see [`super::TargetBlend`]). `t` is clamped to `[0, 1]`; NaN reads as 0.
+    pub fn offsets_at(&self, t: f32, out: &mut Vec<f32>) {
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        let mut at_zero = Vec::with_capacity(self.targets);
+        self.sample_into(0.0, &mut at_zero);
+        self.sample_into(t * self.duration(), out);
+        for (c, w0) in out.iter_mut().zip(&at_zero) {
+            *c -= w0;
+        }
+    }
+
+    /// Keyframe times, seconds, strictly increasing.
+    pub fn times(&self) -> &[f32] {
+        &self.times
+    }
+
+    /// Per keyframe `targets` values, or for CUBICSPLINE in-tangents, values and out-tangents
+    /// (the glTF output layout).
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+
+    /// True when some keyframe gives target `target` a nonzero value or tangent, i.e. the
+    /// target can move the mesh at some time.
+    pub fn drives(&self, target: usize) -> bool {
+        target < self.targets
+            && self
+                .values
+                .iter()
+                .skip(target)
+                .step_by(self.targets)
+                .any(|&v| v != 0.0)
+    }
+
+    /// The same track restricted to the targets `keep` (in that order). Indices past
+    /// [`targets`](Self::targets) are skipped.
+    pub fn select(&self, keep: &[usize]) -> WeightTrack {
+        let keep: Vec<usize> = keep.iter().copied().filter(|&k| k < self.targets).collect();
+        let values = self
+            .values
+            .chunks_exact(self.targets)
+            .flat_map(|row| keep.iter().map(move |&k| row[k]))
+            .collect();
+        WeightTrack {
+            interpolation: self.interpolation,
+            times: self.times.clone(),
+            values,
+            targets: keep.len(),
+        }
+    }
+
     /// The keyframe's values (not its tangents).
     fn value(&self, k: usize) -> &[f32] {
         let n = self.targets;
@@ -197,6 +250,25 @@ mod tests {
         assert_eq!(sample(&track, 4.0), vec![0.5, 0.5]);
         assert_eq!(sample(&track, 9.0), vec![0.5, 0.5], "after the last key");
         assert_eq!(track.duration(), 4.0);
+    }
+
+    #[test]
+    fn select_keeps_the_chosen_targets_and_their_curves() {
+        // Three targets; target 1 is zero at every key, in values and tangents.
+        let values = vec![
+            0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 2.0, 0.0, 1.0, // key 0: in, value, out
+            0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, // key 1
+            1.0, 0.0, 0.0, 0.5, 0.0, 0.5, 0.0, 0.0, 3.0, // key 2
+        ];
+        let track = WeightTrack::new(Interpolation::CubicSpline, times(), values, 3).unwrap();
+        assert!(track.drives(0) && !track.drives(1) && track.drives(2));
+        assert!(!track.drives(3));
+        let kept = track.select(&[0, 2]);
+        assert_eq!(kept.targets(), 2);
+        for time in [0.5, 1.0, 1.7, 2.0, 3.3, 4.0, 5.0] {
+            let (all, some) = (sample(&track, time), sample(&kept, time));
+            assert_eq!(some, vec![all[0], all[2]], "at {time} s");
+        }
     }
 
     #[test]

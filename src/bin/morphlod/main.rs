@@ -283,17 +283,13 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     let load_time = total.elapsed();
     let clean_start = Instant::now();
     let morph = clean_morph(morph, args.weld)?;
-    if !morph.is_linear() {
-        // The per-frame sequences follow the animation exactly, but the asset keeps only the
-        // two end poses for the GPU, which blends them linearly.
+    if let Some(blend) = morph.target_blend() {
         eprintln!(
-            "note: a weight animation is not a linear morph: LODs are built on its exact poses, \
-             but the GPU draws mix(V(0), V(1), t) between its two ends{}",
-            if morph.v0() == morph.v1() {
-                ", which are the same pose here: the drawn shape will not move"
-            } else {
-                ""
-            }
+            "note: a weight animation: the asset keeps the {} targets it drives ({} keyframes, {}) \
+             and the GPU blends them per frame",
+            blend.deltas.len(),
+            blend.track.keyframes(),
+            blend.track.interpolation().name()
         );
     }
     let clean_time = clean_start.elapsed();
