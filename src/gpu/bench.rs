@@ -6,7 +6,9 @@
 //! * **list** — the same triangles as a plain triangle list, rebuilt and re-uploaded per frame
 //!   (what an application without LOD strips does to show the same LOD);
 //! * **full** — full detail without LOD: the strips `S0` and, for the full-detail ratio, the
-//!   same triangles as a list, both uploaded once.
+//!   same triangles as a list, both uploaded once; the strips also drawn with one indirect
+//!   record per strip ([`Draws::PerRegion`]) beside the default grouped records, so the run
+//!   shows what grouping saves.
 //!
 //! The list of a frame is the live strips decoded into triangles
 //! ([`crate::strip::strip_triangles`]): one pass over the live indices, cheaper than
@@ -25,7 +27,7 @@ use std::time::Instant;
 
 use super::lod_object::s0_regions;
 use super::sheet::frame_both_poses;
-use super::{Context, GpuError, LodObject, MorphPipeline, Object, Target, Topology};
+use super::{Context, Draws, GpuError, LodObject, MorphPipeline, Object, Target, Topology};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, Lod};
 use crate::strip::strip_triangles;
@@ -101,6 +103,8 @@ pub struct FrameRow {
     pub upload_bytes: u64,
     /// Draw calls the strips object issued this frame.
     pub draws: u64,
+    /// Indirect draw records in the strips object's one multi-draw.
+    pub records: usize,
     pub strips_ms: f64,
     /// Triangles of the list and the CPU time to decode it, microseconds.
     pub list_triangles: usize,
@@ -111,6 +115,8 @@ pub struct FrameRow {
     /// Full detail without LOD: strips `S0` and the same triangles as a list.
     pub full_strips_ms: f64,
     pub full_list_ms: f64,
+    /// Full-detail strips `S0` drawn with one indirect record per strip.
+    pub full_per_strip_ms: f64,
 }
 
 /// A whole benchmark run.
@@ -163,12 +169,21 @@ pub fn run_bench(
         Topology::Strip,
         &asset.v0,
         &asset.v1,
-        &s0_regions(model),
+        &regions,
     )?;
+    let mut full_per_strip = Object::new(
+        device,
+        &pipeline,
+        Topology::Strip,
+        &asset.v0,
+        &asset.v1,
+        &regions,
+    )?;
+    full_per_strip.set_draws(Draws::PerRegion)?;
     let mut full = list_object(&full_list)?;
     // The per-frame list starts as the full list too: its region has room for every triangle.
     let mut list = list_object(&full_list)?;
-    for object in [&mut full_strips, &mut full, &mut list] {
+    for object in [&mut full_strips, &mut full_per_strip, &mut full, &mut list] {
         object.set_view_proj(camera);
     }
 
@@ -211,6 +226,9 @@ pub fn run_bench(
             full.set_t(t)?;
             full.prepare(queue);
             let full_list_ms = gpu_frame(device, queue, &target, &mut full)?;
+            full_per_strip.set_t(t)?;
+            full_per_strip.prepare(queue);
+            let full_per_strip_ms = gpu_frame(device, queue, &target, &mut full_per_strip)?;
 
             let state = strips.state();
             rows.push(FrameRow {
@@ -226,6 +244,7 @@ pub fn run_bench(
                 prepare_us,
                 upload_bytes: upload.geometry_bytes(),
                 draws,
+                records: strips.object().indirect_args().len(),
                 strips_ms,
                 list_triangles: live.len() / 3,
                 list_build_us,
@@ -233,6 +252,7 @@ pub fn run_bench(
                 list_ms,
                 full_strips_ms,
                 full_list_ms,
+                full_per_strip_ms,
             });
         }
     }
@@ -331,7 +351,7 @@ impl BenchReport {
             "sweep", "measure", "mean", "median"
         );
         type Column = (&'static str, fn(&FrameRow) -> f64);
-        let columns: [Column; 11] = [
+        let columns: [Column; 13] = [
             ("triangles", |r| r.triangles as f64),
             ("set us", |r| r.set_us),
             ("prepare us", |r| r.prepare_us),
@@ -342,6 +362,8 @@ impl BenchReport {
             ("GPU ms list", |r| r.list_ms),
             ("GPU ms full strips", |r| r.full_strips_ms),
             ("GPU ms full list", |r| r.full_list_ms),
+            ("GPU ms full 1/strip", |r| r.full_per_strip_ms),
+            ("draw records", |r| r.records as f64),
             ("strips/list", |r| r.strips_ms / r.list_ms.max(1e-9)),
         ];
         for sweep in [Sweep::Linear, Sweep::Exponential] {
@@ -361,6 +383,8 @@ impl BenchReport {
         let all = |f: fn(&FrameRow) -> f64| -> Vec<f64> { self.rows.iter().map(f).collect() };
         let full_ratio =
             median(&all(|r| r.full_strips_ms)) / median(&all(|r| r.full_list_ms)).max(1e-9);
+        let per_strip_ratio =
+            median(&all(|r| r.full_per_strip_ms)) / median(&all(|r| r.full_list_ms)).max(1e-9);
         let cpu = mean(&all(|r| (r.set_us + r.prepare_us) / 1e3));
         let cpu_max = all(|r| (r.set_us + r.prepare_us) / 1e3)
             .into_iter()
@@ -377,6 +401,10 @@ impl BenchReport {
             out,
             "  full-detail strips / list GPU time (medians): {full_ratio:.3} (goal <= 1.05: {})",
             met(full_ratio <= 1.05)
+        );
+        let _ = writeln!(
+            out,
+            "    (the same strips with one indirect record per strip: {per_strip_ratio:.3})"
         );
         let _ = writeln!(
             out,
@@ -412,7 +440,7 @@ impl BenchReport {
         for (i, r) in self.rows.iter().enumerate() {
             let _ = write!(
                 out,
-                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"draws\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4}}}",
+                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
                 if i == 0 { "" } else { "," },
                 r.sweep.name(),
                 r.frame,
@@ -426,13 +454,15 @@ impl BenchReport {
                 r.prepare_us,
                 r.upload_bytes,
                 r.draws,
+                r.records,
                 r.strips_ms,
                 r.list_triangles,
                 r.list_build_us,
                 r.list_upload_bytes,
                 r.list_ms,
                 r.full_strips_ms,
-                r.full_list_ms
+                r.full_list_ms,
+                r.full_per_strip_ms
             );
         }
         out.push_str("\n]}\n");
