@@ -101,6 +101,8 @@ pub struct FrameRow {
     pub prepare_us: f64,
     /// Index and indirect bytes the strips uploaded this frame.
     pub upload_bytes: u64,
+    /// `write_buffer` calls of that upload (index and indirect; uniforms not counted).
+    pub upload_writes: usize,
     /// Draw calls the strips object issued this frame.
     pub draws: u64,
     /// Indirect draw records in the strips object's one multi-draw.
@@ -243,6 +245,7 @@ pub fn run_bench(
                 set_us,
                 prepare_us,
                 upload_bytes: upload.geometry_bytes(),
+                upload_writes: upload.index_ranges.len() + upload.indirect_ranges.len(),
                 draws,
                 records: strips.object().indirect_args().len(),
                 strips_ms,
@@ -351,11 +354,12 @@ impl BenchReport {
             "sweep", "measure", "mean", "median"
         );
         type Column = (&'static str, fn(&FrameRow) -> f64);
-        let columns: [Column; 13] = [
+        let columns: [Column; 14] = [
             ("triangles", |r| r.triangles as f64),
             ("set us", |r| r.set_us),
             ("prepare us", |r| r.prepare_us),
             ("upload B (strips)", |r| r.upload_bytes as f64),
+            ("upload writes", |r| r.upload_writes as f64),
             ("list build us", |r| r.list_build_us),
             ("upload B (list)", |r| r.list_upload_bytes as f64),
             ("GPU ms strips", |r| r.strips_ms),
@@ -392,6 +396,21 @@ impl BenchReport {
         let cpu_percent = 100.0 * cpu / FRAME_24FPS_MS;
         let upload = mean(&self.column(Sweep::Exponential, |r| r.upload_bytes as f64));
         let upload_percent = 100.0 * upload / (self.full_index_bytes.max(1) as f64);
+        // Frames that moved to another sampled frame (connectivity changes) against the rest.
+        let exponential: Vec<&FrameRow> = self
+            .rows
+            .iter()
+            .filter(|r| r.sweep == Sweep::Exponential)
+            .collect();
+        let (mut switching, mut staying) = (Vec::new(), Vec::new());
+        for pair in exponential.windows(2) {
+            let bytes = pair[1].upload_bytes as f64;
+            if pair[1].asset_frame != pair[0].asset_frame {
+                switching.push(bytes);
+            } else {
+                staying.push(bytes);
+            }
+        }
         let linear_tris = self.column(Sweep::Linear, |r| r.triangles as f64);
         let linear_ms = self.column(Sweep::Linear, |r| r.strips_ms);
         let falls = correlation(&linear_tris, &linear_ms);
@@ -421,6 +440,15 @@ impl BenchReport {
             "  exponential sweep upload: mean {upload:.0} B = {upload_percent:.2}% of a full index upload (goal <= 5%: {})",
             met(upload_percent <= 5.0)
         );
+        let _ = writeln!(
+            out,
+            "    ({} frame switches: mean {:.0} B; {} other frames: mean {:.0} B, median {:.0} B)",
+            switching.len(),
+            mean(&switching),
+            staying.len(),
+            mean(&staying),
+            median(&staying)
+        );
         out
     }
 
@@ -440,7 +468,7 @@ impl BenchReport {
         for (i, r) in self.rows.iter().enumerate() {
             let _ = write!(
                 out,
-                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
+                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"upload_writes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
                 if i == 0 { "" } else { "," },
                 r.sweep.name(),
                 r.frame,
@@ -453,6 +481,7 @@ impl BenchReport {
                 r.set_us,
                 r.prepare_us,
                 r.upload_bytes,
+                r.upload_writes,
                 r.draws,
                 r.records,
                 r.strips_ms,
