@@ -119,24 +119,31 @@ fn blended_strips_one_multi_draw_and_partial_uploads() -> Result<(), GpuError> {
     object.set_t(0.5)?;
     object.prepare(queue);
 
-    // Shrinking region 1 to its first triangle: same leading indices, so only its indirect
-    // record (20 bytes at 20..40) is uploaded.
+    // Layout: region 0 in slots 0..4, a restart separator at 4, region 1 in slots 5..9, a
+    // separator at 9; one record draws both (slots 0..9).
+    assert_eq!(object.indirect_args().len(), 1);
+    assert_eq!(object.indirect_args()[0].index_count, 9);
+    // Shrinking region 1 to its first triangle: same leading indices, so only the restart
+    // written over its dropped slot 8 (bytes 32..36) and the one record, which now ends at
+    // slot 8, are uploaded.
     object.write_region(1, &[4, 5, 6])?;
     let upload = object.prepare(queue);
-    assert_eq!(upload.index_ranges, Vec::<std::ops::Range<u64>>::new());
-    assert_eq!(upload.indirect_ranges, vec![20..40]);
+    assert_eq!(upload.index_ranges, vec![32..36]);
+    assert_eq!(upload.indirect_ranges, vec![0..20]);
     assert_eq!(upload.uniform_bytes, 0);
-    assert_eq!(object.indirect_args()[1].index_count, 3);
+    assert_eq!(object.lengths(), [4, 3]);
+    assert_eq!(object.indirect_args()[0].index_count, 8);
+    assert_eq!(object.index_mirror()[8], RESTART);
     let image = target.render(device, queue, &mut [&mut object])?;
     assert_lit(&image, -0.7, -0.7, "quad B, kept triangle");
     assert_clear(&image, 0.7, -0.2, "quad B, dropped triangle");
     assert_lit(&image, -0.3, 0.5, "quad A, untouched region");
 
     // Rewriting region 1 as the other triangle (d, c, b), still counter-clockwise: three
-    // indices change, the count does not. Only region 1's bytes [16, 32) may be written.
+    // indices change, the count does not. Only region 1's bytes [20, 32) may be written.
     object.write_region(1, &[7, 6, 5])?;
     let upload = object.prepare(queue);
-    assert_eq!(upload.index_ranges, vec![16..28]);
+    assert_eq!(upload.index_ranges, vec![20..32]);
     assert!(upload.indirect_ranges.is_empty());
     assert_eq!(upload.bytes(), 12);
     assert_eq!(upload.writes(), 1);
@@ -146,10 +153,12 @@ fn blended_strips_one_multi_draw_and_partial_uploads() -> Result<(), GpuError> {
     assert_lit(&image, 0.7, -0.2, "quad B, now drawn triangle");
     assert_lit(&image, -0.3, 0.5, "quad A, untouched region");
 
-    // An empty region draws nothing.
+    // An empty region draws nothing: restarts over its slots, the record ends after region 0.
     object.write_region(1, &[])?;
     let upload = object.prepare(queue);
-    assert_eq!(upload.indirect_ranges, vec![20..40]);
+    assert_eq!(upload.index_ranges, vec![20..32]);
+    assert_eq!(upload.indirect_ranges, vec![0..20]);
+    assert_eq!(object.indirect_args()[0].index_count, 4);
     let image = target.render(device, queue, &mut [&mut object])?;
     assert_clear(&image, 0.7, -0.2, "quad B, emptied region");
     assert_clear(&image, -0.7, -0.7, "quad B, emptied region");
@@ -291,6 +300,16 @@ fn object_rejects_bad_input() -> Result<(), GpuError> {
         &[vec![0, 1, 2, 3]],
     )?;
     assert!(matches!(
+        object.set_draws(gpu::Draws::Grouped { max_indices: 64 }),
+        Ok(())
+    ));
+    let mut list = Object::new(device, &pipeline, Topology::List, &v, &v, &[vec![0, 1, 2]])?;
+    assert!(matches!(
+        list.set_draws(gpu::Draws::Grouped { max_indices: 64 }),
+        Err(GpuError::GroupedList)
+    ));
+    assert_eq!(list.draws(), gpu::Draws::PerRegion);
+    assert!(matches!(
         object.write_region(0, &[0, 1, 2, 3, 0]),
         Err(GpuError::RegionOverflow {
             region: 0,
@@ -386,8 +405,9 @@ fn strip_colours_follow_first_instance() -> Result<(), GpuError> {
     Ok(())
 }
 
-/// 256 regions in one object: one multi-draw must draw every one of them, and hiding every
-/// other region must coalesce into one indirect write (records 20 bytes apart merge).
+/// 256 regions in one object: one multi-draw must draw every one of them, grouped in one
+/// record or one record per region; hiding every other region writes restarts over them in
+/// one coalesced index write, and switching to per-region records uploads the records once.
 #[test]
 fn many_regions_one_draw() -> Result<(), GpuError> {
     let Some(ctx) = gpu::test_context()? else {
@@ -424,25 +444,39 @@ fn many_regions_one_draw() -> Result<(), GpuError> {
     let gap = -1.0 + 3.5 / (SIZE as f32 / 2.0);
     assert_clear(&image, gap, gap, "gap between cells");
 
+    assert_eq!(object.indirect_args().len(), 1, "one record by default");
+
     for region in (0..regions.len()).step_by(2) {
         object.write_region(region, &[])?;
     }
     let upload = object.prepare(queue);
-    assert!(upload.index_ranges.is_empty());
-    // Records 0, 2, ..., 254: one write from the first byte of record 0 to the end of 254.
-    assert_eq!(upload.indirect_ranges, vec![0..255 * 20]);
-    let image = target.render(device, queue, &mut [&mut object])?;
-    for j in 0..CELLS {
-        for i in 0..CELLS {
-            let (x, y) = (centre(i), centre(j));
-            if (j * CELLS + i).is_multiple_of(2) {
-                assert_clear(&image, x, y, "hidden region");
-            } else {
-                assert_lit(&image, x, y, "kept region");
+    // Regions take 5 slots (4 indices and a separator): restarts over slots 0..4, 10..14, ...,
+    // 1270..1274, 24 bytes apart, merge into one write; the record still ends at region 255.
+    assert_eq!(upload.index_ranges, vec![0..1274 * 4]);
+    assert!(upload.indirect_ranges.is_empty());
+    let check = |image: &image::RgbaImage| {
+        for j in 0..CELLS {
+            for i in 0..CELLS {
+                let (x, y) = (centre(i), centre(j));
+                if (j * CELLS + i).is_multiple_of(2) {
+                    assert_clear(image, x, y, "hidden region");
+                } else {
+                    assert_lit(image, x, y, "kept region");
+                }
             }
         }
-    }
-    assert_eq!(object.draw_calls(), 2);
+    };
+    check(&target.render(device, queue, &mut [&mut object])?);
+    // One record per region: hidden regions get empty records; 256 records go up once.
+    object.set_draws(gpu::Draws::PerRegion)?;
+    let upload = object.prepare(queue);
+    assert!(upload.index_ranges.is_empty());
+    assert_eq!(upload.indirect_ranges, vec![0..256 * 20]);
+    assert_eq!(object.indirect_args().len(), 256);
+    assert_eq!(object.indirect_args()[2].index_count, 0);
+    assert_eq!(object.indirect_args()[3].index_count, 4);
+    check(&target.render(device, queue, &mut [&mut object])?);
+    assert_eq!(object.draw_calls(), 3);
 
     // An object without regions still renders (an empty multi-draw) and draws nothing.
     let mut empty = Object::new(device, &pipeline, Topology::Strip, &v, &v, &[])?;

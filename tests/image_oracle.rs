@@ -23,7 +23,7 @@ use std::time::Instant;
 use glam::{Mat4, Vec3};
 use morphlod::collapse::{canonical, CollapseSequence};
 use morphlod::gpu::camera::{self, Projection};
-use morphlod::gpu::{self, GpuError, MorphPipeline, Object, Target, Topology};
+use morphlod::gpu::{self, Draws, GpuError, MorphPipeline, Object, Target, Topology, RESTART};
 use morphlod::io::{load_mesh, LoadOptions};
 use morphlod::lodstrips::{LodState, LodStrips};
 use morphlod::morph::{Morph, MorphSource};
@@ -186,7 +186,7 @@ fn fail_with_images(what: &str, a: &image::RgbaImage, b: &image::RgbaImage) -> !
 /// as DESIGN.md's `(s[j+1], s[j], s[j+2])`, another rotation. Restarts reset the parity;
 /// degenerate windows draw nothing.
 fn gpu_strip_triangles(strip: &[u32], out: &mut Vec<[u32; 3]>) {
-    for piece in strip.split(|&i| i == gpu::RESTART) {
+    for piece in strip.split(|&i| i == RESTART) {
         for (j, w) in piece.windows(3).enumerate() {
             if w[0] != w[1] && w[1] != w[2] && w[0] != w[2] {
                 out.push(if j % 2 == 0 {
@@ -265,106 +265,120 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
         let max = model.max_lod();
         let full = seq.reference_mesh(&input.triangles, 0).len();
         let view_proj = fitted_camera(input);
-        let mut state = LodState::new(&model);
-        let mut strips = Object::new(
-            device,
-            &pipeline,
-            Topology::Strip,
-            &input.v0,
-            &input.v1,
-            &regions(&model, &state),
-        )?;
-        setup(&mut strips, view_proj)?;
+        // Every mode of drawing the same regions: the default (the whole object one record
+        // behind restarts), small groups (many records, restart tails inside each), and one
+        // record per strip.
+        for draws in [
+            Draws::Grouped {
+                max_indices: gpu::GROUP_INDICES,
+            },
+            Draws::Grouped { max_indices: 256 },
+            Draws::PerRegion,
+        ] {
+            let mut state = LodState::new(&model);
+            let mut strips = Object::new(
+                device,
+                &pipeline,
+                Topology::Strip,
+                &input.v0,
+                &input.v1,
+                &regions(&model, &state),
+            )?;
+            setup(&mut strips, view_proj)?;
+            strips.set_draws(draws)?;
+            let records = strips.indirect_args().len();
 
-        // LOD targets spread evenly over [0, max] (both ends included) in shuffled order;
-        // t runs over a permutation of the same grid on [0, 1].
-        let mut rng = Rng(0x1A9E ^ k as u64);
-        let mut lods: Vec<usize> = (0..STATES).map(|i| max * i / (STATES - 1)).collect();
-        for i in (1..STATES).rev() {
-            lods.swap(i, rng.below(i + 1));
-        }
-        let mut min_coverage = pixels;
-        // (pixels where the raw reference differs from the strips, largest channel step).
-        let mut raw = (0usize, 0u8);
-        for (i, &lod) in lods.iter().enumerate() {
-            let t = ((i * 5) % STATES) as f32 / (STATES - 1) as f32;
-            // A few random moves first; their dirty logs are either applied on the way or
-            // left to accumulate into the final one.
-            for _ in 0..rng.below(4) {
-                state
-                    .set_lod(&model, rng.below(max + 1))
-                    .expect("same model");
-                if rng.below(2) == 0 {
-                    let dirty = state.take_dirty();
-                    strips.apply_dirty(&dirty, state.indices(), state.lengths())?;
+            // LOD targets spread evenly over [0, max] (both ends included) in shuffled order;
+            // t runs over a permutation of the same grid on [0, 1].
+            let mut rng = Rng(0x1A9E ^ k as u64);
+            let mut lods: Vec<usize> = (0..STATES).map(|i| max * i / (STATES - 1)).collect();
+            for i in (1..STATES).rev() {
+                lods.swap(i, rng.below(i + 1));
+            }
+            let mut min_coverage = pixels;
+            // (pixels where the raw reference differs from the strips, largest channel step).
+            let mut raw = (0usize, 0u8);
+            for (i, &lod) in lods.iter().enumerate() {
+                let t = ((i * 5) % STATES) as f32 / (STATES - 1) as f32;
+                // A few random moves first; their dirty logs are either applied on the way or
+                // left to accumulate into the final one.
+                for _ in 0..rng.below(4) {
+                    state
+                        .set_lod(&model, rng.below(max + 1))
+                        .expect("same model");
+                    if rng.below(2) == 0 {
+                        let dirty = state.take_dirty();
+                        strips.apply_dirty(&dirty, state.indices(), state.lengths())?;
+                    }
+                }
+                state.set_lod(&model, lod).expect("same model");
+                let dirty = state.take_dirty();
+                strips.apply_dirty(&dirty, state.indices(), state.lengths())?;
+                for s in 0..model.strip_count() {
+                    assert_eq!(
+                        strips.live_indices(s),
+                        state.strip(s),
+                        "{}: object region {s} at LOD {lod}",
+                        input.name
+                    );
+                }
+                strips.set_t(t)?;
+                strips.prepare(queue);
+                let drawn = target.render(device, queue, &mut [&mut strips])?;
+
+                let reference = seq.reference_mesh(&input.triangles, lod);
+                let lists = reference_lists(&reference, &state, model.strip_count());
+                let mut images = Vec::with_capacity(2);
+                for list in [lists.rotated, lists.raw] {
+                    let mut listed = Object::new(
+                        device,
+                        &pipeline,
+                        Topology::List,
+                        &input.v0,
+                        &input.v1,
+                        &[list],
+                    )?;
+                    setup(&mut listed, view_proj)?;
+                    listed.set_t(t)?;
+                    listed.prepare(queue);
+                    images.push(target.render(device, queue, &mut [&mut listed])?);
+                }
+                if drawn != images[0] {
+                    let what = format!("{} t={t} lod={lod} of {max}", input.name);
+                    fail_with_images(&what, &drawn, &images[0]);
+                }
+                // Evidence for the rotation: how the strips differ from the reference drawn in
+                // its own rotation (printed, not asserted).
+                for (_, _, a, b) in differences(&drawn, &images[1]) {
+                    let step = a.iter().zip(b).map(|(x, y)| x.abs_diff(y)).max();
+                    raw = (raw.0 + 1, raw.1.max(step.unwrap_or(0)));
+                }
+                let covered = coverage(&drawn);
+                // A blank or nearly blank image must not pass: while at least a quarter of the
+                // triangles remain, the fitted mesh covers at least 1% of the view (the thinnest
+                // case, the body shrunk to the baby pose at t near 1, covers about 1.5%).
+                if reference.len() * 4 >= full {
+                    assert!(
+                        covered * 100 >= pixels,
+                        "{} t={t} lod={lod}: only {covered} of {pixels} pixels covered",
+                        input.name
+                    );
+                    min_coverage = min_coverage.min(covered);
                 }
             }
-            state.set_lod(&model, lod).expect("same model");
-            let dirty = state.take_dirty();
-            strips.apply_dirty(&dirty, state.indices(), state.lengths())?;
-            for s in 0..model.strip_count() {
-                assert_eq!(
-                    strips.live_indices(s),
-                    state.strip(s),
-                    "{}: object region {s} at LOD {lod}",
-                    input.name
-                );
-            }
-            strips.set_t(t)?;
-            strips.prepare(queue);
-            let drawn = target.render(device, queue, &mut [&mut strips])?;
-
-            let reference = seq.reference_mesh(&input.triangles, lod);
-            let lists = reference_lists(&reference, &state, model.strip_count());
-            let mut images = Vec::with_capacity(2);
-            for list in [lists.rotated, lists.raw] {
-                let mut listed = Object::new(
-                    device,
-                    &pipeline,
-                    Topology::List,
-                    &input.v0,
-                    &input.v1,
-                    &[list],
-                )?;
-                setup(&mut listed, view_proj)?;
-                listed.set_t(t)?;
-                listed.prepare(queue);
-                images.push(target.render(device, queue, &mut [&mut listed])?);
-            }
-            if drawn != images[0] {
-                let what = format!("{} t={t} lod={lod} of {max}", input.name);
-                fail_with_images(&what, &drawn, &images[0]);
-            }
-            // Evidence for the rotation: how the strips differ from the reference drawn in
-            // its own rotation (printed, not asserted).
-            for (_, _, a, b) in differences(&drawn, &images[1]) {
-                let step = a.iter().zip(b).map(|(x, y)| x.abs_diff(y)).max();
-                raw = (raw.0 + 1, raw.1.max(step.unwrap_or(0)));
-            }
-            let covered = coverage(&drawn);
-            // A blank or nearly blank image must not pass: while at least a quarter of the
-            // triangles remain, the fitted mesh covers at least 1% of the view (the thinnest
-            // case, the body shrunk to the baby pose at t near 1, covers about 1.5%).
-            if reference.len() * 4 >= full {
-                assert!(
-                    covered * 100 >= pixels,
-                    "{} t={t} lod={lod}: only {covered} of {pixels} pixels covered",
-                    input.name
-                );
-                min_coverage = min_coverage.min(covered);
-            }
+            eprintln!(
+                "{} ({draws:?}, {} records at LOD 0): {} triangles, {} strips, {max} LODs, \
+                 {STATES} states identical; min coverage {min_coverage} px of {pixels} (states with >= 1/4 of the triangles); \
+                 reference in its own rotation differs in {} px (max channel step {}); {:.2} s",
+                input.name,
+                records,
+                full,
+                model.strip_count(),
+                raw.0,
+                raw.1,
+                asset_started.elapsed().as_secs_f64()
+            );
         }
-        eprintln!(
-            "{}: {} triangles, {} strips, {max} LODs, {STATES} states identical; \
-             min coverage {min_coverage} px of {pixels} (states with >= 1/4 of the triangles); \
-             reference in its own rotation differs in {} px (max channel step {}); {:.2} s",
-            input.name,
-            full,
-            model.strip_count(),
-            raw.0,
-            raw.1,
-            asset_started.elapsed().as_secs_f64()
-        );
     }
     eprintln!(
         "image oracle: {:.2} s total",
@@ -493,7 +507,12 @@ fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
         let (strips, Lod { model, .. }) = build_lod(&input);
         let full_bytes = strips.indices.len() as u64 * 4;
         let view_proj = fitted_camera(&input);
-        for (exponential, gap) in [(false, 256), (true, 256), (false, 0), (true, 0)] {
+        for (exponential, gap) in [
+            (false, gpu::MERGE_GAP_BYTES),
+            (true, gpu::MERGE_GAP_BYTES),
+            (true, 0),
+            (true, 256),
+        ] {
             let started = Instant::now();
             let mut state = LodState::new(&model);
             let regions = regions(&model, &state);
@@ -765,7 +784,9 @@ fn apply_dirty_rejects_bad_input() -> Result<(), GpuError> {
     );
 
     // A valid update: region 0 shrinks to [0, 1, 3] (one changed index, one length), region 1
-    // is marked dirty but unchanged, so only 4 index bytes and one 20-byte record go up.
+    // is marked dirty but unchanged. Object slots: region 0 at 0..4, separator 4, region 1 at
+    // 5..8, separator 8. Slot 2 changes and slot 3 becomes a restart: bytes 8..16. The one
+    // record ends at region 1, which did not move, so no record goes up.
     let next = [0, 1, 3, 3, 3, 2, 1];
     object.apply_dirty(
         &dirty(vec![range(0, 2, 4), range(1, 0, 3)], vec![0]),
@@ -773,8 +794,17 @@ fn apply_dirty_rejects_bad_input() -> Result<(), GpuError> {
         &[3, 3],
     )?;
     let upload = object.prepare(&ctx.queue);
-    assert_eq!(upload.index_ranges, vec![8..12]);
-    assert_eq!(upload.indirect_ranges, vec![0..20]);
+    assert_eq!(upload.index_ranges, vec![8..16]);
+    assert!(upload.indirect_ranges.is_empty());
     assert_eq!(object.live_indices(0), Some(&[0, 1, 3][..]));
+    assert_eq!(
+        object.index_mirror(),
+        [0, 1, 3, RESTART, RESTART, 3, 2, 1, RESTART]
+    );
+    // Growing back reads the slot the strip grows by (not in any range) from the runtime.
+    let back = [0, 1, 3, 2, 3, 2, 1];
+    object.apply_dirty(&dirty(vec![], vec![0]), &back, &[4, 3])?;
+    assert_eq!(object.live_indices(0), Some(&[0, 1, 3, 2][..]));
+    assert_eq!(object.prepare(&ctx.queue).index_ranges, vec![12..16]);
     Ok(())
 }

@@ -8,6 +8,12 @@
 //!   draw per frame, triangle counts equal to the reference mesh of DESIGN.md
 //!   (`CollapseSequence::reference_mesh`) and to the list drawn beside, uploads exactly where
 //!   the strips changed, and the JSON holds every row.
+//! * `object_buffers_match_layout_built_from_scratch`: a proptest over random walks (LOD up,
+//!   down, jumps, frame switches, draw grouping, strip colouring and merge gap changed
+//!   mid-walk, bad calls): after every move the object's index and indirect mirrors equal the
+//!   layout built from scratch from the runtime's strips, the records draw exactly the strips'
+//!   triangles, and replaying only the uploaded byte ranges onto a copy of the buffers as they
+//!   were made reproduces the mirrors (the dirty tracking uploads everything that changed).
 //!
 //! * `weight_animation_plays_on_the_gpu`: an asset built from makehuman_head's weight
 //!   animation (8 targets, both end poses equal to the base) renders, at several `t`, like a
@@ -19,8 +25,12 @@
 use std::sync::Arc;
 
 use morphlod::gpu::bench::{run_bench, BenchOptions, Sweep};
-use morphlod::gpu::{self, LodObject, MorphPipeline, Object, Target, Topology};
+use morphlod::gpu::{
+    self, Draws, GpuError, LodObject, MorphPipeline, Object, ShadeMode, Target, Topology, Upload,
+    RESTART,
+};
 use morphlod::io::LoadOptions;
+use morphlod::lodstrips::Dirty;
 use morphlod::morph::MorphSource;
 use morphlod::strip::strip_triangles;
 use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Error, Lod, Morph};
@@ -144,7 +154,6 @@ fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
     Ok(())
 }
 
-/// The live length of every region.
 #[test]
 fn weight_animation_plays_on_the_gpu() -> Result<(), Error> {
     let Some(ctx) = gpu::test_context()? else {
@@ -259,12 +268,10 @@ fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
     Ok(())
 }
 
-fn counts(object: &Object) -> Vec<u32> {
-    object
-        .indirect_args()
-        .iter()
-        .map(|a| a.index_count)
-        .collect()
+/// The live length of every region and the draw records.
+fn counts(object: &Object) -> (Vec<u32>, Vec<u32>) {
+    let records = object.indirect_args().iter().map(|a| a.index_count);
+    (object.lengths().to_vec(), records.collect())
 }
 
 #[test]
@@ -322,5 +329,302 @@ fn bench_rows_are_consistent() -> Result<(), Error> {
     let json = report.to_json();
     assert_eq!(json.matches("\"sweep\":").count(), report.rows.len());
     assert!(report.summary().contains("goals:"));
+    Ok(())
+}
+
+/// One move of a random walk over a [`LodObject`].
+#[derive(Clone, Debug)]
+enum Move {
+    /// `set(t, Fraction(lod))`: a jump, a frame switch when `t` lands on another frame.
+    Set { t: f32, lod: f32, prepare: bool },
+    /// `set` at the same `t`, `steps` collapses finer or coarser.
+    Step {
+        finer: bool,
+        steps: usize,
+        prepare: bool,
+    },
+    /// `set_draws`: per region (`None`) or groups of at most this many slots.
+    Draws(Option<u32>),
+    /// Strip colouring on or off (strip colours draw per region).
+    Shade(bool),
+    /// `set_merge_gap` in bytes.
+    Gap(u64),
+    /// Calls that must fail with a typed error and change nothing.
+    Bad,
+}
+
+fn move_strategy() -> impl proptest::strategy::Strategy<Value = Move> {
+    use proptest::prelude::*;
+    let budget = prop::sample::select(vec![0u32, 8, 24, 64, 200, u32::MAX]);
+    prop_oneof![
+        3 => (0.0f32..=1.0, 0.0f32..=1.0, any::<bool>())
+            .prop_map(|(t, lod, prepare)| Move::Set { t, lod, prepare }),
+        3 => (any::<bool>(), 1usize..30, any::<bool>())
+            .prop_map(|(finer, steps, prepare)| Move::Step { finer, steps, prepare }),
+        1 => prop::option::of(budget).prop_map(Move::Draws),
+        1 => any::<bool>().prop_map(Move::Shade),
+        1 => prop::sample::select(vec![0u64, 8, 32, 256]).prop_map(Move::Gap),
+        1 => Just(Move::Bad),
+    ]
+}
+
+/// The buffers an object must hold, built from scratch: every region's live strip, RESTART
+/// up to its capacity, one RESTART separator; records cutting the regions greedily by
+/// `draws` (a region opens a new record when the slots since the record's first region would
+/// exceed the budget), each from its first region's start to its last live index.
+fn expected_layout(
+    strips: &[&[u32]],
+    capacities: &[usize],
+    draws: Draws,
+    first_instance: bool,
+) -> (Vec<u32>, Vec<[u32; 5]>) {
+    let mut indices = Vec::new();
+    let mut starts = Vec::new();
+    for (strip, &capacity) in strips.iter().zip(capacities) {
+        starts.push(indices.len() as u32);
+        indices.extend_from_slice(strip);
+        indices.resize(indices.len() + capacity - strip.len() + 1, RESTART);
+    }
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    let mut slots = 0u64;
+    for (r, &capacity) in capacities.iter().enumerate() {
+        let own = capacity as u64 + 1;
+        let budget = match draws {
+            Draws::PerRegion => 0,
+            Draws::Grouped { max_indices } => u64::from(max_indices),
+        };
+        match groups.last_mut() {
+            Some(group) if slots + own <= budget => {
+                group.push(r);
+                slots += own;
+            }
+            _ => {
+                groups.push(vec![r]);
+                slots = own;
+            }
+        }
+    }
+    let records = groups
+        .iter()
+        .enumerate()
+        .map(|(g, group)| {
+            let first = starts[group[0]];
+            let end = group
+                .iter()
+                .filter(|&&r| !strips[r].is_empty())
+                .map(|&r| starts[r] + strips[r].len() as u32)
+                .max()
+                .unwrap_or(first);
+            let instance = if first_instance { g as u32 } else { 0 };
+            [end - first, 1, first, 0, instance]
+        })
+        .collect();
+    (indices, records)
+}
+
+fn record_words(object: &Object) -> Vec<u32> {
+    object
+        .indirect_args()
+        .iter()
+        .flat_map(|a| {
+            [
+                a.index_count,
+                a.instance_count,
+                a.first_index,
+                a.base_vertex as u32,
+                a.first_instance,
+            ]
+        })
+        .collect()
+}
+
+/// Copies the uploaded byte ranges of `mirror` onto `gpu` (both as 32-bit words).
+fn replay(ranges: &[std::ops::Range<u64>], mirror: &[u32], gpu: &mut [u32], what: &str) {
+    for range in ranges {
+        assert!(
+            range.start % 4 == 0 && range.end % 4 == 0 && range.start < range.end,
+            "{what}: upload {range:?} is not a nonempty word range"
+        );
+        let words = (range.start / 4) as usize..(range.end / 4) as usize;
+        assert!(
+            words.end <= mirror.len() && words.end <= gpu.len(),
+            "{what}: upload {range:?} past the buffer"
+        );
+        gpu[words.clone()].copy_from_slice(&mirror[words]);
+    }
+}
+
+#[test]
+fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
+    use proptest::test_runner::{Config, TestRunner};
+    let Some(ctx) = gpu::test_context()? else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let asset = grid_asset(10, 5);
+    let model = Arc::new(DeformingModel::new(&asset)?);
+    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let capacities: Vec<usize> = (0..asset.s0.len())
+        .map(|i| asset.s0.strip(i).map_or(0, <[u32]>::len))
+        .collect();
+    let first_instance = ctx.first_instance_enabled();
+    let mut runner = TestRunner::new(Config {
+        cases: 48,
+        ..Config::default()
+    });
+    let walks = proptest::collection::vec(move_strategy(), 1..40);
+    let result = runner.run(&walks, |moves| {
+        let mut object = LodObject::new(device, &pipeline, &asset, Arc::clone(&model))
+            .expect("the grid asset uploads");
+        // The buffers as created, then changed only by the uploads.
+        let mut gpu_indices = object.object().index_mirror().to_vec();
+        let mut gpu_records = record_words(object.object());
+        gpu_records.resize(capacities.len() * 5, 0);
+        let (mut t, mut draws, mut strip_colours) = (
+            0.0f32,
+            gpu::Draws::Grouped {
+                max_indices: gpu::GROUP_INDICES,
+            },
+            false,
+        );
+        for (i, step) in moves.iter().enumerate() {
+            let what = format!("move {i} {step:?}");
+            let mut prepare = true;
+            match *step {
+                Move::Set {
+                    t: to,
+                    lod,
+                    prepare: p,
+                } => {
+                    object.set(to, Lod::Fraction(lod)).expect("valid t");
+                    (t, prepare) = (to, p);
+                }
+                Move::Step {
+                    finer,
+                    steps,
+                    prepare: p,
+                } => {
+                    let lod = object.state().lod();
+                    let lod = if finer {
+                        lod.saturating_sub(steps)
+                    } else {
+                        lod + steps
+                    };
+                    object.set(t, Lod::Steps(lod)).expect("valid t");
+                    prepare = p;
+                }
+                Move::Draws(budget) => {
+                    draws = budget.map_or(Draws::PerRegion, |max_indices| Draws::Grouped {
+                        max_indices,
+                    });
+                    object.set_draws(draws).expect("strip objects group");
+                }
+                Move::Shade(on) => {
+                    strip_colours = on;
+                    object.set_shade_mode(if on {
+                        ShadeMode::StripColours
+                    } else {
+                        ShadeMode::BaseColour
+                    });
+                }
+                Move::Gap(bytes) => object.object_mut().set_merge_gap(bytes),
+                Move::Bad => {
+                    let before = (
+                        object.object().index_mirror().to_vec(),
+                        record_words(object.object()),
+                    );
+                    let state = object.state();
+                    let (indices, lengths) = (state.indices().to_vec(), state.lengths().to_vec());
+                    let short = &indices[..indices.len() - 1];
+                    let target = object.object_mut();
+                    assert!(matches!(
+                        target.apply_dirty(&Dirty::default(), short, &lengths),
+                        Err(GpuError::LayoutMismatch { .. })
+                    ));
+                    let mut too_long = lengths.clone();
+                    too_long[0] = capacities[0] as u32 + 1;
+                    let dirty = Dirty {
+                        ranges: Vec::new(),
+                        lengths: vec![0],
+                    };
+                    assert!(matches!(
+                        target.apply_dirty(&dirty, &indices, &too_long),
+                        Err(GpuError::RegionOverflow { region: 0, .. })
+                    ));
+                    assert!(matches!(
+                        target.write_region(capacities.len(), &[]),
+                        Err(GpuError::NoSuchRegion { .. })
+                    ));
+                    assert!(matches!(
+                        target.write_region(0, &[u32::MAX - 1]),
+                        Err(GpuError::IndexOutOfRange { .. })
+                    ));
+                    let after = (target.index_mirror().to_vec(), record_words(target));
+                    assert!(
+                        before == after,
+                        "{what}: a refused call changed the mirrors"
+                    );
+                }
+            }
+
+            let state = object.state();
+            let strips: Vec<&[u32]> = (0..capacities.len())
+                .map(|s| state.strip(s).unwrap_or(&[]))
+                .collect();
+            let drawn = if strip_colours {
+                Draws::PerRegion
+            } else {
+                draws
+            };
+            let (indices, records) = expected_layout(&strips, &capacities, drawn, first_instance);
+            let gpu_object = object.object();
+            assert!(
+                gpu_object.index_mirror() == indices.as_slice(),
+                "{what}: index mirror differs from the layout built from scratch"
+            );
+            let words: Vec<u32> = records.iter().flatten().copied().collect();
+            assert_eq!(record_words(gpu_object), words, "{what}: draw records");
+            assert_eq!(gpu_object.lengths(), state.lengths(), "{what}: lengths");
+            // The records draw exactly the strips' triangles, in order.
+            let by_records: Vec<[u32; 3]> = gpu_object
+                .indirect_args()
+                .iter()
+                .flat_map(|a| {
+                    let span = a.first_index as usize..(a.first_index + a.index_count) as usize;
+                    strip_triangles(&indices[span]).collect::<Vec<_>>()
+                })
+                .collect();
+            let by_strips: Vec<[u32; 3]> = strips.iter().flat_map(|s| strip_triangles(s)).collect();
+            assert!(
+                by_records == by_strips,
+                "{what}: records draw other triangles"
+            );
+
+            if prepare {
+                let upload: Upload = object.prepare(queue);
+                let gpu_object = object.object();
+                replay(
+                    &upload.index_ranges,
+                    gpu_object.index_mirror(),
+                    &mut gpu_indices,
+                    &what,
+                );
+                replay(&upload.indirect_ranges, &words, &mut gpu_records, &what);
+                assert!(
+                    gpu_indices == gpu_object.index_mirror(),
+                    "{what}: the uploads missed a changed index"
+                );
+                assert_eq!(
+                    &gpu_records[..words.len()],
+                    words.as_slice(),
+                    "{what}: the uploads missed a changed record"
+                );
+            }
+        }
+        Ok(())
+    });
+    if let Err(failure) = result {
+        panic!("{failure}");
+    }
     Ok(())
 }

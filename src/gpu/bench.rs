@@ -6,7 +6,9 @@
 //! * **list** — the same triangles as a plain triangle list, rebuilt and re-uploaded per frame
 //!   (what an application without LOD strips does to show the same LOD);
 //! * **full** — full detail without LOD: the strips `S0` and, for the full-detail ratio, the
-//!   same triangles as a list, both uploaded once.
+//!   same triangles as a list, both uploaded once; the strips also drawn with one indirect
+//!   record per strip ([`Draws::PerRegion`]) beside the default grouped records, so the run
+//!   shows what grouping saves.
 //!
 //! The list of a frame is the live strips decoded into triangles
 //! ([`crate::strip::strip_triangles`]): one pass over the live indices, cheaper than
@@ -25,7 +27,7 @@ use std::time::Instant;
 
 use super::lod_object::s0_regions;
 use super::sheet::frame_both_poses;
-use super::{Context, GpuError, LodObject, MorphPipeline, Object, Target, Topology};
+use super::{Context, Draws, GpuError, LodObject, MorphPipeline, Object, Target, Topology};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, Lod};
 use crate::strip::strip_triangles;
@@ -99,8 +101,12 @@ pub struct FrameRow {
     pub prepare_us: f64,
     /// Index and indirect bytes the strips uploaded this frame.
     pub upload_bytes: u64,
+    /// `write_buffer` calls of that upload (index and indirect; uniforms not counted).
+    pub upload_writes: usize,
     /// Draw calls the strips object issued this frame.
     pub draws: u64,
+    /// Indirect draw records in the strips object's one multi-draw.
+    pub records: usize,
     pub strips_ms: f64,
     /// Triangles of the list and the CPU time to decode it, microseconds.
     pub list_triangles: usize,
@@ -111,6 +117,8 @@ pub struct FrameRow {
     /// Full detail without LOD: strips `S0` and the same triangles as a list.
     pub full_strips_ms: f64,
     pub full_list_ms: f64,
+    /// Full-detail strips `S0` drawn with one indirect record per strip.
+    pub full_per_strip_ms: f64,
 }
 
 /// A whole benchmark run.
@@ -163,14 +171,23 @@ pub fn run_bench(
         Topology::Strip,
         &asset.v0,
         &asset.v1,
-        &s0_regions(model),
+        &regions,
     )?;
+    let mut full_per_strip = Object::new(
+        device,
+        &pipeline,
+        Topology::Strip,
+        &asset.v0,
+        &asset.v1,
+        &regions,
+    )?;
+    full_per_strip.set_draws(Draws::PerRegion)?;
     let mut full = list_object(&full_list)?;
     // The per-frame list starts as the full list too: its region has room for every triangle.
     let mut list = list_object(&full_list)?;
-    // An animated asset's targets go to every object, so all three draw the same pose.
+    // An animated asset's targets go to every object, so all of them draw the same pose.
     let track = asset.blend.as_ref().map(|blend| &blend.track);
-    for object in [&mut full_strips, &mut full, &mut list] {
+    for object in [&mut full_strips, &mut full_per_strip, &mut full, &mut list] {
         object.set_view_proj(camera);
         if let Some(blend) = &asset.blend {
             object.set_targets(device, &pipeline, &blend.deltas)?;
@@ -216,6 +233,9 @@ pub fn run_bench(
             full.set_pose(t, track)?;
             full.prepare(queue);
             let full_list_ms = gpu_frame(device, queue, &target, &mut full)?;
+            full_per_strip.set_t(t)?;
+            full_per_strip.prepare(queue);
+            let full_per_strip_ms = gpu_frame(device, queue, &target, &mut full_per_strip)?;
 
             let state = strips.state();
             rows.push(FrameRow {
@@ -230,7 +250,9 @@ pub fn run_bench(
                 set_us,
                 prepare_us,
                 upload_bytes: upload.geometry_bytes(),
+                upload_writes: upload.index_ranges.len() + upload.indirect_ranges.len(),
                 draws,
+                records: strips.object().indirect_args().len(),
                 strips_ms,
                 list_triangles: live.len() / 3,
                 list_build_us,
@@ -238,6 +260,7 @@ pub fn run_bench(
                 list_ms,
                 full_strips_ms,
                 full_list_ms,
+                full_per_strip_ms,
             });
         }
     }
@@ -336,17 +359,20 @@ impl BenchReport {
             "sweep", "measure", "mean", "median"
         );
         type Column = (&'static str, fn(&FrameRow) -> f64);
-        let columns: [Column; 11] = [
+        let columns: [Column; 14] = [
             ("triangles", |r| r.triangles as f64),
             ("set us", |r| r.set_us),
             ("prepare us", |r| r.prepare_us),
             ("upload B (strips)", |r| r.upload_bytes as f64),
+            ("upload writes", |r| r.upload_writes as f64),
             ("list build us", |r| r.list_build_us),
             ("upload B (list)", |r| r.list_upload_bytes as f64),
             ("GPU ms strips", |r| r.strips_ms),
             ("GPU ms list", |r| r.list_ms),
             ("GPU ms full strips", |r| r.full_strips_ms),
             ("GPU ms full list", |r| r.full_list_ms),
+            ("GPU ms full 1/strip", |r| r.full_per_strip_ms),
+            ("draw records", |r| r.records as f64),
             ("strips/list", |r| r.strips_ms / r.list_ms.max(1e-9)),
         ];
         for sweep in [Sweep::Linear, Sweep::Exponential] {
@@ -366,6 +392,8 @@ impl BenchReport {
         let all = |f: fn(&FrameRow) -> f64| -> Vec<f64> { self.rows.iter().map(f).collect() };
         let full_ratio =
             median(&all(|r| r.full_strips_ms)) / median(&all(|r| r.full_list_ms)).max(1e-9);
+        let per_strip_ratio =
+            median(&all(|r| r.full_per_strip_ms)) / median(&all(|r| r.full_list_ms)).max(1e-9);
         let cpu = mean(&all(|r| (r.set_us + r.prepare_us) / 1e3));
         let cpu_max = all(|r| (r.set_us + r.prepare_us) / 1e3)
             .into_iter()
@@ -373,6 +401,21 @@ impl BenchReport {
         let cpu_percent = 100.0 * cpu / FRAME_24FPS_MS;
         let upload = mean(&self.column(Sweep::Exponential, |r| r.upload_bytes as f64));
         let upload_percent = 100.0 * upload / (self.full_index_bytes.max(1) as f64);
+        // Frames that moved to another sampled frame (connectivity changes) against the rest.
+        let exponential: Vec<&FrameRow> = self
+            .rows
+            .iter()
+            .filter(|r| r.sweep == Sweep::Exponential)
+            .collect();
+        let (mut switching, mut staying) = (Vec::new(), Vec::new());
+        for pair in exponential.windows(2) {
+            let bytes = pair[1].upload_bytes as f64;
+            if pair[1].asset_frame != pair[0].asset_frame {
+                switching.push(bytes);
+            } else {
+                staying.push(bytes);
+            }
+        }
         let linear_tris = self.column(Sweep::Linear, |r| r.triangles as f64);
         let linear_ms = self.column(Sweep::Linear, |r| r.strips_ms);
         let falls = correlation(&linear_tris, &linear_ms);
@@ -382,6 +425,10 @@ impl BenchReport {
             out,
             "  full-detail strips / list GPU time (medians): {full_ratio:.3} (goal <= 1.05: {})",
             met(full_ratio <= 1.05)
+        );
+        let _ = writeln!(
+            out,
+            "    (the same strips with one indirect record per strip: {per_strip_ratio:.3})"
         );
         let _ = writeln!(
             out,
@@ -397,6 +444,15 @@ impl BenchReport {
             out,
             "  exponential sweep upload: mean {upload:.0} B = {upload_percent:.2}% of a full index upload (goal <= 5%: {})",
             met(upload_percent <= 5.0)
+        );
+        let _ = writeln!(
+            out,
+            "    ({} frame switches: mean {:.0} B; {} other frames: mean {:.0} B, median {:.0} B)",
+            switching.len(),
+            mean(&switching),
+            staying.len(),
+            mean(&staying),
+            median(&staying)
         );
         out
     }
@@ -417,7 +473,7 @@ impl BenchReport {
         for (i, r) in self.rows.iter().enumerate() {
             let _ = write!(
                 out,
-                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"draws\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4}}}",
+                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"upload_writes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
                 if i == 0 { "" } else { "," },
                 r.sweep.name(),
                 r.frame,
@@ -430,14 +486,17 @@ impl BenchReport {
                 r.set_us,
                 r.prepare_us,
                 r.upload_bytes,
+                r.upload_writes,
                 r.draws,
+                r.records,
                 r.strips_ms,
                 r.list_triangles,
                 r.list_build_us,
                 r.list_upload_bytes,
                 r.list_ms,
                 r.full_strips_ms,
-                r.full_list_ms
+                r.full_list_ms,
+                r.full_per_strip_ms
             );
         }
         out.push_str("\n]}\n");

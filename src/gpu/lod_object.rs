@@ -14,7 +14,7 @@
 use std::sync::Arc;
 
 use super::object::check_t;
-use super::{GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
+use super::{Draws, GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
 use crate::asset::Asset;
 use crate::deform::{DeformingLod, DeformingModel, Lod};
 use crate::morph::WeightTrack;
@@ -118,9 +118,15 @@ impl LodObject {
         self.object.set_light(towards_light, ambient)
     }
 
-    /// Chooses base colour or one colour per strip.
+    /// Chooses base colour or one colour per strip (strip colours draw one record per strip,
+    /// see [`Object::set_shade_mode`]).
     pub fn set_shade_mode(&mut self, mode: ShadeMode) {
         self.object.set_shade_mode(mode);
+    }
+
+    /// Chooses how strips are cut into draw records (see [`Object::set_draws`]).
+    pub fn set_draws(&mut self, draws: Draws) -> Result<(), GpuError> {
+        self.object.set_draws(draws)
     }
 
     /// The CPU runtime: current frame, LOD, triangle and index counts, live strips.

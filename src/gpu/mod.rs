@@ -7,9 +7,11 @@
 //! * [`MorphPipeline`] — the render pipelines for `shaders/morph.wgsl` (triangle strips with
 //!   primitive restart, and triangle lists for reference renders). Many objects share one.
 //! * [`Object`] — one deforming mesh on the GPU: poses `V(0)`, `V(1)` uploaded once, an index
-//!   buffer cut into fixed regions (one per strip of `S0`), and one `DrawIndexedIndirectArgs` per
-//!   region. The CPU edits regions; [`Object::prepare`] uploads only the changed byte ranges and
-//!   [`Object::render`] draws every region with exactly one `multi_draw_indexed_indirect`.
+//!   buffer cut into fixed regions (one per strip of `S0`) separated by restarts, and
+//!   `DrawIndexedIndirectArgs` records that each draw a group of consecutive regions
+//!   ([`Draws`]). The CPU edits regions; [`Object::prepare`] uploads only the changed byte
+//!   ranges and [`Object::render`] draws every record with exactly one
+//!   `multi_draw_indexed_indirect`.
 //! * [`LodObject`] — an [`Object`] driven by its CPU LOD runtime: `set(t, lod)`, `prepare`,
 //!   `render`; what applications use.
 //! * [`Target`] — an offscreen colour + depth target and its readback into an `image::RgbaImage`.
@@ -22,7 +24,8 @@
 //!
 //! # Driving an object from the LOD runtime
 //!
-//! Make the object from the runtime's LOD-0 strips (region `r` = strip `r` of `S0`), then per
+//! Make the object from the runtime's LOD-0 strips (region `r` = strip `r` of `S0`; the object
+//! adds its separators itself), then per
 //! frame: move the runtime (`set_lod`), hand its `take_dirty()` with its `indices()` and
 //! `lengths()` to [`Object::apply_dirty`], call [`Object::prepare`] and [`Object::render`].
 //! Only the dirty ranges are read and uploaded.
@@ -49,7 +52,7 @@ mod target;
 
 pub use context::{test_context, Context};
 pub use lod_object::LodObject;
-pub use object::{Object, Topology, Upload, MERGE_GAP_BYTES};
+pub use object::{Draws, Object, Topology, Upload, GROUP_INDICES, MERGE_GAP_BYTES};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
 pub use target::{save_png, Target};
 
@@ -110,6 +113,9 @@ pub enum GpuError {
         end: u32,
         capacity: u32,
     },
+    /// Grouped draws asked of a triangle-list object.
+    #[error("a triangle-list object draws one record per region: no restart separates its regions, so they cannot be grouped; use Draws::PerRegion or a strip object")]
+    GroupedList,
     /// More live indices than the region's fixed capacity (its `S0` strip length).
     #[error("region {region} holds at most {capacity} indices, got {len}")]
     RegionOverflow {

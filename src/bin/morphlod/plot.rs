@@ -24,7 +24,7 @@ struct Series {
     value: fn(&FrameRow) -> f64,
 }
 
-const TIMES: [Series; 4] = [
+const TIMES: [Series; 5] = [
     Series {
         colour: RGBColor(31, 119, 180),
         label: "LOD strips",
@@ -37,13 +37,18 @@ const TIMES: [Series; 4] = [
     },
     Series {
         colour: RGBColor(44, 160, 44),
-        label: "full detail, strips S0",
+        label: "full detail, strips S0 (grouped)",
         value: |row| row.full_strips_ms,
     },
     Series {
         colour: RGBColor(214, 39, 40),
         label: "full detail, triangle list",
         value: |row| row.full_list_ms,
+    },
+    Series {
+        colour: RGBColor(140, 86, 75),
+        label: "full detail, one draw per strip",
+        value: |row| row.full_per_strip_ms,
     },
 ];
 
@@ -181,7 +186,10 @@ mod tests {
             list_upload_bytes: 128,
             list_ms: 2.5 - 0.2 * x,
             full_strips_ms: 3.0,
+            full_per_strip_ms: 3.4,
             full_list_ms: 2.8,
+            records: 1,
+            upload_writes: 2,
         }
     }
 
