@@ -496,7 +496,14 @@ struct Scene {
     strip_colours: bool,
     adapter: String,
     last: FrameStats,
+    /// Whether the readout lists the keys (the window) or not (headless frames).
+    show_keys: bool,
 }
+
+/// The readout's key help, under the figures.
+const KEYS: &str =
+    "\nkeys  <-/-> t  space play/pause  up/down LOD finer/coarser  l fraction/pixels\n      \
+                    s strip colours  n next morph  drag orbit  wheel zoom  r reset view  q quit";
 
 struct SceneObject {
     label: String,
@@ -549,6 +556,7 @@ impl Scene {
                 .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE),
             adapter: format!("{} ({:?})", adapter.name, adapter.backend),
             last: FrameStats::default(),
+            show_keys: true,
         })
     }
 
@@ -640,14 +648,16 @@ impl Scene {
              {lod_line}   -> {} of {} collapses\n\
              drawn {} triangles, {} indices ({:.2} per triangle), {} draw call(s)\n\
              upload {} B this frame (index+indirect {} B, uniforms {} B), set+prepare {:.3} ms\n\
-             shade {shading}   adapter {}\n\
-             keys  <-/-> t  space play  up/down LOD  l fraction/pixels  s strips  n next morph\n      \
-             drag orbit  wheel zoom  r reset view  q quit",
+             shade {shading}   adapter {}{}",
             self.current + 1,
             self.objects.len(),
             current.label,
             self.view.t,
-            if self.view.playing { "playing" } else { "paused " },
+            if self.view.playing {
+                "playing"
+            } else {
+                "paused "
+            },
             frame,
             model.frame_count(),
             state.lod(),
@@ -661,6 +671,7 @@ impl Scene {
             upload.uniform_bytes,
             self.last.cpu.as_secs_f64() * 1e3,
             self.adapter,
+            if self.show_keys { KEYS } else { "" },
         )
     }
 
@@ -800,6 +811,7 @@ fn run_headless(
     let target = Target::new(device, width, height, CLEAR).map_err(DemoError::lib)?;
     let mut scene = Scene::new(device, queue, &info, Target::COLOR_FORMAT, morphs, args)?;
     scene.view.playing = false;
+    scene.show_keys = false;
     let frames = args.frames;
     println!(
         "{}: rendering {frames} frames of '{}' headless on {} ({:?}), {width}x{height}",
@@ -869,6 +881,19 @@ fn run_window(
     args: &CommonArgs,
     morphs: &[BuiltMorph],
 ) -> Result<WindowOutcome, DemoError> {
+    // winit would say the same, prefixed with its source location; this reads better.
+    if cfg!(all(
+        unix,
+        not(target_os = "macos"),
+        not(target_os = "android")
+    )) && ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
+        .iter()
+        .all(|name| std::env::var_os(name).is_none_or(|value| value.is_empty()))
+    {
+        return Ok(WindowOutcome::NoWindow(
+            "DISPLAY and WAYLAND_DISPLAY are not set".into(),
+        ));
+    }
     let event_loop = match EventLoop::new() {
         Ok(event_loop) => event_loop,
         Err(error) => return Ok(WindowOutcome::NoWindow(error.to_string())),
