@@ -70,7 +70,7 @@ pub enum DemoError {
         #[source]
         source: std::io::Error,
     },
-    #[error("--morph {index}: this demo has {count} morphs (0 to {last})", last = .count - 1)]
+    #[error("--morph {index}: this demo has {count} morphs, numbered from 0")]
     NoSuchMorph { index: usize, count: usize },
     #[error("the window failed: {0}")]
     Window(String),
@@ -133,7 +133,7 @@ pub struct Demo {
 
 /// One morph a demo can show: `V(0)` → `V(1)` over the source mesh's triangulation.
 pub struct NamedMorph {
-    /// Shown in the readout; also the cache file's name, so only `[A-Za-z0-9_.-]`.
+    /// Shown in the readout and part of the cache file's name.
     pub label: String,
     pub morph: Morph,
 }
@@ -201,10 +201,10 @@ impl TargetPoses {
 /// Runs a demo: builds (or loads) its assets, then opens a window, or renders headless when
 /// asked to or when no window can be opened.
 pub fn run(demo: &Demo, args: &CommonArgs, morphs: Vec<NamedMorph>) -> Result<(), DemoError> {
-    if morphs.is_empty() || args.morph >= morphs.len() {
+    if args.morph >= morphs.len() {
         return Err(DemoError::NoSuchMorph {
             index: args.morph,
-            count: morphs.len().max(1),
+            count: morphs.len(),
         });
     }
     let out = args
@@ -282,13 +282,25 @@ fn load_or_build_all(
 /// The cache file of one morph: label, frame count, and a hash of the source file's content
 /// together with every build parameter, so any change to them names another file.
 fn cache_name(label: &str, source_hash: u32, frames: u16) -> String {
+    // Target names come from the file: keep the name to characters every file system takes
+    // (the hash below still covers the exact label).
+    let safe: String = label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
     let parameters = format!(
         "source {source_hash:08x}; label {label}; frames {frames}; simplify {:?}; morphlod {}",
         SimplifyOptions::default(),
         env!("CARGO_PKG_VERSION")
     );
     format!(
-        "{label}.f{frames}.{source_hash:08x}{:08x}.mlod",
+        "{safe}.f{frames}.{source_hash:08x}{:08x}.mlod",
         crc32fast::hash(parameters.as_bytes())
     )
 }
@@ -498,6 +510,8 @@ struct Scene {
     last: FrameStats,
     /// Whether the readout lists the keys (the window) or not (headless frames).
     show_keys: bool,
+    /// The window's scale factor: the readout keeps its size in logical pixels.
+    text_scale: f32,
 }
 
 /// The readout's key help, under the figures.
@@ -557,6 +571,7 @@ impl Scene {
             adapter: format!("{} ({:?})", adapter.name, adapter.backend),
             last: FrameStats::default(),
             show_keys: true,
+            text_scale: 1.0,
         })
     }
 
@@ -603,7 +618,8 @@ impl Scene {
             draw_calls: self.last.draw_calls,
         };
         let text = self.readout_text(status, lod);
-        self.readout.prepare(device, queue, (width, height), &text)
+        self.readout
+            .prepare(device, queue, (width, height), self.text_scale, &text)
     }
 
     /// Records the current object (one multi-draw) and the readout into `pass`, whose
@@ -646,7 +662,7 @@ impl Scene {
              morph {}/{}: {}\n\
              t     {:.3} {}   sampled frame k = {} of {}\n\
              {lod_line}   -> {} of {} collapses\n\
-             drawn {} triangles, {} indices ({:.2} per triangle), {} draw call(s)\n\
+             drawn {} triangles, {} indices ({:.2} per triangle), {} mesh draw call(s)\n\
              upload {} B this frame (index+indirect {} B, uniforms {} B), set+prepare {:.3} ms\n\
              shade {shading}   adapter {}{}",
             self.current + 1,
@@ -741,11 +757,12 @@ impl Readout {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         (width, height): (u32, u32),
+        scale: f32,
         text: &str,
     ) -> Result<(), DemoError> {
         self.viewport.update(queue, Resolution { width, height });
         self.buffer
-            .set_size(Some(width as f32), Some(height as f32));
+            .set_size(Some(width as f32 / scale), Some(height as f32 / scale));
         self.buffer.set_text(
             text,
             &Attrs::new().family(Family::Name(FONT_FAMILY)),
@@ -761,9 +778,9 @@ impl Readout {
         };
         let area = |offset: f32, color: Color| TextArea {
             buffer: &self.buffer,
-            left: 10.0 + offset,
-            top: 8.0 + offset,
-            scale: 1.0,
+            left: (10.0 + offset) * scale,
+            top: (8.0 + offset) * scale,
+            scale,
             bounds,
             default_color: color,
             custom_glyphs: &[],
@@ -961,6 +978,9 @@ impl ApplicationHandler for App<'_> {
                 event_loop.exit();
             }
             WindowEvent::Resized(size) => state.resize(size),
+            WindowEvent::ScaleFactorChanged { scale_factor, .. } => {
+                state.scene.text_scale = (scale_factor as f32).clamp(0.5, 4.0);
+            }
             WindowEvent::KeyboardInput {
                 event:
                     KeyEvent {
@@ -970,7 +990,8 @@ impl ApplicationHandler for App<'_> {
                     },
                 ..
             } => {
-                if state.key(&logical_key) == KeyAction::Quit {
+                let action = state.key(&logical_key);
+                if action == KeyAction::Quit {
                     self.window = None;
                     event_loop.exit();
                 }
@@ -1093,7 +1114,7 @@ impl WindowState {
         config.present_mode = wgpu::PresentMode::AutoVsync;
         surface.configure(&device, &config);
         let depth = depth_view(&device, config.width, config.height);
-        let scene = Scene::new(
+        let mut scene = Scene::new(
             &device,
             &queue,
             &adapter.get_info(),
@@ -1102,6 +1123,7 @@ impl WindowState {
             args,
         )
         .map_err(Setup::Failed)?;
+        scene.text_scale = (window.scale_factor() as f32).clamp(0.5, 4.0);
         println!(
             "{}: window open on {} ({:?}), surface {:?}",
             demo.name,
