@@ -844,6 +844,7 @@ fn run_headless(
         "{}: rendering {frames} frames of '{}' headless on {} ({:?}), {width}x{height}",
         demo.name, morphs[args.morph].label, info.name, info.backend
     );
+    remove_old_frames(out)?;
     let mut first = None;
     let mut last = PathBuf::new();
     for i in 0..frames {
@@ -889,6 +890,27 @@ fn run_headless(
             first.display(),
             last.display()
         );
+    }
+    Ok(())
+}
+
+/// Deletes the `frame_NNNN.png` files of an earlier run, so a shorter sequence does not leave
+/// a longer one's tail behind it. Nothing else in `out` is touched.
+fn remove_old_frames(out: &Path) -> Result<(), DemoError> {
+    let io = |source| DemoError::Io {
+        path: out.to_path_buf(),
+        source,
+    };
+    for entry in std::fs::read_dir(out).map_err(io)? {
+        let path = entry.map_err(io)?.path();
+        let is_frame = path
+            .file_name()
+            .and_then(|name| name.to_str())
+            .and_then(|name| name.strip_prefix("frame_")?.strip_suffix(".png"))
+            .is_some_and(|number| number.len() == 4 && number.bytes().all(|b| b.is_ascii_digit()));
+        if is_frame {
+            std::fs::remove_file(&path).map_err(|source| DemoError::Io { path, source })?;
+        }
     }
     Ok(())
 }
