@@ -1,0 +1,155 @@
+//! The asset cache: each morph's `.mlod` file under the demo's output folder, built with
+//! [`Builder`] when missing, stale or damaged.
+
+use std::io::IsTerminal;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use morphlod::build::Progress;
+use morphlod::simplify::SimplifyOptions;
+use morphlod::{Asset, Builder, DeformingModel, Morph};
+
+use super::{DemoError, NamedMorph};
+
+/// A built morph, ready for the GPU.
+pub struct BuiltMorph {
+    pub label: String,
+    pub asset: Asset,
+    pub model: Arc<DeformingModel>,
+}
+
+pub fn load_or_build_all(
+    source: &Path,
+    out: &Path,
+    morphs: &[NamedMorph],
+    frames: u16,
+) -> Result<Vec<BuiltMorph>, DemoError> {
+    let bytes = std::fs::read(source).map_err(|source_error| DemoError::Io {
+        path: source.to_path_buf(),
+        source: source_error,
+    })?;
+    // The content, not the path or the modification time: an edited or replaced source file
+    // gets new assets, an untouched checkout elsewhere reuses them.
+    let source_hash = crc32fast::hash(&bytes);
+    let mut built = Vec::with_capacity(morphs.len());
+    for (i, named) in morphs.iter().enumerate() {
+        let path = out.join(cache_name(&named.label, source_hash, frames));
+        let asset = load_or_build(named, &path, frames, (i + 1, morphs.len()))?;
+        let model = Arc::new(DeformingModel::new(&asset).map_err(DemoError::lib)?);
+        built.push(BuiltMorph {
+            label: named.label.clone(),
+            asset,
+            model,
+        });
+    }
+    Ok(built)
+}
+
+/// The cache file of one morph: label, frame count, and a hash of the source file's content
+/// together with every build parameter and the program that builds, so any change to them
+/// names another file.
+fn cache_name(label: &str, source_hash: u32, frames: u16) -> String {
+    // Target names come from the file: keep the name to characters every file system takes
+    // (the hash below still covers the exact label).
+    let safe: String = label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    // The simplifier and stripifier can change without a version bump (and do, while the
+    // library is developed): the executable's size and modification time stand for the code
+    // that built the asset, so a rebuilt demo rebuilds its assets (about a second each).
+    let program = std::env::current_exe()
+        .and_then(std::fs::metadata)
+        .map(|m| format!("{} bytes, modified {:?}", m.len(), m.modified().ok()))
+        .unwrap_or_default();
+    let parameters = format!(
+        "source {source_hash:08x}; label {label}; frames {frames}; simplify {:?}; \
+         morphlod {} (file format {}, program {program})",
+        SimplifyOptions::default(),
+        env!("CARGO_PKG_VERSION"),
+        morphlod::asset::VERSION,
+    );
+    format!(
+        "{safe}.f{frames}.{source_hash:08x}{:08x}.mlod",
+        crc32fast::hash(parameters.as_bytes())
+    )
+}
+
+fn load_or_build(
+    named: &NamedMorph,
+    path: &Path,
+    frames: u16,
+    (number, count): (usize, usize),
+) -> Result<Asset, DemoError> {
+    if path.exists() {
+        // A cached file is used only if it loads (checksums, structure) and holds exactly the
+        // poses this morph has; anything else is rebuilt and overwritten.
+        match Asset::load(path) {
+            Ok(asset) if matches_morph(&asset, &named.morph, frames) => {
+                println!(
+                    "[{number}/{count}] {}: cached {}",
+                    named.label,
+                    path.display()
+                );
+                return Ok(asset);
+            }
+            Ok(_) => println!(
+                "[{number}/{count}] {}: {} holds another morph; rebuilding",
+                named.label,
+                path.display()
+            ),
+            Err(error) => println!(
+                "[{number}/{count}] {}: cached file does not load ({error}); rebuilding",
+                named.label
+            ),
+        }
+    }
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let bar = ProgressBar::new(u64::from(frames));
+        if let Ok(style) =
+            ProgressStyle::with_template("{msg} {bar:32} {pos}/{len} frames [{elapsed_precise}]")
+        {
+            bar.set_style(style);
+        }
+        bar.set_message(format!("[{number}/{count}] building {}", named.label));
+        bar
+    });
+    let progress = |p: Progress| {
+        if let Some(bar) = &bar {
+            bar.set_position(p.frames_done as u64);
+        }
+    };
+    let start = Instant::now();
+    let built = Builder::new(&named.morph)
+        .frames(usize::from(frames))
+        .progress(&progress)
+        .build();
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let (asset, report) = built.map_err(DemoError::lib)?;
+    asset.save(path).map_err(DemoError::lib)?;
+    println!(
+        "[{number}/{count}] {}: built {} frames ({} triangles, {} strips) in {:.1} s on {} threads -> {}",
+        named.label,
+        frames,
+        report.triangles,
+        report.strips,
+        start.elapsed().as_secs_f64(),
+        report.threads,
+        path.display()
+    );
+    Ok(asset)
+}
+
+fn matches_morph(asset: &Asset, morph: &Morph, frames: u16) -> bool {
+    asset.frames.len() == usize::from(frames) && asset.v0 == morph.v0() && asset.v1 == morph.v1()
+}

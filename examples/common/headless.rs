@@ -1,0 +1,106 @@
+//! Headless: a frame sequence rendered offscreen ([`Target`]) into numbered PNGs.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use morphlod::gpu::bench::Sweep;
+use morphlod::gpu::{save_png, Context, Target};
+
+use super::cache::BuiltMorph;
+use super::scene::{LodControl, Scene};
+use super::{CommonArgs, Demo, DemoError, CLEAR};
+
+/// The coarsest LOD fraction the headless sweep reaches: at 1.0 a mesh simplified "to the end"
+/// has almost nothing left to look at.
+const HEADLESS_COARSEST: f32 = 0.97;
+
+pub fn run_headless(
+    demo: &Demo,
+    args: &CommonArgs,
+    morphs: &[BuiltMorph],
+    out: &Path,
+) -> Result<(), DemoError> {
+    let context = Context::headless().map_err(DemoError::lib)?;
+    let info = context.adapter_info();
+    let (width, height) = args.size;
+    let device = &context.device;
+    let queue = &context.queue;
+    let target = Target::new(device, width, height, CLEAR).map_err(DemoError::lib)?;
+    let mut scene = Scene::new(device, queue, &info, Target::COLOR_FORMAT, morphs, args)?;
+    scene.view.playing = false;
+    scene.show_keys = false;
+    let frames = args.frames;
+    println!(
+        "{}: rendering {frames} frames of '{}' headless on {} ({:?}), {width}x{height}",
+        demo.name, morphs[args.morph].label, info.name, info.backend
+    );
+    remove_old_frames(out)?;
+    let mut first = None;
+    let mut last = PathBuf::new();
+    for i in 0..frames {
+        // The bench's linear sweep: t runs 0 → 1 while the LOD coarsens with it.
+        let x = if frames > 1 {
+            i as f32 / (frames - 1) as f32
+        } else {
+            0.0
+        };
+        scene.view.t = x;
+        scene.view.lod = LodControl::Fraction(HEADLESS_COARSEST * Sweep::Linear.fraction(x));
+        let status = format!("{}  headless frame {}/{frames}", demo.name, i + 1);
+        let start = Instant::now();
+        scene.update(device, queue, (width, height), &status)?;
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = target.begin_pass(&mut encoder);
+            scene.draw(&mut pass)?;
+        }
+        queue.submit([encoder.finish()]);
+        let image = target.read_image(device, queue).map_err(DemoError::lib)?;
+        let path = out.join(format!("frame_{i:04}.png"));
+        save_png(&image, &path).map_err(DemoError::lib)?;
+        let state = scene.objects[scene.current].object.state();
+        println!(
+            "  {} t {:.3} k {:2} lod {:5} triangles {:6} indices {:6} uploaded {:7} B  {:.1} ms",
+            path.display(),
+            x,
+            state.frame(),
+            state.lod(),
+            state.triangle_count(),
+            state.index_count(),
+            scene.last.upload.bytes(),
+            start.elapsed().as_secs_f64() * 1e3
+        );
+        first.get_or_insert_with(|| path.clone());
+        last = path;
+    }
+    if let Some(first) = first {
+        println!(
+            "{}: {frames} frames written: {} .. {}",
+            demo.name,
+            first.display(),
+            last.display()
+        );
+    }
+    Ok(())
+}
+
+/// Deletes the `frame_NNNN.png` files of an earlier run, so a shorter sequence does not leave
+/// a longer one's tail behind it. Nothing else in `out` is touched.
+fn remove_old_frames(out: &Path) -> Result<(), DemoError> {
+    let io = |source| DemoError::Io {
+        path: out.to_path_buf(),
+        source,
+    };
+    for entry in std::fs::read_dir(out).map_err(io)? {
+        let path = entry.map_err(io)?.path();
+        let is_frame = path
+            .file_name()
+            .and_then(|name| name.to_str())
+            .and_then(|name| name.strip_prefix("frame_")?.strip_suffix(".png"))
+            .is_some_and(|number| number.len() == 4 && number.bytes().all(|b| b.is_ascii_digit()));
+        if is_frame {
+            std::fs::remove_file(&path).map_err(|source| DemoError::Io { path, source })?;
+        }
+    }
+    Ok(())
+}

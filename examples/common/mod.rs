@@ -1,0 +1,222 @@
+//! What the demos (`face_to_face`, `body_morph`) share: the command line, the asset cache and
+//! build, the scene (one `LodObject` per morph plus the text readout) drawn into a pass the
+//! demo owns, the window loop (winit) and the headless frame sequence.
+//!
+//! A demo only says which morphs it shows (labels and poses); everything else is here, so the
+//! two demos behave and look the same.
+//!
+//! The scene follows the library's caller-owned pattern: the demo owns the device, queue, the
+//! surface (or an offscreen `Target`) and the render pass; `Scene::update` runs the CPU model
+//! and uploads, `Scene::draw` records one multi-draw for the mesh and the text.
+//!
+//! * `cache` — each morph's `.mlod` file, built when missing, stale or damaged;
+//! * `scene` — objects, view state, camera, readout text;
+//! * `headless` — the PNG frame sequence; `window` — the winit window.
+
+mod cache;
+mod headless;
+mod scene;
+mod window;
+
+use std::path::{Path, PathBuf};
+
+use morphlod::io::LoadOptions;
+use morphlod::mesh::clean::{clean, CleanOptions};
+use morphlod::morph::MorphSource;
+use morphlod::{IndexedMesh, Morph};
+use thiserror::Error;
+
+use cache::load_or_build_all;
+use headless::run_headless;
+use window::{run_window, WindowOutcome};
+
+/// Background: the contact sheets' dark grey, which no lit surface colour matches.
+const CLEAR: wgpu::Color = wgpu::Color {
+    r: 0.08,
+    g: 0.08,
+    b: 0.1,
+    a: 1.0,
+};
+
+/// Why a demo stopped.
+#[derive(Debug, Error)]
+pub enum DemoError {
+    #[error(transparent)]
+    Morphlod(#[from] morphlod::Error),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("--morph {index}: this demo has {count} morphs, numbered from 0")]
+    NoSuchMorph { index: usize, count: usize },
+    #[error("the window failed: {0}")]
+    Window(String),
+    #[error("drawing the readout text failed: {0}")]
+    Text(String),
+}
+
+impl DemoError {
+    fn lib(error: impl Into<morphlod::Error>) -> DemoError {
+        DemoError::Morphlod(error.into())
+    }
+}
+
+/// Options every demo takes.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CommonArgs {
+    /// Render a frame sequence to numbered PNGs instead of opening a window (automatic when no
+    /// window can be opened)
+    #[arg(long)]
+    pub headless: bool,
+    /// Frames of the headless sequence: t sweeps 0 → 1 while the LOD coarsens
+    #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub frames: u32,
+    /// Window or image size in pixels, WIDTHxHEIGHT
+    #[arg(long, default_value = "1280x800", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Directory for the built assets and the headless frames [default: out/<demo>]
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Sampled animation frames |r| per built asset (part of the cache key)
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u16).range(2..=4096))]
+    pub build_frames: u16,
+    /// The morph to start with (headless: the one rendered), 0-based
+    #[arg(long, default_value_t = 0)]
+    pub morph: usize,
+    /// Start with one colour per strip
+    #[arg(long)]
+    pub strips: bool,
+}
+
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let parsed = text
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)));
+    match parsed {
+        Some((w, h)) if (16..=8192).contains(&w) && (16..=8192).contains(&h) => Ok((w, h)),
+        _ => Err(format!(
+            "'{text}' is not a size: give WIDTHxHEIGHT with each side 16 to 8192, e.g. 1280x800"
+        )),
+    }
+}
+
+/// A demo's fixed facts.
+pub struct Demo {
+    /// The example's name: output folder, messages.
+    pub name: &'static str,
+    /// The glTF file the morphs come from.
+    pub source: &'static str,
+}
+
+/// One morph a demo can show: `V(0)` → `V(1)` over the source mesh's triangulation.
+pub struct NamedMorph {
+    /// Shown in the readout and part of the cache file's name.
+    pub label: String,
+    pub morph: Morph,
+}
+
+/// The cleaned base mesh of a glTF file and every target as a whole pose (base + deltas).
+pub struct TargetPoses {
+    pub triangles: Vec<[u32; 3]>,
+    pub base: Vec<[f32; 3]>,
+    /// (name, pose) per morph target, in file order.
+    pub targets: Vec<(String, Vec<[f32; 3]>)>,
+}
+
+impl TargetPoses {
+    /// Loads every morph target of the first mesh of `path`, cleaned once on the base pose
+    /// (the builder needs triangles without repeated corners) and applied to all poses alike.
+    pub fn load(path: &Path) -> Result<TargetPoses, DemoError> {
+        let morph = Morph::from_gltf(path, &LoadOptions::default(), &MorphSource::DefaultWeights)
+            .map_err(DemoError::lib)?;
+        let base = IndexedMesh::new(morph.base().to_vec(), morph.triangles().to_vec());
+        let cleaned = clean(&base, &CleanOptions { weld: false }).map_err(DemoError::lib)?;
+        let morph = morph
+            .select(&cleaned.vertex_map, cleaned.mesh.triangles)
+            .map_err(DemoError::lib)?;
+        let targets = morph
+            .targets()
+            .iter()
+            .map(|target| {
+                let pose = morph
+                    .base()
+                    .iter()
+                    .zip(&target.deltas)
+                    .map(|(p, d)| [p[0] + d[0], p[1] + d[1], p[2] + d[2]])
+                    .collect();
+                (target.name.clone(), pose)
+            })
+            .collect();
+        Ok(TargetPoses {
+            triangles: morph.triangles().to_vec(),
+            base: morph.base().to_vec(),
+            targets,
+        })
+    }
+
+    /// `V(0)` = `a`, `V(1)` = `b`, labelled `label`.
+    pub fn morph(
+        &self,
+        label: String,
+        a: &[[f32; 3]],
+        b: &[[f32; 3]],
+    ) -> Result<NamedMorph, DemoError> {
+        let morph = Morph::from_poses(self.triangles.clone(), a.to_vec(), b.to_vec())
+            .map_err(DemoError::lib)?;
+        Ok(NamedMorph { label, morph })
+    }
+
+    /// Neutral (the base mesh) → each target, in file order.
+    pub fn neutral_morphs(&self) -> Result<Vec<NamedMorph>, DemoError> {
+        self.targets
+            .iter()
+            .map(|(name, pose)| self.morph(format!("neutral-to-{name}"), &self.base, pose))
+            .collect()
+    }
+}
+
+/// Runs a demo: builds (or loads) its assets, then opens a window, or renders headless when
+/// asked to or when no window can be opened.
+pub fn run(demo: &Demo, args: &CommonArgs, morphs: Vec<NamedMorph>) -> Result<(), DemoError> {
+    if args.morph >= morphs.len() {
+        return Err(DemoError::NoSuchMorph {
+            index: args.morph,
+            count: morphs.len(),
+        });
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(demo.name));
+    std::fs::create_dir_all(&out).map_err(|source| DemoError::Io {
+        path: out.clone(),
+        source,
+    })?;
+    let assets = load_or_build_all(Path::new(demo.source), &out, &morphs, args.build_frames)?;
+    if args.headless {
+        return run_headless(demo, args, &assets, &out);
+    }
+    match run_window(demo, args, &assets)? {
+        WindowOutcome::Closed => Ok(()),
+        WindowOutcome::NoWindow(reason) => {
+            println!(
+                "{}: no window can be opened ({reason}); rendering headless instead",
+                demo.name
+            );
+            run_headless(demo, args, &assets, &out)
+        }
+    }
+}
+
+/// Prints the error and turns the result into the process's exit code (1 on error).
+pub fn exit_code(demo: &Demo, result: Result<(), DemoError>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("{}: error: {error}", demo.name);
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

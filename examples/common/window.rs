@@ -1,0 +1,413 @@
+//! The window: winit's event loop, a wgpu surface with a depth buffer, and the keys and mouse
+//! that drive the scene.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use morphlod::gpu::Target;
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+use super::cache::BuiltMorph;
+use super::scene::{Scene, View};
+use super::{CommonArgs, Demo, DemoError, CLEAR};
+
+pub enum WindowOutcome {
+    /// The user closed the window.
+    Closed,
+    /// No window could be opened (no display, no surface, no event loop): why.
+    NoWindow(String),
+}
+
+pub fn run_window(
+    demo: &Demo,
+    args: &CommonArgs,
+    morphs: &[BuiltMorph],
+) -> Result<WindowOutcome, DemoError> {
+    // winit would say the same, prefixed with its source location; this reads better.
+    if cfg!(all(
+        unix,
+        not(target_os = "macos"),
+        not(target_os = "android")
+    )) && ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
+        .iter()
+        .all(|name| std::env::var_os(name).is_none_or(|value| value.is_empty()))
+    {
+        return Ok(WindowOutcome::NoWindow(
+            "DISPLAY and WAYLAND_DISPLAY are not set".into(),
+        ));
+    }
+    let event_loop = match EventLoop::new() {
+        Ok(event_loop) => event_loop,
+        Err(error) => return Ok(WindowOutcome::NoWindow(error.to_string())),
+    };
+    let mut app = App {
+        demo,
+        args,
+        morphs,
+        window: None,
+        result: None,
+    };
+    let ran = event_loop.run_app(&mut app);
+    match app.result {
+        Some(result) => result,
+        None => match ran {
+            Ok(()) => Ok(WindowOutcome::Closed),
+            Err(error) => Err(DemoError::Window(error.to_string())),
+        },
+    }
+}
+
+struct App<'a> {
+    demo: &'a Demo,
+    args: &'a CommonArgs,
+    morphs: &'a [BuiltMorph],
+    window: Option<WindowState>,
+    /// Set when the loop must end with something other than a normal close.
+    result: Option<Result<WindowOutcome, DemoError>>,
+}
+
+impl App<'_> {
+    fn fail(&mut self, event_loop: &ActiveEventLoop, result: Result<WindowOutcome, DemoError>) {
+        self.result = Some(result);
+        // Drop the surface before the loop ends, while its window still exists.
+        self.window = None;
+        event_loop.exit();
+    }
+}
+
+impl ApplicationHandler for App<'_> {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.window.is_some() {
+            return;
+        }
+        match WindowState::new(event_loop, self.demo, self.args, self.morphs) {
+            Ok(state) => {
+                state.window.request_redraw();
+                self.window = Some(state);
+            }
+            // Nothing was shown yet: the headless path can still do the job.
+            Err(Setup::NoWindow(reason)) => {
+                self.fail(event_loop, Ok(WindowOutcome::NoWindow(reason)))
+            }
+            Err(Setup::Failed(error)) => self.fail(event_loop, Err(error)),
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        let Some(state) = &mut self.window else {
+            return;
+        };
+        match event {
+            WindowEvent::CloseRequested => {
+                self.window = None;
+                event_loop.exit();
+            }
+            WindowEvent::Resized(size) => state.resize(size),
+            WindowEvent::ScaleFactorChanged { scale_factor, .. } => {
+                state.scene.text_scale = (scale_factor as f32).clamp(0.5, 4.0);
+            }
+            WindowEvent::KeyboardInput {
+                event:
+                    KeyEvent {
+                        logical_key,
+                        state: ElementState::Pressed,
+                        ..
+                    },
+                ..
+            } => {
+                let action = state.key(&logical_key);
+                if action == KeyAction::Quit {
+                    self.window = None;
+                    event_loop.exit();
+                }
+            }
+            WindowEvent::MouseInput {
+                state: pressed,
+                button: MouseButton::Left,
+                ..
+            } => state.dragging = pressed == ElementState::Pressed,
+            WindowEvent::CursorMoved { position, .. } => {
+                let at = (position.x as f32, position.y as f32);
+                if state.dragging {
+                    if let Some((x, y)) = state.cursor {
+                        let view = &mut state.scene.view;
+                        view.yaw -= (at.0 - x) * 0.01;
+                        view.pitch = (view.pitch + (at.1 - y) * 0.01).clamp(-1.4, 1.4);
+                    }
+                }
+                state.cursor = Some(at);
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                let view = &mut state.scene.view;
+                view.zoom = (view.zoom * 0.9f32.powf(lines)).clamp(0.05, 20.0);
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(error) = state.redraw() {
+                    self.fail(event_loop, Err(error));
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Why the window could not be set up.
+enum Setup {
+    /// No window, surface or adapter for it: fall back to headless.
+    NoWindow(String),
+    /// Something else (the scene's GPU resources): an error.
+    Failed(DemoError),
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum KeyAction {
+    Continue,
+    Quit,
+}
+
+/// Everything that lives as long as the window. Fields drop in declaration order: the surface
+/// before the window it draws into.
+struct WindowState {
+    scene: Scene,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    depth: wgpu::TextureView,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    name: &'static str,
+    last_frame: Instant,
+    /// Frames and seconds counted since the fps figure was last updated.
+    fps_window: (u32, Duration),
+    fps: f32,
+    frame_ms: f32,
+    dragging: bool,
+    cursor: Option<(f32, f32)>,
+    window: Arc<Window>,
+}
+
+impl WindowState {
+    fn new(
+        event_loop: &ActiveEventLoop,
+        demo: &Demo,
+        args: &CommonArgs,
+        morphs: &[BuiltMorph],
+    ) -> Result<WindowState, Setup> {
+        let (width, height) = args.size;
+        let attributes = Window::default_attributes()
+            .with_title(format!("morphlod {}", demo.name))
+            .with_inner_size(PhysicalSize::new(width, height));
+        let window = Arc::new(
+            event_loop
+                .create_window(attributes)
+                .map_err(|e| Setup::NoWindow(format!("creating the window failed: {e}")))?,
+        );
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(
+                Box::new(event_loop.owned_display_handle()),
+            ));
+        let surface = instance
+            .create_surface(Arc::clone(&window))
+            .map_err(|e| Setup::NoWindow(format!("creating a surface failed: {e}")))?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            compatible_surface: Some(&surface),
+            ..Default::default()
+        }))
+        .map_err(|e| Setup::NoWindow(format!("no adapter can present to the window: {e}")))?;
+        // As the headless context: strip colouring needs a nonzero first_instance per draw.
+        let descriptor = wgpu::DeviceDescriptor {
+            label: Some("morphlod demo device"),
+            required_features: adapter.features() & wgpu::Features::INDIRECT_FIRST_INSTANCE,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
+            .map_err(|e| Setup::NoWindow(format!("the adapter could not create a device: {e}")))?;
+        let size = window.inner_size();
+        let mut config = surface
+            .get_default_config(&adapter, size.width.max(1), size.height.max(1))
+            .ok_or_else(|| Setup::NoWindow("the surface does not work with this adapter".into()))?;
+        // A linear format, like the offscreen target: the shader's colours are stored as is,
+        // so the window shows what the headless PNGs show.
+        let capabilities = surface.get_capabilities(&adapter);
+        if let Some(&linear) = capabilities.formats.iter().find(|f| !f.is_srgb()) {
+            config.format = linear;
+        }
+        config.present_mode = wgpu::PresentMode::AutoVsync;
+        surface.configure(&device, &config);
+        let depth = depth_view(&device, config.width, config.height);
+        let mut scene = Scene::new(
+            &device,
+            &queue,
+            &adapter.get_info(),
+            config.format,
+            morphs,
+            args,
+        )
+        .map_err(Setup::Failed)?;
+        scene.text_scale = (window.scale_factor() as f32).clamp(0.5, 4.0);
+        println!(
+            "{}: window open on {} ({:?}), surface {:?}",
+            demo.name,
+            adapter.get_info().name,
+            adapter.get_info().backend,
+            config.format
+        );
+        Ok(WindowState {
+            scene,
+            surface,
+            config,
+            depth,
+            device,
+            queue,
+            name: demo.name,
+            last_frame: Instant::now(),
+            fps_window: (0, Duration::ZERO),
+            fps: 0.0,
+            frame_ms: 0.0,
+            dragging: false,
+            cursor: None,
+            window,
+        })
+    }
+
+    fn resize(&mut self, size: PhysicalSize<u32>) {
+        // A minimised window has size 0, which a surface cannot have: keep the old one.
+        if size.width == 0 || size.height == 0 {
+            return;
+        }
+        self.config.width = size.width;
+        self.config.height = size.height;
+        self.surface.configure(&self.device, &self.config);
+        self.depth = depth_view(&self.device, size.width, size.height);
+        self.window.request_redraw();
+    }
+
+    fn key(&mut self, key: &Key) -> KeyAction {
+        let view = &mut self.scene.view;
+        match key.as_ref() {
+            Key::Named(NamedKey::Escape) | Key::Character("q") => return KeyAction::Quit,
+            Key::Named(NamedKey::Space) => view.playing = !view.playing,
+            Key::Named(NamedKey::ArrowRight) => view.step_t(0.05),
+            Key::Named(NamedKey::ArrowLeft) => view.step_t(-0.05),
+            Key::Named(NamedKey::ArrowUp) => view.step_lod(false),
+            Key::Named(NamedKey::ArrowDown) => view.step_lod(true),
+            Key::Character("l") => view.toggle_lod_control(),
+            Key::Character("s") => view.strips = !view.strips,
+            Key::Character("r") => {
+                let fresh = View::new(view.strips);
+                (view.yaw, view.pitch, view.zoom) = (fresh.yaw, fresh.pitch, fresh.zoom);
+            }
+            Key::Character("n") => self.scene.next_morph(),
+            _ => {}
+        }
+        self.window.request_redraw();
+        KeyAction::Continue
+    }
+
+    fn redraw(&mut self) -> Result<(), DemoError> {
+        let now = Instant::now();
+        let elapsed = now - self.last_frame;
+        self.last_frame = now;
+        self.scene.view.advance(elapsed.as_secs_f32());
+        self.fps_window.0 += 1;
+        self.fps_window.1 += elapsed;
+        if self.fps_window.1 >= Duration::from_millis(500) {
+            let seconds = self.fps_window.1.as_secs_f32();
+            self.fps = self.fps_window.0 as f32 / seconds;
+            self.frame_ms = seconds * 1e3 / self.fps_window.0 as f32;
+            self.fps_window = (0, Duration::ZERO);
+        }
+
+        let frame = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(frame)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(frame) => frame,
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
+                self.window.request_redraw();
+                return Ok(());
+            }
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&self.device, &self.config);
+                self.window.request_redraw();
+                return Ok(());
+            }
+            wgpu::CurrentSurfaceTexture::Validation => {
+                return Err(DemoError::Window(
+                    "the surface texture failed validation".into(),
+                ))
+            }
+        };
+        let status = format!(
+            "{}  {:.1} fps  {:.2} ms/frame  {}x{}",
+            self.name, self.fps, self.frame_ms, self.config.width, self.config.height
+        );
+        self.scene.update(
+            &self.device,
+            &self.queue,
+            (self.config.width, self.config.height),
+            &status,
+        )?;
+        let view = frame.texture.create_view(&Default::default());
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("demo frame"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(CLEAR),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.scene.draw(&mut pass)?;
+        }
+        self.queue.submit([encoder.finish()]);
+        self.window.pre_present_notify();
+        self.queue.present(frame);
+        // Continuous redraw: the animation plays and the fps figure measures real frames.
+        self.window.request_redraw();
+        Ok(())
+    }
+}
+
+/// The depth buffer of the window's pass, in the format the pipelines were made for.
+fn depth_view(device: &wgpu::Device, width: u32, height: u32) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some("demo depth"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: Target::DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
