@@ -342,9 +342,11 @@ impl Queue {
             let right = left + 1;
             let mut c = self.heap[left];
             let mut child = left;
-            if right < n && self.heap[right] < c {
-                c = self.heap[right];
-                child = right;
+            if right < n {
+                // Which child is smaller is a coin toss: select, don't branch.
+                let r = self.heap[right];
+                child += (r < c) as usize;
+                c = c.min(r);
             }
             if c >= e {
                 break;
@@ -481,17 +483,18 @@ impl<'o> State<'o> {
 
     /// Ranks `u` by cost alone and queues its cheapest allowed target.
     fn rerank(&mut self, u: u32) {
-        match self.rank_targets(u) {
+        match self.rank_targets(u, false) {
             NO_KEY => self.queue.remove(u),
             best => self.queue.set(u, key_cost(best), key_vertex(best)),
         }
     }
 
-    /// Fills `candidates` with the targets the vertex kinds allow for `u`, and
-    /// their costs; returns the smallest [`key`] among them ([`NO_KEY`] when
-    /// there is none). A neighbour seen in exactly one of `u`'s triangles is
-    /// across a boundary edge.
-    fn rank_targets(&mut self, u: u32) -> u128 {
+    /// Ranks the targets the vertex kinds allow for `u` by cost; returns the
+    /// smallest [`key`] among them ([`NO_KEY`] when there is none). With
+    /// `collect`, also fills `candidates` with every target and its cost (only
+    /// the fallback after a failed check needs them). A neighbour seen in
+    /// exactly one of `u`'s triangles is across a boundary edge.
+    fn rank_targets(&mut self, u: u32, collect: bool) -> u128 {
         self.candidates.clear();
         let mut best = NO_KEY;
         let kind = self.kind[u as usize];
@@ -507,7 +510,9 @@ impl<'o> State<'o> {
             for i in s..s + l {
                 let v = after_before(self.tris[self.pool[i] as usize], u)[0];
                 let cost = q.error(self.p(v));
-                self.candidates.push((cost, v));
+                if collect {
+                    self.candidates.push((cost, v));
+                }
                 best = best.min(key(cost, v));
             }
             return best;
@@ -533,7 +538,9 @@ impl<'o> State<'o> {
                 self.mark[v as usize] = done;
                 if self.count[v as usize] == 1 && self.kind[v as usize] == Kind::Border {
                     let cost = q.error(self.p(v));
-                    self.candidates.push((cost, v));
+                    if collect {
+                        self.candidates.push((cost, v));
+                    }
                     best = best.min(key(cost, v));
                 }
             }
@@ -543,7 +550,7 @@ impl<'o> State<'o> {
 
     /// The cheapest target of `u` that passes every check, if any.
     fn best_valid(&mut self, u: u32) -> Option<(f64, u32)> {
-        self.rank_targets(u);
+        self.rank_targets(u, true);
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let found = candidates
@@ -768,15 +775,19 @@ fn dvec(p: [f32; 3]) -> DVec3 {
 
 /// What one vertex's fan says about the edge to a neighbour `x`: how many of
 /// the fan's triangles hold the half-edge `v→x` (`out`) and `x→v` (`inn`),
-/// and the fan position of a triangle holding `x→v`. `stamp == v` marks the
-/// entry as current for vertex `v`, so the table is never cleared.
+/// and the fan position of a triangle holding `x→v`.
 #[derive(Clone, Copy)]
 struct Link {
-    stamp: u32,
     out: u32,
     inn: u32,
     at: u32,
 }
+
+const NO_LINK: Link = Link {
+    out: 0,
+    inn: 0,
+    at: NONE,
+};
 
 /// Tags each vertex by walking its fan across manifold edges: one closed fan
 /// is interior, one open fan with two boundary edges is a border vertex,
@@ -790,15 +801,7 @@ struct Link {
 /// `(0, 1)` a boundary edge, anything else non-manifold.
 fn classify(tris: &[[u32; 3]], vt: &VertexTriangles) -> (Vec<Kind>, Vec<[u32; 3]>) {
     let n = vt.vertex_count();
-    let mut link = vec![
-        Link {
-            stamp: NONE,
-            out: 0,
-            inn: 0,
-            at: NONE,
-        };
-        n
-    ];
+    let mut link = vec![NO_LINK; n];
     let mut boundary_edges = Vec::new();
     // Per fan triangle: the corners after and before v.
     let mut ring: Vec<[u32; 2]> = Vec::new();
@@ -806,20 +809,15 @@ fn classify(tris: &[[u32; 3]], vt: &VertexTriangles) -> (Vec<Kind>, Vec<[u32; 3]
         .map(|v| {
             let fan = vt.of(v);
             ring.clear();
-            for (i, &t) in fan.iter().enumerate() {
+            // Reset the entries this fan uses, then count: cheaper than
+            // testing per entry whether it is stale.
+            for &t in fan {
                 let [a, b] = after_before(tris[t as usize], v);
                 ring.push([a, b]);
-                for x in [a, b] {
-                    let l = &mut link[x as usize];
-                    if l.stamp != v {
-                        *l = Link {
-                            stamp: v,
-                            out: 0,
-                            inn: 0,
-                            at: NONE,
-                        };
-                    }
-                }
+                link[a as usize] = NO_LINK;
+                link[b as usize] = NO_LINK;
+            }
+            for (i, &[a, b]) in ring.iter().enumerate() {
                 link[a as usize].out += 1;
                 let l = &mut link[b as usize];
                 l.inn += 1;
