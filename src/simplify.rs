@@ -933,6 +933,7 @@ fn quadrics(
     let bw = options.boundary_weight as f64;
     for &[from, to, tri] in boundary_edges {
         let t = tris[tri as usize];
+        // The corner that is neither end: xor cancels the two ends out.
         let apex = t[0] ^ t[1] ^ t[2] ^ from ^ to;
         let (p0, p1, p2) = (
             dvec(pos[from as usize]),
