@@ -1299,6 +1299,49 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn classify_reads_kinds_and_boundary_edges_off_the_fans() {
+        // A 2×2 grid (centre 4 interior, the rest border), a bow-tie at 9 (two
+        // fans), a fin on edge 14-15 (three triangles), and 19 in no triangle.
+        let (_, mut tris) = grid(2, 0.0);
+        tris.extend([
+            [9, 10, 11],
+            [9, 12, 13],
+            [14, 15, 16],
+            [15, 14, 17],
+            [14, 15, 18],
+        ]);
+        let n = 20;
+        let (kind, boundary) = classify(&tris, &VertexTriangles::new(&tris, n));
+        let mut expected = vec![Kind::Border; n];
+        expected[4] = Kind::Interior;
+        for v in [9, 14, 15, 19] {
+            expected[v] = Kind::Locked;
+        }
+        assert_eq!(kind, expected);
+        // Oracle: every half-edge alone on its undirected edge, in (min, max) order.
+        let undirected = |t: &[u32; 3], c: usize| {
+            let (a, b) = (t[c], t[(c + 1) % 3]);
+            (a.min(b), a.max(b))
+        };
+        let mut count: HashMap<(u32, u32), usize> = HashMap::new();
+        for t in &tris {
+            for c in 0..3 {
+                *count.entry(undirected(t, c)).or_default() += 1;
+            }
+        }
+        let mut want = Vec::new();
+        for (i, t) in tris.iter().enumerate() {
+            for c in 0..3 {
+                if count[&undirected(t, c)] == 1 {
+                    want.push([t[c], t[(c + 1) % 3], i as u32]);
+                }
+            }
+        }
+        want.sort_unstable_by_key(|&[a, b, _]| (a.min(b), a.max(b)));
+        assert_eq!(boundary, want);
+    }
+
+    #[test]
     fn heap_keys_order_like_total_cmp_then_vertex() {
         let costs = [
             f64::NEG_INFINITY,
