@@ -42,9 +42,7 @@
 use glam::DVec3;
 
 use crate::collapse::{Collapse, CollapseSequence};
-use crate::mesh::adjacency::{
-    is_manifold_pair, triangle_neighbors, EdgeMap, VertexTriangles, NONE,
-};
+use crate::mesh::adjacency::{VertexTriangles, NONE};
 
 /// Tuning of the simplifier; `Default` matches meshoptimizer's choices.
 #[derive(Clone, Debug, PartialEq)]
@@ -100,8 +98,9 @@ pub fn simplify(
     }
 }
 
-/// What a vertex may do, fixed at the start: valid collapses keep interior
-/// vertices interior and boundary vertices on their boundary.
+/// What a vertex may do, fixed at the start (valid collapses keep interior
+/// vertices interior and boundary vertices on their boundary) until it
+/// collapses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kind {
     /// One closed fan of manifold edges: may collapse onto any neighbour.
@@ -110,6 +109,17 @@ enum Kind {
     Border,
     /// Non-manifold, several fans, or no triangle: never collapses (may be a target).
     Locked,
+    /// Collapsed onto a neighbour: in no triangle, never a target.
+    Collapsed,
+}
+
+/// Where a vertex's live triangles sit in [`State::pool`]: `len` entries at
+/// `start`, room for `cap`. One record, so a visit costs one cache line.
+#[derive(Clone, Copy, Debug)]
+struct Span {
+    start: usize,
+    len: u32,
+    cap: u32,
 }
 
 /// Symmetric 4×4 plane quadric `Σ w (n·p + d)²`, with the total weight `w`
@@ -332,9 +342,11 @@ impl Queue {
             let right = left + 1;
             let mut c = self.heap[left];
             let mut child = left;
-            if right < n && self.heap[right] < c {
-                c = self.heap[right];
-                child = right;
+            if right < n {
+                // Which child is smaller is a coin toss: select, don't branch.
+                let r = self.heap[right];
+                child += (r < c) as usize;
+                c = c.min(r);
             }
             if c >= e {
                 break;
@@ -356,14 +368,11 @@ struct State<'o> {
     tris: Vec<[u32; 3]>,
     kind: Vec<Kind>,
     quadric: Vec<Quadric>,
-    /// Per-vertex list of its live triangles: `len` entries at `start` in
-    /// `pool`, room for `cap`. A list that outgrows its room moves to the end
-    /// of the pool with double the room, so merges stay amortised O(degree).
-    start: Vec<usize>,
-    len: Vec<u32>,
-    cap: Vec<u32>,
+    /// Per-vertex list of its live triangles, at `span[v]` in `pool`. A list
+    /// that outgrows its room moves to the end of the pool with double the
+    /// room, so merges stay amortised O(degree).
+    span: Vec<Span>,
     pool: Vec<u32>,
-    collapsed: Vec<bool>,
     /// Scratch marks for neighbour sets: `mark[v] == stamp` means "in the set".
     mark: Vec<u32>,
     count: Vec<u32>,
@@ -379,16 +388,18 @@ impl<'o> State<'o> {
     fn new(pos: &'o [[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
         let n = pos.len();
         let vt = VertexTriangles::new(&tris, n);
-        let edges = EdgeMap::new(&tris);
-        let kind = classify(&tris, &vt, &edges);
-        let quadric = quadrics(pos, &tris, &edges, options);
+        let (kind, boundary_edges) = classify(&tris, &vt);
+        let quadric = quadrics(pos, &tris, &boundary_edges, options);
 
-        let mut start = Vec::with_capacity(n);
-        let mut len = Vec::with_capacity(n);
+        let mut span = Vec::with_capacity(n);
         let mut pool = Vec::with_capacity(tris.len() * 3 * 3);
         for v in 0..n as u32 {
-            start.push(pool.len());
-            len.push(vt.of(v).len() as u32);
+            let len = vt.of(v).len() as u32;
+            span.push(Span {
+                start: pool.len(),
+                len,
+                cap: len,
+            });
             pool.extend_from_slice(vt.of(v));
         }
         Self {
@@ -397,11 +408,8 @@ impl<'o> State<'o> {
             tris,
             kind,
             quadric,
-            cap: len.clone(),
-            start,
-            len,
+            span,
             pool,
-            collapsed: vec![false; n],
             mark: vec![0; n],
             count: vec![0; n],
             stamp: 0,
@@ -418,8 +426,8 @@ impl<'o> State<'o> {
     }
 
     fn list(&self, v: u32) -> &[u32] {
-        let s = self.start[v as usize];
-        &self.pool[s..s + self.len[v as usize] as usize]
+        let Span { start, len, .. } = self.span[v as usize];
+        &self.pool[start..start + len as usize]
     }
 
     /// A fresh mark value; clears the marks when the counter wraps.
@@ -459,7 +467,7 @@ impl<'o> State<'o> {
             // runs to the end.
             let mut progress = false;
             for v in 0..self.pos.len() as u32 {
-                if self.collapsed[v as usize] || self.kind[v as usize] == Kind::Locked {
+                if !matches!(self.kind[v as usize], Kind::Interior | Kind::Border) {
                     continue;
                 }
                 if let Some((cost, w)) = self.best_valid(v) {
@@ -475,32 +483,36 @@ impl<'o> State<'o> {
 
     /// Ranks `u` by cost alone and queues its cheapest allowed target.
     fn rerank(&mut self, u: u32) {
-        match self.rank_targets(u) {
+        match self.rank_targets(u, false) {
             NO_KEY => self.queue.remove(u),
             best => self.queue.set(u, key_cost(best), key_vertex(best)),
         }
     }
 
-    /// Fills `candidates` with the targets the vertex kinds allow for `u`, and
-    /// their costs; returns the smallest [`key`] among them ([`NO_KEY`] when
-    /// there is none). A neighbour seen in exactly one of `u`'s triangles is
-    /// across a boundary edge.
-    fn rank_targets(&mut self, u: u32) -> u128 {
+    /// Ranks the targets the vertex kinds allow for `u` by cost; returns the
+    /// smallest [`key`] among them ([`NO_KEY`] when there is none). With
+    /// `collect`, also fills `candidates` with every target and its cost (only
+    /// the fallback after a failed check needs them). A neighbour seen in
+    /// exactly one of `u`'s triangles is across a boundary edge.
+    fn rank_targets(&mut self, u: u32, collect: bool) -> u128 {
         self.candidates.clear();
         let mut best = NO_KEY;
         let kind = self.kind[u as usize];
-        if kind == Kind::Locked || self.collapsed[u as usize] {
+        if !matches!(kind, Kind::Interior | Kind::Border) {
             return best;
         }
         let q = self.quadric[u as usize];
-        let (s, l) = (self.start[u as usize], self.len[u as usize] as usize);
+        let Span { start: s, len, .. } = self.span[u as usize];
+        let l = len as usize;
         if kind == Kind::Interior {
             // A closed, consistently oriented fan: each neighbour follows u in
             // exactly one triangle, so no marks are needed to visit it once.
             for i in s..s + l {
-                let v = next_after(self.tris[self.pool[i] as usize], u);
+                let v = after_before(self.tris[self.pool[i] as usize], u)[0];
                 let cost = q.error(self.p(v));
-                self.candidates.push((cost, v));
+                if collect {
+                    self.candidates.push((cost, v));
+                }
                 best = best.min(key(cost, v));
             }
             return best;
@@ -526,7 +538,9 @@ impl<'o> State<'o> {
                 self.mark[v as usize] = done;
                 if self.count[v as usize] == 1 && self.kind[v as usize] == Kind::Border {
                     let cost = q.error(self.p(v));
-                    self.candidates.push((cost, v));
+                    if collect {
+                        self.candidates.push((cost, v));
+                    }
                     best = best.min(key(cost, v));
                 }
             }
@@ -536,7 +550,7 @@ impl<'o> State<'o> {
 
     /// The cheapest target of `u` that passes every check, if any.
     fn best_valid(&mut self, u: u32) -> Option<(f64, u32)> {
-        self.rank_targets(u);
+        self.rank_targets(u, true);
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let found = candidates
@@ -550,7 +564,8 @@ impl<'o> State<'o> {
     /// Every rule in the module docs, on the current mesh.
     fn is_valid(&mut self, u: u32, w: u32) -> bool {
         let ku = self.kind[u as usize];
-        if ku == Kind::Locked || self.collapsed[u as usize] || self.collapsed[w as usize] {
+        if !matches!(ku, Kind::Interior | Kind::Border) || self.kind[w as usize] == Kind::Collapsed
+        {
             return false;
         }
         // The triangles on edge uw: their apexes, and whether the edge is
@@ -560,19 +575,24 @@ impl<'o> State<'o> {
         let mut shared = 0usize;
         let mut apex = [NONE; 2];
         let mut forward = [false; 2];
-        let (su, sw) = (self.start[u as usize], self.start[w as usize]);
-        let lu = self.len[u as usize] as usize;
-        let lw = self.len[w as usize] as usize;
+        let (su, lu) = (
+            self.span[u as usize].start,
+            self.span[u as usize].len as usize,
+        );
+        let (sw, lw) = (
+            self.span[w as usize].start,
+            self.span[w as usize].len as usize,
+        );
         for i in su..su + lu {
             let tri = self.tris[self.pool[i] as usize];
             for v in tri {
                 self.mark[v as usize] = stamp;
             }
-            if let Some(cw) = tri.iter().position(|&v| v == w) {
+            if holds(tri, w) {
                 if shared == 2 {
                     return false;
                 }
-                let cu = tri.iter().position(|&v| v == u).unwrap_or(0);
+                let (cu, cw) = (corner(tri, u), corner(tri, w));
                 apex[shared] = tri[3 - cu - cw];
                 forward[shared] = (cu + 1) % 3 == cw;
                 shared += 1;
@@ -581,7 +601,7 @@ impl<'o> State<'o> {
         let edge_ok = match ku {
             Kind::Interior => shared == 2 && forward[0] != forward[1],
             Kind::Border => shared == 1 && self.kind[w as usize] == Kind::Border,
-            Kind::Locked => false,
+            Kind::Locked | Kind::Collapsed => false,
         };
         if !edge_ok {
             return false;
@@ -592,17 +612,22 @@ impl<'o> State<'o> {
         }
 
         // Link condition: no neighbour of u that w also reaches through a
-        // triangle not on edge uw.
+        // triangle not on edge uw. Tested without branches (`&`, `|`): the
+        // outcome per corner is unpredictable and almost always "fine".
+        let mut linked = false;
         for i in sw..sw + lw {
             let tri = self.tris[self.pool[i] as usize];
-            if tri.contains(&u) {
-                continue;
-            }
+            let off_edge = !holds(tri, u);
             for v in tri {
-                if v != w && self.mark[v as usize] == stamp && v != apex[0] && v != apex[1] {
-                    return false;
-                }
+                linked |= off_edge
+                    & (v != w)
+                    & (self.mark[v as usize] == stamp)
+                    & (v != apex[0])
+                    & (v != apex[1]);
             }
+        }
+        if linked {
+            return false;
         }
 
         let pu = self.p(u);
@@ -610,15 +635,13 @@ impl<'o> State<'o> {
         let min_cos = self.options.min_normal_cos as f64;
         for i in su..su + lu {
             let tri = self.tris[self.pool[i] as usize];
-            if tri.contains(&w) {
+            if holds(tri, w) {
                 continue;
             }
-            let cu = tri.iter().position(|&v| v == u).unwrap_or(0);
-            let a = tri[(cu + 1) % 3];
-            let b = tri[(cu + 2) % 3];
+            let [a, b] = after_before(tri, u);
             // A triangle whose other corners are both apexes becomes (w, a, b):
             // if w already has that triangle the collapse squashes a tetrahedron.
-            let both_apex = (a == apex[0] || a == apex[1]) && (b == apex[0] || b == apex[1]);
+            let both_apex = ((a == apex[0]) | (a == apex[1])) & ((b == apex[0]) | (b == apex[1]));
             if both_apex && self.has_triangle(w, a, b) {
                 return false;
             }
@@ -638,7 +661,7 @@ impl<'o> State<'o> {
     fn has_triangle(&self, w: u32, a: u32, b: u32) -> bool {
         self.list(w).iter().any(|&t| {
             let tri = self.tris[t as usize];
-            tri.contains(&a) && tri.contains(&b)
+            holds(tri, a) & holds(tri, b)
         })
     }
 
@@ -652,7 +675,8 @@ impl<'o> State<'o> {
             w,
             error: cost as f32,
         });
-        self.collapsed[u as usize] = true;
+        let ku = self.kind[u as usize];
+        self.kind[u as usize] = Kind::Collapsed;
         self.queue.remove(u);
         let qu = self.quadric[u as usize];
         self.quadric[w as usize].add(&qu);
@@ -662,40 +686,32 @@ impl<'o> State<'o> {
         moved.extend_from_slice(self.list(u));
         let mut around = std::mem::take(&mut self.around);
         around.clear();
-        if self.kind[u as usize] == Kind::Interior {
-            // As in `rank_targets`: each neighbour follows u exactly once.
-            for &t in &moved {
-                let v = next_after(self.tris[t as usize], u);
-                if v != w {
-                    around.push(v);
+        let seen = self.next_stamp();
+        self.span[u as usize].len = 0;
+        let mut kept = 0;
+        for i in 0..moved.len() {
+            let t = moved[i];
+            let tri = self.tris[t as usize];
+            let [a, b] = after_before(tri, u);
+            if ku == Kind::Interior {
+                // As in `rank_targets`: each neighbour follows u exactly once.
+                if a != w {
+                    around.push(a);
                 }
-            }
-        } else {
-            let seen = self.next_stamp();
-            for &t in &moved {
-                for v in self.tris[t as usize] {
-                    if v != u && v != w && self.mark[v as usize] != seen {
+            } else {
+                for v in [a, b] {
+                    if v != w && self.mark[v as usize] != seen {
                         self.mark[v as usize] = seen;
                         around.push(v);
                     }
                 }
             }
-        }
-
-        self.len[u as usize] = 0;
-        let mut kept = 0;
-        for i in 0..moved.len() {
-            let t = moved[i];
-            let tri = self.tris[t as usize];
-            if tri.contains(&w) {
-                for v in tri {
-                    if v != u {
-                        self.remove_from_list(v, t);
-                    }
-                }
+            if holds(tri, w) {
+                // On edge uw: dies. Its other corners are w and an apex.
+                self.remove_from_list(a, t);
+                self.remove_from_list(b, t);
             } else {
-                let c = tri.iter().position(|&v| v == u).unwrap_or(0);
-                self.tris[t as usize][c] = w;
+                self.tris[t as usize][corner(tri, u)] = w;
                 moved[kept] = t;
                 kept += 1;
             }
@@ -727,40 +743,29 @@ impl<'o> State<'o> {
     }
 
     fn remove_from_list(&mut self, v: u32, t: u32) {
-        let s = self.start[v as usize];
-        let l = self.len[v as usize] as usize;
+        let Span { start: s, len, .. } = self.span[v as usize];
+        let l = len as usize;
         if let Some(i) = self.pool[s..s + l].iter().position(|&x| x == t) {
             self.pool.swap(s + i, s + l - 1);
-            self.len[v as usize] -= 1;
+            self.span[v as usize].len -= 1;
         }
     }
 
     fn append_to_list(&mut self, v: u32, add: &[u32]) {
-        let vi = v as usize;
-        let l = self.len[vi] as usize;
+        let mut span = self.span[v as usize];
+        let l = span.len as usize;
         let need = l + add.len();
-        if need > self.cap[vi] as usize {
-            let s = self.start[vi];
+        if need > span.cap as usize {
             let new_start = self.pool.len();
-            self.pool.extend_from_within(s..s + l);
+            self.pool.extend_from_within(span.start..span.start + l);
             self.pool.resize(new_start + need * 2, 0);
-            self.start[vi] = new_start;
-            self.cap[vi] = (need * 2) as u32;
+            span.start = new_start;
+            span.cap = (need * 2) as u32;
         }
-        let s = self.start[vi] + l;
+        let s = span.start + l;
         self.pool[s..s + add.len()].copy_from_slice(add);
-        self.len[vi] = need as u32;
-    }
-}
-
-/// The corner after `u` in triangle `t` (which contains `u`).
-fn next_after(t: [u32; 3], u: u32) -> u32 {
-    if t[0] == u {
-        t[1]
-    } else if t[1] == u {
-        t[2]
-    } else {
-        t[0]
+        span.len = need as u32;
+        self.span[v as usize] = span;
     }
 }
 
@@ -768,69 +773,143 @@ fn dvec(p: [f32; 3]) -> DVec3 {
     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
 
+/// What one vertex's fan says about the edge to a neighbour `x`: how many of
+/// the fan's triangles hold the half-edge `v→x` (`out`) and `x→v` (`inn`),
+/// and the fan position of a triangle holding `x→v`.
+#[derive(Clone, Copy)]
+struct Link {
+    out: u32,
+    inn: u32,
+    at: u32,
+}
+
+const NO_LINK: Link = Link {
+    out: 0,
+    inn: 0,
+    at: NONE,
+};
+
 /// Tags each vertex by walking its fan across manifold edges: one closed fan
 /// is interior, one open fan with two boundary edges is a border vertex,
-/// anything else (non-manifold edges, bow-ties, isolated) is locked.
-fn classify(tris: &[[u32; 3]], vt: &VertexTriangles, edges: &EdgeMap) -> Vec<Kind> {
+/// anything else (non-manifold edges, bow-ties, isolated) is locked. Also
+/// returns every boundary half-edge as `[from, to, triangle]`, sorted by the
+/// undirected edge `(min, max)` (the order the boundary quadrics are summed in).
+///
+/// Every edge at `v` lies in a triangle of `v`'s fan, so counting the
+/// half-edges around each fan classifies all edges without a global edge
+/// table: `(out, inn) == (1, 1)` is a manifold interior edge, `(1, 0)` or
+/// `(0, 1)` a boundary edge, anything else non-manifold.
+fn classify(tris: &[[u32; 3]], vt: &VertexTriangles) -> (Vec<Kind>, Vec<[u32; 3]>) {
     let n = vt.vertex_count();
-    let mut boundary = vec![0u32; n];
-    let mut nonmanifold = vec![false; n];
-    for group in edges.edges() {
-        let (a, b) = group[0].key();
-        if group.len() == 1 {
-            boundary[a as usize] += 1;
-            boundary[b as usize] += 1;
-        } else if !is_manifold_pair(group) {
-            nonmanifold[a as usize] = true;
-            nonmanifold[b as usize] = true;
-        }
-    }
-    let neighbors = triangle_neighbors(tris, edges);
-    let corner = |t: u32, v: u32| tris[t as usize].iter().position(|&x| x == v).unwrap_or(0);
-    (0..n as u32)
+    let mut link = vec![NO_LINK; n];
+    let mut boundary_edges = Vec::new();
+    // Per fan triangle: the corners after and before v.
+    let mut ring: Vec<[u32; 2]> = Vec::new();
+    let kind = (0..n as u32)
         .map(|v| {
             let fan = vt.of(v);
-            if fan.is_empty() || nonmanifold[v as usize] {
+            ring.clear();
+            // Reset the entries this fan uses, then count: cheaper than
+            // testing per entry whether it is stale.
+            for &t in fan {
+                let [a, b] = after_before(tris[t as usize], v);
+                ring.push([a, b]);
+                link[a as usize] = NO_LINK;
+                link[b as usize] = NO_LINK;
+            }
+            for (i, &[a, b]) in ring.iter().enumerate() {
+                link[a as usize].out += 1;
+                let l = &mut link[b as usize];
+                l.inn += 1;
+                l.at = i as u32;
+            }
+            let mut boundary = 0;
+            let mut nonmanifold = false;
+            // Where the edge coming into v is the boundary: the start of an open fan.
+            let mut open_at = NONE;
+            for (i, &[a, b]) in ring.iter().enumerate() {
+                let (la, lb) = (link[a as usize], link[b as usize]);
+                match (la.out, la.inn) {
+                    (1, 1) => {}
+                    (1, 0) => {
+                        boundary += 1;
+                        boundary_edges.push([v, a, fan[i]]);
+                    }
+                    _ => nonmanifold = true,
+                }
+                // A boundary edge into v is counted here and recorded from its
+                // start vertex's fan.
+                match (lb.out, lb.inn) {
+                    (1, 1) => {}
+                    (0, 1) => {
+                        boundary += 1;
+                        if open_at == NONE {
+                            open_at = i as u32;
+                        }
+                    }
+                    _ => nonmanifold = true,
+                }
+            }
+            if fan.is_empty() || nonmanifold {
                 return Kind::Locked;
             }
-            let (first, kind) = match boundary[v as usize] {
-                0 => (fan[0], Kind::Interior),
-                // Start where the edge coming into v is the boundary, so the walk
-                // over outgoing edges covers the whole open fan.
-                2 => match fan
-                    .iter()
-                    .copied()
-                    .find(|&t| neighbors[t as usize][(corner(t, v) + 2) % 3] == NONE)
-                {
-                    Some(t) => (t, Kind::Border),
-                    None => return Kind::Locked,
-                },
+            let (first, kind) = match (boundary, open_at) {
+                (0, _) => (0, Kind::Interior),
+                (2, i) if i != NONE => (i, Kind::Border),
                 _ => return Kind::Locked,
             };
-            let mut t = first;
+            // Across the outgoing edge v→a lies the triangle holding a→v.
+            let mut i = first;
             let mut visited = 0;
             loop {
                 visited += 1;
-                t = neighbors[t as usize][corner(t, v)];
-                if t == NONE || t == first || visited > fan.len() {
+                let l = link[ring[i as usize][0] as usize];
+                i = if (l.out, l.inn) == (1, 1) { l.at } else { NONE };
+                if i == NONE || i == first || visited > fan.len() {
                     break;
                 }
             }
-            let closed = t == first;
+            let closed = i == first;
             if visited == fan.len() && closed == (kind == Kind::Interior) {
                 kind
             } else {
                 Kind::Locked
             }
         })
-        .collect()
+        .collect();
+    boundary_edges.sort_unstable_by_key(|&[a, b, _]| (a.min(b), a.max(b)));
+    (kind, boundary_edges)
+}
+
+// Corner lookups without branches: which corner holds a vertex is
+// unpredictable, and these run for every triangle the simplifier visits.
+// Triangles hold three distinct vertices (`simplify` drops the rest).
+
+/// Whether triangle `t` holds `v`.
+fn holds(t: [u32; 3], v: u32) -> bool {
+    (t[0] == v) | (t[1] == v) | (t[2] == v)
+}
+
+/// The corner of `t` that holds `v` (0 when none does).
+fn corner(t: [u32; 3], v: u32) -> usize {
+    (t[1] == v) as usize | ((t[2] == v) as usize) << 1
+}
+
+/// The corners after and before `v` in triangle `t` (which holds `v`),
+/// picked by all-ones/all-zero masks.
+fn after_before(t: [u32; 3], v: u32) -> [u32; 2] {
+    let m = t.map(|x| 0u32.wrapping_sub((x == v) as u32));
+    [
+        (t[1] & m[0]) | (t[2] & m[1]) | (t[0] & m[2]),
+        (t[2] & m[0]) | (t[0] & m[1]) | (t[1] & m[2]),
+    ]
 }
 
 /// Face quadrics, boundary edge quadrics and the regularizing point quadric of every vertex.
 fn quadrics(
     pos: &[[f32; 3]],
     tris: &[[u32; 3]],
-    edges: &EdgeMap,
+    boundary_edges: &[[u32; 3]],
     options: &SimplifyOptions,
 ) -> Vec<Quadric> {
     let mut q = vec![Quadric::default(); pos.len()];
@@ -852,16 +931,13 @@ fn quadrics(
         }
     }
     let bw = options.boundary_weight as f64;
-    for group in edges.edges() {
-        if group.len() != 1 {
-            continue;
-        }
-        let h = group[0];
-        let t = tris[h.triangle as usize];
-        let apex = t[(h.corner as usize + 2) % 3];
+    for &[from, to, tri] in boundary_edges {
+        let t = tris[tri as usize];
+        // The corner that is neither end: xor cancels the two ends out.
+        let apex = t[0] ^ t[1] ^ t[2] ^ from ^ to;
         let (p0, p1, p2) = (
-            dvec(pos[h.from as usize]),
-            dvec(pos[h.to as usize]),
+            dvec(pos[from as usize]),
+            dvec(pos[to as usize]),
             dvec(pos[apex as usize]),
         );
         let edge = p1 - p0;
@@ -876,8 +952,8 @@ fn quadrics(
         let mut f = face(t, bw);
         f.w = 0.0;
         e.add(&f);
-        q[h.from as usize].add(&e);
-        q[h.to as usize].add(&e);
+        q[from as usize].add(&e);
+        q[to as usize].add(&e);
     }
     let r = options.regularization as f64;
     for (v, qv) in q.iter_mut().enumerate() {
@@ -1220,6 +1296,49 @@ pub(crate) mod tests {
             }
             assert_eq!(seq.reference_mesh(tris, seq.len()).len(), 4);
         }
+    }
+
+    #[test]
+    fn classify_reads_kinds_and_boundary_edges_off_the_fans() {
+        // A 2×2 grid (centre 4 interior, the rest border), a bow-tie at 9 (two
+        // fans), a fin on edge 14-15 (three triangles), and 19 in no triangle.
+        let (_, mut tris) = grid(2, 0.0);
+        tris.extend([
+            [9, 10, 11],
+            [9, 12, 13],
+            [14, 15, 16],
+            [15, 14, 17],
+            [14, 15, 18],
+        ]);
+        let n = 20;
+        let (kind, boundary) = classify(&tris, &VertexTriangles::new(&tris, n));
+        let mut expected = vec![Kind::Border; n];
+        expected[4] = Kind::Interior;
+        for v in [9, 14, 15, 19] {
+            expected[v] = Kind::Locked;
+        }
+        assert_eq!(kind, expected);
+        // Oracle: every half-edge alone on its undirected edge, in (min, max) order.
+        let undirected = |t: &[u32; 3], c: usize| {
+            let (a, b) = (t[c], t[(c + 1) % 3]);
+            (a.min(b), a.max(b))
+        };
+        let mut count: HashMap<(u32, u32), usize> = HashMap::new();
+        for t in &tris {
+            for c in 0..3 {
+                *count.entry(undirected(t, c)).or_default() += 1;
+            }
+        }
+        let mut want = Vec::new();
+        for (i, t) in tris.iter().enumerate() {
+            for c in 0..3 {
+                if count[&undirected(t, c)] == 1 {
+                    want.push([t[c], t[(c + 1) % 3], i as u32]);
+                }
+            }
+        }
+        want.sort_unstable_by_key(|&[a, b, _]| (a.min(b), a.max(b)));
+        assert_eq!(boundary, want);
     }
 
     #[test]
