@@ -165,22 +165,18 @@ pub fn run_bench(
             &[live.to_vec()],
         )
     };
-    let mut full_strips = Object::new(
-        device,
-        &pipeline,
-        Topology::Strip,
-        &asset.v0,
-        &asset.v1,
-        &regions,
-    )?;
-    let mut full_per_strip = Object::new(
-        device,
-        &pipeline,
-        Topology::Strip,
-        &asset.v0,
-        &asset.v1,
-        &regions,
-    )?;
+    let full_s0 = || {
+        Object::new(
+            device,
+            &pipeline,
+            Topology::Strip,
+            &asset.v0,
+            &asset.v1,
+            &regions,
+        )
+    };
+    let mut full_strips = full_s0()?;
+    let mut full_per_strip = full_s0()?;
     full_per_strip.set_draws(Draws::PerRegion)?;
     let mut full = list_object(&full_list)?;
     // The per-frame list starts as the full list too: its region has room for every triangle.
