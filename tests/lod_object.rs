@@ -282,7 +282,16 @@ fn bench_rows_are_consistent() -> Result<(), Error> {
     let asset = grid_asset(10, 4);
     let model = Arc::new(DeformingModel::new(&asset)?);
     let frames = 7;
-    let report = run_bench(&ctx, &asset, &model, &BenchOptions { frames, size: 48 })?;
+    let report = run_bench(
+        &ctx,
+        &asset,
+        &model,
+        &BenchOptions {
+            frames,
+            size: 48,
+            repeats: 2,
+        },
+    )?;
     let original: Vec<[u32; 3]> = (0..asset.s0.len())
         .filter_map(|i| asset.s0.strip(i))
         .flat_map(strip_triangles)

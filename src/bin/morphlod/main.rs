@@ -111,6 +111,9 @@ struct BenchArgs {
     /// Width and height of the offscreen target, in pixels.
     #[arg(long, default_value_t = 512)]
     size: u32,
+    /// Draws of each object per frame; the fastest counts (the first also carries the uploads).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u16).range(1..))]
+    repeats: u16,
     /// Also write every frame's measurements to this JSON file.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -450,6 +453,7 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     let options = BenchOptions {
         frames: args.frames,
         size: args.size,
+        repeats: usize::from(args.repeats),
     };
     let report = run_bench(&context, &asset, &model, &options).map_err(|e| e.to_string())?;
     print!("{}", report.summary());
