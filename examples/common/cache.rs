@@ -138,12 +138,12 @@ fn load_or_build(
     let (asset, report) = built.map_err(DemoError::lib)?;
     asset.save(path).map_err(DemoError::lib)?;
     println!(
-        "[{number}/{count}] {}: built {} frames ({} triangles, {} strips) in {:.1} s on {} threads -> {}",
+        "[{number}/{count}] {}: built {} frames ({} triangles, {} strips) in {:.0} ms on {} threads -> {}",
         named.label,
         frames,
         report.triangles,
         report.strips,
-        start.elapsed().as_secs_f64(),
+        start.elapsed().as_secs_f64() * 1e3,
         report.threads,
         path.display()
     );
