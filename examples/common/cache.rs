@@ -48,8 +48,8 @@ pub fn load_or_build_all(
 }
 
 /// The cache file of one morph: label, frame count, and a hash of the source file's content
-/// together with every build parameter and the program that builds, so any change to them
-/// names another file.
+/// together with every build parameter and the file format, so any change to them names
+/// another file.
 fn cache_name(label: &str, source_hash: u32, frames: u16) -> String {
     // Target names come from the file: keep the name to characters every file system takes
     // (the hash below still covers the exact label).
@@ -63,16 +63,12 @@ fn cache_name(label: &str, source_hash: u32, frames: u16) -> String {
             }
         })
         .collect();
-    // The simplifier and stripifier can change without a version bump (and do, while the
-    // library is developed): the executable's size and modification time stand for the code
-    // that built the asset, so a rebuilt demo rebuilds its assets (about a second each).
-    let program = std::env::current_exe()
-        .and_then(std::fs::metadata)
-        .map(|m| format!("{} bytes, modified {:?}", m.len(), m.modified().ok()))
-        .unwrap_or_default();
+    // A cached asset built by an older simplifier is still a valid LOD model of the same
+    // morph (load checks it against the poses), so the key names what the asset must match,
+    // not the code that built it: no rebuild, and no pile of files, after every recompile.
     let parameters = format!(
         "source {source_hash:08x}; label {label}; frames {frames}; simplify {:?}; \
-         morphlod {} (file format {}, program {program})",
+         morphlod {} (file format {})",
         SimplifyOptions::default(),
         env!("CARGO_PKG_VERSION"),
         morphlod::asset::VERSION,
