@@ -5,10 +5,12 @@
 
 use morphlod::asset::HEADER_LEN;
 use morphlod::build::Builder;
-use morphlod::morph::Morph;
 use morphlod::Asset;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+mod common;
+use common::{fix_header, grid_morph};
 
 struct Counting;
 
@@ -39,33 +41,9 @@ fn justified(len: usize) -> usize {
     32 * len + 4096
 }
 
-fn fix_header(bytes: &mut [u8]) {
-    let body_len = (bytes.len() - HEADER_LEN) as u64;
-    bytes[16..24].copy_from_slice(&body_len.to_le_bytes());
-    let crc = crc32fast::hash(&bytes[HEADER_LEN..]);
-    bytes[24..28].copy_from_slice(&crc.to_le_bytes());
-}
-
 #[test]
 fn decoding_allocates_what_the_file_justifies() {
-    let side = 12u32;
-    let mut v0 = Vec::new();
-    let mut v1 = Vec::new();
-    for y in 0..side {
-        for x in 0..side {
-            v0.push([x as f32, y as f32, 0.0]);
-            v1.push([x as f32, y as f32, (x as f32 * 0.7).sin() * y as f32]);
-        }
-    }
-    let mut tris = Vec::new();
-    for y in 0..side - 1 {
-        for x in 0..side - 1 {
-            let a = y * side + x;
-            tris.push([a, a + 1, a + side + 1]);
-            tris.push([a, a + side + 1, a + side]);
-        }
-    }
-    let morph = Morph::from_poses(tris, v0, v1).unwrap();
+    let morph = grid_morph(12, |x, y| (x as f32 * 0.7).sin() * y as f32);
     let (asset, _) = Builder::new(&morph).frames(3).build().unwrap();
     let original = asset.to_bytes();
     // Warm the rayon pool so its one-time setup is not counted.

@@ -14,6 +14,9 @@ use proptest::prelude::*;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
+mod common;
+use common::{fix_header, grid_morph};
+
 fn asset_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("assets")
@@ -43,39 +46,11 @@ fn cube() -> &'static (Asset, Vec<u8>) {
 fn grid() -> &'static (Asset, Vec<u8>) {
     static GRID: OnceLock<(Asset, Vec<u8>)> = OnceLock::new();
     GRID.get_or_init(|| {
-        let side = 8u32;
-        let mut v0 = Vec::new();
-        let mut v1 = Vec::new();
-        for y in 0..side {
-            for x in 0..side {
-                v0.push([x as f32, y as f32, 0.0]);
-                v1.push([x as f32, y as f32, ((x * x) as f32 * 0.1).sin() * y as f32]);
-            }
-        }
-        let mut tris = Vec::new();
-        for y in 0..side - 1 {
-            for x in 0..side - 1 {
-                let a = y * side + x;
-                tris.push([a, a + 1, a + side + 1]);
-                tris.push([a, a + side + 1, a + side]);
-            }
-        }
-        let morph = Morph::from_poses(tris, v0, v1).unwrap();
+        let morph = grid_morph(8, |x, y| ((x * x) as f32 * 0.1).sin() * y as f32);
         let (asset, _) = Builder::new(&morph).frames(4).build().unwrap();
         let bytes = asset.to_bytes();
         (asset, bytes)
     })
-}
-
-/// Rewrites the header's body length and CRC to match the body as it is now.
-fn fix_header(bytes: &mut [u8]) {
-    if bytes.len() < HEADER_LEN {
-        return;
-    }
-    let body_len = (bytes.len() - HEADER_LEN) as u64;
-    bytes[16..24].copy_from_slice(&body_len.to_le_bytes());
-    let crc = crc32fast::hash(&bytes[HEADER_LEN..]);
-    bytes[24..28].copy_from_slice(&crc.to_le_bytes());
 }
 
 /// A file written by hand from raw sections: an independent writer of the

@@ -21,7 +21,6 @@
 
 use std::path::Path;
 
-use morphlod::collapse::CollapseSequence;
 use morphlod::io::LoadOptions;
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
@@ -29,6 +28,7 @@ use morphlod::morph::{Morph, MorphSource};
 use morphlod::Builder;
 
 mod common;
+use common::lod_for;
 use morphlod::IndexedMesh;
 use rayon::prelude::*;
 
@@ -58,21 +58,6 @@ fn load(name: &str, source: MorphSource) -> Morph {
     morph
         .select(&cleaned.vertex_map, cleaned.mesh.triangles)
         .expect("clean's vertex map is in range")
-}
-
-/// The first LOD with at most `target` triangles (every collapse removes at
-/// least one, so counts strictly fall along a sequence).
-fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
-    let (mut lo, mut hi) = (0, seq.len());
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if seq.reference_mesh(tris, mid).len() <= target {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
-    lo
 }
 
 /// Error of the LOD triangles `lod` against the full surface, both over `positions`.

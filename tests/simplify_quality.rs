@@ -12,12 +12,12 @@
 
 use std::path::Path;
 
-use morphlod::collapse::CollapseSequence;
 use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::IndexedMesh;
 
 mod common;
+use common::lod_for;
 
 /// Samples per surface: enough that the RMS is stable to well under 1%.
 const SAMPLES: usize = 200_000;
@@ -35,21 +35,6 @@ fn load(name: &str) -> IndexedMesh {
         Ok(m) => m,
         Err(e) => panic!("{name}: {e}"),
     }
-}
-
-/// The first LOD with at most `target` triangles (triangle counts strictly
-/// fall along a sequence: every collapse removes at least one).
-fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
-    let (mut lo, mut hi) = (0, seq.len());
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if seq.reference_mesh(tris, mid).len() <= target {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
-    lo
 }
 
 /// Error of `tris` (over the original vertex buffer) against the original surface.

@@ -2,13 +2,17 @@
 //! a seeded RNG, random collapse sequences, the reference multiset hash of
 //! every LOD in one pass, and a GPU mirror updated only through the dirty log;
 //! and by the quality tables (tests/simplify_quality.rs, tests/deform_quality.rs):
-//! the peer simplifier, meshopt, run the same way for both.
+//! the peer simplifier, meshopt, run the same way for both, and the LOD search; and by the
+//! asset-file tests (tests/asset_file.rs, tests/asset_alloc.rs): the grid morph fixture and
+//! the header repair.
 //!
 //! Each test binary compiles this module and uses a subset of it.
 #![allow(dead_code)]
 
+use morphlod::asset::HEADER_LEN;
 use morphlod::collapse::{canonical, Collapse, CollapseSequence};
 use morphlod::lodstrips::Dirty;
+use morphlod::morph::Morph;
 use morphlod::strip::strip_triangles;
 
 /// SplitMix64: small, seedable, good enough to drive random walks.
@@ -242,4 +246,53 @@ pub fn meshopt_simplify(positions: &[[f32; 3]], tris: &[[u32; 3]], target: usize
         None,
     );
     out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+}
+
+/// The first LOD with at most `target` triangles (every collapse removes at
+/// least one, so counts strictly fall along a sequence).
+pub fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
+    let (mut lo, mut hi) = (0, seq.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if seq.reference_mesh(tris, mid).len() <= target {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+/// A `side × side` vertex grid in the xy plane (`V(0)`) whose vertex `(x, y)` rises to
+/// `height(x, y)` in `V(1)`; two triangles per cell.
+pub fn grid_morph(side: u32, height: impl Fn(u32, u32) -> f32) -> Morph {
+    let mut v0 = Vec::new();
+    let mut v1 = Vec::new();
+    for y in 0..side {
+        for x in 0..side {
+            v0.push([x as f32, y as f32, 0.0]);
+            v1.push([x as f32, y as f32, height(x, y)]);
+        }
+    }
+    let mut tris = Vec::new();
+    for y in 0..side - 1 {
+        for x in 0..side - 1 {
+            let a = y * side + x;
+            tris.push([a, a + 1, a + side + 1]);
+            tris.push([a, a + side + 1, a + side]);
+        }
+    }
+    Morph::from_poses(tris, v0, v1).expect("a grid is a valid morph")
+}
+
+/// Rewrites a `.mlod` header's body length and CRC to match the body as it is now, so a
+/// mutation reaches the decoders behind the checksum.
+pub fn fix_header(bytes: &mut [u8]) {
+    if bytes.len() < HEADER_LEN {
+        return;
+    }
+    let body_len = (bytes.len() - HEADER_LEN) as u64;
+    bytes[16..24].copy_from_slice(&body_len.to_le_bytes());
+    let crc = crc32fast::hash(&bytes[HEADER_LEN..]);
+    bytes[24..28].copy_from_slice(&crc.to_le_bytes());
 }
