@@ -148,10 +148,8 @@ pub struct Object {
     /// The grouping asked for; what is drawn also depends on the shade mode and topology.
     draws: Draws,
     shade: ShadeMode,
-    /// Record g draws regions `record_starts[g]..record_starts[g + 1]`.
-    record_starts: Vec<u32>,
-    /// The record of every region.
-    region_record: Vec<u32>,
+    /// Which regions each draw record covers.
+    records: Records,
     /// CPU mirror of the whole index buffer (equal to the GPU after prepare).
     indices: Vec<u32>,
     /// CPU mirror of the indirect buffer's records in use (the buffer has room for one per
@@ -310,8 +308,7 @@ impl Object {
             first_instance,
             draws,
             shade: ShadeMode::BaseColour,
-            record_starts: records.starts,
-            region_record: records.of_region,
+            records,
             indices,
             args,
             dirty_indices: Vec::new(),
@@ -364,7 +361,7 @@ impl Object {
 
     /// Record `g` draws regions `record_regions()[g]..record_regions()[g + 1]`.
     pub fn record_regions(&self) -> &[u32] {
-        &self.record_starts
+        &self.records.starts
     }
 
     /// The grouping asked for with [`Object::set_draws`]. While strips are coloured
@@ -397,21 +394,15 @@ impl Object {
 
     /// Re-cuts the records when what is drawn changed.
     fn relayout_records(&mut self) {
-        let mut records = Records {
-            starts: std::mem::take(&mut self.record_starts),
-            of_region: std::mem::take(&mut self.region_record),
-        };
-        let changed = records.cut(&self.region_starts, self.drawn_as());
-        self.record_starts = records.starts;
-        self.region_record = records.of_region;
-        if changed {
+        let drawn = self.drawn_as();
+        if self.records.cut(&self.region_starts, drawn) {
             self.rewrite_records();
         }
     }
 
     /// Rebuilds every record from the lengths and marks them all for upload.
     fn rewrite_records(&mut self) {
-        let count = self.record_starts.len().saturating_sub(1);
+        let count = self.records.starts.len().saturating_sub(1);
         self.args.clear();
         for record in 0..count {
             let args = self.record(record);
@@ -426,7 +417,7 @@ impl Object {
     /// Record `record` from the current lengths.
     fn record(&self, record: usize) -> DrawIndexedIndirectArgs {
         record_args(
-            &self.record_starts,
+            &self.records.starts,
             &self.region_starts,
             &self.lengths,
             record,
@@ -489,7 +480,7 @@ impl Object {
             );
         }
         self.lengths[region] = len;
-        self.touched_records.push(self.region_record[region]);
+        self.touched_records.push(self.records.of_region[region]);
     }
 
     /// Replaces the live indices of `region` (length 0 hides the strip).
