@@ -2,10 +2,17 @@
 //
 // Vertex stage: every vertex has its position in pose 0 (buffer slot 0, location 0) and in
 // pose 1 (buffer slot 1, location 1); the drawn position is mix(v0, v1, t) with the exact t
-// of the frame, plus sum_k w_k D_k over the morph targets of a weight animation (target k's
-// delta for vertex i at deltas[3 (k n + i)], read by vertex index, so the index buffer
-// addresses targets and poses alike). The connectivity (the index buffer) is edited on the
+// of the frame, plus the vertex's offset sum_k w_k D_k over the morph targets of a weight
+// animation (offsets[3 i .. 3 i + 3] for vertex i, read by vertex index, so the index buffer
+// addresses offsets and poses alike). The connectivity (the index buffer) is edited on the
 // CPU; positions never are.
+//
+// The offsets are summed on the CPU (gpu::Object::set_target_weights) and this stage has no
+// loop and no branch. Why: on lavapipe (Mesa 22.3) every draw of a vertex shader with a loop
+// over the targets leaked about 0.2 MB of host memory (a window at 90 fps grew by gigabytes;
+// examples/driver_leak.rs reproduces it with plain wgpu). An object without targets binds a
+// small zero buffer: WebGPU defines an out-of-range storage read to return a value from inside
+// the buffer or zero, so every vertex reads a zero offset.
 //
 // Fragment stage: normals come from screen-space derivatives of the world position,
 // n = normalize(cross(dpdy(p), dpdx(p))), not from a per-vertex normal attribute. Why:
@@ -32,15 +39,10 @@ struct Uniforms {
     t: f32,
     // 0: base colour; 1: one colour per strip (region), from the instance index.
     mode: u32,
-    // Morph targets added to the blend (0 for two-pose objects) and the vertex count n.
-    target_count: u32,
-    vertex_count: u32,
-    // Weight of target k: target_weights[k / 4][k % 4] (uniform arrays need 16-byte elements).
-    target_weights: array<vec4<f32>, 16>,
 }
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
-@group(0) @binding(1) var<storage, read> deltas: array<f32>;
+@group(0) @binding(1) var<storage, read> offsets: array<f32>;
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -57,15 +59,8 @@ fn vs_main(
     @builtin(instance_index) instance: u32,
     @builtin(vertex_index) vertex: u32,
 ) -> VertexOut {
-    var local = mix(v0, v1, u.t);
-    for (var k = 0u; k < u.target_count; k++) {
-        let w = u.target_weights[k / 4u][k % 4u];
-        // Animations hold most targets at weight 0 most of the time: skip their reads.
-        if w != 0.0 {
-            let at = 3u * (k * u.vertex_count + vertex);
-            local += w * vec3<f32>(deltas[at], deltas[at + 1u], deltas[at + 2u]);
-        }
-    }
+    let at = 3u * vertex;
+    let local = mix(v0, v1, u.t) + vec3<f32>(offsets[at], offsets[at + 1u], offsets[at + 2u]);
     let world = u.model * vec4<f32>(local, 1.0);
     var out: VertexOut;
     out.clip = u.view_proj * world;

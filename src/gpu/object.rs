@@ -103,12 +103,14 @@ pub struct Upload {
     pub indirect_ranges: Vec<Range<u64>>,
     /// Bytes of uniforms written (0 or the whole block).
     pub uniform_bytes: u64,
+    /// Bytes of morph-target offsets written (0, or 12 per vertex when the weights changed).
+    pub offset_bytes: u64,
 }
 
 impl Upload {
     /// Total bytes written.
     pub fn bytes(&self) -> u64 {
-        self.geometry_bytes() + self.uniform_bytes
+        self.geometry_bytes() + self.uniform_bytes + self.offset_bytes
     }
 
     /// Bytes of index and indirect data written: what a LOD change cost, without the uniforms
@@ -120,7 +122,10 @@ impl Upload {
 
     /// Number of `queue.write_buffer` calls.
     pub fn writes(&self) -> usize {
-        self.index_ranges.len() + self.indirect_ranges.len() + usize::from(self.uniform_bytes > 0)
+        self.index_ranges.len()
+            + self.indirect_ranges.len()
+            + usize::from(self.uniform_bytes > 0)
+            + usize::from(self.offset_bytes > 0)
     }
 }
 
@@ -134,9 +139,10 @@ pub struct Object {
     index_buffer: wgpu::Buffer,
     indirect_buffer: wgpu::Buffer,
     uniform_buffer: wgpu::Buffer,
-    /// Morph-target deltas, or a 16-byte placeholder while the object has none (a binding
-    /// cannot be empty).
-    target_buffer: wgpu::Buffer,
+    /// The morph-target offset of every vertex, or a 16-byte zero buffer while the object has
+    /// no targets (a binding cannot be empty).
+    offset_buffer: wgpu::Buffer,
+    targets: Targets,
     bind_group: wgpu::BindGroup,
     /// Region r owns slots `region_starts[r]..region_starts[r + 1]`: its capacity, then (in a
     /// strip object) its separator.
@@ -286,8 +292,8 @@ impl Object {
             contents: bytemuck::bytes_of(&uniforms),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
-        let target_buffer = no_targets(device);
-        let bind_group = bind_group(device, pipeline, &uniform_buffer, &target_buffer);
+        let offset_buffer = no_targets(device);
+        let bind_group = bind_group(device, pipeline, &uniform_buffer, &offset_buffer);
         let render_pipeline = match topology {
             Topology::Strip => pipeline.strip().clone(),
             Topology::List => pipeline.list().clone(),
@@ -301,7 +307,8 @@ impl Object {
             index_buffer,
             indirect_buffer,
             uniform_buffer,
-            target_buffer,
+            offset_buffer,
+            targets: Targets::default(),
             bind_group,
             region_starts,
             lengths,
@@ -649,10 +656,12 @@ impl Object {
         self.uniforms_dirty = true;
     }
 
-    /// Uploads morph targets (one delta per vertex each) that the shader adds to the blended
-    /// pose with the weights of [`set_target_weights`](Self::set_target_weights), all 0 until
-    /// then; an empty slice removes them. `pipeline` must be the one the object was made with.
-    /// Nothing changes when an error is returned.
+    /// Sets morph targets (one delta per vertex each) added to the blended pose with the
+    /// weights of [`set_target_weights`](Self::set_target_weights), all 0 until then; an empty
+    /// slice removes them. The object keeps the deltas on the CPU and the GPU holds one offset
+    /// per vertex (12 bytes), re-summed and uploaded by `prepare` when the weights change.
+    /// `pipeline` must be the one the object was made with. Nothing changes when an error is
+    /// returned.
     pub fn set_targets(
         &mut self,
         device: &wgpu::Device,
@@ -692,21 +701,24 @@ impl Object {
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
         check_size("morph-target", bytes, max)?;
-        self.target_buffer = if targets.is_empty() {
+        self.offset_buffer = if targets.is_empty() {
             no_targets(device)
         } else {
-            let flat: Vec<[f32; 3]> = targets.iter().flatten().copied().collect();
-            device.create_buffer_init(&BufferInitDescriptor {
-                label: Some("morphlod morph targets"),
-                contents: bytemuck::cast_slice(&flat),
-                usage: wgpu::BufferUsages::STORAGE,
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("morphlod morph-target offsets"),
+                size: vertices as u64 * 12,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                // wgpu zero-initialises buffers: the offsets of all-zero weights.
+                mapped_at_creation: false,
             })
         };
-        self.bind_group = bind_group(device, pipeline, &self.uniform_buffer, &self.target_buffer);
-        self.uniforms.target_count = targets.len() as u32;
-        self.uniforms.vertex_count = self.vertex_count;
-        self.uniforms.target_weights = [[0.0; 4]; MAX_TARGETS / 4];
-        self.uniforms_dirty = true;
+        self.bind_group = bind_group(device, pipeline, &self.uniform_buffer, &self.offset_buffer);
+        self.targets = Targets {
+            deltas: targets.iter().flatten().copied().collect(),
+            weights: vec![0.0; targets.len()],
+            offsets: vec![[0.0; 3]; if targets.is_empty() { 0 } else { vertices }],
+            dirty: false,
+        };
         Ok(())
     }
 
@@ -730,7 +742,7 @@ impl Object {
     /// Sets the weight of every morph target (one per target of
     /// [`set_targets`](Self::set_targets), finite).
     pub fn set_target_weights(&mut self, weights: &[f32]) -> Result<(), GpuError> {
-        if weights.len() != self.uniforms.target_count as usize {
+        if weights.len() != self.targets.weights.len() {
             return Err(GpuError::InvalidParameter {
                 what: "morph-target weights",
                 value: format!("{} weights", weights.len()),
@@ -744,12 +756,7 @@ impl Object {
                 expected: "weights must be finite",
             });
         }
-        let mut packed = [[0.0; 4]; MAX_TARGETS / 4];
-        for (k, &w) in weights.iter().enumerate() {
-            packed[k / 4][k % 4] = w;
-        }
-        self.uniforms.target_weights = packed;
-        self.uniforms_dirty = true;
+        self.targets.set_weights(weights);
         Ok(())
     }
 
@@ -832,6 +839,12 @@ impl Object {
             upload.uniform_bytes = size_of::<Uniforms>() as u64;
             self.uniforms_dirty = false;
         }
+        if self.targets.dirty {
+            let offsets: &[u8] = bytemuck::cast_slice(&self.targets.offsets);
+            queue.write_buffer(&self.offset_buffer, 0, offsets);
+            upload.offset_bytes = offsets.len() as u64;
+            self.targets.dirty = false;
+        }
         upload
     }
 
@@ -854,8 +867,49 @@ impl Object {
     }
 }
 
-/// The binding of an object without morph targets: never read (the shader loops over zero
-/// targets), but a bind group cannot leave it empty.
+/// An object's morph targets, weighted and summed on the CPU into one offset per vertex
+/// (`shaders/morph.wgsl` says why the shader does not loop over them).
+#[derive(Default)]
+struct Targets {
+    /// Target k's delta for vertex i at `deltas[k n + i]`.
+    deltas: Vec<[f32; 3]>,
+    weights: Vec<f32>,
+    /// `Σ_k weights[k] · deltas[k n + i]` for every vertex i (empty without targets).
+    offsets: Vec<[f32; 3]>,
+    /// The offsets changed since the last upload.
+    dirty: bool,
+}
+
+impl Targets {
+    /// Re-sums the offsets when `weights` (one per target, finite) differ from the current ones;
+    /// targets of weight 0 cost nothing.
+    fn set_weights(&mut self, weights: &[f32]) {
+        if weights == self.weights.as_slice() {
+            return;
+        }
+        self.weights.copy_from_slice(weights);
+        let n = self.offsets.len();
+        self.offsets.fill([0.0; 3]);
+        for (k, &w) in weights.iter().enumerate() {
+            if w == 0.0 {
+                continue;
+            }
+            for (offset, delta) in self
+                .offsets
+                .iter_mut()
+                .zip(&self.deltas[k * n..(k + 1) * n])
+            {
+                for c in 0..3 {
+                    offset[c] += w * delta[c];
+                }
+            }
+        }
+        self.dirty = true;
+    }
+}
+
+/// The offsets of an object without morph targets: zeros, and every out-of-range read of a
+/// storage buffer returns a value from inside it or zero (WebGPU), so every vertex reads 0.
 fn no_targets(device: &wgpu::Device) -> wgpu::Buffer {
     device.create_buffer_init(&BufferInitDescriptor {
         label: Some("morphlod no targets"),

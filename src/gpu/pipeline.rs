@@ -6,8 +6,6 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use crate::asset::MAX_TARGETS;
-
 /// The WGSL source of the morph shader (`shaders/morph.wgsl`).
 pub const MORPH_WGSL: &str = include_str!("../../shaders/morph.wgsl");
 
@@ -31,7 +29,7 @@ impl ShadeMode {
 }
 
 /// The uniform block of `morph.wgsl`, byte for byte (WGSL uniform layout: two `mat4x4`, two
-/// `vec4`, four 32-bit scalars, then the target weights as `vec4`s).
+/// `vec4`, two 32-bit scalars, padded to 16 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Uniforms {
@@ -42,12 +40,8 @@ pub struct Uniforms {
     pub light: [f32; 4],
     pub t: f32,
     pub mode: u32,
-    /// Morph targets added to the blended pose (0: none) and the vertex count, the stride
-    /// between two targets in the delta buffer.
-    pub target_count: u32,
-    pub vertex_count: u32,
-    /// Weight of target `k` in `target_weights[k / 4][k % 4]`.
-    pub target_weights: [[f32; 4]; MAX_TARGETS / 4],
+    /// WGSL rounds the struct up to a multiple of 16 bytes.
+    pub _padding: [u32; 2],
 }
 
 impl Uniforms {
@@ -61,9 +55,7 @@ impl Uniforms {
             light: [0.0, 0.0, 1.0, 0.2],
             t: 0.0,
             mode: ShadeMode::BaseColour.shader_value(),
-            target_count: 0,
-            vertex_count: 0,
-            target_weights: [[0.0; 4]; MAX_TARGETS / 4],
+            _padding: [0; 2],
         }
     }
 
@@ -124,8 +116,8 @@ impl MorphPipeline {
                     },
                     count: None,
                 },
-                // Morph-target deltas (f32 x, y, z per vertex per target), read by vertex
-                // index; objects without targets bind a small placeholder.
+                // The morph-target offset of every vertex (f32 x, y, z), read by vertex index;
+                // objects without targets bind a small zero buffer.
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     visibility: wgpu::ShaderStages::VERTEX,
@@ -282,12 +274,6 @@ mod tests {
             ("light", std::mem::offset_of!(Uniforms, light)),
             ("t", std::mem::offset_of!(Uniforms, t)),
             ("mode", std::mem::offset_of!(Uniforms, mode)),
-            ("target_count", std::mem::offset_of!(Uniforms, target_count)),
-            ("vertex_count", std::mem::offset_of!(Uniforms, vertex_count)),
-            (
-                "target_weights",
-                std::mem::offset_of!(Uniforms, target_weights),
-            ),
         ];
         let expected: Vec<(String, u32)> = expected
             .iter()
