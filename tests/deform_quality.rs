@@ -225,3 +225,57 @@ fn quality_over_the_animation() {
     }
     table("makehuman_head.glb", MorphSource::Animation("morph".into()));
 }
+
+/// Issue 4's quality goal, asserted in CI: on the body with the baby target at 10% of the
+/// triangles, the mean Hausdorff error of the per-frame sequences (a) is at most 0.7× that of the
+/// one rest-pose sequence (b). The full table above measures 0.589 (64 times, 50k samples); this
+/// run samples 16 times with 20k samples each to fit the test profile.
+#[test]
+fn body_baby_per_frame_at_most_0_7_of_rest_pose() {
+    const TIMES: usize = 16;
+    const FEW: usize = 20_000;
+    let morph = load(
+        "makehuman_body.glb",
+        MorphSource::Target("caucasian-male-baby".into()),
+    );
+    let tris = morph.triangles();
+    let (asset, _) = Builder::new(&morph)
+        .frames(FRAMES)
+        .build()
+        .expect("the morph builds");
+    let target = tris.len() / 10;
+    let lods: Vec<Vec<[u32; 3]>> = asset
+        .frames
+        .par_iter()
+        .map(|seq| seq.reference_mesh(tris, lod_for(seq, tris, target)))
+        .collect();
+    let errors: Vec<(f64, f64)> = (0..TIMES)
+        .into_par_iter()
+        .map(|i| {
+            let t = i as f32 / (TIMES - 1) as f32;
+            let k = (t * (FRAMES - 1) as f32).round() as usize;
+            let pos = morph.positions_at(t);
+            let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
+            let full_samples = sample_surface(&pos, tris, FEW, 1).expect("indices in range");
+            let h = |lod: &[[u32; 3]]| {
+                let index = SurfaceIndex::new(&pos, lod).expect("indices in range");
+                let samples = sample_surface(&pos, lod, FEW, 2).expect("indices in range");
+                symmetric(
+                    directed_error(&samples, &full),
+                    directed_error(&full_samples, &index),
+                )
+                .hausdorff
+            };
+            (h(&lods[k]), h(&lods[0]))
+        })
+        .collect();
+    let (a, b) = errors
+        .iter()
+        .fold((0.0, 0.0), |(a, b), &(x, y)| (a + x, b + y));
+    let ratio = a / b;
+    eprintln!("body, baby target, 10%: mean Hausdorff per-frame / rest-pose = {ratio:.3}");
+    assert!(
+        ratio <= 0.7,
+        "body, baby target, 10%: per-frame sequences {ratio:.3}× the rest-pose error, goal <= 0.7×"
+    );
+}

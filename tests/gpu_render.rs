@@ -1,7 +1,10 @@
 //! Renders small hand-made objects on the GPU and checks pixels against what the geometry
-//! says must be covered. Every test uses `gpu::test_context`: it fails when no adapter exists
-//! and `CI=true`, and skips with a printed reason elsewhere.
+//! says must be covered. Every test gets its device from `common::gpu::Gpu::new`: it fails when
+//! no adapter exists and `CI` is `true` or `1`, and skips with a printed reason elsewhere.
 
+mod common;
+
+use common::gpu::{ci_requires_gpu, Gpu};
 use glam::{Mat4, Vec3};
 use morphlod::gpu::{self, GpuError, MorphPipeline, Object, Target, Topology, RESTART};
 
@@ -78,14 +81,14 @@ fn two_quads(device: &wgpu::Device, pipeline: &MorphPipeline) -> Result<Object, 
 
 #[test]
 fn blended_strips_one_multi_draw_and_partial_uploads() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
     eprintln!("adapter: {:?}", ctx.adapter_info());
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
-    let mut object = two_quads(device, &pipeline)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
+    let mut object = two_quads(device, pipeline)?;
 
     object.set_t(0.5)?;
     let upload = object.prepare(queue);
@@ -168,11 +171,11 @@ fn blended_strips_one_multi_draw_and_partial_uploads() -> Result<(), GpuError> {
 
 #[test]
 fn restart_and_culling() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
     let v = quad(-0.9, 0.9, -0.9, 0.9);
     // Two strips in one region separated by a restart: (a, b, c), then (d, c, b); both are
     // counter-clockwise only if the restart resets the parity.
@@ -217,12 +220,12 @@ fn restart_and_culling() -> Result<(), GpuError> {
 
 #[test]
 fn triangle_list_matches_strip() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
     let v = quad(-0.6, 0.6, -0.6, 0.6);
     // The strip [a, b, c, d] as the list of its triangles (a, b, c), (c, b, d).
     let mut images = Vec::new();
@@ -230,7 +233,7 @@ fn triangle_list_matches_strip() -> Result<(), GpuError> {
         (Topology::Strip, vec![0, 1, 2, 3]),
         (Topology::List, vec![0, 1, 2, 2, 1, 3]),
     ] {
-        let mut object = Object::new(device, &pipeline, topology, &v, &v, &[indices])?;
+        let mut object = Object::new(device, pipeline, topology, &v, &v, &[indices])?;
         object.set_view_proj(camera());
         object.set_color(BASE);
         object.prepare(queue);
@@ -252,7 +255,7 @@ fn triangle_list_matches_strip() -> Result<(), GpuError> {
 
 #[test]
 fn object_rejects_bad_input() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let device = &ctx.device;
@@ -357,7 +360,7 @@ fn object_rejects_bad_input() -> Result<(), GpuError> {
 
 #[test]
 fn strip_colours_follow_first_instance() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
@@ -365,9 +368,9 @@ fn strip_colours_follow_first_instance() -> Result<(), GpuError> {
         "INDIRECT_FIRST_INSTANCE enabled: {}",
         ctx.first_instance_enabled()
     );
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
-    let mut object = two_quads(device, &pipeline)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
+    let mut object = two_quads(device, pipeline)?;
     object.set_shade_mode(gpu::ShadeMode::StripColours);
     let first_instances: Vec<u32> = object
         .indirect_args()
@@ -410,12 +413,12 @@ fn strip_colours_follow_first_instance() -> Result<(), GpuError> {
 /// one coalesced index write, and switching to per-region records uploads the records once.
 #[test]
 fn many_regions_one_draw() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
     const CELLS: u32 = 16;
     let cell = 2.0 / CELLS as f32;
     let centre = |i: u32| -1.0 + (i as f32 + 0.5) * cell;
@@ -430,7 +433,7 @@ fn many_regions_one_draw() -> Result<(), GpuError> {
             regions.push(vec![first, first + 1, first + 2, first + 3]);
         }
     }
-    let mut object = Object::new(device, &pipeline, Topology::Strip, &v, &v, &regions)?;
+    let mut object = Object::new(device, pipeline, Topology::Strip, &v, &v, &regions)?;
     object.set_view_proj(camera());
     object.set_color(BASE);
     object.prepare(queue);
@@ -479,10 +482,26 @@ fn many_regions_one_draw() -> Result<(), GpuError> {
     assert_eq!(object.draw_calls(), 3);
 
     // An object without regions still renders (an empty multi-draw) and draws nothing.
-    let mut empty = Object::new(device, &pipeline, Topology::Strip, &v, &v, &[])?;
+    let mut empty = Object::new(device, pipeline, Topology::Strip, &v, &v, &[])?;
     empty.prepare(queue);
     let image = target.render(device, queue, &mut [&mut empty])?;
     assert!(image.pixels().all(|p| p.0 == CLEAR_RGBA));
     assert_eq!(empty.draw_calls(), 1);
     Ok(())
+}
+
+/// The skip/fail rule of every GPU test: CI services set `CI=true` or `CI=1`; both must make a
+/// missing adapter a failure, anything else a skip.
+#[test]
+fn ci_true_and_ci_1_require_a_gpu() {
+    for (value, required) in [
+        (Some("true"), true),
+        (Some("1"), true),
+        (None, false),
+        (Some(""), false),
+        (Some("0"), false),
+        (Some("false"), false),
+    ] {
+        assert_eq!(ci_requires_gpu(value), required, "CI={value:?}");
+    }
 }

@@ -13,13 +13,17 @@
 //! * `two_objects_share_one_pipeline`: a crowd of two in one pass, two draws, both visible.
 //! * `apply_dirty_rejects_bad_input`: typed errors, nothing changed on error.
 //!
-//! Every test uses `gpu::test_context`: it fails when no adapter exists and `CI=true`, and
-//! skips with a printed reason elsewhere.
+//! Every test gets its device from `common::gpu::Gpu::new`: it fails when no adapter exists and
+//! `CI` is `true` or `1`, and skips with a printed reason elsewhere.
+
+mod common;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use common::gpu::Gpu;
+use common::{strip_draw, Rng};
 use glam::{Mat4, Vec3};
 use morphlod::collapse::{canonical, CollapseSequence};
 use morphlod::gpu::camera::{self, Projection};
@@ -180,25 +184,6 @@ fn fail_with_images(what: &str, a: &image::RgbaImage, b: &image::RgbaImage) -> !
     );
 }
 
-/// The triangles the GPU assembles from one strip, in draw order and in the vertex order it
-/// rasterizes them: Vulkan's default (provoking vertex first) strip order, `(s[j], s[j+1],
-/// s[j+2])` for even `j` and `(s[j], s[j+2], s[j+1])` for odd `j` — the same oriented triangles
-/// as DESIGN.md's `(s[j+1], s[j], s[j+2])`, another rotation. Restarts reset the parity;
-/// degenerate windows draw nothing.
-fn gpu_strip_triangles(strip: &[u32], out: &mut Vec<[u32; 3]>) {
-    for piece in strip.split(|&i| i == RESTART) {
-        for (j, w) in piece.windows(3).enumerate() {
-            if w[0] != w[1] && w[1] != w[2] && w[0] != w[2] {
-                out.push(if j % 2 == 0 {
-                    [w[0], w[1], w[2]]
-                } else {
-                    [w[0], w[2], w[1]]
-                });
-            }
-        }
-    }
-}
-
 /// The reference list drawn two ways, the same multiset of oriented triangles in the same
 /// order: `raw` as `reference_mesh` gives it, and `rotated` with each triangle starting at the
 /// vertex the strip draw starts it at (a reference triangle the strips lack keeps its own
@@ -216,10 +201,10 @@ struct ReferenceLists {
 }
 
 fn reference_lists(reference: &[[u32; 3]], state: &LodState, strips: usize) -> ReferenceLists {
-    let mut drawn = Vec::new();
-    for s in 0..strips {
-        gpu_strip_triangles(state.strip(s).unwrap_or(&[]), &mut drawn);
-    }
+    // The triangles in the vertex order the GPU rasterizes them (`common::strip_draw`).
+    let drawn: Vec<[u32; 3]> = (0..strips)
+        .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
+        .collect();
     // Canonical form -> the strip triangles of that form.
     let mut by_form: HashMap<[u32; 3], Vec<[u32; 3]>> = HashMap::new();
     for &t in &drawn {
@@ -236,28 +221,16 @@ fn reference_lists(reference: &[[u32; 3]], state: &LodState, strips: usize) -> R
     }
 }
 
-struct Rng(u64);
-
-impl Rng {
-    fn below(&mut self, n: usize) -> usize {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) % n.max(1) as u64) as usize
-    }
-}
-
 #[test]
 fn strips_render_like_reference_lists() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
     eprintln!("adapter: {:?}", ctx.adapter_info());
     let started = Instant::now();
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
     let pixels = (SIZE * SIZE) as usize;
     for (k, input) in inputs().iter().enumerate() {
         let asset_started = Instant::now();
@@ -278,7 +251,7 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
             let mut state = LodState::new(&model);
             let mut strips = Object::new(
                 device,
-                &pipeline,
+                pipeline,
                 Topology::Strip,
                 &input.v0,
                 &input.v1,
@@ -332,7 +305,7 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
                 for list in [lists.rotated, lists.raw] {
                     let mut listed = Object::new(
                         device,
-                        &pipeline,
+                        pipeline,
                         Topology::List,
                         &input.v0,
                         &input.v1,
@@ -393,7 +366,7 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
 /// comparison must see the hole.
 #[test]
 fn back_face_culling_hides_nothing() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
@@ -401,7 +374,7 @@ fn back_face_culling_hides_nothing() -> Result<(), GpuError> {
     let formats = (Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
     let culled = MorphPipeline::new(device, formats.0, formats.1);
     let unculled = MorphPipeline::with_cull_mode(device, formats.0, formats.1, None);
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
     let render = |pipeline: &MorphPipeline, input: &Input, view_proj, regions: &[Vec<u32>]| {
         let mut object = Object::new(
             device,
@@ -489,12 +462,12 @@ fn sweep_lod(max: usize, f: usize, frames: usize, exponential: bool) -> usize {
 /// the exponential sweep).
 #[test]
 fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, SIZE, SIZE, CLEAR)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(SIZE, SIZE, CLEAR);
     const FRAMES: usize = 500;
     for input in [
         load_morph(
@@ -519,7 +492,7 @@ fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
             let new_object = || -> Result<Object, GpuError> {
                 let mut object = Object::new(
                     device,
-                    &pipeline,
+                    pipeline,
                     Topology::Strip,
                     &input.v0,
                     &input.v1,
@@ -597,12 +570,12 @@ fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
 /// renders alone.
 #[test]
 fn two_objects_share_one_pipeline() -> Result<(), GpuError> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, 2 * SIZE, SIZE, CLEAR)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(2 * SIZE, SIZE, CLEAR);
     let input = load_static("bunny.obj");
     let (_, Lod { model, .. }) = build_lod(&input);
     let (min, max) = morphlod::mesh::bounds(&input.v0).expect("bunny has vertices");
@@ -632,7 +605,7 @@ fn two_objects_share_one_pipeline() -> Result<(), GpuError> {
             .expect("same model");
         let mut object = Object::new(
             device,
-            &pipeline,
+            pipeline,
             Topology::Strip,
             &input.v0,
             &input.v1,
@@ -692,7 +665,7 @@ fn two_objects_share_one_pipeline() -> Result<(), GpuError> {
 #[test]
 fn apply_dirty_rejects_bad_input() -> Result<(), GpuError> {
     use morphlod::lodstrips::{Dirty, DirtyRange};
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let pipeline = MorphPipeline::new(&ctx.device, Target::COLOR_FORMAT, None);

@@ -12,27 +12,30 @@
 //!   down, jumps, frame switches, draw grouping, strip colouring and merge gap changed
 //!   mid-walk, bad calls): after every move the object's index and indirect mirrors equal the
 //!   layout built from scratch from the runtime's strips, the records draw exactly the strips'
-//!   triangles, and replaying only the uploaded byte ranges onto a copy of the buffers as they
-//!   were made reproduces the mirrors (the dirty tracking uploads everything that changed).
+//!   triangles, and after every `prepare` the index and indirect buffers copied back from the GPU
+//!   equal that layout (the uploads brought everything that changed).
 //!
 //! * `weight_animation_plays_on_the_gpu`: an asset built from makehuman_head's weight
 //!   animation (8 targets, both end poses equal to the base) renders, at several `t`, like a
 //!   static object holding the CPU's exact pose `Morph::positions_at(t)`, and visibly moves.
 //!
-//! Every test uses `gpu::test_context`: it fails when no adapter exists and `CI=true`, and
-//! skips with a printed reason elsewhere.
+//! Every test gets its device from `common::gpu::Gpu::new`: it fails when no adapter exists and
+//! `CI` is `true` or `1`, and skips with a printed reason elsewhere.
+
+mod common;
 
 use std::sync::Arc;
 
+use common::gpu::Gpu;
+use common::strip_draw;
+
 use morphlod::gpu::bench::{run_bench, BenchOptions, Sweep};
 use morphlod::gpu::{
-    self, Draws, GpuError, LodObject, MorphPipeline, Object, ShadeMode, Target, Topology, Upload,
-    RESTART,
+    self, Draws, GpuError, LodObject, Object, ShadeMode, Topology, Upload, RESTART,
 };
 use morphlod::io::LoadOptions;
 use morphlod::lodstrips::Dirty;
 use morphlod::morph::MorphSource;
-use morphlod::strip::strip_triangles;
 use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Error, Lod, Morph};
 
 /// An `n × n` vertex grid in the xy plane (`V(0)`) that bulges along z (`V(1)`), built into an
@@ -68,22 +71,22 @@ fn grid_asset(n: u32, frames: usize) -> Asset {
 
 #[test]
 fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
     let asset = grid_asset(12, 5);
     let model = Arc::new(DeformingModel::new(&asset)?);
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let target = Target::new(device, 96, 96, wgpu::Color::BLUE)?;
+    let pipeline = &ctx.pipeline;
+    let target = ctx.target(96, 96, wgpu::Color::BLUE);
 
-    let mut lod_object = LodObject::new(device, &pipeline, &asset, Arc::clone(&model))?;
+    let mut lod_object = LodObject::new(device, pipeline, &asset, Arc::clone(&model))?;
     let regions: Vec<Vec<u32>> = (0..asset.s0.len())
         .filter_map(|i| asset.s0.strip(i).map(<[u32]>::to_vec))
         .collect();
     let mut by_hand = Object::new(
         device,
-        &pipeline,
+        pipeline,
         Topology::Strip,
         &asset.v0,
         &asset.v1,
@@ -156,7 +159,7 @@ fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
 
 #[test]
 fn weight_animation_plays_on_the_gpu() -> Result<(), Error> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
@@ -174,18 +177,18 @@ fn weight_animation_plays_on_the_gpu() -> Result<(), Error> {
         "the head's animation starts and ends at the base pose"
     );
     let model = Arc::new(DeformingModel::new(&asset)?);
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let pipeline = &ctx.pipeline;
     let size = 256;
-    let target = Target::new(device, size, size, wgpu::Color::BLACK)?;
+    let target = ctx.target(size, size, wgpu::Color::BLACK);
     // Face on: the expressions move the mouth, eyes and brows towards the viewer's side.
     let camera = gpu::sheet::frame_both_poses(&asset, glam::Vec3::new(0.0, 0.0, -1.0))?;
     let regions: Vec<Vec<u32>> = (0..asset.s0.len())
         .filter_map(|i| asset.s0.strip(i).map(<[u32]>::to_vec))
         .collect();
-    let mut animated = LodObject::new(device, &pipeline, &asset, Arc::clone(&model))?;
+    let mut animated = LodObject::new(device, pipeline, &asset, Arc::clone(&model))?;
     animated.set_view_proj(camera.view_proj());
     let render_pose = |pose: &[[f32; 3]]| -> Result<image::RgbaImage, Error> {
-        let mut fixed = Object::new(device, &pipeline, Topology::Strip, pose, pose, &regions)?;
+        let mut fixed = Object::new(device, pipeline, Topology::Strip, pose, pose, &regions)?;
         fixed.set_view_proj(camera.view_proj());
         fixed.prepare(queue);
         Ok(target.render(device, queue, &mut [&mut fixed])?)
@@ -219,15 +222,15 @@ fn weight_animation_plays_on_the_gpu() -> Result<(), Error> {
 
 #[test]
 fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let device = &ctx.device;
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let pipeline = &ctx.pipeline;
     let pose = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     let mut object = Object::new(
         device,
-        &pipeline,
+        pipeline,
         Topology::Strip,
         &pose,
         &pose,
@@ -235,7 +238,7 @@ fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
     )?;
     let one = vec![[0.0, 0.0, 1.0]; 3];
     assert!(matches!(
-        object.set_targets(device, &pipeline, &[one.clone(), vec![[0.0; 3]; 2]]),
+        object.set_targets(device, pipeline, &[one.clone(), vec![[0.0; 3]; 2]]),
         Err(gpu::GpuError::TargetLength {
             target: 1,
             len: 2,
@@ -243,7 +246,7 @@ fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
         })
     ));
     assert!(matches!(
-        object.set_targets(device, &pipeline, &vec![one.clone(); 65]),
+        object.set_targets(device, pipeline, &vec![one.clone(); 65]),
         Err(gpu::GpuError::TargetCount {
             targets: 65,
             max: 64
@@ -252,7 +255,7 @@ fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
     let mut nan = one.clone();
     nan[2][1] = f32::NAN;
     assert!(matches!(
-        object.set_targets(device, &pipeline, &[nan]),
+        object.set_targets(device, pipeline, &[nan]),
         Err(gpu::GpuError::NonFiniteDelta {
             target: 0,
             vertex: 2,
@@ -261,7 +264,7 @@ fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
     ));
     // Refused targets left the object without any: a weight for one target is refused too.
     assert!(object.set_target_weights(&[0.5]).is_err());
-    object.set_targets(device, &pipeline, &[one])?;
+    object.set_targets(device, pipeline, &[one])?;
     object.set_target_weights(&[0.5])?;
     assert!(object.set_target_weights(&[0.5, 0.5]).is_err());
     assert!(object.set_target_weights(&[f32::INFINITY]).is_err());
@@ -276,7 +279,7 @@ fn counts(object: &Object) -> (Vec<u32>, Vec<u32>) {
 
 #[test]
 fn bench_rows_are_consistent() -> Result<(), Error> {
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let asset = grid_asset(10, 4);
@@ -294,9 +297,13 @@ fn bench_rows_are_consistent() -> Result<(), Error> {
     )?;
     let original: Vec<[u32; 3]> = (0..asset.s0.len())
         .filter_map(|i| asset.s0.strip(i))
-        .flat_map(strip_triangles)
+        .flat_map(strip_draw)
         .collect();
     assert_eq!(report.full_triangles, original.len());
+    // The most one frame can upload: the whole index buffer (regions and their separators)
+    // and one record per region.
+    let object_bytes =
+        (asset.s0.indices.len() + asset.s0.len()) as u64 * 4 + asset.s0.len() as u64 * 20;
     assert_eq!(report.full_index_bytes, asset.s0.indices.len() as u64 * 4);
     assert_eq!(report.rows.len(), 2 * frames);
 
@@ -308,20 +315,61 @@ fn bench_rows_are_consistent() -> Result<(), Error> {
         for row in &rows {
             let at = format!("{} frame {}", sweep.name(), row.frame);
             assert_eq!(row.draws, 1, "{at}: one draw per frame");
+            assert_eq!(row.records, 1, "{at}: grouped draws are one record");
+            // The sweep's (t, lod) and the (frame, steps) they select, recomputed here.
+            let x = row.frame as f32 / (frames - 1) as f32;
+            let lod = match sweep {
+                Sweep::Linear => x,
+                Sweep::Exponential => (1024f32.powf(x) - 1.0) / 1023.0,
+            };
+            assert_eq!((row.t, row.lod), (x, lod), "{at}: sweep position");
+            let k = (x * (asset.frames.len() - 1) as f32).round() as usize;
+            assert_eq!(row.asset_frame, k, "{at}: frame of t");
+            let steps = (lod * asset.frames[k].len() as f32).round() as usize;
+            assert_eq!(row.steps, steps, "{at}: LOD fraction as steps");
+            assert!(
+                row.triangles <= row.indices && row.indices <= asset.s0.indices.len(),
+                "{at}: {} indices for {} triangles (S0 has {})",
+                row.indices,
+                row.triangles,
+                asset.s0.indices.len()
+            );
+            assert!(
+                row.upload_bytes <= object_bytes
+                    && row.upload_bytes.is_multiple_of(4)
+                    && row.upload_writes as u64 <= row.upload_bytes / 4
+                    && (row.upload_writes == 0) == (row.upload_bytes == 0),
+                "{at}: {} bytes in {} writes (whole object {object_bytes} bytes)",
+                row.upload_bytes,
+                row.upload_writes
+            );
+            assert!(
+                row.list_upload_bytes <= original.len() as u64 * 12 + 20,
+                "{at}: the list uploaded more than a whole list"
+            );
             let reference = asset.frames[row.asset_frame].reference_mesh(&original, row.steps);
             assert_eq!(row.triangles, reference.len(), "{at}: reference mesh");
             assert_eq!(row.list_triangles, row.triangles, "{at}: list beside");
             let now = (row.asset_frame, row.steps, row.indices);
             if row.indices != previous.2 {
                 assert!(
-                    row.upload_bytes > 0,
+                    row.upload_bytes >= 4 && row.upload_writes >= 1,
                     "{at}: strips changed, nothing uploaded"
                 );
             }
             if now == previous || (row.steps == 0 && previous.1 == 0) {
                 assert_eq!(row.upload_bytes, 0, "{at}: nothing changed, bytes uploaded");
             }
-            assert!(row.strips_ms > 0.0 && row.list_ms > 0.0 && row.full_strips_ms > 0.0);
+            for (name, ms) in [
+                ("strips", row.strips_ms),
+                ("list", row.list_ms),
+                ("full strips", row.full_strips_ms),
+                ("full list", row.full_list_ms),
+                ("full per strip", row.full_per_strip_ms),
+            ] {
+                // A GPU frame takes time, and not seconds for a 10×10 grid in a 48-pixel target.
+                assert!(ms > 0.0 && ms < 5_000.0, "{at}: {name} frame took {ms} ms");
+            }
             previous = now;
         }
         let first = rows.first().expect("rows");
@@ -447,32 +495,16 @@ fn record_words(object: &Object) -> Vec<u32> {
         .collect()
 }
 
-/// Copies the uploaded byte ranges of `mirror` onto `gpu` (both as 32-bit words).
-fn replay(ranges: &[std::ops::Range<u64>], mirror: &[u32], gpu: &mut [u32], what: &str) {
-    for range in ranges {
-        assert!(
-            range.start % 4 == 0 && range.end % 4 == 0 && range.start < range.end,
-            "{what}: upload {range:?} is not a nonempty word range"
-        );
-        let words = (range.start / 4) as usize..(range.end / 4) as usize;
-        assert!(
-            words.end <= mirror.len() && words.end <= gpu.len(),
-            "{what}: upload {range:?} past the buffer"
-        );
-        gpu[words.clone()].copy_from_slice(&mirror[words]);
-    }
-}
-
 #[test]
 fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
     use proptest::test_runner::{Config, TestRunner};
-    let Some(ctx) = gpu::test_context()? else {
+    let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
     let asset = grid_asset(10, 5);
     let model = Arc::new(DeformingModel::new(&asset)?);
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let pipeline = &ctx.pipeline;
     let capacities: Vec<usize> = (0..asset.s0.len())
         .map(|i| asset.s0.strip(i).map_or(0, <[u32]>::len))
         .collect();
@@ -483,12 +515,8 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
     });
     let walks = proptest::collection::vec(move_strategy(), 1..40);
     let result = runner.run(&walks, |moves| {
-        let mut object = LodObject::new(device, &pipeline, &asset, Arc::clone(&model))
+        let mut object = LodObject::new(device, pipeline, &asset, Arc::clone(&model))
             .expect("the grid asset uploads");
-        // The buffers as created, then changed only by the uploads.
-        let mut gpu_indices = object.object().index_mirror().to_vec();
-        let mut gpu_records = record_words(object.object());
-        gpu_records.resize(capacities.len() * 5, 0);
         let (mut t, mut draws, mut strip_colours) = (
             0.0f32,
             gpu::Draws::Grouped {
@@ -600,33 +628,32 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                 .iter()
                 .flat_map(|a| {
                     let span = a.first_index as usize..(a.first_index + a.index_count) as usize;
-                    strip_triangles(&indices[span]).collect::<Vec<_>>()
+                    strip_draw(&indices[span])
                 })
                 .collect();
-            let by_strips: Vec<[u32; 3]> = strips.iter().flat_map(|s| strip_triangles(s)).collect();
+            let by_strips: Vec<[u32; 3]> = strips.iter().flat_map(|s| strip_draw(s)).collect();
             assert!(
                 by_records == by_strips,
                 "{what}: records draw other triangles"
             );
 
             if prepare {
+                // What the GPU holds, copied back: the uploads must have brought both buffers
+                // to the layout built from scratch.
                 let upload: Upload = object.prepare(queue);
-                let gpu_object = object.object();
-                replay(
-                    &upload.index_ranges,
-                    gpu_object.index_mirror(),
-                    &mut gpu_indices,
-                    &what,
-                );
-                replay(&upload.indirect_ranges, &words, &mut gpu_records, &what);
+                let gpu_indices = ctx.read_words(object.object().index_buffer());
+                let gpu_records = ctx.read_words(object.object().indirect_buffer());
                 assert!(
-                    gpu_indices == gpu_object.index_mirror(),
-                    "{what}: the uploads missed a changed index"
+                    gpu_indices == indices,
+                    "{what}: the GPU index buffer differs from the layout built from scratch \
+                     (uploaded {:?})",
+                    upload.index_ranges
                 );
                 assert_eq!(
                     &gpu_records[..words.len()],
                     words.as_slice(),
-                    "{what}: the uploads missed a changed record"
+                    "{what}: the GPU indirect records differ (uploaded {:?})",
+                    upload.indirect_ranges
                 );
             }
         }

@@ -4,7 +4,9 @@
 //! What is checked when:
 //! * After EVERY step, on every mesh: the multiset hash of the oriented
 //!   triangles drawn by a GPU mirror (a copy of the index buffer kept up to
-//!   date only through `take_dirty`, so a missing dirty range fails here)
+//!   date only through `take_dirty`, so a missing dirty range fails here, and
+//!   decoded by `common::strip_draw`, the GPU's strip rules written independently
+//!   of `morphlod::strip`, so a parity rule flipped in the library fails here too)
 //!   equals the reference multiset hash at that LOD, and the drawn triangle
 //!   count equals the reference count and `LodState::triangle_count`. The
 //!   reference hashes of all LODs come from one incremental pass over the
@@ -18,7 +20,7 @@
 
 mod common;
 
-use common::{degenerate, random_sequence, reference_hashes, Mirror, Rng};
+use common::{degenerate, random_sequence, reference_hashes, strips_draw, Mirror, Rng};
 use morphlod::collapse::{canonical_multiset, Collapse, CollapseSequence};
 use morphlod::lodstrips::{LodState, LodStrips};
 use morphlod::strip::{stripify, Strips};
@@ -148,7 +150,7 @@ fn report(name: &str, strips: &Strips, seq: &CollapseSequence) {
     eprintln!(
         "{name}: indices/triangle{line}; change bytes/collapse {:.1}, model/indexed {:.2}",
         model.change_bytes() as f64 / model.max_lod().max(1) as f64,
-        model.byte_size() as f64 / (strips.triangles().len().max(1) * 12) as f64
+        model.byte_size() as f64 / (strips_draw(strips).len().max(1) * 12) as f64
     );
 }
 
@@ -324,7 +326,7 @@ fn real_assets_strips_beat_meshopt() {
         let strips = stripify(&mesh.triangles, n);
         let expected =
             canonical_multiset(mesh.triangles.iter().copied().filter(|t| !degenerate(*t)));
-        assert_eq!(canonical_multiset(strips.triangles()), expected, "{name}");
+        assert_eq!(canonical_multiset(strips_draw(&strips)), expected, "{name}");
         let flat: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         let ordered = meshopt::optimize_vertex_cache_strip(&flat, n);
         let theirs = meshopt::stripify(&ordered, n, u32::MAX).expect("meshopt stripify");
@@ -393,7 +395,7 @@ proptest! {
             s0.indices.extend_from_slice(st);
             s0.offsets.push(s0.indices.len() as u32);
         }
-        let tris = s0.triangles();
+        let tris = strips_draw(&s0);
         let mut rng = Rng(seed);
         let mut live: Vec<u32> = (0..n as u32).collect();
         let mut collapses = Vec::new();

@@ -113,3 +113,47 @@ fn quality_vs_meshopt() {
         worst.0, worst.1
     );
 }
+
+/// Issue 3's quality goal, asserted in CI on a mid-size mesh: at 10% of the triangles our
+/// reference mesh's symmetric Hausdorff distance to the original is within 1.15× of
+/// `meshopt::simplify`'s at the same count. The bunny at 10% is 1.070× in the full table
+/// (BENCHMARKS.md, "Simplifier quality against meshopt", 200k samples); this run uses fewer
+/// samples to stay fast in the test profile. (Of the 10% rows, cow is 1.208× and man 1.154×:
+/// the goal is not met on every mesh, see the table.)
+#[test]
+fn bunny_at_10_percent_within_1_15_of_meshopt() {
+    const FEW: usize = 40_000;
+    let mesh = load("bunny.obj");
+    let seq = simplify(
+        &mesh.positions,
+        &mesh.triangles,
+        &SimplifyOptions::default(),
+    );
+    let original = SurfaceIndex::new(&mesh.positions, &mesh.triangles).unwrap();
+    let original_samples = sample_surface(&mesh.positions, &mesh.triangles, FEW, 1).unwrap();
+    let error = |tris: &[[u32; 3]]| {
+        let index = SurfaceIndex::new(&mesh.positions, tris).expect("indices in range");
+        let samples = sample_surface(&mesh.positions, tris, FEW, 2).expect("indices in range");
+        symmetric(
+            directed_error(&samples, &original),
+            directed_error(&original_samples, &index),
+        )
+    };
+    let target = mesh.triangles.len() / 10;
+    let theirs = common::meshopt_simplify(&mesh.positions, &mesh.triangles, target);
+    let ours = seq.reference_mesh(
+        &mesh.triangles,
+        lod_for(&seq, &mesh.triangles, theirs.len()),
+    );
+    assert!(ours.len() <= theirs.len() && theirs.len() <= target);
+    let ratio = error(&ours).hausdorff / error(&theirs).hausdorff;
+    eprintln!(
+        "bunny 10%: {} / {} triangles, Hausdorff ours / meshopt = {ratio:.3}",
+        ours.len(),
+        theirs.len()
+    );
+    assert!(
+        ratio <= 1.15,
+        "bunny at 10%: Hausdorff {ratio:.3}× meshopt's, goal <= 1.15×"
+    );
+}

@@ -275,7 +275,10 @@ impl Object {
         let index_buffer = device.create_buffer_init(&BufferInitDescriptor {
             label: Some("morphlod indices"),
             contents: bytemuck::cast_slice(index_contents),
-            usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+            // COPY_SRC: tests and tools can copy the buffer back to check what the GPU holds.
+            usage: wgpu::BufferUsages::INDEX
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
         });
         // Room for one record per region, the most any grouping needs (and at least one:
         // wgpu cannot bind an empty buffer); records past the ones drawn stay zero.
@@ -284,7 +287,9 @@ impl Object {
         let indirect_buffer = device.create_buffer_init(&BufferInitDescriptor {
             label: Some("morphlod indirect draws"),
             contents: bytemuck::cast_slice(&args_contents),
-            usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
         });
         let uniforms = Uniforms::new();
         let uniform_buffer = device.create_buffer_init(&BufferInitDescriptor {
@@ -358,6 +363,18 @@ impl Object {
     /// restart tails and separators (strip objects), stale tails (list objects).
     pub fn index_mirror(&self) -> &[u32] {
         &self.indices
+    }
+
+    /// The GPU index buffer (`Uint32`; created with `COPY_SRC`, so it can be copied back to
+    /// check what the GPU holds after [`Object::prepare`]).
+    pub fn index_buffer(&self) -> &wgpu::Buffer {
+        &self.index_buffer
+    }
+
+    /// The GPU indirect buffer: room for one `DrawIndexedIndirectArgs` per region, of which
+    /// the first [`Object::indirect_args`]`.len()` are drawn (created with `COPY_SRC`).
+    pub fn indirect_buffer(&self) -> &wgpu::Buffer {
+        &self.indirect_buffer
     }
 
     /// The indirect draw records as the GPU will see them after the next prepare, one per

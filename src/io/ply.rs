@@ -649,28 +649,6 @@ mod tests {
         assert!(err.to_string().contains("edge 0 of the 1"), "{err}");
     }
 
-    #[test]
-    fn face_errors_name_the_record() {
-        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar uint vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 3\n";
-        let err = ply(text.as_bytes()).unwrap_err();
-        match &err {
-            LoadError::IndexOutOfRange {
-                at,
-                index: 3,
-                vertices: 3,
-                ..
-            } => assert_eq!(
-                at,
-                &Location::Record {
-                    element: "face".into(),
-                    index: 1,
-                    line: Some(14)
-                }
-            ),
-            other => panic!("unexpected {other}"),
-        }
-    }
-
     /// The cow written as ASCII and as binary PLY loads back bit for bit.
     #[test]
     fn cow_round_trips_through_both_encodings() {

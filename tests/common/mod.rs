@@ -4,16 +4,22 @@
 //! and by the quality tables (tests/simplify_quality.rs, tests/deform_quality.rs):
 //! the peer simplifier, meshopt, run the same way for both, and the LOD search; and by the
 //! asset-file tests (tests/asset_file.rs, tests/asset_alloc.rs): the grid morph fixture and
-//! the header repair.
+//! the header repair; and by every GPU test (`gpu`: one device set-up, buffer read-back and the
+//! decoding of what an indirect multi-draw draws).
+//!
+//! `strip_draw` decodes strips the way the GPU assembles them (Vulkan's triangle-strip rules,
+//! written here from the specification, not from `morphlod::strip`), so a parity rule flipped in
+//! both the stripifier and the library's own decoder still fails the oracles.
 //!
 //! Each test binary compiles this module and uses a subset of it.
 #![allow(dead_code)]
+
+pub mod gpu;
 
 use morphlod::asset::HEADER_LEN;
 use morphlod::collapse::{canonical, Collapse, CollapseSequence};
 use morphlod::lodstrips::Dirty;
 use morphlod::morph::Morph;
-use morphlod::strip::strip_triangles;
 
 /// SplitMix64: small, seedable, good enough to drive random walks.
 pub struct Rng(pub u64);
@@ -143,6 +149,48 @@ pub fn reference_hashes(tris: &[[u32; 3]], seq: &CollapseSequence) -> Vec<(u64, 
     out
 }
 
+/// The primitive-restart index of a `Uint32` index buffer.
+pub const RESTART: u32 = 0xFFFF_FFFF;
+
+/// The triangles a GPU draws from `indices` read as a triangle strip with primitive restart,
+/// in draw order, each in the winding the rasterizer sees (Vulkan spec, "Triangle Strips"):
+/// for the `i`-th vertex triple since the last restart, triangle `i` is
+/// `(v[i], v[i+1], v[i+2])` when `i` is even and `(v[i], v[i+2], v[i+1])` when `i` is odd
+/// (provoking vertex first). The restart index ends the strip; the next vertex starts a new one
+/// at `i = 0`. A triangle that names one vertex twice has no area and draws nothing.
+///
+/// Written from the GPU's rules on purpose: it must not share a mistake with
+/// `morphlod::strip::strip_triangles` (which writes odd triangles as `(v[i+1], v[i], v[i+2])`,
+/// the same oriented triangle rotated). Compare results with `canonical`.
+pub fn strip_draw(indices: &[u32]) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    // Vertices since the last restart: the last two, and how many.
+    let (mut a, mut b, mut count) = (0u32, 0u32, 0usize);
+    for &v in indices {
+        if v == RESTART {
+            count = 0;
+            continue;
+        }
+        if count >= 2 {
+            let i = count - 2;
+            let triangle = if i % 2 == 0 { [a, b, v] } else { [a, v, b] };
+            if a != b && b != v && a != v {
+                out.push(triangle);
+            }
+        }
+        (a, b) = (b, v);
+        count += 1;
+    }
+    out
+}
+
+/// Every triangle drawn by a set of strips (no restart inside), e.g. `S0`.
+pub fn strips_draw(strips: &morphlod::strip::Strips) -> Vec<[u32; 3]> {
+    (0..strips.len())
+        .flat_map(|i| strip_draw(strips.strip(i).unwrap_or(&[])))
+        .collect()
+}
+
 /// Multiset hash of a triangle list.
 pub fn multiset_hash(tris: &[[u32; 3]]) -> u64 {
     tris.iter().fold(0u64, |h, &t| h.wrapping_add(tri_hash(t)))
@@ -190,7 +238,7 @@ impl Mirror {
 
     fn rehash(&mut self, s: usize) {
         let (mut h, mut c) = (0u64, 0usize);
-        for t in strip_triangles(self.strip(s)) {
+        for t in strip_draw(self.strip(s)) {
             h = h.wrapping_add(tri_hash(t));
             c += 1;
         }
@@ -226,7 +274,7 @@ impl Mirror {
 
     pub fn triangles(&self) -> Vec<[u32; 3]> {
         (0..self.strip_count())
-            .flat_map(|s| strip_triangles(self.strip(s)).collect::<Vec<_>>())
+            .flat_map(|s| strip_draw(self.strip(s)))
             .collect()
     }
 }

@@ -1,0 +1,197 @@
+//! The one GPU set-up of the test suite, and the read-back of what a `gpu::Object` holds.
+//!
+//! * [`Gpu::new`]: a headless device, the default morph pipeline and the skip/fail rule: with
+//!   no adapter, a test fails when the environment variable `CI` is `true` or `1` (CI must not
+//!   pass by skipping every GPU test) and skips with a printed reason elsewhere.
+//! * [`Gpu::read_words`]: copies a buffer back from the GPU (`copy_buffer_to_buffer` into a
+//!   `MAP_READ` staging buffer).
+//! * [`Gpu::drawn_by`]: the triangles one `multi_draw_indexed_indirect` of an object draws,
+//!   decoded from the index and indirect buffers as they are on the GPU.
+
+use std::io::Write;
+use std::sync::mpsc;
+
+use morphlod::gpu::{Context, GpuError, MorphPipeline, Object, Target};
+
+use super::strip_draw;
+
+/// Whether the value of the `CI` environment variable marks a CI run, where a missing GPU
+/// adapter is a failure: `true` or `1` (what CI services set), nothing else.
+pub fn ci_requires_gpu(ci: Option<&str>) -> bool {
+    matches!(ci, Some("true") | Some("1"))
+}
+
+/// A headless device, its queue and the default pipeline (colour + depth, back faces culled).
+pub struct Gpu {
+    pub ctx: Context,
+    pub pipeline: MorphPipeline,
+}
+
+impl Gpu {
+    /// The device every GPU test uses. No adapter: panics under CI (`CI=true` or `CI=1`),
+    /// otherwise prints why and returns `None` so the test returns early. An adapter that
+    /// cannot make a device is a failure everywhere.
+    pub fn new() -> Option<Gpu> {
+        let ctx = match Context::headless() {
+            Ok(ctx) => ctx,
+            Err(error @ GpuError::NoAdapter { .. }) => {
+                let ci = std::env::var("CI").ok();
+                if ci_requires_gpu(ci.as_deref()) {
+                    panic!(
+                        "GPU test failed: no adapter and CI={ci:?} (CI runs must render): {error}"
+                    );
+                }
+                // Written to the stderr handle, not with eprintln!, which the test harness
+                // captures: a skip must be visible in a normal `cargo test` run.
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "skipping GPU test (set CI=true or CI=1 to make this an error): {error}"
+                );
+                return None;
+            }
+            Err(error) => panic!("GPU test failed: {error}"),
+        };
+        let pipeline = MorphPipeline::new(
+            &ctx.device,
+            Target::COLOR_FORMAT,
+            Some(Target::DEPTH_FORMAT),
+        );
+        Some(Gpu { ctx, pipeline })
+    }
+
+    pub fn device(&self) -> &wgpu::Device {
+        &self.ctx.device
+    }
+
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.ctx.queue
+    }
+
+    /// An offscreen colour + depth target of the pipeline's formats.
+    pub fn target(&self, width: u32, height: u32, clear: wgpu::Color) -> Target {
+        Target::new(self.device(), width, height, clear).expect("a small target fits any device")
+    }
+
+    /// The whole contents of `buffer` (created with `COPY_SRC`, size a multiple of 4) as the
+    /// GPU holds it once every submitted command has run.
+    pub fn read_words(&self, buffer: &wgpu::Buffer) -> Vec<u32> {
+        let (device, queue) = (self.device(), self.queue());
+        let size = buffer.size();
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("test read-back"),
+            size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        queue.submit([encoder.finish()]);
+        let (sender, receiver) = mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |result| {
+            let _ = sender.send(result);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("the device answers");
+        receiver
+            .recv()
+            .expect("the map callback ran")
+            .expect("the read-back buffer maps");
+        let words = {
+            let view = staging.get_mapped_range(..).expect("mapped");
+            bytemuck::cast_slice::<u8, u32>(&view).to_vec()
+        };
+        staging.unmap();
+        words
+    }
+
+    /// The index buffer and the drawn indirect records of `object` as the GPU holds them, and
+    /// the triangles one render of it draws: `multi_draw_indexed_indirect` over the first
+    /// `indirect_args().len()` records (the count `render` passes), decoded with
+    /// [`draw_indexed_indirect`]; `vertices` is the object's vertex count.
+    pub fn drawn_by(&self, object: &Object, vertices: usize) -> Drawn {
+        let indices = self.read_words(object.index_buffer());
+        let words = self.read_words(object.indirect_buffer());
+        let count = object.indirect_args().len();
+        assert!(
+            words.len() >= count * 5,
+            "the indirect buffer holds {} records, render draws {count}",
+            words.len() / 5
+        );
+        let records: Vec<[u32; 5]> = words
+            .chunks_exact(5)
+            .take(count)
+            .map(|r| [r[0], r[1], r[2], r[3], r[4]])
+            .collect();
+        let triangles = draw_indexed_indirect(&indices, &records, vertices as u32);
+        Drawn {
+            indices,
+            records,
+            triangles,
+        }
+    }
+}
+
+/// A `Gpu` is used like the `Context` it holds (`ctx.device`, `ctx.adapter_info()`, ...).
+impl std::ops::Deref for Gpu {
+    type Target = Context;
+    fn deref(&self) -> &Context {
+        &self.ctx
+    }
+}
+
+/// What the GPU holds for one object and what it draws from it.
+pub struct Drawn {
+    /// The whole index buffer.
+    pub indices: Vec<u32>,
+    /// The drawn records: index_count, instance_count, first_index, base_vertex,
+    /// first_instance.
+    pub records: Vec<[u32; 5]>,
+    /// Every triangle drawn, in draw order, once per instance.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// The triangles `DrawIndexedIndirectArgs` records draw from a `Uint32` triangle-strip index
+/// buffer with primitive restart, following the GPU's rules: record `r` reads
+/// `indices[first_index .. first_index + index_count]`, a restart value (compared before
+/// `base_vertex` is added) restarts the strip, every other index is offset by `base_vertex`,
+/// and the strip is drawn `instance_count` times. Panics when a record reads past the buffer
+/// or names a vertex `>= vertices` (the GPU would read garbage or nothing: a bug either way).
+pub fn draw_indexed_indirect(
+    indices: &[u32],
+    records: &[[u32; 5]],
+    vertices: u32,
+) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    for (r, &[index_count, instance_count, first_index, base_vertex, _]) in
+        records.iter().enumerate()
+    {
+        let span = first_index as usize..first_index as usize + index_count as usize;
+        let read = indices.get(span.clone()).unwrap_or_else(|| {
+            panic!(
+                "record {r} reads indices {span:?} of a {}-index buffer",
+                indices.len()
+            )
+        });
+        let offset: Vec<u32> = read
+            .iter()
+            .map(|&i| {
+                if i == super::RESTART {
+                    i
+                } else {
+                    let v = i as i64 + base_vertex as i32 as i64;
+                    assert!(
+                        (0..vertices as i64).contains(&v),
+                        "record {r} draws vertex {v} of {vertices}"
+                    );
+                    v as u32
+                }
+            })
+            .collect();
+        let triangles = strip_draw(&offset);
+        for _ in 0..instance_count {
+            out.extend_from_slice(&triangles);
+        }
+    }
+    out
+}
