@@ -15,7 +15,9 @@
 
 use std::sync::Arc;
 
-use morphlod::gpu::{self, LodObject, MorphPipeline, Target};
+mod common;
+
+use morphlod::gpu::LodObject;
 use morphlod::io::LoadOptions;
 use morphlod::morph::MorphSource;
 use morphlod::{Builder, DeformingModel, Lod, Morph};
@@ -41,10 +43,10 @@ fn lod_object_memory_stays_flat_over_thousands_of_frames() {
         eprintln!("skipping: no /proc/self/statm on this system");
         return;
     }
-    let Some(context) = gpu::test_context().expect("GPU context") else {
+    let Some(gpu) = common::gpu::Gpu::new() else {
         return;
     };
-    let (device, queue) = (&context.device, &context.queue);
+    let (device, queue) = (gpu.device(), gpu.queue());
 
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
     let morph = Morph::from_gltf(
@@ -60,9 +62,8 @@ fn lod_object_memory_stays_flat_over_thousands_of_frames() {
     assert!(asset.blend.is_some(), "the asset carries its morph targets");
     let model = Arc::new(DeformingModel::new(&asset).expect("model"));
 
-    let target = Target::new(device, 128, 128, wgpu::Color::BLACK).expect("target");
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
-    let mut object = LodObject::new(device, &pipeline, &asset, model).expect("object");
+    let target = gpu.target(128, 128, wgpu::Color::BLACK);
+    let mut object = LodObject::new(device, &gpu.pipeline, &asset, model).expect("object");
 
     // t runs 0 → 1 → 0 (crossing every sampled frame) while the LOD sweeps with another period.
     let mut draw = |frame: usize| {
