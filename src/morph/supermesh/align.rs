@@ -75,7 +75,7 @@ impl Frame {
         let scale = if sq > 0.0 { sq.sqrt() } else { 1.0 };
         let mut axes = principal_axes(cov);
         // Sign each axis by the third moment, so mirror-images agree.
-        for (k, axis) in axes.iter_mut().enumerate().take(2) {
+        for axis in axes.iter_mut().take(2) {
             let mut third = 0.0;
             for t in triangles {
                 for &v in t {
@@ -85,7 +85,6 @@ impl Frame {
             if third < 0.0 {
                 *axis = -*axis;
             }
-            let _ = k;
         }
         axes[2] = axes[0].cross(axes[1]);
         Frame {
@@ -312,6 +311,9 @@ pub(crate) fn landmark_angles(a: &[DVec3], b: &[DVec3], pairs: &[(u32, u32)]) ->
     out
 }
 
+/// Rings around each landmark that relax while it moves.
+const NEIGHBOURHOOD: u32 = 4;
+
 /// Pulls B's landmark vertices toward their A partners' sphere points (see
 /// module docs). Every move keeps every triangle strictly positive.
 pub(crate) fn pull_landmarks(
@@ -328,8 +330,26 @@ pub(crate) fn pull_landmarks(
     for &(_, lb) in pairs {
         pinned[lb as usize] = true;
     }
+    // Only the landmarks' neighbourhoods (a few rings) relax: a global
+    // umbrella relaxation with a few pinned points drifts toward a cluster.
+    let mut depth = vec![u32::MAX; b.len()];
+    let mut queue: std::collections::VecDeque<u32> = pairs.iter().map(|p| p.1).collect();
+    for &v in &queue {
+        depth[v as usize] = 0;
+    }
+    while let Some(v) = queue.pop_front() {
+        if depth[v as usize] >= NEIGHBOURHOOD {
+            continue;
+        }
+        for &n in &rings[v as usize] {
+            if depth[n as usize] == u32::MAX {
+                depth[n as usize] = depth[v as usize] + 1;
+                queue.push_back(n);
+            }
+        }
+    }
     let free: Vec<u32> = (0..b.len() as u32)
-        .filter(|&v| !pinned[v as usize] && !rings[v as usize].is_empty())
+        .filter(|&v| !pinned[v as usize] && depth[v as usize] != u32::MAX)
         .collect();
     let max_step = 0.1;
     for _ in 0..iterations {

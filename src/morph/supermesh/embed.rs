@@ -177,10 +177,9 @@ pub(crate) fn collapse_to_tetrahedron(
         alive -= 1;
         collapsed_since_refill = true;
         let (_, ring) = hierarchy.ring(hierarchy.records.len() - 1);
-        if ring.len() > 4 {
-            for &r in &ring[2..ring.len() - 1] {
-                heap.push(edge_key(positions, w, r));
-            }
+        // The new edges: w to the ring's middle vertices.
+        for &r in &ring[2..ring.len() - 1] {
+            heap.push(edge_key(positions, w, r));
         }
     }
     Ok(hierarchy)
@@ -338,8 +337,10 @@ fn fan_positive(points: &[DVec3], p: DVec3, ring: &[u32]) -> bool {
 
 /// A point strictly inside the kernel of the polygon `ring` (which starts at
 /// `w`, the vertex `u` was collapsed onto): the ring's centroid when it is in
-/// the kernel, else a point near `w` along the bisector of the kernel's corner
-/// at `w`, closer and closer until every fan triangle is positive.
+/// the kernel; else the point that maximises the smallest distance to the
+/// polygon's edge circles ([`kernel_centre`]), started near `w` on the
+/// bisector of the kernel's corner there (which is in the kernel for a step
+/// small enough); else that bisector point itself, closer and closer to `w`.
 fn kernel_point(points: &[DVec3], u: u32, ring: &[u32]) -> Result<DVec3, EmbedError> {
     let centroid = ring
         .iter()
@@ -372,11 +373,57 @@ fn kernel_point(points: &[DVec3], u: u32, ring: &[u32]) -> Result<DVec3, EmbedEr
     for _ in 0..60 {
         let p = (w + direction * step).normalize();
         if fan_positive(points, p, ring) {
+            let centre = kernel_centre(points, ring, p, scale);
+            if fan_positive(points, centre, ring) {
+                return Ok(centre);
+            }
             return Ok(p);
         }
         step *= 0.5;
     }
     Err(EmbedError::NoKernelPoint { vertex: u })
+}
+
+/// Ascent from `start` (inside the kernel of the closed polygon `ring`)
+/// toward the point farthest from the polygon's edge circles: a few
+/// subgradient steps on `min_j n_j · x` (unit edge-circle normals `n_j`),
+/// each kept only if it raises that minimum.
+fn kernel_centre(points: &[DVec3], ring: &[u32], start: DVec3, scale: f64) -> DVec3 {
+    let d = ring.len();
+    let normals: Vec<DVec3> = (0..d)
+        .map(|j| {
+            points[ring[j] as usize]
+                .cross(points[ring[(j + 1) % d] as usize])
+                .normalize_or_zero()
+        })
+        .collect();
+    let margin = |x: DVec3| {
+        normals
+            .iter()
+            .map(|n| n.dot(x))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut x = start;
+    let mut best = margin(x);
+    let mut step = 0.5 * scale;
+    for _ in 0..64 {
+        let worst = normals
+            .iter()
+            .min_by(|a, b| a.dot(x).total_cmp(&b.dot(x)))
+            .copied()
+            .unwrap_or(DVec3::ZERO);
+        let trial = (x + worst * step).normalize();
+        let m = margin(trial);
+        if m > best {
+            (x, best) = (trial, m);
+        } else {
+            step *= 0.5;
+            if step < 1e-3 * scale {
+                break;
+            }
+        }
+    }
+    x
 }
 
 /// Gauss–Seidel sweeps of the spherical umbrella operator over `vertices`:
@@ -421,6 +468,17 @@ pub(crate) fn relax_vertex(
             Some(c) => candidate = c,
             None => return false,
         }
+    }
+    // The neighbours' mean is outside the kernel (a cramped fan): move
+    // toward the kernel's centre instead, which only widens the fan.
+    let scale = ring
+        .iter()
+        .map(|&r| (points[r as usize] - old).length())
+        .fold(f64::INFINITY, f64::min);
+    let centre = kernel_centre(points, ring, old, scale);
+    if centre != old && fan_positive(points, centre, ring) {
+        points[v as usize] = centre;
+        return true;
     }
     false
 }
