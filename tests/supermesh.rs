@@ -242,6 +242,11 @@ fn check(a: &IndexedMesh, b: &IndexedMesh, s: &Supermesh, r: &SupermeshReport, s
         )
         .unwrap();
         let diag = diagonal(mesh);
+        println!(
+            "  {name}: Hausdorff {:.3e} = {:.3e} of the diagonal, area {sa:.9} vs {ma:.9}",
+            h.hausdorff,
+            h.hausdorff / diag
+        );
         assert!(
             h.hausdorff <= 1e-6 * diag,
             "{name}: Hausdorff {} of diagonal {diag}",
@@ -527,4 +532,18 @@ fn bunny_to_cow() {
 #[test]
 fn man_to_camel() {
     pair("man.off", "camel.off");
+}
+
+#[test]
+fn man_to_makehuman_body() {
+    let b = asset("makehuman_body.glb");
+    let topo = analyze(&b).unwrap();
+    println!("makehuman_body.glb\n{topo}");
+    match Supermesh::build(&asset("man.off"), &b, &SupermeshOptions::default()) {
+        Ok((s, r)) => {
+            println!("{r}");
+            check(&asset("man.off"), &b, &s, &r, 20_000);
+        }
+        Err(e) => panic!("{e}"),
+    }
 }
