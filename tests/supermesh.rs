@@ -373,7 +373,10 @@ fn torus() -> IndexedMesh {
     let mut p = Vec::new();
     for i in 0..n {
         for j in 0..m {
-            let (u, v) = (i as f32 / n as f32 * 6.283, j as f32 / m as f32 * 6.283);
+            let (u, v) = (
+                i as f32 / n as f32 * std::f32::consts::TAU,
+                j as f32 / m as f32 * std::f32::consts::TAU,
+            );
             p.push([
                 (2.0 + v.cos()) * u.cos(),
                 (2.0 + v.cos()) * u.sin(),

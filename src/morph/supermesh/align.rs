@@ -101,6 +101,7 @@ impl Frame {
 
 /// Eigenvectors of a symmetric 3×3 matrix by cyclic Jacobi rotations,
 /// sorted by decreasing eigenvalue.
+#[allow(clippy::needless_range_loop)] // Jacobi rotations read clearer with indices.
 fn principal_axes(m: [[f64; 3]; 3]) -> [DVec3; 3] {
     let mut a = m;
     let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -175,7 +176,7 @@ impl SurfaceLookup {
     fn direction(n: usize, side: usize, i: usize, j: usize) -> DVec3 {
         let u = 2.0 * (i as f64 + 0.5) / n as f64 - 1.0;
         let v = 2.0 * (j as f64 + 0.5) / n as f64 - 1.0;
-        let s = if side % 2 == 0 { 1.0 } else { -1.0 };
+        let s = if side.is_multiple_of(2) { 1.0 } else { -1.0 };
         match side / 2 {
             0 => DVec3::new(s, u, v),
             1 => DVec3::new(u, s, v),

@@ -319,7 +319,7 @@ fn split_all(
             relax(rings, points, &live, LEVEL_SWEEPS);
             next_level *= 2;
         }
-        if k % 4096 == 0 {
+        if k.is_multiple_of(4096) {
             progress(0.25 + 0.65 * (total - k) as f32 / total.max(1) as f32);
         }
     }

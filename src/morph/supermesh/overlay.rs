@@ -369,7 +369,7 @@ pub(crate) fn overlay(
                 }
             }
             done += 1;
-            if done % 8192 == 0 {
+            if done.is_multiple_of(8192) {
                 progress(done as f32 / faces as f32);
             }
         }
