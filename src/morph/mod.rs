@@ -14,6 +14,7 @@
 //! draws `V(0) + Σ (w_i(t) − w_i(0)) D_i`, the same surface as [`Morph::positions_at`]
 //! up to float rounding.
 
+pub mod supermesh;
 mod track;
 
 pub use track::{Interpolation, WeightTrack};
