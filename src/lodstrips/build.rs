@@ -266,7 +266,7 @@ impl<'a> Replay<'a> {
 
     /// Every `CURSOR_STRIDE` steps, where the step starts in the stream.
     fn mark_cursor(&mut self, step: usize) {
-        if step % CURSOR_STRIDE == 0 {
+        if step.is_multiple_of(CURSOR_STRIDE) {
             self.cursors.push(self.stream.len() as u32);
         }
     }

@@ -12,6 +12,9 @@ use gltf::accessor::Dimensions;
 use gltf::mesh::Mode;
 use std::path::{Path, PathBuf};
 
+/// The largest accessor without a buffer view we materialise (it reads as zeros
+/// plus sparse values): its count comes from the file and no data backs it, so
+/// a few bytes of JSON could otherwise ask for gigabytes. 256 MiB holds a
 /// 22-million-vertex sparse morph target.
 pub(super) const MAX_VIEWLESS_BYTES: usize = 1 << 28;
 
@@ -333,7 +336,7 @@ impl Document {
         };
         let mut matrix = local(node);
         let mut current = node;
-        // A malformed file may make the hierarchy cyclic: stop after `count` steps.
+        // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
         for _ in 0..count {
             match parent.get(current).copied().flatten() {
                 Some(p) => {
@@ -456,6 +459,57 @@ fn precheck(root: &gltf::json::Root) -> Result<(), String> {
                     ));
                 }
             }
+        }
+    }
+    check_hierarchy(root)
+}
+
+/// The node hierarchy must be a set of disjoint strict trees (glTF 2.0, "Nodes and
+/// Hierarchy"): no node has two parents and none is its own ancestor. A file that breaks this
+/// is invalid, so it is refused with the node named rather than placed by some partial walk.
+fn check_hierarchy(root: &gltf::json::Root) -> Result<(), String> {
+    let count = root.nodes.len();
+    let mut parent: Vec<Option<usize>> = vec![None; count];
+    for (n, node) in root.nodes.iter().enumerate() {
+        for child in node.children.iter().flatten() {
+            let c = child.value();
+            match parent.get_mut(c) {
+                None => {
+                    return Err(format!(
+                        "nodes[{n}].children refers to node {c}, but the file has {count} nodes"
+                    ))
+                }
+                Some(Some(p)) => {
+                    return Err(format!(
+                        "node {c} is a child of both node {p} and node {n}; a node has at most one parent"
+                    ))
+                }
+                Some(slot) => *slot = Some(n),
+            }
+        }
+    }
+    // 0: not seen, 1: on the walk from the current start, 2: leads to a root.
+    let mut state = vec![0u8; count];
+    let mut walk = Vec::new();
+    for start in 0..count {
+        let mut current = Some(start);
+        while let Some(c) = current {
+            match state[c] {
+                2 => break,
+                1 => {
+                    return Err(format!(
+                        "node {c} is its own ancestor: the node hierarchy has a cycle, glTF allows only trees"
+                    ))
+                }
+                _ => {
+                    state[c] = 1;
+                    walk.push(c);
+                    current = parent[c];
+                }
+            }
+        }
+        for c in walk.drain(..) {
+            state[c] = 2;
         }
     }
     Ok(())

@@ -233,10 +233,6 @@ pub(super) fn interpolation(i: gltf::animation::Interpolation) -> Interpolation 
     }
 }
 
-/// The largest accessor without a buffer view we materialise (it reads as zeros
-/// plus sparse values): its count comes from the file and no data backs it, so
-/// a few bytes of JSON could otherwise ask for gigabytes. 256 MiB holds a
-
 #[cfg(test)]
 mod tests {
     use super::accessor::triangulate;
