@@ -21,14 +21,14 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use morphlod::deform::Strategy;
 use morphlod::io::LoadOptions;
-use morphlod::morph::{Morph, MorphSource};
-use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Lod};
+use morphlod::io::{load_morph, MorphSource};
+use morphlod::{Asset, Builder, DeformingModel, DeformingState, Lod};
 
 const FRAMES: usize = 32;
 
 fn body_asset() -> Asset {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_body.glb");
-    let morph = Morph::from_gltf(
+    let morph = load_morph(
         &path,
         &LoadOptions::default(),
         &MorphSource::Animation("morph".into()),
@@ -124,7 +124,7 @@ fn report_cpu_times(model: &DeformingModel) {
         ("switch rebuild", Strategy::Rebuild),
         ("switch auto", Strategy::Auto),
     ] {
-        let mut state = DeformingLod::new(model);
+        let mut state = DeformingState::new(model);
         let _ = state.set(model, 0.0, Lod::Fraction(0.5));
         // Enough work per round that the scheduler-tick granularity of the
         // CPU-time counter (a few ms) stays below a few percent.
@@ -139,7 +139,7 @@ fn report_cpu_times(model: &DeformingModel) {
         line += &format!(" {name} {:.1} µs;", per.unwrap_or(f64::NAN) / 1000.0);
     }
     let max = model.frame_changes(0).map_or(0, |f| f.max_lod());
-    let mut state = DeformingLod::new(model);
+    let mut state = DeformingState::new(model);
     let repeats = 40;
     let linear = cpu_per(2 * max as u64 * repeats, || {
         for _ in 0..repeats {
@@ -182,7 +182,7 @@ fn bench(c: &mut Criterion) {
         ("switch/rebuild", Strategy::Rebuild),
         ("switch/auto", Strategy::Auto),
     ] {
-        let mut state = DeformingLod::new(&model);
+        let mut state = DeformingState::new(&model);
         state
             .set(&model, 0.0, Lod::Fraction(0.5))
             .expect("valid request");
@@ -199,7 +199,7 @@ fn bench(c: &mut Criterion) {
         });
     }
 
-    let mut state = DeformingLod::new(&model);
+    let mut state = DeformingState::new(&model);
     let max = model.frame_changes(0).map_or(0, |f| f.max_lod());
     group.throughput(Throughput::Elements(2 * max as u64));
     group.bench_function("sweep/linear", |b| {

@@ -12,7 +12,7 @@
 use std::time::Instant;
 
 use morphlod::collapse::CollapseSequence;
-use morphlod::lodstrips::{LodState, LodStrips};
+use morphlod::lodstrips::{LodStrips, StripsState};
 use morphlod::strip::stripify;
 use morphlod::IndexedMesh;
 
@@ -74,7 +74,7 @@ fn main() {
             }
         };
         let max = model.max_lod();
-        let mut state = LodState::new(&model);
+        let mut state = StripsState::new(&model);
         let mut lod_ipt = Vec::new();
         for pct in [0usize, 25, 50, 75, 90] {
             state.set_lod(&model, max * pct / 100).expect("same model");

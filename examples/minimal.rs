@@ -8,9 +8,9 @@ use std::path::Path;
 use std::sync::Arc;
 
 use morphlod::gpu::camera::{fit_to_bounds, Projection};
-use morphlod::gpu::{save_png, Context, LodObject, MorphPipeline, Target};
+use morphlod::gpu::{save_png, Context, LodObject, MorphPipeline, RenderTarget};
 use morphlod::io::LoadOptions;
-use morphlod::morph::{Morph, MorphSource};
+use morphlod::io::MorphSource;
 use morphlod::{Builder, DeformingModel, Lod};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // the `jawOpen` target applied (glTF morph target; two meshes or an animation work too).
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
     let source = MorphSource::Target("jawOpen".into());
-    let morph = Morph::from_gltf(&file, &LoadOptions::default(), &source)?;
+    let morph = morphlod::io::load_morph(&file, &LoadOptions::default(), &source)?;
 
     // The offline step: strips S0 over T, and one collapse sequence per sampled frame (4 poses
     // at t = 0, 1/3, 2/3, 1). `asset.save("head.mlod")` would write it, `Asset::load` read it.
@@ -34,8 +34,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The render pipelines for the target's formats; one serves any number of objects.
     let pipeline = MorphPipeline::new(
         &ctx.device,
-        Target::COLOR_FORMAT,
-        Some(Target::DEPTH_FORMAT),
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
     );
 
     // The object: V(0), V(1) and S0 uploaded once, at t = 0 and full detail.
@@ -59,7 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // ...`prepare` uploads only the words that changed...
     let upload = object.prepare(&ctx.queue);
     // ...and `render` records exactly one multi_draw_indexed_indirect in the caller's pass.
-    let target = Target::new(&ctx.device, 512, 512, wgpu::Color::BLACK)?;
+    let target = RenderTarget::new(&ctx.device, 512, 512, wgpu::Color::BLACK)?;
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     {
         let mut pass = target.begin_pass(&mut encoder); // clears colour and depth

@@ -1,4 +1,4 @@
-//! What a collapse sequence means: the definitions from DESIGN.md that every
+//! What a collapse sequence means: the definitions of `docs/DESIGN.md` (the oracle) that every
 //! test compares against.
 //!
 //! A sequence is an ordered list of half-edge collapses `u_i → w_i`: `u_i`

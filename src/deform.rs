@@ -1,6 +1,6 @@
 //! The per-object LOD runtime of a deforming mesh: one [`StripLayout`] (`S0`
 //! and its regions) shared by every sampled frame, one [`FrameChanges`] per
-//! frame, and the state that [`DeformingLod::set`] moves to any `(t, lod)`.
+//! frame, and the state that [`DeformingState::set`] moves to any `(t, lod)`.
 //!
 //! This is its own module rather than part of [`lodstrips`](crate::lodstrips)
 //! because it owns what only a deforming object has: an [`Asset`]'s validation,
@@ -26,7 +26,7 @@ use thiserror::Error;
 
 use crate::asset::Asset;
 use crate::collapse::{CollapseSequence, SequenceError};
-use crate::lodstrips::{BuildError, Dirty, FrameChanges, LodState, StripLayout};
+use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState};
 
 /// The level of detail to show, resolved against the current frame's tables.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,7 +58,7 @@ impl Lod {
     }
 }
 
-/// How [`DeformingLod::set_with`] reaches the requested state.
+/// How [`DeformingState::set_with`] reaches the requested state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Strategy {
     /// The cheaper of the two below, by the cost model (module docs).
@@ -70,11 +70,9 @@ pub enum Strategy {
 }
 
 /// Cost of one incremental step in rebuild work units (one entry visited or
-/// one survivor resolved). Measured by `cargo bench --bench deform` on
-/// makehuman_body (32 frames, 50% LOD): a frame switch by 13,376 steps took
-/// 1.67 ms (125 ns a step), the one-pass rebuild of about 52,000 units took
-/// 117 µs (2.3 ns a unit), so a step costs about 55 units; 50 leans toward
-/// stepping, whose dirty log is smaller.
+/// one survivor resolved), used by [`Strategy::Auto`]. Set from `cargo bench --bench
+/// deform` (the figures are in BENCHMARKS.md, "Figures behind constants"), rounded
+/// toward stepping, whose dirty log is smaller.
 pub const STEP_COST: usize = 50;
 
 /// Why a [`DeformingModel`] cannot be made from an asset.
@@ -95,7 +93,7 @@ pub enum DeformError {
     #[error("the asset has {vertices} vertices, more than the 2^31 the strips can index; split the mesh")]
     TooManyVertices { vertices: usize },
     #[error("the strips S0 are invalid: {0}")]
-    Strips(BuildError),
+    Strips(ChangeListError),
     #[error("frame {frame}'s collapse sequence is for {sequence} vertices, the poses have {vertices}; rebuild the asset")]
     FrameVertexCount {
         frame: usize,
@@ -105,17 +103,20 @@ pub enum DeformError {
     #[error("frame {frame}'s collapse sequence is invalid: {source}; rebuild the asset")]
     Sequence { frame: usize, source: SequenceError },
     #[error("frame {frame}'s change lists cannot be built: {source}")]
-    Frame { frame: usize, source: BuildError },
+    Frame {
+        frame: usize,
+        source: ChangeListError,
+    },
 }
 
-/// Why [`DeformingLod::set`] refused a request (the state is unchanged).
+/// Why [`DeformingState::set`] refused a request (the state is unchanged).
 #[derive(Debug, Error, Clone, Copy, PartialEq)]
 pub enum SetError {
     #[error("t is NaN; pass a time in [0, 1]")]
     TimeNaN,
     #[error("the LOD {0:?} holds NaN; pass a number")]
     LodNaN(Lod),
-    #[error("this DeformingLod was made for another DeformingModel; make one with DeformingLod::new(&model) per model")]
+    #[error("this DeformingState was made for another DeformingModel; make one with DeformingState::new(&model) per model")]
     WrongModel,
 }
 
@@ -168,10 +169,7 @@ impl DeformingModel {
         let vertex_count =
             u32::try_from(n).map_err(|_| DeformError::TooManyVertices { vertices: n })?;
         let layout = StripLayout::new(&asset.s0, vertex_count).map_err(|e| match e {
-            BuildError::TooLarge {
-                what: "the vertex count",
-                ..
-            } => DeformError::TooManyVertices { vertices: n },
+            ChangeListError::TooManyVertices { .. } => DeformError::TooManyVertices { vertices: n },
             e => DeformError::Strips(e),
         })?;
         let built: Vec<Result<Frame, DeformError>> = asset
@@ -262,16 +260,16 @@ fn build_frame(
 /// The strips of one [`DeformingModel`] at some `(frame, lod)`, with the log
 /// of what changed since the GPU uploader last looked.
 #[derive(Clone, Debug)]
-pub struct DeformingLod {
-    state: LodState,
+pub struct DeformingState {
+    state: StripsState,
     frame: usize,
 }
 
-impl DeformingLod {
+impl DeformingState {
     /// Frame 0 at LOD 0: the buffer holds `S0`, nothing is dirty.
-    pub fn new(model: &DeformingModel) -> DeformingLod {
-        DeformingLod {
-            state: LodState::at_s0(&model.layout, model.id),
+    pub fn new(model: &DeformingModel) -> DeformingState {
+        DeformingState {
+            state: StripsState::at_s0(&model.layout, model.id),
             frame: 0,
         }
     }

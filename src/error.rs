@@ -23,6 +23,7 @@ pub enum Error {
     #[error(transparent)]
     Asset(#[from] crate::asset::AssetError),
     /// Creating, updating or reading back GPU resources failed.
+    #[cfg(feature = "gpu")]
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
     /// An asset's data cannot make a deforming LOD model.

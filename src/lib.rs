@@ -24,13 +24,27 @@
 //! * [`deform`] is the per-object runtime of a deforming mesh: every sampled frame's change
 //!   lists over one shared `S0`, `set(t, lod)` with frame switches.
 //! * [`metrics`] measures geometric error (Hausdorff / RMS by surface sampling).
-//! * [`gpu`] renders with wgpu: the caller owns the device, queue and render pass.
+//! * [`gpu`] renders with wgpu: the caller owns the device, queue and render pass (feature
+//!   `gpu`).
+//!
+//! # Features
+//!
+//! * `gpu` (default): the [`gpu`] module (wgpu, pollster, image).
+//! * `cli` (default, implies `gpu`): the `morphlod` binary and the demos (clap, indicatif,
+//!   plotters); nothing in the library.
+//!
+//! `morphlod = { default-features = false }` compiles everything but [`gpu`]: an asset
+//! pipeline loads meshes, builds and reads `.mlod` files without wgpu or a command line.
+//!
+//! The definitions the tests check (reference mesh, strip parity, the correctness invariant),
+//! the data flow and the file format are described in `docs/DESIGN.md`.
 
 pub mod asset;
 pub mod build;
 pub mod collapse;
 pub mod deform;
 pub mod error;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod io;
 pub mod lodstrips;
@@ -40,11 +54,12 @@ pub mod morph;
 pub mod simplify;
 pub mod strip;
 pub mod topology;
+mod varint;
 
 pub use asset::Asset;
 pub use build::Builder;
 pub use collapse::{Collapse, CollapseSequence};
-pub use deform::{DeformingLod, DeformingModel, Lod};
+pub use deform::{DeformingModel, DeformingState, Lod};
 pub use error::Error;
 pub use mesh::IndexedMesh;
 pub use morph::Morph;

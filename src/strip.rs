@@ -1,6 +1,6 @@
 //! The stripifier: turns a triangle list into generalized triangle strips `S0`.
 //!
-//! Parity convention (DESIGN.md): window `j` of a strip `s` draws
+//! Parity convention (`docs/DESIGN.md`, strip parity): window `j` of a strip `s` draws
 //! `(s[j], s[j+1], s[j+2])` for even `j` and `(s[j+1], s[j], s[j+2])` for odd
 //! `j`; a window with a repeated index draws nothing. With that convention two
 //! consecutive windows of a strip draw triangles that share an edge in opposite

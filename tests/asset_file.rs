@@ -7,7 +7,8 @@ use morphlod::asset::{inspect, AssetError, HEADER_LEN, MAGIC, VERSION};
 use morphlod::build::Builder;
 use morphlod::collapse::{Collapse, CollapseSequence, SequenceError};
 use morphlod::io::LoadOptions;
-use morphlod::morph::{Morph, MorphSource};
+use morphlod::io::{load_morph, MorphSource};
+use morphlod::morph::Morph;
 use morphlod::strip::Strips;
 use morphlod::Asset;
 use proptest::prelude::*;
@@ -24,7 +25,7 @@ fn asset_path(name: &str) -> PathBuf {
 }
 
 fn gltf_morph(name: &str, source: MorphSource) -> Morph {
-    Morph::from_gltf(&asset_path(name), &LoadOptions::default(), &source).unwrap()
+    load_morph(&asset_path(name), &LoadOptions::default(), &source).unwrap()
 }
 
 /// AnimatedMorphCube's animation, 6 frames: small enough to mutate quickly.

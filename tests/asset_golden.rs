@@ -19,8 +19,8 @@ use common::{grid_morph, Mirror, Rng};
 use morphlod::asset::VERSION;
 use morphlod::collapse::canonical_multiset;
 use morphlod::io::LoadOptions;
-use morphlod::morph::{Morph, MorphSource};
-use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Lod};
+use morphlod::io::MorphSource;
+use morphlod::{Asset, Builder, DeformingModel, DeformingState, Lod};
 
 /// The golden file's source: a 9 × 9 grid whose heights are exact binary fractions (no
 /// transcendental functions, so every platform builds the same poses), 4 frames.
@@ -98,7 +98,7 @@ fn lod_for_error(asset: &Asset, frame: usize, bound: f32) -> usize {
 #[test]
 fn production_path_walk_matches_the_reference() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
-    let morph = Morph::from_gltf(
+    let morph = morphlod::io::load_morph(
         &path,
         &LoadOptions::default(),
         &MorphSource::Animation("morph".into()),
@@ -126,7 +126,7 @@ fn production_path_walk_matches_the_reference() {
     bounds.sort_by(f32::total_cmp);
     bounds.dedup();
     let mut rng = Rng(0x000D_15C0);
-    let mut state = DeformingLod::new(&model);
+    let mut state = DeformingState::new(&model);
     let mut mirror = Mirror::new(state.region_offsets(), state.indices(), state.lengths());
     let mut seen = (0usize, 0usize);
     for step in 0..150 {

@@ -22,9 +22,10 @@
 use std::path::Path;
 
 use morphlod::io::LoadOptions;
+use morphlod::io::{load_morph, MorphSource};
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
-use morphlod::morph::{Morph, MorphSource};
+use morphlod::morph::Morph;
 use morphlod::Builder;
 
 mod common;
@@ -46,7 +47,7 @@ fn load(name: &str, source: MorphSource) -> Morph {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("assets")
         .join(name);
-    let morph = match Morph::from_gltf(&path, &LoadOptions::default(), &source) {
+    let morph = match load_morph(&path, &LoadOptions::default(), &source) {
         Ok(m) => m,
         Err(e) => panic!("{name}: {e}"),
     };

@@ -26,9 +26,10 @@ use common::gpu::Gpu;
 use common::Rng;
 use morphlod::collapse::canonical_multiset;
 use morphlod::gpu::{Draws, LodObject, Object, Topology};
+use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, LoadOptions};
-use morphlod::lodstrips::{LodState, LodStrips};
-use morphlod::morph::{Morph, MorphSource};
+use morphlod::lodstrips::{LodStrips, StripsState};
+use morphlod::morph::Morph;
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
 use morphlod::{Builder, DeformingModel, Lod};
@@ -40,7 +41,7 @@ fn asset_path(name: &str) -> std::path::PathBuf {
 }
 
 fn head_morph() -> Morph {
-    Morph::from_gltf(
+    morphlod::io::load_morph(
         &asset_path("makehuman_head.glb"),
         &LoadOptions::default(),
         &MorphSource::Animation("morph".into()),
@@ -93,7 +94,7 @@ fn object_draws_the_reference_mesh_over_lods() {
         Draws::Grouped { max_indices: 256 },
         Draws::PerRegion,
     ] {
-        let mut state = LodState::new(&model);
+        let mut state = StripsState::new(&model);
         let regions: Vec<Vec<u32>> = (0..model.strip_count())
             .map(|s| state.strip(s).unwrap_or(&[]).to_vec())
             .collect();

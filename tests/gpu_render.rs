@@ -6,7 +6,7 @@ mod common;
 
 use common::gpu::{ci_requires_gpu, Gpu};
 use glam::{Mat4, Vec3};
-use morphlod::gpu::{self, GpuError, MorphPipeline, Object, Target, Topology, RESTART};
+use morphlod::gpu::{self, GpuError, MorphPipeline, Object, RenderTarget, Topology, RESTART};
 
 const SIZE: u32 = 64;
 /// Pure blue: every channel is exactly 0 or 255, so "untouched" is an exact comparison.
@@ -185,8 +185,8 @@ fn restart_and_culling() -> Result<(), GpuError> {
     for (cull, clockwise_visible) in [(Some(wgpu::Face::Back), false), (None, true)] {
         let pipeline = MorphPipeline::with_cull_mode(
             device,
-            Target::COLOR_FORMAT,
-            Some(Target::DEPTH_FORMAT),
+            RenderTarget::COLOR_FORMAT,
+            Some(RenderTarget::DEPTH_FORMAT),
             cull,
         );
         for (strip, upper_right_lit) in [(&restarted, true), (&clockwise, clockwise_visible)] {
@@ -259,7 +259,7 @@ fn object_rejects_bad_input() -> Result<(), GpuError> {
         return Ok(());
     };
     let device = &ctx.device;
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, None);
+    let pipeline = MorphPipeline::new(device, RenderTarget::COLOR_FORMAT, None);
     let v = quad(0.0, 1.0, 0.0, 1.0);
     let short = &v[..3];
     assert!(matches!(
@@ -344,16 +344,18 @@ fn object_rejects_bad_input() -> Result<(), GpuError> {
         }
         other => panic!("expected IndexOutOfRange, got {other:?}"),
     }
-    assert!(object.set_t(f32::NAN).is_err());
-    assert!(object.set_t(1.5).is_err());
+    assert!(matches!(object.set_t(f32::NAN), Err(GpuError::TimeNaN)));
     assert!(object.set_light(Vec3::ZERO, 0.2).is_err());
     assert!(object.set_light(Vec3::Z, 2.0).is_err());
     // Failed calls change nothing: the region still holds its strip and nothing is dirty.
     assert_eq!(object.live_indices(0), Some(&[0, 1, 2, 3][..]));
     assert_eq!(object.prepare(&ctx.queue), gpu::Upload::default());
+    // t outside [0, 1] is clamped, not refused: the uniforms change.
+    object.set_t(1.5)?;
+    assert!(object.prepare(&ctx.queue).uniform_bytes > 0);
     assert!(matches!(
-        Target::new(device, 0, 16, CLEAR),
-        Err(GpuError::TargetSize { width: 0, .. })
+        RenderTarget::new(device, 0, 16, CLEAR),
+        Err(GpuError::RenderTargetSize { width: 0, .. })
     ));
     Ok(())
 }

@@ -27,10 +27,12 @@ use common::{strip_draw, Rng};
 use glam::{Mat4, Vec3};
 use morphlod::collapse::{canonical, CollapseSequence};
 use morphlod::gpu::camera::{self, Projection};
-use morphlod::gpu::{self, Draws, GpuError, MorphPipeline, Object, Target, Topology, RESTART};
+use morphlod::gpu::{
+    self, Draws, GpuError, MorphPipeline, Object, RenderTarget, Topology, RESTART,
+};
+use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, LoadOptions};
-use morphlod::lodstrips::{LodState, LodStrips};
-use morphlod::morph::{Morph, MorphSource};
+use morphlod::lodstrips::{LodStrips, StripsState};
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
 
@@ -79,7 +81,7 @@ fn load_static(name: &'static str) -> Input {
 }
 
 fn load_morph(name: &'static str, file: &str, source: MorphSource) -> Input {
-    let morph = Morph::from_gltf(&asset_path(file), &LoadOptions::default(), &source)
+    let morph = morphlod::io::load_morph(&asset_path(file), &LoadOptions::default(), &source)
         .unwrap_or_else(|e| panic!("{name}: {e}"));
     Input {
         name,
@@ -120,7 +122,7 @@ fn build_lod(input: &Input) -> (morphlod::strip::Strips, Lod) {
 }
 
 /// The current strips of `state` as object regions (capacity = live length).
-fn regions(model: &LodStrips, state: &LodState) -> Vec<Vec<u32>> {
+fn regions(model: &LodStrips, state: &StripsState) -> Vec<Vec<u32>> {
     (0..model.strip_count())
         .map(|s| state.strip(s).unwrap_or(&[]).to_vec())
         .collect()
@@ -200,7 +202,7 @@ struct ReferenceLists {
     rotated: Vec<u32>,
 }
 
-fn reference_lists(reference: &[[u32; 3]], state: &LodState, strips: usize) -> ReferenceLists {
+fn reference_lists(reference: &[[u32; 3]], state: &StripsState, strips: usize) -> ReferenceLists {
     // The triangles in the vertex order the GPU rasterizes them (`common::strip_draw`).
     let drawn: Vec<[u32; 3]> = (0..strips)
         .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
@@ -248,7 +250,7 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
             Draws::Grouped { max_indices: 256 },
             Draws::PerRegion,
         ] {
-            let mut state = LodState::new(&model);
+            let mut state = StripsState::new(&model);
             let mut strips = Object::new(
                 device,
                 pipeline,
@@ -371,7 +373,7 @@ fn back_face_culling_hides_nothing() -> Result<(), GpuError> {
     };
     let (device, queue) = (&ctx.device, &ctx.queue);
     let started = Instant::now();
-    let formats = (Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let formats = (RenderTarget::COLOR_FORMAT, Some(RenderTarget::DEPTH_FORMAT));
     let culled = MorphPipeline::new(device, formats.0, formats.1);
     let unculled = MorphPipeline::with_cull_mode(device, formats.0, formats.1, None);
     let target = ctx.target(SIZE, SIZE, CLEAR);
@@ -391,7 +393,7 @@ fn back_face_culling_hides_nothing() -> Result<(), GpuError> {
     for input in [load_static("cow.off"), load_static("bunny.obj")] {
         let (_, Lod { seq, model }) = build_lod(&input);
         let view_proj = fitted_camera(&input);
-        let mut state = LodState::new(&model);
+        let mut state = StripsState::new(&model);
         for percent in [0, 20, 40, 60] {
             let lod = model.max_lod() * percent / 100;
             state.set_lod(&model, lod).expect("same model");
@@ -487,7 +489,7 @@ fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
             (true, 256),
         ] {
             let started = Instant::now();
-            let mut state = LodState::new(&model);
+            let mut state = StripsState::new(&model);
             let regions = regions(&model, &state);
             let new_object = || -> Result<Object, GpuError> {
                 let mut object = Object::new(
@@ -594,7 +596,7 @@ fn two_objects_share_one_pipeline() -> Result<(), GpuError> {
         Projection::Orthographic,
     )?
     .view_proj();
-    let mut state = LodState::new(&model);
+    let mut state = StripsState::new(&model);
     let mut crowd = Vec::new();
     for (lod_percent, offset, color) in [
         (0, -shift, [1.0, 0.6, 0.0, 1.0]),
@@ -668,7 +670,7 @@ fn apply_dirty_rejects_bad_input() -> Result<(), GpuError> {
     let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
-    let pipeline = MorphPipeline::new(&ctx.device, Target::COLOR_FORMAT, None);
+    let pipeline = MorphPipeline::new(&ctx.device, RenderTarget::COLOR_FORMAT, None);
     let v = [
         [0.0, 0.0, 0.0],
         [1.0, 0.0, 0.0],

@@ -1,13 +1,9 @@
-//! `gpu::LodObject` and the frame-rate benchmark on a real adapter (lavapipe in CI).
+//! `gpu::LodObject` on a real adapter (lavapipe in CI).
 //!
 //! * `lod_object_renders_like_a_hand_driven_object`: over a walk of `(t, lod)` states, a
 //!   `LodObject` renders pixel for pixel like a `gpu::Object` driven by hand from its own
-//!   `DeformingLod` (the wiring the LodObject replaces), with one draw per frame; a refused `t`
-//!   changes nothing.
-//! * `bench_rows_are_consistent`: a short `run_bench` on a small morphing grid: row count, one
-//!   draw per frame, triangle counts equal to the reference mesh of DESIGN.md
-//!   (`CollapseSequence::reference_mesh`) and to the list drawn beside, uploads exactly where
-//!   the strips changed, and the JSON holds every row.
+//!   `DeformingState` (the wiring the LodObject replaces), with one draw per frame; a refused (NaN) `t`
+//!   changes nothing, `t` and LOD outside `[0, 1]` are clamped.
 //! * `object_buffers_match_layout_built_from_scratch`: a proptest over random walks (LOD up,
 //!   down, jumps, frame switches, draw grouping, strip colouring and merge gap changed
 //!   mid-walk, bad calls): after every move the object's index and indirect mirrors equal the
@@ -29,14 +25,14 @@ use std::sync::Arc;
 use common::gpu::Gpu;
 use common::strip_draw;
 
-use morphlod::gpu::bench::{run_bench, BenchOptions, Sweep};
+use morphlod::deform::SetError;
 use morphlod::gpu::{
     self, Draws, GpuError, LodObject, Object, ShadeMode, Topology, Upload, RESTART,
 };
 use morphlod::io::LoadOptions;
+use morphlod::io::MorphSource;
 use morphlod::lodstrips::Dirty;
-use morphlod::morph::MorphSource;
-use morphlod::{Asset, Builder, DeformingLod, DeformingModel, Error, Lod, Morph};
+use morphlod::{Asset, Builder, DeformingModel, DeformingState, Error, Lod, Morph};
 
 /// An `n × n` vertex grid in the xy plane (`V(0)`) that bulges along z (`V(1)`), built into an
 /// asset of `frames` sampled frames.
@@ -92,8 +88,8 @@ fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
         &asset.v1,
         &regions,
     )?;
-    let mut state = DeformingLod::new(&model);
-    let camera = gpu::sheet::frame_both_poses(&asset, glam::Vec3::new(0.3, -0.4, -1.0))?;
+    let mut state = DeformingState::new(&model);
+    let camera = gpu::camera::frame_both_poses(&asset, glam::Vec3::new(0.3, -0.4, -1.0))?;
     lod_object.set_view_proj(camera.view_proj());
     by_hand.set_view_proj(camera.view_proj());
 
@@ -138,14 +134,20 @@ fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
     }
     assert!(coarse_seen, "the walk never left full detail");
 
-    // A refused t changes neither the runtime nor the GPU mirror.
+    // A refused (NaN) t or LOD changes neither the runtime nor the GPU mirror.
     let before = (
         lod_object.state().frame(),
         lod_object.state().lod(),
         counts(lod_object.object()),
     );
-    assert!(lod_object.set(1.5, Lod::Fraction(0.0)).is_err());
-    assert!(lod_object.set(f32::NAN, Lod::Fraction(0.0)).is_err());
+    assert!(matches!(
+        lod_object.set(f32::NAN, Lod::Fraction(0.0)),
+        Err(SetError::TimeNaN)
+    ));
+    assert!(matches!(
+        lod_object.set(0.5, Lod::Fraction(f32::NAN)),
+        Err(SetError::LodNaN(_))
+    ));
     assert_eq!(
         before,
         (
@@ -153,6 +155,19 @@ fn lod_object_renders_like_a_hand_driven_object() -> Result<(), Error> {
             lod_object.state().lod(),
             counts(lod_object.object()),
         )
+    );
+    // t and the LOD fraction outside [0, 1] are clamped, as on the CPU.
+    lod_object.set(1.5, Lod::Fraction(2.0))?;
+    let last = model.frame_count() - 1;
+    assert_eq!(lod_object.state().frame(), last);
+    assert_eq!(
+        lod_object.state().lod(),
+        model.frame_changes(last).expect("frame").max_lod()
+    );
+    lod_object.set(-1.0, Lod::Fraction(-1.0))?;
+    assert_eq!(
+        (lod_object.state().frame(), lod_object.state().lod()),
+        (0, 0)
     );
     Ok(())
 }
@@ -165,7 +180,8 @@ fn weight_animation_plays_on_the_gpu() -> Result<(), Error> {
     let (device, queue) = (&ctx.device, &ctx.queue);
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
     let source = MorphSource::Animation("morph".into());
-    let morph = Morph::from_gltf(&path, &LoadOptions::default(), &source).expect("head animation");
+    let morph =
+        morphlod::io::load_morph(&path, &LoadOptions::default(), &source).expect("head animation");
     let asset = Builder::new(&morph)
         .frames(3)
         .build()
@@ -181,7 +197,7 @@ fn weight_animation_plays_on_the_gpu() -> Result<(), Error> {
     let size = 256;
     let target = ctx.target(size, size, wgpu::Color::BLACK);
     // Face on: the expressions move the mouth, eyes and brows towards the viewer's side.
-    let camera = gpu::sheet::frame_both_poses(&asset, glam::Vec3::new(0.0, 0.0, -1.0))?;
+    let camera = gpu::camera::frame_both_poses(&asset, glam::Vec3::new(0.0, 0.0, -1.0))?;
     let regions: Vec<Vec<u32>> = (0..asset.s0.len())
         .filter_map(|i| asset.s0.strip(i).map(<[u32]>::to_vec))
         .collect();
@@ -275,118 +291,6 @@ fn bad_targets_and_weights_are_typed_errors() -> Result<(), Error> {
 fn counts(object: &Object) -> (Vec<u32>, Vec<u32>) {
     let records = object.indirect_args().iter().map(|a| a.index_count);
     (object.lengths().to_vec(), records.collect())
-}
-
-#[test]
-fn bench_rows_are_consistent() -> Result<(), Error> {
-    let Some(ctx) = Gpu::new() else {
-        return Ok(());
-    };
-    let asset = grid_asset(10, 4);
-    let model = Arc::new(DeformingModel::new(&asset)?);
-    let frames = 7;
-    let report = run_bench(
-        &ctx,
-        &asset,
-        &model,
-        &BenchOptions {
-            frames,
-            size: 48,
-            repeats: 2,
-        },
-    )?;
-    let original: Vec<[u32; 3]> = (0..asset.s0.len())
-        .filter_map(|i| asset.s0.strip(i))
-        .flat_map(strip_draw)
-        .collect();
-    assert_eq!(report.full_triangles, original.len());
-    // The most one frame can upload: the whole index buffer (regions and their separators)
-    // and one record per region.
-    let object_bytes =
-        (asset.s0.indices.len() + asset.s0.len()) as u64 * 4 + asset.s0.len() as u64 * 20;
-    assert_eq!(report.full_index_bytes, asset.s0.indices.len() as u64 * 4);
-    assert_eq!(report.rows.len(), 2 * frames);
-
-    for sweep in [Sweep::Linear, Sweep::Exponential] {
-        let rows: Vec<_> = report.rows.iter().filter(|r| r.sweep == sweep).collect();
-        assert_eq!(rows.len(), frames);
-        // Every sweep starts from a fresh object at frame 0, full detail.
-        let mut previous = (0usize, 0usize, asset.s0.indices.len());
-        for row in &rows {
-            let at = format!("{} frame {}", sweep.name(), row.frame);
-            assert_eq!(row.draws, 1, "{at}: one draw per frame");
-            assert_eq!(row.records, 1, "{at}: grouped draws are one record");
-            // The sweep's (t, lod) and the (frame, steps) they select, recomputed here.
-            let x = row.frame as f32 / (frames - 1) as f32;
-            let lod = match sweep {
-                Sweep::Linear => x,
-                Sweep::Exponential => (1024f32.powf(x) - 1.0) / 1023.0,
-            };
-            assert_eq!((row.t, row.lod), (x, lod), "{at}: sweep position");
-            let k = (x * (asset.frames.len() - 1) as f32).round() as usize;
-            assert_eq!(row.asset_frame, k, "{at}: frame of t");
-            let steps = (lod * asset.frames[k].len() as f32).round() as usize;
-            assert_eq!(row.steps, steps, "{at}: LOD fraction as steps");
-            assert!(
-                row.triangles <= row.indices && row.indices <= asset.s0.indices.len(),
-                "{at}: {} indices for {} triangles (S0 has {})",
-                row.indices,
-                row.triangles,
-                asset.s0.indices.len()
-            );
-            assert!(
-                row.upload_bytes <= object_bytes
-                    && row.upload_bytes.is_multiple_of(4)
-                    && row.upload_writes as u64 <= row.upload_bytes / 4
-                    && (row.upload_writes == 0) == (row.upload_bytes == 0),
-                "{at}: {} bytes in {} writes (whole object {object_bytes} bytes)",
-                row.upload_bytes,
-                row.upload_writes
-            );
-            assert!(
-                row.list_upload_bytes <= original.len() as u64 * 12 + 20,
-                "{at}: the list uploaded more than a whole list"
-            );
-            let reference = asset.frames[row.asset_frame].reference_mesh(&original, row.steps);
-            assert_eq!(row.triangles, reference.len(), "{at}: reference mesh");
-            assert_eq!(row.list_triangles, row.triangles, "{at}: list beside");
-            let now = (row.asset_frame, row.steps, row.indices);
-            if row.indices != previous.2 {
-                assert!(
-                    row.upload_bytes >= 4 && row.upload_writes >= 1,
-                    "{at}: strips changed, nothing uploaded"
-                );
-            }
-            if now == previous || (row.steps == 0 && previous.1 == 0) {
-                assert_eq!(row.upload_bytes, 0, "{at}: nothing changed, bytes uploaded");
-            }
-            for (name, ms) in [
-                ("strips", row.strips_ms),
-                ("list", row.list_ms),
-                ("full strips", row.full_strips_ms),
-                ("full list", row.full_list_ms),
-                ("full per strip", row.full_per_strip_ms),
-            ] {
-                // A GPU frame takes time, and not seconds for a 10×10 grid in a 48-pixel target.
-                assert!(ms > 0.0 && ms < 5_000.0, "{at}: {name} frame took {ms} ms");
-            }
-            previous = now;
-        }
-        let first = rows.first().expect("rows");
-        assert_eq!((first.steps, first.triangles), (0, original.len()));
-        let last = rows.last().expect("rows");
-        let last_frame = asset.frames.len() - 1;
-        assert_eq!(
-            (last.asset_frame, last.steps),
-            (last_frame, asset.frames[last_frame].len()),
-            "{}: the sweep ends at the coarsest LOD of the last frame",
-            sweep.name()
-        );
-    }
-    let json = report.to_json();
-    assert_eq!(json.matches("\"sweep\":").count(), report.rows.len());
-    assert!(report.summary().contains("goals:"));
-    Ok(())
 }
 
 /// One move of a random walk over a [`LodObject`].

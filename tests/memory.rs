@@ -19,8 +19,8 @@ mod common;
 
 use morphlod::gpu::LodObject;
 use morphlod::io::LoadOptions;
-use morphlod::morph::MorphSource;
-use morphlod::{Builder, DeformingModel, Lod, Morph};
+use morphlod::io::MorphSource;
+use morphlod::{Builder, DeformingModel, Lod};
 
 /// Frames drawn before the first measurement: pipelines, staging pools and caches fill up.
 const WARM_UP: usize = 300;
@@ -49,7 +49,7 @@ fn lod_object_memory_stays_flat_over_thousands_of_frames() {
     let (device, queue) = (gpu.device(), gpu.queue());
 
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
-    let morph = Morph::from_gltf(
+    let morph = morphlod::io::load_morph(
         &path,
         &LoadOptions::default(),
         &MorphSource::Animation("morph".into()),

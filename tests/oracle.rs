@@ -8,7 +8,7 @@
 //!   decoded by `common::strip_draw`, the GPU's strip rules written independently
 //!   of `morphlod::strip`, so a parity rule flipped in the library fails here too)
 //!   equals the reference multiset hash at that LOD, and the drawn triangle
-//!   count equals the reference count and `LodState::triangle_count`. The
+//!   count equals the reference count and `StripsState::triangle_count`. The
 //!   reference hashes of all LODs come from one incremental pass over the
 //!   sequence, which is itself compared with `reference_mesh` at every full check.
 //! * Full checks (exact sorted multisets, mirror == state, index count never
@@ -22,7 +22,7 @@ mod common;
 
 use common::{degenerate, random_sequence, reference_hashes, strips_draw, Mirror, Rng};
 use morphlod::collapse::{canonical_multiset, Collapse, CollapseSequence};
-use morphlod::lodstrips::{LodState, LodStrips};
+use morphlod::lodstrips::{LodStrips, StripsState};
 use morphlod::strip::{stripify, Strips};
 use proptest::prelude::*;
 
@@ -39,9 +39,9 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
     assert_eq!(reference.len(), max + 1);
     let s0_len = strips.indices.len();
     let every_step = tris.len() <= FULL_EVERY_STEP_TRIANGLES;
-    let mut state = LodState::new(&model);
+    let mut state = StripsState::new(&model);
     let mut mirror = Mirror::new(model.region_offsets(), state.indices(), state.lengths());
-    let full = |l: usize, mirror: &Mirror, state: &LodState| {
+    let full = |l: usize, mirror: &Mirror, state: &StripsState| {
         let drawn = canonical_multiset(mirror.triangles());
         let expected = canonical_multiset(seq.reference_mesh(tris, l));
         assert_eq!(
@@ -106,7 +106,7 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
         model.byte_size(),
         "build is deterministic"
     );
-    let mut fresh = LodState::new(&rebuilt);
+    let mut fresh = StripsState::new(&rebuilt);
     fresh.set_lod(&rebuilt, state.lod()).expect("same model");
     assert_eq!(fresh.lengths(), state.lengths());
     for s in 0..model.strip_count() {
@@ -136,7 +136,7 @@ fn check_mesh(name: &str, tris: &[[u32; 3]], n: usize, steps: usize, seed: u64) 
 /// Prints indices per drawn triangle at some LODs and the change-list size.
 fn report(name: &str, strips: &Strips, seq: &CollapseSequence) {
     let model = LodStrips::build(strips, seq).expect("model builds");
-    let mut state = LodState::new(&model);
+    let mut state = StripsState::new(&model);
     let mut line = String::new();
     for pct in [0, 25, 50, 75, 90] {
         state

@@ -1,4 +1,4 @@
-//! The oracle for deforming meshes: random walks of `DeformingLod::set(t, lod)`
+//! The oracle for deforming meshes: random walks of `DeformingState::set(t, lod)`
 //! checked against the reference mesh of DESIGN.md for the CURRENT frame's
 //! collapse sequence at the current LOD.
 //!
@@ -28,10 +28,11 @@ use common::{multiset_hash, random_sequence, reference_hashes, Mirror, Rng};
 use morphlod::collapse::{canonical_multiset, CollapseSequence};
 use morphlod::deform::{DeformError, SetError, Strategy};
 use morphlod::io::LoadOptions;
-use morphlod::morph::{Morph, MorphSource};
+use morphlod::io::MorphSource;
+use morphlod::morph::Morph;
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
-use morphlod::{Asset, DeformingLod, DeformingModel, Lod};
+use morphlod::{Asset, DeformingModel, DeformingState, Lod};
 use rayon::prelude::*;
 
 /// A full multiset check every this many steps.
@@ -62,12 +63,12 @@ fn load_morph(file: &str, source: MorphSource) -> Morph {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("assets")
         .join(file);
-    Morph::from_gltf(&path, &LoadOptions::default(), &source)
+    morphlod::io::load_morph(&path, &LoadOptions::default(), &source)
         .unwrap_or_else(|e| panic!("{file}: {e}"))
 }
 
 /// Strips of two states, compared entry by entry.
-fn same_strips(a: &DeformingLod, b: &DeformingLod, what: &str) {
+fn same_strips(a: &DeformingState, b: &DeformingState, what: &str) {
     assert_eq!(a.lengths(), b.lengths(), "{what}: strip lengths differ");
     for s in 0..a.lengths().len() {
         assert_eq!(a.strip(s), b.strip(s), "{what}: strip {s} differs");
@@ -138,7 +139,7 @@ impl Frames<'_> {
         }
     }
 
-    fn full_check(&self, k: usize, l: usize, mirror: &Mirror, state: &DeformingLod, at: &str) {
+    fn full_check(&self, k: usize, l: usize, mirror: &Mirror, state: &DeformingState, at: &str) {
         let reference = self.asset.frames[k].reference_mesh(self.tris, l);
         assert_eq!(
             (multiset_hash(&reference), reference.len()),
@@ -182,7 +183,7 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
     let r = asset.frames.len();
     let last = (r - 1).max(1) as f32;
     let mut rng = Rng(seed);
-    let mut state = DeformingLod::new(&model);
+    let mut state = DeformingState::new(&model);
     let mut mirror = Mirror::new(state.region_offsets(), state.indices(), state.lengths());
     frames.full_check(0, 0, &mirror, &state, name);
     let mut used = [0usize; 2];
@@ -272,7 +273,7 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
     // Fresh states moved straight to the final (frame, lod), both ways.
     let t = state.frame() as f32 / last;
     for how in [Strategy::Steps, Strategy::Rebuild] {
-        let mut fresh = DeformingLod::new(&model);
+        let mut fresh = DeformingState::new(&model);
         fresh
             .set_with(&model, t, Lod::Steps(state.lod()), how)
             .expect("valid request");
@@ -416,7 +417,7 @@ fn bad_assets_and_requests_are_rejected() {
         assert!(!e.to_string().is_empty());
     }
 
-    let mut state = DeformingLod::new(&model);
+    let mut state = DeformingState::new(&model);
     assert_eq!(
         state.set(&model, f32::NAN, Lod::Steps(1)),
         Err(SetError::TimeNaN)

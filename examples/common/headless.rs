@@ -1,10 +1,9 @@
-//! Headless: a frame sequence rendered offscreen ([`Target`]) into numbered PNGs.
+//! Headless: a frame sequence rendered offscreen ([`RenderTarget`]) into numbered PNGs.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use morphlod::gpu::bench::Sweep;
-use morphlod::gpu::{save_png, Context, Target};
+use morphlod::gpu::{save_png, Context, RenderTarget};
 
 use super::cache::BuiltMorph;
 use super::scene::{LodControl, Scene};
@@ -25,8 +24,15 @@ pub fn run_headless(
     let (width, height) = args.size;
     let device = &context.device;
     let queue = &context.queue;
-    let target = Target::new(device, width, height, CLEAR).map_err(DemoError::lib)?;
-    let mut scene = Scene::new(device, queue, &info, Target::COLOR_FORMAT, morphs, args)?;
+    let target = RenderTarget::new(device, width, height, CLEAR).map_err(DemoError::lib)?;
+    let mut scene = Scene::new(
+        device,
+        queue,
+        &info,
+        RenderTarget::COLOR_FORMAT,
+        morphs,
+        args,
+    )?;
     scene.view.playing = false;
     scene.show_keys = false;
     let frames = args.frames;
@@ -45,7 +51,7 @@ pub fn run_headless(
             0.0
         };
         scene.view.t = x;
-        scene.view.lod = LodControl::Fraction(HEADLESS_COARSEST * Sweep::Linear.fraction(x));
+        scene.view.lod = LodControl::Fraction(HEADLESS_COARSEST * x);
         let status = format!("{}  headless frame {}/{frames}", demo.name, i + 1);
         let start = Instant::now();
         scene.update(device, queue, (width, height), &status)?;

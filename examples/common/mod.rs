@@ -6,7 +6,7 @@
 //! two demos behave and look the same.
 //!
 //! The scene follows the library's caller-owned pattern: the demo owns the device, queue, the
-//! surface (or an offscreen `Target`) and the render pass; `Scene::update` runs the CPU model
+//! surface (or an offscreen `RenderTarget`) and the render pass; `Scene::update` runs the CPU model
 //! and uploads, `Scene::draw` records one multi-draw for the mesh and the text.
 //!
 //! * `cache` — each morph's `.mlod` file, built when missing, stale or damaged;
@@ -21,8 +21,8 @@ mod window;
 use std::path::{Path, PathBuf};
 
 use morphlod::io::LoadOptions;
+use morphlod::io::{load_morph, MorphSource};
 use morphlod::mesh::clean::{clean, CleanOptions};
-use morphlod::morph::MorphSource;
 use morphlod::{IndexedMesh, Morph};
 use thiserror::Error;
 
@@ -129,7 +129,7 @@ impl TargetPoses {
     /// Loads every morph target of the first mesh of `path`, cleaned once on the base pose
     /// (the builder needs triangles without repeated corners) and applied to all poses alike.
     pub fn load(path: &Path) -> Result<TargetPoses, DemoError> {
-        let morph = Morph::from_gltf(path, &LoadOptions::default(), &MorphSource::DefaultWeights)
+        let morph = load_morph(path, &LoadOptions::default(), &MorphSource::DefaultWeights)
             .map_err(DemoError::lib)?;
         let base = IndexedMesh::new(morph.base().to_vec(), morph.triangles().to_vec());
         let cleaned = clean(&base, &CleanOptions { weld: false }).map_err(DemoError::lib)?;

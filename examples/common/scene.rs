@@ -9,7 +9,7 @@ use glyphon::{
     Attrs, Buffer, Cache, Color, ColorMode, Family, FontSystem, Metrics, Resolution, Shaping,
     SwashCache, TextArea, TextAtlas, TextBounds, TextRenderer, Viewport,
 };
-use morphlod::gpu::{LodObject, MorphPipeline, ShadeMode, Target, Upload};
+use morphlod::gpu::{LodObject, MorphPipeline, RenderTarget, ShadeMode, Upload};
 use morphlod::Lod;
 
 use super::cache::BuiltMorph;
@@ -183,7 +183,7 @@ impl Scene {
         morphs: &[BuiltMorph],
         args: &CommonArgs,
     ) -> Result<Scene, DemoError> {
-        let pipeline = MorphPipeline::new(device, color_format, Some(Target::DEPTH_FORMAT));
+        let pipeline = MorphPipeline::new(device, color_format, Some(RenderTarget::DEPTH_FORMAT));
         let mut objects = Vec::with_capacity(morphs.len());
         for built in morphs {
             let mut object =
@@ -374,7 +374,7 @@ impl Readout {
         // The text is drawn in the mesh's pass, which has a depth buffer: the text pipeline
         // must declare it, and neither tests nor writes depth so it stays on top.
         let depth = wgpu::DepthStencilState {
-            format: Target::DEPTH_FORMAT,
+            format: RenderTarget::DEPTH_FORMAT,
             depth_write_enabled: Some(false),
             depth_compare: Some(wgpu::CompareFunction::Always),
             stencil: wgpu::StencilState::default(),

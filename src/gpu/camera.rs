@@ -122,6 +122,22 @@ pub fn fit_to_bounds(
     Ok(Camera { view, proj })
 }
 
+/// A perspective camera looking along `direction` that frames the union of both poses of
+/// `asset`, so the object does not jump between frames of an animation.
+pub fn frame_both_poses(asset: &crate::asset::Asset, direction: Vec3) -> Result<Camera, GpuError> {
+    let both: Vec<[f32; 3]> = asset.v0.iter().chain(&asset.v1).copied().collect();
+    let (min, max) = crate::mesh::bounds(&both).ok_or(GpuError::NoVertices)?;
+    fit_to_bounds(
+        min,
+        max,
+        direction,
+        1.0,
+        Projection::Perspective {
+            vertical_fov: 30f32.to_radians(),
+        },
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,4 +1,4 @@
-//! A deforming LOD object on the GPU: the CPU runtime ([`DeformingLod`]) and the GPU
+//! A deforming LOD object on the GPU: the CPU runtime ([`DeformingState`]) and the GPU
 //! [`Object`] it drives, behind the `set` / `prepare` / `render` calls an application makes.
 //!
 //! This is the one place that wires the two together (dirty log into
@@ -13,17 +13,15 @@
 
 use std::sync::Arc;
 
-use super::object::check_t;
 use super::{Draws, GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
 use crate::asset::Asset;
-use crate::deform::{DeformingLod, DeformingModel, Lod};
+use crate::deform::{DeformingModel, DeformingState, Lod, SetError};
 use crate::morph::WeightTrack;
-use crate::Error;
 
 /// One deforming mesh with continuous LOD, ready to draw with one multi-draw per frame.
 pub struct LodObject {
     model: Arc<DeformingModel>,
-    state: DeformingLod,
+    state: DeformingState,
     object: Object,
     /// The weight track of an asset made from a weight animation (its targets live on the GPU).
     track: Option<WeightTrack>,
@@ -42,7 +40,7 @@ impl LodObject {
         pipeline: &MorphPipeline,
         asset: &Asset,
         model: Arc<DeformingModel>,
-    ) -> Result<LodObject, Error> {
+    ) -> Result<LodObject, GpuError> {
         let mut object = Object::new(
             device,
             pipeline,
@@ -57,15 +55,14 @@ impl LodObject {
                     return Err(GpuError::TrackMismatch {
                         track: blend.track.targets(),
                         targets: blend.deltas.len(),
-                    }
-                    .into());
+                    });
                 }
                 object.set_targets(device, pipeline, &blend.deltas)?;
                 Some(blend.track.clone())
             }
             None => None,
         };
-        let state = DeformingLod::new(&model);
+        let state = DeformingState::new(&model);
         Ok(LodObject {
             model,
             state,
@@ -74,17 +71,22 @@ impl LodObject {
         })
     }
 
-    /// Moves to time `t` (in `[0, 1]`) at `lod`: runs the CPU model, hands its dirty log to the
-    /// GPU object's mirror and sets the blend parameter. Nothing is uploaded until
-    /// [`prepare`](Self::prepare). On error nothing changed.
-    pub fn set(&mut self, t: f32, lod: Lod) -> Result<(), Error> {
-        // Checked before the runtime moves, so a refused `t` leaves both sides as they were.
-        check_t(t)?;
+    /// Moves to time `t` at `lod`: runs the CPU model, hands its dirty log to the GPU object's
+    /// mirror and sets the blend parameter. `t` outside `[0, 1]` and LOD fractions outside
+    /// `[0, 1]` are clamped (the CPU and the GPU side use the same `t`); a NaN `t` or LOD is
+    /// refused with a [`SetError`] and nothing changes. Nothing is uploaded until
+    /// [`prepare`](Self::prepare).
+    pub fn set(&mut self, t: f32, lod: Lod) -> Result<(), SetError> {
         self.state.set(&self.model, t, lod)?;
         let dirty = self.state.take_dirty();
+        // The object was made from this model's S0 and the weight track was checked against the
+        // targets in `new`: neither call can fail for a state of this model.
         self.object
-            .apply_dirty(&dirty, self.state.indices(), self.state.lengths())?;
-        self.object.set_pose(t, self.track.as_ref())?;
+            .apply_dirty(&dirty, self.state.indices(), self.state.lengths())
+            .expect("the object's regions are the model's strips");
+        self.object
+            .set_pose(t, self.track.as_ref())
+            .expect("t is not NaN and the track matches the targets");
         Ok(())
     }
 
@@ -130,7 +132,7 @@ impl LodObject {
     }
 
     /// The CPU runtime: current frame, LOD, triangle and index counts, live strips.
-    pub fn state(&self) -> &DeformingLod {
+    pub fn state(&self) -> &DeformingState {
         &self.state
     }
 
@@ -140,7 +142,7 @@ impl LodObject {
     }
 
     /// Mutable access to the GPU object, e.g. to draw it in a pass with other objects through
-    /// [`super::Target::render`].
+    /// [`super::RenderTarget::render`].
     pub fn object_mut(&mut self) -> &mut Object {
         &mut self.object
     }
@@ -152,8 +154,9 @@ impl LodObject {
 }
 
 /// The strips of `S0` as `model`'s runtime lays them out: region `r` = strip `r`, so the
-/// runtime's dirty logs address the object's regions directly.
-pub(crate) fn s0_regions(model: &DeformingModel) -> Vec<Vec<u32>> {
+/// runtime's dirty logs address the object's regions directly. What [`Object::new`] takes to
+/// draw the model's strips.
+pub fn s0_regions(model: &DeformingModel) -> Vec<Vec<u32>> {
     let layout = model.layout();
     let s0 = layout.s0();
     // The layout checked its offsets against S0 when it was made; `get` keeps this total anyway.

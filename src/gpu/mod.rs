@@ -14,10 +14,17 @@
 //!   `multi_draw_indexed_indirect`.
 //! * [`LodObject`] — an [`Object`] driven by its CPU LOD runtime: `set(t, lod)`, `prepare`,
 //!   `render`; what applications use.
-//! * [`Target`] — an offscreen colour + depth target and its readback into an `image::RgbaImage`.
-//! * [`camera`] — a view and projection fitted to an object's bounds.
-//! * [`bench`](mod@bench) — the frame-rate benchmark: LOD sweeps drawn as strips, as lists, at full detail.
-//! * [`sheet`] — contact sheets: one object rendered headless over a grid of `(t, lod)` states.
+//! * [`RenderTarget`] — an offscreen colour + depth target and its readback into an
+//!   `image::RgbaImage`, and [`save_png`].
+//! * [`camera`] — a view and projection fitted to an object's bounds or to both poses of an
+//!   asset.
+//!
+//! Only with the `gpu` feature (on by default). The tools built on this module — the
+//! frame-rate benchmark, contact sheets and plots — live with the `morphlod` binary
+//! (`src/bin/morphlod/`, feature `cli`).
+//!
+//! `t` outside `[0, 1]` is clamped, as on the CPU ([`crate::deform::DeformingModel::frame_at`]);
+//! NaN is [`GpuError::TimeNaN`] and changes nothing.
 //!
 //! The caller owns the device, queue and render pass (the `prepare` / `render` split of
 //! egui-wgpu and glyphon), so an object drops into any existing wgpu renderer.
@@ -41,20 +48,23 @@
 //! shader or layout duplication. Objects of the same asset still own separate index buffers,
 //! because each may sit at its own LOD and frame.
 
-pub mod bench;
 pub mod camera;
 mod context;
 mod lod_object;
 mod object;
 mod pipeline;
-pub mod sheet;
-mod target;
+mod pose;
+mod records;
+mod render_target;
+mod upload;
 
 pub use context::{test_context, Context};
-pub use lod_object::LodObject;
-pub use object::{Draws, Object, Topology, Upload, GROUP_INDICES, MERGE_GAP_BYTES};
+pub use lod_object::{s0_regions, LodObject};
+pub use object::{Object, Topology};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
-pub use target::{save_png, Target};
+pub use records::{Draws, GROUP_INDICES};
+pub use render_target::{save_png, RenderTarget};
+pub use upload::{Upload, MERGE_GAP_BYTES};
 
 use std::path::PathBuf;
 use thiserror::Error;
@@ -160,11 +170,17 @@ pub enum GpuError {
         value: String,
         expected: &'static str,
     },
-    /// An offscreen target of zero size or larger than the device allows.
+    /// An offscreen render target of zero size or larger than the device allows.
     #[error(
         "a {width}x{height} target is not possible: each side must be between 1 and {max} pixels"
     )]
-    TargetSize { width: u32, height: u32, max: u32 },
+    RenderTargetSize { width: u32, height: u32, max: u32 },
+    /// The blend parameter `t` is NaN (values outside `[0, 1]` are clamped).
+    #[error("t is NaN; pass a time in [0, 1]")]
+    TimeNaN,
+    /// Nothing to frame: the asset has no vertices.
+    #[error("the asset has no vertices to frame")]
+    NoVertices,
     /// Waiting for the GPU failed (device lost, timeout).
     #[error("waiting for the GPU failed: {0}")]
     Poll(#[from] wgpu::PollError),

@@ -81,8 +81,8 @@ impl MorphPipeline {
     /// Pipelines with back-face culling (counter-clockwise = front, as in the mesh definitions).
     ///
     /// `color_format` and `depth_format` must match the attachments of every pass the objects
-    /// are drawn in ([`super::Target::COLOR_FORMAT`] / [`super::Target::DEPTH_FORMAT`] for an
-    /// offscreen [`super::Target`]); wgpu rejects a mismatch when the pass is recorded.
+    /// are drawn in ([`super::RenderTarget::COLOR_FORMAT`] / [`super::RenderTarget::DEPTH_FORMAT`] for an
+    /// offscreen [`super::RenderTarget`]); wgpu rejects a mismatch when the pass is recorded.
     pub fn new(
         device: &wgpu::Device,
         color_format: wgpu::TextureFormat,

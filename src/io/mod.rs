@@ -1,4 +1,5 @@
-//! Loading meshes and morphs from files: Wavefront OBJ, OFF, PLY (ASCII and
+//! Loading meshes and morphs from files (every file → [`IndexedMesh`] and file →
+//! [`Morph`](crate::Morph) conversion lives here; `mesh` and `morph` know no file formats): Wavefront OBJ, OFF, PLY (ASCII and
 //! binary little-endian) and glTF 2.0 / GLB. Every loader returns a typed
 //! [`LoadError`] naming the file and the line or element at fault; none may
 //! panic on any input.
@@ -13,7 +14,10 @@ pub mod off;
 pub mod ply;
 mod text;
 
+pub use gltf::{load_morph, MorphSource};
+
 use crate::mesh::{IndexedMesh, MeshError};
+use crate::morph::MorphError;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -141,6 +145,32 @@ pub enum LoadError {
         wanted: String,
         available: String,
     },
+    /// The glTF mesh has no morph targets to make a morph from.
+    #[error("{path}: mesh '{mesh}' has no morph targets")]
+    NoTargets { path: PathBuf, mesh: String },
+    #[error("{path}: no morph target '{wanted}'; the file has: {available}")]
+    NoSuchTarget {
+        path: PathBuf,
+        wanted: String,
+        available: String,
+    },
+    #[error("{path}: no animation '{wanted}'; the file has: {available}")]
+    NoSuchAnimation {
+        path: PathBuf,
+        wanted: String,
+        available: String,
+    },
+    #[error(
+        "{path}: animation '{animation}' has no channel animating the weights of mesh '{mesh}'"
+    )]
+    NoWeightChannel {
+        path: PathBuf,
+        animation: String,
+        mesh: String,
+    },
+    /// The file's data makes no valid morph (see [`MorphError`]).
+    #[error(transparent)]
+    Morph(#[from] MorphError),
 }
 
 /// Choices that only some formats use.

@@ -28,19 +28,20 @@
 //! runtime rebuild any LOD of a frame in one pass, bit-identical to stepping
 //! (tests/oracle_deform.rs compares the two).
 
+use crate::varint;
 use thiserror::Error;
 
 use super::runtime::cut;
 use super::{
-    kind_len, push_footer, push_group, push_header, push_var, zigzag, CopyEntry, FrameChanges,
-    StripLayout, CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
+    kind_len, push_footer, push_group, push_header, zigzag, CopyEntry, FrameChanges, StripLayout,
+    CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
 };
 use crate::collapse::{CollapseSequence, SequenceError, NEVER};
 use crate::strip::Strips;
 
 /// Why a model cannot be built from these strips and this sequence.
 #[derive(Debug, Error, Clone, PartialEq)]
-pub enum BuildError {
+pub enum ChangeListError {
     #[error(transparent)]
     Sequence(#[from] SequenceError),
     #[error("strip offsets are malformed at entry {entry}: offsets must start at 0, never decrease and end at the index count {indices}; rebuild the strips with strip::stripify")]
@@ -53,12 +54,10 @@ pub enum BuildError {
     },
     #[error("the collapse sequence is for {sequence} vertices but the strips index a {strips}-vertex mesh; build both from the same mesh")]
     VertexCount { sequence: usize, strips: usize },
-    #[error("{what} is {value}, above the supported {limit}; split the mesh")]
-    TooLarge {
-        what: &'static str,
-        value: usize,
-        limit: usize,
-    },
+    #[error("the vertex count is {vertices}, above the supported {limit}; split the mesh")]
+    TooManyVertices { vertices: usize, limit: usize },
+    #[error("the strip index count is {indices}, above the supported {limit}; split the mesh")]
+    TooManyIndices { indices: usize, limit: usize },
 }
 
 /// Largest vertex count and strip length the change stream encodes.
@@ -76,20 +75,18 @@ fn live_windows(strip: &[u32]) -> u32 {
         .count() as u32
 }
 
-pub(super) fn layout(s0: &Strips, vertex_count: u32) -> Result<StripLayout, BuildError> {
+pub(super) fn layout(s0: &Strips, vertex_count: u32) -> Result<StripLayout, ChangeListError> {
     let vertices = vertex_count as usize;
     if vertices > VERTEX_LIMIT {
-        return Err(BuildError::TooLarge {
-            what: "the vertex count",
-            value: vertices,
+        return Err(ChangeListError::TooManyVertices {
+            vertices,
             limit: VERTEX_LIMIT,
         });
     }
     let total = s0.indices.len();
     if total > INDEX_LIMIT {
-        return Err(BuildError::TooLarge {
-            what: "the strip index count",
-            value: total,
+        return Err(ChangeListError::TooManyIndices {
+            indices: total,
             limit: INDEX_LIMIT,
         });
     }
@@ -97,7 +94,7 @@ pub(super) fn layout(s0: &Strips, vertex_count: u32) -> Result<StripLayout, Buil
         Some(0) => {}
         None if total == 0 => {}
         _ => {
-            return Err(BuildError::BadOffsets {
+            return Err(ChangeListError::BadOffsets {
                 entry: 0,
                 indices: total,
             })
@@ -105,7 +102,7 @@ pub(super) fn layout(s0: &Strips, vertex_count: u32) -> Result<StripLayout, Buil
     }
     for (entry, w) in s0.offsets.windows(2).enumerate() {
         if w[1] < w[0] {
-            return Err(BuildError::BadOffsets {
+            return Err(ChangeListError::BadOffsets {
                 entry: entry + 1,
                 indices: total,
             });
@@ -113,14 +110,14 @@ pub(super) fn layout(s0: &Strips, vertex_count: u32) -> Result<StripLayout, Buil
     }
     if let Some(&last) = s0.offsets.last() {
         if last as usize != total {
-            return Err(BuildError::BadOffsets {
+            return Err(ChangeListError::BadOffsets {
                 entry: s0.offsets.len() - 1,
                 indices: total,
             });
         }
     }
     if let Some(position) = s0.indices.iter().position(|&v| v as usize >= vertices) {
-        return Err(BuildError::IndexOutOfRange {
+        return Err(ChangeListError::IndexOutOfRange {
             position,
             index: s0.indices[position],
             vertices,
@@ -160,150 +157,236 @@ struct Tokens {
     copies: Vec<(u32, u32)>,
 }
 
+/// The change lists of one frame: replay `seq` over `S0`, one named stage after another
+/// per collapse (the module docs give the rules each stage follows).
 pub(super) fn frame(
     layout: &StripLayout,
     seq: &CollapseSequence,
-) -> Result<FrameChanges, BuildError> {
+) -> Result<FrameChanges, ChangeListError> {
+    check_sequence(layout, seq)?;
+    let mut replay = Replay::new(layout, seq);
+    for (step, c) in seq.collapses.iter().enumerate() {
+        replay.mark_cursor(step);
+        replay.rewrite(c.u, c.w);
+        replay.merge_strip_sets(c.u, c.w);
+        let (resizes, removed) = replay.reduce_touched(step);
+        replay.emit_step(step, resizes, removed);
+    }
+    Ok(replay.finish(seq))
+}
+
+/// A sequence valid on its own and made for the layout's vertex count.
+fn check_sequence(layout: &StripLayout, seq: &CollapseSequence) -> Result<(), ChangeListError> {
     seq.validate()?;
     if seq.vertex_count != layout.vertex_count {
-        return Err(BuildError::VertexCount {
+        return Err(ChangeListError::VertexCount {
             sequence: seq.vertex_count as usize,
             strips: layout.vertex_count as usize,
         });
     }
-    let region_offsets = &layout.region_offsets;
-    let strips = region_offsets.len() - 1;
-    let mut buf = layout.s0.clone();
-    let total = buf.len();
-    let mut lens: Vec<usize> = region_offsets
-        .windows(2)
-        .map(|w| (w[1] - w[0]) as usize)
-        .collect();
-    let mut tokens = Tokens {
-        at: (0..total as u32).collect(),
-        next: (1..=total as u32).collect(),
-        death: vec![NEVER; total],
-        copies: Vec::new(),
-    };
-    for w in region_offsets.windows(2) {
-        if w[1] > w[0] {
-            tokens.next[w[1] as usize - 1] = NEVER;
-        }
-    }
+    Ok(())
+}
 
-    // Vertex → sorted strips that may hold it (a superset: merged on collapse).
-    let mut strips_of: Vec<Vec<u32>> = vec![Vec::new(); seq.vertex_count as usize];
-    for s in 0..strips {
-        let region = &buf[region_offsets[s] as usize..region_offsets[s + 1] as usize];
-        for &v in region {
-            let list = &mut strips_of[v as usize];
-            if list.last() != Some(&(s as u32)) {
-                list.push(s as u32);
+/// The state of one frame's replay over `S0`: the live strips, where each entry came from,
+/// and the stream recorded so far, with scratch buffers reused from step to step.
+struct Replay<'a> {
+    region_offsets: &'a [u32],
+    /// The index buffer (all regions at their `S0` capacity).
+    buf: Vec<u32>,
+    /// Live length of each strip.
+    lens: Vec<usize>,
+    tokens: Tokens,
+    /// Vertex → sorted strips that may hold it (a superset: merged on collapse).
+    strips_of: Vec<Vec<u32>>,
+    stream: Vec<u8>,
+    cursors: Vec<u32>,
+    /// Triangles drawn after each step (`triangles[0]`: at `S0`).
+    triangles: Vec<u32>,
+    /// This step's rewrite groups and resize records.
+    rewrites: Vec<u8>,
+    resizes: Vec<u8>,
+    /// This step's strips that held `u`, with their live triangles before the step.
+    touched: Vec<(u32, u32)>,
+    positions: Vec<u32>,
+    needed: Vec<bool>,
+    merged: Vec<u32>,
+}
+
+impl<'a> Replay<'a> {
+    /// The buffer at `S0`, every slot its own token, every vertex's strips.
+    fn new(layout: &'a StripLayout, seq: &CollapseSequence) -> Self {
+        let region_offsets = &layout.region_offsets[..];
+        let strips = region_offsets.len() - 1;
+        let buf = layout.s0.clone();
+        let total = buf.len();
+        let lens: Vec<usize> = region_offsets
+            .windows(2)
+            .map(|w| (w[1] - w[0]) as usize)
+            .collect();
+        let mut tokens = Tokens {
+            at: (0..total as u32).collect(),
+            next: (1..=total as u32).collect(),
+            death: vec![NEVER; total],
+            copies: Vec::new(),
+        };
+        for w in region_offsets.windows(2) {
+            if w[1] > w[0] {
+                tokens.next[w[1] as usize - 1] = NEVER;
             }
         }
+        let mut strips_of: Vec<Vec<u32>> = vec![Vec::new(); seq.vertex_count as usize];
+        for s in 0..strips {
+            let region = &buf[region_offsets[s] as usize..region_offsets[s + 1] as usize];
+            for &v in region {
+                let list = &mut strips_of[v as usize];
+                if list.last() != Some(&(s as u32)) {
+                    list.push(s as u32);
+                }
+            }
+        }
+        let mut triangles: Vec<u32> = Vec::with_capacity(seq.len() + 1);
+        triangles.push(layout.triangles_at_0);
+        Replay {
+            region_offsets,
+            buf,
+            lens,
+            tokens,
+            strips_of,
+            stream: Vec::new(),
+            cursors: Vec::new(),
+            triangles,
+            rewrites: Vec::new(),
+            resizes: Vec::new(),
+            touched: Vec::new(),
+            positions: Vec::new(),
+            needed: Vec::new(),
+            merged: Vec::new(),
+        }
     }
 
-    let mut stream: Vec<u8> = Vec::new();
-    let mut cursors: Vec<u32> = Vec::new();
-    let mut triangles: Vec<u32> = Vec::with_capacity(seq.len() + 1);
-    triangles.push(layout.triangles_at_0);
-    let mut rewrites: Vec<u8> = Vec::new();
-    let mut resizes: Vec<u8> = Vec::new();
-    let mut positions: Vec<u32> = Vec::new();
-    let mut touched: Vec<(u32, u32)> = Vec::new();
-    let mut needed: Vec<bool> = Vec::new();
-    let mut merged: Vec<u32> = Vec::new();
-    for (step, c) in seq.collapses.iter().enumerate() {
-        if step % CURSOR_STRIDE == 0 {
-            cursors.push(stream.len() as u32);
+    /// Every `CURSOR_STRIDE` steps, where the step starts in the stream.
+    fn mark_cursor(&mut self, step: usize) {
+        if step.is_multiple_of(CURSOR_STRIDE) {
+            self.cursors.push(self.stream.len() as u32);
         }
-        let (u, w) = (c.u, c.w);
-        rewrites.clear();
-        resizes.clear();
-        touched.clear();
+    }
+
+    /// Every position holding `u` in the live strips becomes `w`, recorded as one rewrite
+    /// group per strip; the strips touched are kept with their triangle counts before.
+    fn rewrite(&mut self, u: u32, w: u32) {
+        self.rewrites.clear();
+        self.resizes.clear();
+        self.touched.clear();
         let mut previous = 0u32;
-        for &s in &strips_of[u as usize] {
-            let base = region_offsets[s as usize] as usize;
-            let region = &mut buf[base..base + lens[s as usize]];
-            positions.clear();
-            positions.extend(
+        for &s in &self.strips_of[u as usize] {
+            let base = self.region_offsets[s as usize] as usize;
+            let region = &mut self.buf[base..base + self.lens[s as usize]];
+            self.positions.clear();
+            self.positions.extend(
                 region
                     .iter()
                     .enumerate()
                     .filter(|(_, &v)| v == u)
                     .map(|(p, _)| p as u32),
             );
-            if positions.is_empty() {
+            if self.positions.is_empty() {
                 continue;
             }
             let before = live_windows(region);
-            push_group(&mut rewrites, s - previous, positions.len() as u32);
+            push_group(
+                &mut self.rewrites,
+                s - previous,
+                self.positions.len() as u32,
+            );
             previous = s;
             let mut last = 0u32;
-            for &p in &positions {
+            for &p in &self.positions {
                 region[p as usize] = w;
-                push_var(&mut rewrites, p - last);
+                varint::put_u32(&mut self.rewrites, p - last);
                 last = p;
             }
-            touched.push((s, before));
+            self.touched.push((s, before));
         }
-        // `u` is gone; the strips that held it now hold `w`.
-        merged.clear();
+    }
+
+    /// `u` is gone; the strips that held it now hold `w` (a sorted merge).
+    fn merge_strip_sets(&mut self, u: u32, w: u32) {
+        self.merged.clear();
         let (mut a, mut b) = (0, 0);
-        let into = &strips_of[w as usize];
+        let touched = &self.touched;
+        let into = &self.strips_of[w as usize];
         while a < touched.len() || b < into.len() {
             let x = touched.get(a).map_or(u32::MAX, |t| t.0);
             let y = into.get(b).copied().unwrap_or(u32::MAX);
-            merged.push(x.min(y));
+            self.merged.push(x.min(y));
             a += usize::from(x <= y);
             b += usize::from(y <= x);
         }
-        std::mem::swap(&mut strips_of[w as usize], &mut merged);
-        strips_of[u as usize] = Vec::new();
+        std::mem::swap(&mut self.strips_of[w as usize], &mut self.merged);
+        self.strips_of[u as usize] = Vec::new();
+    }
 
+    /// Applies the reduction rules to every touched strip; returns the resize records
+    /// written and the triangles the step removed.
+    fn reduce_touched(&mut self, step: usize) -> (u32, u32) {
         let mut resize_count = 0u32;
         let mut removed = 0u32;
-        for (group, &(s, before)) in touched.iter().enumerate() {
-            let base = region_offsets[s as usize] as usize;
-            let cap = region_offsets[s as usize + 1] as usize;
-            let live = lens[s as usize];
+        for (group, &(s, before)) in self.touched.iter().enumerate() {
+            let base = self.region_offsets[s as usize] as usize;
+            let cap = self.region_offsets[s as usize + 1] as usize;
+            let live = self.lens[s as usize];
             let (new_live, count) = reduce(
                 Region {
-                    values: &mut buf[base..cap],
-                    tokens: &mut tokens,
+                    values: &mut self.buf[base..cap],
+                    tokens: &mut self.tokens,
                     base,
                     death: step as u32 + 1,
                 },
                 live,
                 group as u32,
-                &mut needed,
-                &mut resizes,
+                &mut self.needed,
+                &mut self.resizes,
             );
-            lens[s as usize] = new_live;
+            self.lens[s as usize] = new_live;
             resize_count += count;
-            removed += before - live_windows(&buf[base..base + new_live]);
+            removed += before - live_windows(&self.buf[base..base + new_live]);
         }
-        let start = stream.len();
-        push_header(&mut stream, touched.len() as u32, resize_count, removed);
-        stream.extend_from_slice(&rewrites);
-        stream.extend_from_slice(&resizes);
-        let body = (stream.len() - start) as u32;
-        push_footer(&mut stream, body);
-        triangles.push(triangles[step] - removed);
+        (resize_count, removed)
     }
-    cursors.push(stream.len() as u32);
-    Ok(FrameChanges {
-        collapses: seq.collapses.iter().map(|c| [c.u, c.w]).collect(),
-        stream,
-        cursors,
-        triangles,
-        copies: flatten_copies(region_offsets, &tokens),
-        death: {
-            let mut death = tokens.death;
-            death.truncate(total);
-            death
-        },
-    })
+
+    /// The step's record: header, rewrite groups, resizes, then the footer that lets the
+    /// runtime walk the stream backward.
+    fn emit_step(&mut self, step: usize, resize_count: u32, removed: u32) {
+        let start = self.stream.len();
+        push_header(
+            &mut self.stream,
+            self.touched.len() as u32,
+            resize_count,
+            removed,
+        );
+        self.stream.extend_from_slice(&self.rewrites);
+        self.stream.extend_from_slice(&self.resizes);
+        let body = (self.stream.len() - start) as u32;
+        push_footer(&mut self.stream, body);
+        self.triangles.push(self.triangles[step] - removed);
+    }
+
+    fn finish(mut self, seq: &CollapseSequence) -> FrameChanges {
+        self.cursors.push(self.stream.len() as u32);
+        let total = self.buf.len();
+        FrameChanges {
+            collapses: seq.collapses.iter().map(|c| [c.u, c.w]).collect(),
+            copies: flatten_copies(self.region_offsets, &self.tokens),
+            stream: self.stream,
+            cursors: self.cursors,
+            triangles: self.triangles,
+            death: {
+                let mut death = self.tokens.death;
+                death.truncate(total);
+                death
+            },
+        }
+    }
 }
 
 /// The copies in the order of their strips' token lists, each placed after
@@ -417,12 +500,12 @@ fn reduce(
             junction(&region.values[..current], i, j).map(|kind| (i, j - i, kind))
         };
         if let Some((at, len, kind)) = cut_at {
-            push_var(out, group);
-            push_var(out, at as u32);
-            push_var(out, ((len as u32) << 3) | u32::from(kind));
+            varint::put_u32(out, group);
+            varint::put_u32(out, at as u32);
+            varint::put_u32(out, ((len as u32) << 3) | u32::from(kind));
             let mut previous = if at > 0 { region.values[at - 1] } else { 0 };
             for &v in &region.values[at..at + len] {
-                push_var(out, zigzag(v, previous));
+                varint::put_u32(out, zigzag(v, previous));
                 previous = v;
             }
             current = region.cut(current, at, len, kind);
@@ -486,14 +569,14 @@ fn junction(strip: &[u32], i: usize, j: usize) -> Option<u16> {
 mod tests {
     use super::*;
     use crate::collapse::canonical_multiset;
-    use crate::lodstrips::{LodError, LodState, LodStrips};
+    use crate::lodstrips::{LodError, LodStrips, StripsState};
     use crate::strip::strip_triangles;
 
     fn seq(n: u32, pairs: &[(u32, u32)]) -> CollapseSequence {
         CollapseSequence::from_pairs(n, pairs)
     }
 
-    fn drawn(model: &LodStrips, state: &LodState) -> Vec<[u32; 3]> {
+    fn drawn(model: &LodStrips, state: &StripsState) -> Vec<[u32; 3]> {
         let mut t = Vec::new();
         for s in 0..model.strip_count() {
             t.extend(strip_triangles(state.strip(s).unwrap_or_default()));
@@ -513,15 +596,15 @@ mod tests {
         };
         assert!(matches!(
             LodStrips::build(&bad, &seq(3, &[])),
-            Err(BuildError::BadOffsets { .. })
+            Err(ChangeListError::BadOffsets { .. })
         ));
         assert!(matches!(
             LodStrips::build(&strips, &seq(2, &[])),
-            Err(BuildError::IndexOutOfRange { index: 2, .. })
+            Err(ChangeListError::IndexOutOfRange { index: 2, .. })
         ));
         assert!(matches!(
             LodStrips::build(&strips, &seq(3, &[(0, 0)])),
-            Err(BuildError::Sequence(_))
+            Err(ChangeListError::Sequence(_))
         ));
     }
 
@@ -530,7 +613,7 @@ mod tests {
         // Strip 0: collapsing 3 → 2 and 4 → 5 leaves `0 1 2 2 5 5 6 7`; the
         // middle `2 5` is unneeded, but cutting it would draw (1, 2, 5) and
         // (2, 5, 6). Strip 1: `8 9 10 10 10 10 11 12` after 13, 14 → 10 may
-        // lose two 10s (`(aa)+ → aa`), never three (the DESIGN.md trap).
+        // lose two 10s (`(aa)+ → aa`), never three (the trap described in `docs/DESIGN.md`).
         let indices = vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 13, 14, 10, 11, 12];
         let strips = Strips {
             indices: indices.clone(),
@@ -539,7 +622,7 @@ mod tests {
         let tris = strips.triangles();
         let s = seq(15, &[(3, 2), (4, 5), (13, 10), (14, 10)]);
         let model = LodStrips::build(&strips, &s).unwrap();
-        let mut state = LodState::new(&model);
+        let mut state = StripsState::new(&model);
         for l in [2, 4, 1, 3, 0, 4, 2, 0] {
             state.set_lod(&model, l).unwrap();
             assert_eq!(
@@ -561,7 +644,7 @@ mod tests {
         };
         let s = seq(4, &[(3, 2), (2, 1)]);
         let model = LodStrips::build(&strips, &s).unwrap();
-        let mut state = LodState::new(&model);
+        let mut state = StripsState::new(&model);
         state.set_lod(&model, 2).unwrap();
         assert_eq!(state.index_count(), 0);
         state.set_lod(&model, 0).unwrap();

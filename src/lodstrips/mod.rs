@@ -30,11 +30,12 @@
 mod build;
 mod runtime;
 
-pub use build::BuildError;
-pub use runtime::{Dirty, DirtyRange, LodError, LodState};
+pub use build::ChangeListError;
+pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
 
 use crate::collapse::CollapseSequence;
 use crate::strip::Strips;
+use crate::varint;
 
 /// Replacement kinds of a resize: the run `s[i..i+len]` is replaced by copies
 /// of its neighbours `B = s[i-1]` and `C = s[i+len]`.
@@ -72,7 +73,7 @@ pub struct StripLayout {
 impl StripLayout {
     /// Checks `s0` (offsets well formed, every index below `vertex_count`) and
     /// takes it as the common layout.
-    pub fn new(s0: &Strips, vertex_count: u32) -> Result<StripLayout, BuildError> {
+    pub fn new(s0: &Strips, vertex_count: u32) -> Result<StripLayout, ChangeListError> {
         build::layout(s0, vertex_count)
     }
 
@@ -151,7 +152,10 @@ const CURSOR_STRIDE: usize = 64;
 
 impl FrameChanges {
     /// Records the change lists of `seq` over `layout`.
-    pub fn build(layout: &StripLayout, seq: &CollapseSequence) -> Result<FrameChanges, BuildError> {
+    pub fn build(
+        layout: &StripLayout,
+        seq: &CollapseSequence,
+    ) -> Result<FrameChanges, ChangeListError> {
         build::frame(layout, seq)
     }
 
@@ -214,7 +218,7 @@ impl FrameChanges {
 pub struct LodStrips {
     layout: StripLayout,
     frame: FrameChanges,
-    /// Identifies the model a [`LodState`] was made for (clones share it).
+    /// Identifies the model a [`StripsState`] was made for (clones share it).
     id: u64,
 }
 
@@ -228,7 +232,7 @@ pub(crate) fn next_id() -> u64 {
 
 impl LodStrips {
     /// Records the change lists of `seq` over the strips `s0`.
-    pub fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, BuildError> {
+    pub fn build(s0: &Strips, seq: &CollapseSequence) -> Result<LodStrips, ChangeListError> {
         let layout = StripLayout::new(s0, seq.vertex_count)?;
         let frame = FrameChanges::build(&layout, seq)?;
         Ok(LodStrips {
@@ -264,32 +268,6 @@ impl LodStrips {
     }
 }
 
-/// Appends `v` as LEB128: 7 bits per byte, low group first, top bit set on
-/// every byte but the last. Positions and deltas are mostly below 128, so
-/// most numbers take one byte.
-fn push_var(out: &mut Vec<u8>, mut v: u32) {
-    while v >= 0x80 {
-        out.push((v as u8) | 0x80);
-        v >>= 7;
-    }
-    out.push(v as u8);
-}
-
-/// Reads a number written by [`push_var`] at `*at`, advancing `*at`.
-fn read_var(stream: &[u8], at: &mut usize) -> u32 {
-    let mut v = 0u32;
-    let mut shift = 0;
-    loop {
-        let b = stream[*at];
-        *at += 1;
-        v |= u32::from(b & 0x7F) << shift;
-        if b & 0x80 == 0 {
-            return v;
-        }
-        shift += 7;
-    }
-}
-
 /// Step header: counts of rewrite groups, resizes and removed triangles. The
 /// common small case (most collapses touch a few strips and remove two
 /// triangles) fits one byte; `0xFF` escapes to three numbers.
@@ -298,9 +276,9 @@ fn push_header(out: &mut Vec<u8>, groups: u32, resizes: u32, removed: u32) {
         out.push((groups | resizes << 4 | removed << 6) as u8);
     } else {
         out.push(0xFF);
-        push_var(out, groups);
-        push_var(out, resizes);
-        push_var(out, removed);
+        varint::put_u32(out, groups);
+        varint::put_u32(out, resizes);
+        varint::put_u32(out, removed);
     }
 }
 
@@ -311,9 +289,9 @@ fn read_header(stream: &[u8], at: &mut usize) -> (u32, u32, u32) {
         let h = u32::from(h);
         (h & 15, (h >> 4) & 3, h >> 6)
     } else {
-        let groups = read_var(stream, at);
-        let resizes = read_var(stream, at);
-        (groups, resizes, read_var(stream, at))
+        let groups = varint::read_u32(stream, at);
+        let resizes = varint::read_u32(stream, at);
+        (groups, resizes, varint::read_u32(stream, at))
     }
 }
 
@@ -322,45 +300,38 @@ fn read_header(stream: &[u8], at: &mut usize) -> (u32, u32, u32) {
 /// second number).
 fn push_group(out: &mut Vec<u8>, strip_delta: u32, count: u32) {
     let c = (count - 1).min(3);
-    push_var(out, strip_delta << 2 | c);
+    varint::put_u32(out, strip_delta << 2 | c);
     if c == 3 {
-        push_var(out, count - 4);
+        varint::put_u32(out, count - 4);
     }
 }
 
 fn read_group(stream: &[u8], at: &mut usize) -> (u32, u32) {
-    let v = read_var(stream, at);
+    let v = varint::read_u32(stream, at);
     let c = v & 3;
     let count = if c == 3 {
-        4 + read_var(stream, at)
+        4 + varint::read_u32(stream, at)
     } else {
         c + 1
     };
     (v >> 2, count)
 }
 
-/// Bytes [`push_var`] and [`push_footer`] take for `v`.
-fn var_len(v: u32) -> usize {
-    (32 - (v | 1).leading_zeros() as usize).div_ceil(7)
-}
-
 /// A removed index stored as the zigzag difference to the index before it:
 /// degenerate runs repeat their neighbours, so this is mostly 0 (one byte).
 fn zigzag(value: u32, previous: u32) -> u32 {
-    let d = value.wrapping_sub(previous) as i32;
-    ((d << 1) ^ (d >> 31)) as u32
+    varint::zigzag32(value.wrapping_sub(previous) as i32)
 }
 
 fn unzigzag(z: u32, previous: u32) -> u32 {
-    let d = ((z >> 1) as i32) ^ -((z & 1) as i32);
-    previous.wrapping_add(d as u32)
+    previous.wrapping_add(varint::unzigzag32(z) as u32)
 }
 
 /// Appends a step footer: the step's length in bytes, footer excluded, as
 /// LEB128 groups written high first, so that it reads backward from the end:
 /// the last byte holds the low group, its top bit says whether more precede.
 fn push_footer(out: &mut Vec<u8>, len: u32) {
-    let groups = var_len(len);
+    let groups = varint::len_u32(len);
     for g in (0..groups).rev() {
         let bits = ((len >> (7 * g)) & 0x7F) as u8;
         out.push(if g + 1 < groups { bits | 0x80 } else { bits });

@@ -8,19 +8,20 @@
 //! allocated per change; the scratch vectors are reused.
 
 use super::{
-    kind_len, read_group, read_header, read_var, step_start_before, unzigzag, var_len,
-    FrameChanges, LodStrips, StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
+    kind_len, read_group, read_header, step_start_before, unzigzag, FrameChanges, LodStrips,
+    StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
 };
+use crate::varint;
 
 /// Why a state cannot move.
 #[derive(Debug, thiserror::Error, Clone, Copy, PartialEq, Eq)]
 pub enum LodError {
-    #[error("this LodState was made for another LodStrips model; make one with LodState::new(&model) for each model")]
+    #[error("this StripsState was made for another LodStrips model; make one with StripsState::new(&model) for each model")]
     WrongModel,
 }
 
 /// Changed part of one strip's region: indices `start..end` relative to the
-/// region start (coalesced over all changes since the last [`LodState::take_dirty`]).
+/// region start (coalesced over all changes since the last [`StripsState::take_dirty`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DirtyRange {
     pub strip: u32,
@@ -38,7 +39,7 @@ pub struct Dirty {
 
 /// The current strips at some LOD of one [`LodStrips`] model.
 #[derive(Clone, Debug)]
-pub struct LodState {
+pub struct StripsState {
     model_id: u64,
     region_offsets: Vec<u32>,
     indices: Vec<u32>,
@@ -55,21 +56,21 @@ pub struct LodState {
     scratch: Vec<usize>,
     /// Strips of the current step's rewrite groups (resizes name strips by group).
     group_strips: Vec<u32>,
-    /// Survivors, scratch of [`LodState::rebuild`].
+    /// Survivors, scratch of [`StripsState::rebuild`].
     anc: Vec<u32>,
 }
 
-impl LodState {
+impl StripsState {
     /// The state at LOD 0: the buffer holds `S0`, nothing is dirty.
-    pub fn new(model: &LodStrips) -> LodState {
-        LodState::at_s0(&model.layout, model.id)
+    pub fn new(model: &LodStrips) -> StripsState {
+        StripsState::at_s0(&model.layout, model.id)
     }
 
     /// The state at LOD 0 of any frame over `layout`, tagged with the id of
     /// the model that owns the layout.
-    pub(crate) fn at_s0(layout: &StripLayout, model_id: u64) -> LodState {
+    pub(crate) fn at_s0(layout: &StripLayout, model_id: u64) -> StripsState {
         let strips = layout.strip_count();
-        LodState {
+        StripsState {
             model_id,
             region_offsets: layout.region_offsets.clone(),
             indices: layout.s0.clone(),
@@ -262,12 +263,12 @@ impl LodState {
         let (groups, resizes, removed) = read_header(s, &mut at);
         at = self.rewrite(model, at, groups, w);
         for _ in 0..resizes {
-            let strip = self.group_strips[read_var(s, &mut at) as usize] as usize;
-            let i = read_var(s, &mut at) as usize;
-            let lk = read_var(s, &mut at);
+            let strip = self.group_strips[varint::read_u32(s, &mut at) as usize] as usize;
+            let i = varint::read_u32(s, &mut at) as usize;
+            let lk = varint::read_u32(s, &mut at);
             let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
             for _ in 0..len {
-                read_var(s, &mut at);
+                varint::read_u32(s, &mut at);
             }
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
@@ -278,7 +279,7 @@ impl LodState {
             self.mark_len(strip);
         }
         // Skip the footer, which holds the length just read.
-        at += var_len((at - self.cursor) as u32);
+        at += varint::len_u32((at - self.cursor) as u32);
         self.cursor = at;
         self.triangles -= removed;
         self.lod += 1;
@@ -301,24 +302,24 @@ impl LodState {
             strip += delta;
             self.group_strips.push(strip);
             for _ in 0..count {
-                read_var(s, &mut at);
+                varint::read_u32(s, &mut at);
             }
         }
         self.scratch.clear();
         for _ in 0..resizes {
             self.scratch.push(at);
-            read_var(s, &mut at);
-            read_var(s, &mut at);
-            let len = read_var(s, &mut at) >> 3;
+            varint::read_u32(s, &mut at);
+            varint::read_u32(s, &mut at);
+            let len = varint::read_u32(s, &mut at) >> 3;
             for _ in 0..len {
-                read_var(s, &mut at);
+                varint::read_u32(s, &mut at);
             }
         }
         for k in (0..self.scratch.len()).rev() {
             let mut at = self.scratch[k];
-            let strip = self.group_strips[read_var(s, &mut at) as usize] as usize;
-            let i = read_var(s, &mut at) as usize;
-            let lk = read_var(s, &mut at);
+            let strip = self.group_strips[varint::read_u32(s, &mut at) as usize] as usize;
+            let i = varint::read_u32(s, &mut at) as usize;
+            let lk = varint::read_u32(s, &mut at);
             let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
@@ -327,7 +328,7 @@ impl LodState {
             region.copy_within(i + kind_len(kind)..live, i + len);
             let mut previous = if i > 0 { region[i - 1] } else { 0 };
             for slot in &mut region[i..i + len] {
-                previous = unzigzag(read_var(s, &mut at), previous);
+                previous = unzigzag(varint::read_u32(s, &mut at), previous);
                 *slot = previous;
             }
             self.lens[strip] = new_live as u32;
@@ -354,7 +355,7 @@ impl LodState {
             let mut pos = 0u32;
             let mut lo = u32::MAX;
             for _ in 0..count {
-                pos += read_var(s, &mut at);
+                pos += varint::read_u32(s, &mut at);
                 self.indices[base + pos as usize] = value;
                 lo = lo.min(pos);
             }

@@ -19,9 +19,7 @@ mod track;
 
 pub use track::{Interpolation, WeightTrack};
 
-use crate::io::{LoadError, LoadOptions};
 use crate::mesh::IndexedMesh;
-use std::path::Path;
 use thiserror::Error;
 
 /// One morph target: per-vertex position offsets added with a weight.
@@ -38,21 +36,6 @@ pub enum Weights {
     TwoPose { w0: Vec<f32>, w1: Vec<f32> },
     /// `w(t) = track(t · track.duration())`.
     Animated(WeightTrack),
-}
-
-/// Which poses of a glTF mesh's morph targets make the morph.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum MorphSource {
-    /// One target, by name (from `mesh.extras.targetNames`) or index:
-    /// `V(0)` = base (all weights 0, ignoring the mesh's default weights, so the
-    /// morph shows exactly that target), `V(1)` = base + the target at weight 1.
-    Target(String),
-    /// A weight animation, by name or index, played over its whole duration,
-    /// evaluated with its own interpolation (STEP, LINEAR or CUBICSPLINE).
-    Animation(String),
-    /// `V(0)` = base (all weights 0), `V(1)` = the mesh's default weights
-    /// (`mesh.weights`, all 0 when absent).
-    DefaultWeights,
 }
 
 /// A deforming mesh over one triangulation. Fields are private so the length
@@ -128,30 +111,6 @@ pub enum MorphError {
     WeightNotFinite { index: usize },
     #[error("weight track output value {index} is not finite")]
     TrackValue { index: usize },
-    #[error("{path}: mesh '{mesh}' has no morph targets")]
-    NoTargets { path: String, mesh: String },
-    #[error("{path}: no morph target '{wanted}'; the file has: {available}")]
-    NoSuchTarget {
-        path: String,
-        wanted: String,
-        available: String,
-    },
-    #[error("{path}: no animation '{wanted}'; the file has: {available}")]
-    NoSuchAnimation {
-        path: String,
-        wanted: String,
-        available: String,
-    },
-    #[error(
-        "{path}: animation '{animation}' has no channel animating the weights of mesh '{mesh}'"
-    )]
-    NoWeightChannel {
-        path: String,
-        animation: String,
-        mesh: String,
-    },
-    #[error(transparent)]
-    Load(#[from] LoadError),
 }
 
 impl Morph {
@@ -263,69 +222,6 @@ impl Morph {
             a.positions.clone(),
             b.positions.clone(),
         )
-    }
-
-    /// A morph from a glTF mesh's morph targets (see [`MorphSource`]). The mesh is
-    /// chosen and placed by `options` exactly as [`crate::io::gltf::load_mesh`] does.
-    pub fn from_gltf(
-        path: &Path,
-        options: &LoadOptions,
-        source: &MorphSource,
-    ) -> Result<Morph, MorphError> {
-        let data = crate::io::gltf::load_morph(path, options)?;
-        let shown = path.display().to_string();
-        if data.targets.is_empty() {
-            return Err(MorphError::NoTargets {
-                path: shown,
-                mesh: data.mesh_name,
-            });
-        }
-        let mut targets = data.targets;
-        let weights = match source {
-            MorphSource::Target(wanted) => {
-                let names: Vec<Option<&str>> =
-                    targets.iter().map(|t| Some(t.name.as_str())).collect();
-                let Some(i) = crate::io::gltf::pick(wanted, &names) else {
-                    return Err(MorphError::NoSuchTarget {
-                        path: shown,
-                        wanted: wanted.clone(),
-                        available: crate::io::gltf::list_names(&names),
-                    });
-                };
-                // Only the chosen target contributes, so keep only its deltas.
-                targets = vec![targets.swap_remove(i)];
-                Weights::TwoPose {
-                    w0: vec![0.0],
-                    w1: vec![1.0],
-                }
-            }
-            MorphSource::DefaultWeights => Weights::TwoPose {
-                w0: vec![0.0; targets.len()],
-                w1: data.default_weights,
-            },
-            MorphSource::Animation(wanted) => {
-                let names: Vec<Option<&str>> =
-                    data.animations.iter().map(|a| a.name.as_deref()).collect();
-                let Some(i) = crate::io::gltf::pick(wanted, &names) else {
-                    return Err(MorphError::NoSuchAnimation {
-                        path: shown,
-                        wanted: wanted.clone(),
-                        available: crate::io::gltf::list_names(&names),
-                    });
-                };
-                match data.animations.into_iter().nth(i).and_then(|a| a.track) {
-                    Some(track) => Weights::Animated(track),
-                    None => {
-                        return Err(MorphError::NoWeightChannel {
-                            path: shown,
-                            animation: wanted.clone(),
-                            mesh: data.mesh_name,
-                        })
-                    }
-                }
-            }
-        };
-        Morph::from_parts(data.mesh.triangles, data.mesh.positions, targets, weights)
     }
 
     /// The same morph on a subset of the vertices, renumbered: new vertex `i` is
@@ -510,244 +406,6 @@ fn check_finite(pose: &str, values: &[[f32; 3]]) -> Result<(), MorphError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::PathBuf;
-
-    fn asset(name: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("assets")
-            .join(name)
-    }
-
-    fn close(a: &[[f32; 3]], b: &[[f32; 3]], tolerance: f32) -> bool {
-        a.len() == b.len()
-            && a.iter()
-                .zip(b)
-                .all(|(p, q)| (0..3).all(|c| (p[c] - q[c]).abs() <= tolerance))
-    }
-
-    fn target(path: &Path, name: &str) -> Morph {
-        Morph::from_gltf(
-            path,
-            &LoadOptions::default(),
-            &MorphSource::Target(name.to_string()),
-        )
-        .unwrap()
-    }
-
-    #[test]
-    fn body_target_and_animation() {
-        let path = asset("makehuman_body.glb");
-        let old = target(&path, "caucasian-female-old");
-        assert_eq!((old.vertex_count(), old.triangle_count()), (13_380, 26_756));
-        assert!(old.is_linear());
-        assert_eq!(old.v0(), old.base());
-        assert_ne!(old.v1(), old.v0());
-        // Linear: the midpoint pose is the average of the end poses.
-        let (v0, v1) = (old.v0(), old.v1());
-        let mid: Vec<[f32; 3]> = v0
-            .iter()
-            .zip(&v1)
-            .map(|(a, b)| {
-                [
-                    (a[0] + b[0]) / 2.0,
-                    (a[1] + b[1]) / 2.0,
-                    (a[2] + b[2]) / 2.0,
-                ]
-            })
-            .collect();
-        assert!(close(&old.positions_at(0.5), &mid, 1e-6));
-
-        let animated = Morph::from_gltf(
-            &path,
-            &LoadOptions::default(),
-            &MorphSource::Animation("morph".to_string()),
-        )
-        .unwrap();
-        assert!(!animated.is_linear());
-        assert_eq!(animated.targets().len(), 4);
-        // Keys at 0..8 s; target i peaks at 2i+1 s: t = 1/8 is 1 s, t = 3/8 is 3 s.
-        assert_eq!(animated.weights_at(0.125), vec![1.0, 0.0, 0.0, 0.0]);
-        assert_eq!(animated.weights_at(0.375), vec![0.0, 1.0, 0.0, 0.0]);
-        assert_eq!(animated.weights_at(0.0625), vec![0.5, 0.0, 0.0, 0.0]);
-        assert_eq!(animated.weights_at(1.0), vec![0.0; 4]);
-        // At 3 s the animation shows exactly the second target's V(1).
-        assert!(close(&animated.positions_at(0.375), &old.v1(), 1e-6));
-    }
-
-    /// What the GPU draws for a weight animation, computed on the CPU: `V(0)` plus the
-    /// blend's targets weighted by the track's offsets.
-    fn gpu_pose(v0: &[[f32; 3]], blend: &TargetBlend, t: f32) -> Vec<[f32; 3]> {
-        let mut offsets = Vec::new();
-        blend.track.offsets_at(t, &mut offsets);
-        let mut out = v0.to_vec();
-        for (deltas, &c) in blend.deltas.iter().zip(&offsets) {
-            for (p, d) in out.iter_mut().zip(deltas) {
-                for axis in 0..3 {
-                    p[axis] += c * d[axis];
-                }
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn target_blend_reproduces_the_animation_from_v0() {
-        for (file, driven) in [
-            ("makehuman_body.glb", 4),
-            ("makehuman_head.glb", 8),
-            ("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf", 2),
-        ] {
-            let animated = Morph::from_gltf(
-                &asset(file),
-                &LoadOptions::default(),
-                &MorphSource::Animation("0".to_string()),
-            )
-            .unwrap();
-            let blend = animated.target_blend().expect("an animation needs targets");
-            assert_eq!(blend.deltas.len(), driven, "{file}");
-            assert_eq!(blend.track.targets(), driven, "{file}");
-            let v0 = animated.v0();
-            let mut moved = false;
-            for t in [0.0, 0.0625, 0.2, 0.375, 0.5, 0.61, 0.9, 1.0] {
-                let expected = animated.positions_at(t);
-                assert!(
-                    close(&gpu_pose(&v0, &blend, t), &expected, 1e-5),
-                    "{file} t={t}"
-                );
-                moved |= expected != v0;
-            }
-            assert!(
-                moved,
-                "{file}: the animation never leaves V(0); the test shows nothing"
-            );
-        }
-        let two_pose = target(&asset("makehuman_head.glb"), "jawOpen");
-        assert_eq!(two_pose.target_blend(), None);
-    }
-
-    #[test]
-    fn target_blend_keeps_only_driven_targets() {
-        let tris = vec![[0, 1, 2]];
-        let base = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        let deltas = |z: f32| vec![[0.0, 0.0, z]; 3];
-        let targets = vec![
-            MorphTarget {
-                name: "idle".into(),
-                deltas: deltas(5.0),
-            },
-            MorphTarget {
-                name: "lift".into(),
-                deltas: deltas(1.0),
-            },
-        ];
-        let track = WeightTrack::new(
-            Interpolation::Linear,
-            vec![0.0, 2.0],
-            vec![0.0, 0.0, 0.0, 1.0],
-            2,
-        )
-        .unwrap();
-        let morph =
-            Morph::from_parts(tris, base.clone(), targets, Weights::Animated(track)).unwrap();
-        let blend = morph.target_blend().unwrap();
-        assert_eq!(blend.deltas, vec![deltas(1.0)]);
-        assert!(close(
-            &gpu_pose(&base, &blend, 0.5),
-            &morph.positions_at(0.5),
-            0.0
-        ));
-    }
-
-    #[test]
-    fn head_has_eight_targets() {
-        let path = asset("makehuman_head.glb");
-        let jaw = target(&path, "jawOpen");
-        assert_eq!((jaw.vertex_count(), jaw.triangle_count()), (4_437, 8_818));
-        let by_index = target(&path, "0");
-        assert_eq!(by_index.v1(), jaw.v1());
-        let animated = Morph::from_gltf(
-            &path,
-            &LoadOptions::default(),
-            &MorphSource::Animation("0".to_string()),
-        )
-        .unwrap();
-        assert_eq!(animated.targets().len(), 8);
-        let err = Morph::from_gltf(
-            &path,
-            &LoadOptions::default(),
-            &MorphSource::Target("smile".to_string()),
-        )
-        .unwrap_err();
-        let message = err.to_string();
-        assert!(matches!(err, MorphError::NoSuchTarget { .. }));
-        assert!(
-            message
-                .contains("no morph target 'smile'; the file has: 0 'jawOpen', 1 'mouthSmileLeft'")
-                && message.contains("7 'mouthPucker'"),
-            "{message}"
-        );
-    }
-
-    #[test]
-    fn cube_animation_matches_its_targets() {
-        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
-        let options = LoadOptions::default();
-        let animated = Morph::from_gltf(
-            &path,
-            &options,
-            &MorphSource::Animation("Square".to_string()),
-        )
-        .unwrap();
-        assert_eq!(
-            (animated.vertex_count(), animated.triangle_count()),
-            (24, 12)
-        );
-        let Weights::Animated(track) = animated.weights() else {
-            panic!("expected an animated morph");
-        };
-        assert_eq!((track.keyframes(), track.targets()), (127, 2));
-        assert!((track.duration() - 4.2).abs() < 1e-4);
-        // Keyframe 1 at 1/30 s holds weights (0.001284, 0) in the file.
-        let w = animated.weights_at((1.0 / 30.0) / track.duration());
-        assert!(
-            (w[0] - 0.001_284).abs() < 1e-5 && w[1].abs() < 1e-7,
-            "{w:?}"
-        );
-        // V(t) = base + Σ w_i(t) D_i where D_i = V_i(1) − base from the target morphs.
-        let targets = [target(&path, "0"), target(&path, "1")];
-        let t = 0.37;
-        let w = animated.weights_at(t);
-        let ends: Vec<Vec<[f32; 3]>> = targets.iter().map(|m| m.v1()).collect();
-        let expected: Vec<[f32; 3]> = (0..animated.vertex_count())
-            .map(|v| {
-                let base = animated.base()[v];
-                let moved = |c: usize| {
-                    base[c] + w[0] * (ends[0][v][c] - base[c]) + w[1] * (ends[1][v][c] - base[c])
-                };
-                [moved(0), moved(1), moved(2)]
-            })
-            .collect();
-        assert!(close(&animated.positions_at(t), &expected, 1e-6));
-        let missing =
-            Morph::from_gltf(&path, &options, &MorphSource::Animation("Walk".to_string()))
-                .unwrap_err();
-        assert!(
-            missing
-                .to_string()
-                .contains("no animation 'Walk'; the file has: 0 'Square'"),
-            "{missing}"
-        );
-    }
-
-    #[test]
-    fn default_weights_morph_ends_at_the_default_pose() {
-        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
-        let morph =
-            Morph::from_gltf(&path, &LoadOptions::default(), &MorphSource::DefaultWeights).unwrap();
-        // The cube's default weights are (0, 0): both poses are the base.
-        assert_eq!(morph.v0(), morph.v1());
-        assert_eq!(morph.v0(), morph.base());
-    }
 
     fn quad(z: f32) -> IndexedMesh {
         IndexedMesh::new(
@@ -822,44 +480,6 @@ mod tests {
             })
         ));
     }
-
-    #[test]
-    fn select_applies_a_cleaning_result_to_every_target() {
-        use crate::mesh::clean::{clean, CleanOptions};
-        let morph = target(&asset("makehuman_body.glb"), "caucasian-male-baby");
-        let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
-        let cleaned = clean(&base, &CleanOptions { weld: true }).unwrap();
-        let kept = morph
-            .select(&cleaned.vertex_map, cleaned.mesh.triangles.clone())
-            .unwrap();
-        assert_eq!(kept.v0(), cleaned.mesh.positions);
-        let v1 = morph.v1();
-        let expected: Vec<[f32; 3]> = cleaned.vertex_map.iter().map(|&v| v1[v as usize]).collect();
-        assert_eq!(kept.v1(), expected);
-    }
-
-    #[test]
-    fn transformed_morph_moves_deltas_with_the_node() {
-        // The cube's node scales by 100 and rotates: target offsets scale too.
-        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
-        let source = MorphSource::Target("1".to_string());
-        let plain = Morph::from_gltf(&path, &LoadOptions::default(), &source).unwrap();
-        let placed = LoadOptions {
-            apply_transforms: true,
-            ..LoadOptions::default()
-        };
-        let moved = Morph::from_gltf(&path, &placed, &source).unwrap();
-        let length = |m: &Morph, v: usize| {
-            let (a, b) = (m.v0()[v], m.v1()[v]);
-            ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
-        };
-        let v = (0..plain.vertex_count())
-            .max_by(|&a, &b| length(&plain, a).total_cmp(&length(&plain, b)))
-            .unwrap();
-        assert!(length(&plain, v) > 0.01);
-        assert!((length(&moved, v) / length(&plain, v) - 100.0).abs() < 1e-2);
-    }
-
     #[test]
     fn from_parts_checks_lengths() {
         let base = quad(0.0).positions;

@@ -4,8 +4,9 @@
 //! changing one thing at a time.
 
 use morphlod::io::gltf::{inspect, load_mesh};
+use morphlod::io::MorphSource;
 use morphlod::io::{LoadError, LoadOptions};
-use morphlod::morph::{Morph, MorphError, MorphSource};
+use morphlod::morph::Morph;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -99,8 +100,8 @@ fn load(path: &Path) -> Result<morphlod::IndexedMesh, LoadError> {
     load_mesh(path, &LoadOptions::default())
 }
 
-fn animated(path: &Path) -> Result<Morph, MorphError> {
-    Morph::from_gltf(
+fn animated(path: &Path) -> Result<Morph, LoadError> {
+    morphlod::io::load_morph(
         path,
         &LoadOptions::default(),
         &MorphSource::Animation("lift".to_string()),
@@ -139,7 +140,8 @@ enum Via {
     Mesh,
     /// `load_mesh` and `inspect`, both with the same error.
     MeshAndInspect,
-    /// `Morph::from_gltf` of the animation 'lift': the error must be `MorphError::Load`.
+    /// `io::load_morph` of the animation 'lift': the error must be a file error, not
+    /// `LoadError::Morph`.
     Animation,
 }
 
@@ -201,9 +203,9 @@ fn errors(case: &Case, path: &Path) -> Result<Vec<LoadError>, String> {
             mesh(load(path))?,
         ],
         Via::Animation => match animated(path) {
-            Ok(_) => return Err("Morph::from_gltf accepted it".into()),
-            Err(MorphError::Load(err)) => vec![err],
-            Err(other) => return Err(format!("not a load error: {other:?}")),
+            Ok(_) => return Err("io::load_morph accepted it".into()),
+            Err(LoadError::Morph(other)) => return Err(format!("not a load error: {other:?}")),
+            Err(err) => vec![err],
         },
     })
 }
@@ -528,10 +530,7 @@ fn cyclic_node_hierarchy_is_refused() {
             "{message}"
         );
     }
-    assert!(matches!(
-        animated(&path),
-        Err(MorphError::Load(LoadError::GltfJson { .. }))
-    ));
+    assert!(matches!(animated(&path), Err(LoadError::GltfJson { .. })));
     // Two parents of one node break the same rule.
     let path = glb_variant(
         "two-parents",
@@ -562,8 +561,8 @@ fn cube_glb_loads() {
     assert_eq!(animated_cube(&path).unwrap().vertex_count(), 24);
 }
 
-fn animated_cube(path: &Path) -> Result<Morph, MorphError> {
-    Morph::from_gltf(
+fn animated_cube(path: &Path) -> Result<Morph, LoadError> {
+    morphlod::io::load_morph(
         path,
         &LoadOptions::default(),
         &MorphSource::Animation("0".to_string()),
@@ -616,7 +615,7 @@ const DENSE_TARGET: &str = r#"{"bufferView": 2, "componentType": 5126, "count": 
 #[test]
 fn sparse_target_deltas_load() {
     let path = glb_variant("sparse", DENSE_TARGET, SPARSE_TARGET);
-    let morph = Morph::from_gltf(
+    let morph = morphlod::io::load_morph(
         &path,
         &LoadOptions::default(),
         &MorphSource::Target("lift".to_string()),

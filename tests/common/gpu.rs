@@ -11,7 +11,7 @@
 use std::io::Write;
 use std::sync::mpsc;
 
-use morphlod::gpu::{Context, GpuError, MorphPipeline, Object, Target};
+use morphlod::gpu::{Context, GpuError, MorphPipeline, Object, RenderTarget};
 
 use super::strip_draw;
 
@@ -53,8 +53,8 @@ impl Gpu {
         };
         let pipeline = MorphPipeline::new(
             &ctx.device,
-            Target::COLOR_FORMAT,
-            Some(Target::DEPTH_FORMAT),
+            RenderTarget::COLOR_FORMAT,
+            Some(RenderTarget::DEPTH_FORMAT),
         );
         Some(Gpu { ctx, pipeline })
     }
@@ -68,8 +68,9 @@ impl Gpu {
     }
 
     /// An offscreen colour + depth target of the pipeline's formats.
-    pub fn target(&self, width: u32, height: u32, clear: wgpu::Color) -> Target {
-        Target::new(self.device(), width, height, clear).expect("a small target fits any device")
+    pub fn target(&self, width: u32, height: u32, clear: wgpu::Color) -> RenderTarget {
+        RenderTarget::new(self.device(), width, height, clear)
+            .expect("a small target fits any device")
     }
 
     /// The whole contents of `buffer` (created with `COPY_SRC`, size a multiple of 4) as the

@@ -14,6 +14,7 @@
 //! Each test binary compiles this module and uses a subset of it.
 #![allow(dead_code)]
 
+#[cfg(feature = "gpu")]
 pub mod gpu;
 
 use morphlod::asset::HEADER_LEN;

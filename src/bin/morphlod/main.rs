@@ -7,13 +7,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use morphlod::asset::{inspect, save_bytes, MAGIC};
 use morphlod::build::{BuildReport, Builder, Progress, DEFAULT_FRAMES};
 use morphlod::deform::{DeformingModel, Lod};
-use morphlod::gpu::bench::{run_bench, BenchOptions};
-use morphlod::gpu::sheet::{render_sheet, SheetOptions};
 use morphlod::gpu::{save_png, Context, ShadeMode};
+use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, Format, LoadOptions};
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::mesh::IndexedMesh;
-use morphlod::morph::{Morph, MorphSource};
+use morphlod::morph::Morph;
 use morphlod::topology::analyze;
 use morphlod::Asset;
 use std::io::{IsTerminal, Read};
@@ -22,7 +21,12 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod bench;
 mod plot;
+mod sheet;
+
+use bench::{run_bench, BenchOptions};
+use sheet::{render_sheet, SheetOptions};
 
 #[derive(Parser)]
 #[command(
@@ -391,7 +395,7 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     path.display()
                 ));
             }
-            Morph::from_gltf(path, options, &source).map_err(|e| e.to_string())
+            morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())
         }
         _ => Err("give one glTF file or two meshes".into()),
     }
@@ -476,7 +480,7 @@ const DEMO_FRAMES: usize = 16;
 fn demo(args: &DemoArgs) -> Result<(), String> {
     println!("morphlod demo: {DEMO_INPUT}, target '{DEMO_TARGET}', {DEMO_FRAMES} frames");
     let source = MorphSource::Target(DEMO_TARGET.into());
-    let morph = Morph::from_gltf(Path::new(DEMO_INPUT), &LoadOptions::default(), &source)
+    let morph = morphlod::io::load_morph(Path::new(DEMO_INPUT), &LoadOptions::default(), &source)
         .map_err(|e| e.to_string())?;
     let morph = clean_morph(morph, false)?;
     let (asset, report) = Builder::new(&morph)

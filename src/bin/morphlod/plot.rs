@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use morphlod::gpu::bench::{BenchReport, FrameRow, Sweep};
+use crate::bench::{BenchReport, FrameRow, Sweep};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};

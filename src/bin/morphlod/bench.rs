@@ -11,8 +11,8 @@
 //!   shows what grouping saves.
 //!
 //! The list of a frame is the live strips decoded into triangles
-//! ([`crate::strip::strip_triangles`]): one pass over the live indices, cheaper than
-//! [`CollapseSequence::reference_mesh`](crate::collapse::CollapseSequence::reference_mesh)
+//! ([`morphlod::strip::strip_triangles`]): one pass over the live indices, cheaper than
+//! [`CollapseSequence::reference_mesh`](morphlod::collapse::CollapseSequence::reference_mesh)
 //! (which resolves every vertex's survivor and maps every original triangle) and drawing the
 //! identical triangle multiset (the oracle tests check strips against the reference mesh).
 //!
@@ -21,19 +21,20 @@
 //! passes per object and frame: the first also flushes the frame's staged `write_buffer`
 //! copies, the others draw the same state again. CPU time of `set` and `prepare` is measured
 //! around the calls.
-//! No plot is drawn (no plotting crate in the dependencies); the JSON rows hold the curves.
+//! `plot.rs` draws the rows; the JSON holds them all.
 
 use std::fmt::Write as _;
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::lod_object::s0_regions;
-use super::sheet::frame_both_poses;
-use super::{Context, Draws, GpuError, LodObject, MorphPipeline, Object, Target, Topology};
-use crate::asset::Asset;
-use crate::deform::{DeformingModel, Lod};
-use crate::strip::strip_triangles;
-use crate::Error;
+use morphlod::asset::Asset;
+use morphlod::deform::{DeformingModel, Lod};
+use morphlod::gpu::camera::frame_both_poses;
+use morphlod::gpu::{
+    s0_regions, Context, Draws, GpuError, LodObject, MorphPipeline, Object, RenderTarget, Topology,
+};
+use morphlod::strip::strip_triangles;
+use morphlod::Error;
 
 /// A frame at 24 frames per second, in milliseconds: the budget the CPU cost is compared to.
 pub const FRAME_24FPS_MS: f64 = 1000.0 / 24.0;
@@ -149,8 +150,12 @@ pub fn run_bench(
 ) -> Result<BenchReport, Error> {
     let (device, queue) = (&context.device, &context.queue);
     let frames = options.frames.max(2);
-    let target = Target::new(device, options.size, options.size, wgpu::Color::BLACK)?;
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let target = RenderTarget::new(device, options.size, options.size, wgpu::Color::BLACK)?;
+    let pipeline = MorphPipeline::new(
+        device,
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+    );
     let camera = frame_both_poses(asset, glam::Vec3::new(-0.35, -0.15, -1.0))?.view_proj();
 
     let regions = s0_regions(model);
@@ -198,7 +203,7 @@ pub fn run_bench(
 
     let repeats = options.repeats.max(1);
     // The fastest of `count` draws of `object`; the first also carries the frame's uploads.
-    let fastest = |target: &Target, object: &mut Object, count: usize| {
+    let fastest = |target: &RenderTarget, object: &mut Object, count: usize| {
         (0..count).try_fold(f64::INFINITY, |best, _| {
             gpu_frame(device, queue, target, object).map(|ms| best.min(ms))
         })
@@ -294,7 +299,7 @@ fn micros(start: Instant) -> f64 {
 fn gpu_frame(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
-    target: &Target,
+    target: &RenderTarget,
     object: &mut Object,
 ) -> Result<f64, GpuError> {
     let mut encoder = device.create_command_encoder(&Default::default());
@@ -530,4 +535,113 @@ fn json_string(s: &str) -> String {
     }
     out.push('"');
     out
+}
+
+/// `bench_rows_are_consistent`: a short `run_bench` on a small morphing grid: row count, one
+/// draw per frame, triangle counts equal to the reference mesh of `docs/DESIGN.md`
+/// (`CollapseSequence::reference_mesh`) and to the list drawn beside, uploads exactly where the
+/// strips changed, and the JSON holds every row. Uses `gpu::test_context`: fails without an
+/// adapter when `CI=true`, skips elsewhere.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use morphlod::{gpu, Builder, Morph};
+
+    /// An `n × n` vertex grid in the xy plane (`V(0)`) that bulges along z (`V(1)`), built into an
+    /// asset of `frames` sampled frames.
+    fn grid_asset(n: u32, frames: usize) -> Asset {
+        let mut v0 = Vec::new();
+        let mut v1 = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                let (fx, fy) = (x as f32 / (n - 1) as f32, y as f32 / (n - 1) as f32);
+                // Slightly uneven heights so the simplifier's errors are not all tied.
+                let z0 = 0.05 * (7.0 * fx + 3.0 * fy).sin();
+                v0.push([fx - 0.5, fy - 0.5, z0]);
+                let bulge = (std::f32::consts::PI * fx).sin() * (std::f32::consts::PI * fy).sin();
+                v1.push([fx - 0.5, fy - 0.5, z0 + 0.4 * bulge]);
+            }
+        }
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let i = y * n + x;
+                triangles.push([i, i + 1, i + n]);
+                triangles.push([i + 1, i + n + 1, i + n]);
+            }
+        }
+        let morph = Morph::from_poses(triangles, v0, v1).expect("valid grid morph");
+        Builder::new(&morph)
+            .frames(frames)
+            .build()
+            .expect("grid asset builds")
+            .0
+    }
+
+    #[test]
+    fn bench_rows_are_consistent() -> Result<(), Error> {
+        let Some(ctx) = gpu::test_context()? else {
+            return Ok(());
+        };
+        let asset = grid_asset(10, 4);
+        let model = Arc::new(DeformingModel::new(&asset)?);
+        let frames = 7;
+        let report = run_bench(
+            &ctx,
+            &asset,
+            &model,
+            &BenchOptions {
+                frames,
+                size: 48,
+                repeats: 2,
+            },
+        )?;
+        let original: Vec<[u32; 3]> = (0..asset.s0.len())
+            .filter_map(|i| asset.s0.strip(i))
+            .flat_map(strip_triangles)
+            .collect();
+        assert_eq!(report.full_triangles, original.len());
+        assert_eq!(report.full_index_bytes, asset.s0.indices.len() as u64 * 4);
+        assert_eq!(report.rows.len(), 2 * frames);
+
+        for sweep in [Sweep::Linear, Sweep::Exponential] {
+            let rows: Vec<_> = report.rows.iter().filter(|r| r.sweep == sweep).collect();
+            assert_eq!(rows.len(), frames);
+            // Every sweep starts from a fresh object at frame 0, full detail.
+            let mut previous = (0usize, 0usize, asset.s0.indices.len());
+            for row in &rows {
+                let at = format!("{} frame {}", sweep.name(), row.frame);
+                assert_eq!(row.draws, 1, "{at}: one draw per frame");
+                let reference = asset.frames[row.asset_frame].reference_mesh(&original, row.steps);
+                assert_eq!(row.triangles, reference.len(), "{at}: reference mesh");
+                assert_eq!(row.list_triangles, row.triangles, "{at}: list beside");
+                let now = (row.asset_frame, row.steps, row.indices);
+                if row.indices != previous.2 {
+                    assert!(
+                        row.upload_bytes > 0,
+                        "{at}: strips changed, nothing uploaded"
+                    );
+                }
+                if now == previous || (row.steps == 0 && previous.1 == 0) {
+                    assert_eq!(row.upload_bytes, 0, "{at}: nothing changed, bytes uploaded");
+                }
+                assert!(row.strips_ms > 0.0 && row.list_ms > 0.0 && row.full_strips_ms > 0.0);
+                previous = now;
+            }
+            let first = rows.first().expect("rows");
+            assert_eq!((first.steps, first.triangles), (0, original.len()));
+            let last = rows.last().expect("rows");
+            let last_frame = asset.frames.len() - 1;
+            assert_eq!(
+                (last.asset_frame, last.steps),
+                (last_frame, asset.frames[last_frame].len()),
+                "{}: the sweep ends at the coarsest LOD of the last frame",
+                sweep.name()
+            );
+        }
+        let json = report.to_json();
+        assert_eq!(json.matches("\"sweep\":").count(), report.rows.len());
+        assert!(report.summary().contains("goals:"));
+        Ok(())
+    }
 }

@@ -9,7 +9,7 @@ use super::{GpuError, Object};
 ///
 /// The colour format is linear `Rgba8Unorm`, not sRGB: the bytes read back are the shader's
 /// output times 255, which tests can predict exactly.
-pub struct Target {
+pub struct RenderTarget {
     width: u32,
     height: u32,
     clear: wgpu::Color,
@@ -18,7 +18,7 @@ pub struct Target {
     depth_view: wgpu::TextureView,
 }
 
-impl Target {
+impl RenderTarget {
     /// The colour format pipelines drawing into a target must use.
     pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
     /// The depth format pipelines drawing into a target must use.
@@ -30,10 +30,10 @@ impl Target {
         width: u32,
         height: u32,
         clear: wgpu::Color,
-    ) -> Result<Target, GpuError> {
+    ) -> Result<RenderTarget, GpuError> {
         let max = device.limits().max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max || height > max {
-            return Err(GpuError::TargetSize { width, height, max });
+            return Err(GpuError::RenderTargetSize { width, height, max });
         }
         let size = wgpu::Extent3d {
             width,
@@ -54,15 +54,15 @@ impl Target {
         };
         let color = texture(
             "morphlod target colour",
-            Target::COLOR_FORMAT,
+            RenderTarget::COLOR_FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         );
         let depth = texture(
             "morphlod target depth",
-            Target::DEPTH_FORMAT,
+            RenderTarget::DEPTH_FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
         );
-        Ok(Target {
+        Ok(RenderTarget {
             width,
             height,
             clear,

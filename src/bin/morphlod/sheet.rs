@@ -10,11 +10,11 @@ use std::sync::Arc;
 use glam::Vec3;
 use image::RgbaImage;
 
-use super::camera::{fit_to_bounds, Camera, Projection};
-use super::{Context, LodObject, MorphPipeline, ShadeMode, Target};
-use crate::asset::Asset;
-use crate::deform::{DeformingModel, Lod};
-use crate::Error;
+use morphlod::asset::Asset;
+use morphlod::deform::{DeformingModel, Lod};
+use morphlod::gpu::camera::frame_both_poses;
+use morphlod::gpu::{Context, LodObject, MorphPipeline, RenderTarget, ShadeMode};
+use morphlod::Error;
 
 /// How a sheet looks.
 #[derive(Clone, Copy, Debug)]
@@ -73,8 +73,12 @@ pub fn render_sheet(
 ) -> Result<(RgbaImage, Vec<Cell>), Error> {
     let device = &context.device;
     let queue = &context.queue;
-    let target = Target::new(device, options.cell, options.cell, CLEAR)?;
-    let pipeline = MorphPipeline::new(device, Target::COLOR_FORMAT, Some(Target::DEPTH_FORMAT));
+    let target = RenderTarget::new(device, options.cell, options.cell, CLEAR)?;
+    let pipeline = MorphPipeline::new(
+        device,
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+    );
     let mut object = LodObject::new(device, &pipeline, asset, Arc::clone(model))?;
     let camera = frame_both_poses(asset, options.direction)?;
     object.set_view_proj(camera.view_proj());
@@ -109,24 +113,4 @@ pub fn render_sheet(
         }
     }
     Ok((sheet, cells))
-}
-
-/// A perspective camera looking along `direction` that frames the union of both poses, so the
-/// object does not jump between frames of an animation.
-pub fn frame_both_poses(asset: &Asset, direction: Vec3) -> Result<Camera, Error> {
-    let both: Vec<[f32; 3]> = asset.v0.iter().chain(&asset.v1).copied().collect();
-    let (min, max) = crate::mesh::bounds(&both).ok_or(crate::mesh::MeshError::Empty {
-        vertices: 0,
-        triangles: asset.s0.indices.len(),
-    })?;
-    let camera = fit_to_bounds(
-        min,
-        max,
-        direction,
-        1.0,
-        Projection::Perspective {
-            vertical_fov: 30f32.to_radians(),
-        },
-    )?;
-    Ok(camera)
 }

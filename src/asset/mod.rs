@@ -1,0 +1,491 @@
+//! The `.mlod` asset: everything the runtime needs for one deforming object,
+//! and its file format.
+//!
+//! It stores the two GPU poses `V(0)`, `V(1)`, the common strips `S0` and one
+//! collapse sequence per sampled frame. The change lists are not stored: they
+//! are a deterministic function of `S0` and a frame's sequence, and replaying
+//! a sequence at load time is cheap next to the storage the change lists would
+//! take (see BENCHMARKS.md for both figures).
+//!
+//! # File layout (version 1, all integers little-endian)
+//!
+//! ```text
+//! header (32 bytes)  magic "\x89MLD\r\n\x1a\n" | version u16 | flags u16 (0) |
+//!                    section count u32 | body length u64 | CRC-32 of the body u32 | 0 u32
+//! body               section table: per section  tag [u8; 4] | 0 u32 | offset u64 | length u64
+//!                    (offsets from the body's start), then the sections:
+//!   "V0  ", "V1  "   the poses, raw f32 x, y, z per vertex
+//!   "S0  "           index count, offset count (strips + 1), offsets as LEB128
+//!                    deltas, indices as zigzag LEB128 deltas to the previous index
+//!   "FRMS"           frame count, then per frame its byte length and its bytes
+//!   "TGTS"           optional, only for weight animations (see [`TargetBlend`]):
+//!                    interpolation u8 (0 STEP, 1 LINEAR, 2 CUBICSPLINE) | target count K
+//!                    LEB128 | keyframe count N LEB128 | N f32 times | the track's f32
+//!                    values (N × K, × 3 for CUBICSPLINE) | K × vertices f32 x, y, z deltas
+//! ```
+//!
+//! The magic is PNG's trick: the high byte catches 7-bit transfers, the
+//! CR LF / LF pair catches newline translation, `^Z` stops DOS `type`.
+//! Sections are found through the table, so a later minor addition (an extra
+//! section) is skipped by this reader; an incompatible change bumps the version.
+//! "TGTS" is such an addition: a reader that predates it draws the two-pose blend.
+//!
+//! # Frame coding
+//!
+//! A frame is either `0` (the same sequence as the previous frame: animations
+//! that hold a pose cost one byte per frame) or `1` followed by a bit stream.
+//! Each collapse `u → w` costs
+//! * `u` in a fixed width (the bits of the largest vertex index): collapse
+//!   orders are close to random permutations, which no cheap model predicts;
+//! * `w` as the position, in `u`'s neighbour list in `S0`, of the first
+//!   neighbour whose current survivor is `w` (exp-Golomb): the collapsed
+//!   vertex `w` is almost always the survivor of one of `u`'s original
+//!   neighbours, so this takes a few bits instead of a vertex index. The decoder
+//!   tracks survivors with a union-find, which also keeps `w` alive by
+//!   construction. When no neighbour leads to `w`, an escape symbol (the
+//!   neighbour count) is followed by `w` in the fixed width;
+//! * the error as bfloat16 (the top 16 bits of the f32: full exponent range,
+//!   8 significant bits), zigzag delta to the previous collapse's error
+//!   (exp-Golomb): greedy orders make errors grow slowly.
+//!
+//! Both exp-Golomb orders are chosen per frame (the smallest stream) and
+//! stored in the frame's first bytes. The bytes per collapse this gives on the
+//! bundled meshes are in BENCHMARKS.md ("Build and asset size").
+//!
+//! # Where the code is
+//!
+//! This file: the [`Asset`] type and the container (header, section table, checksum,
+//! load and save). `sections.rs`: the section codecs. `frame_codec.rs`: the bit-level
+//! frame coder. `inspect.rs`: the report of where a file's bytes go.
+//!
+//! # Validation
+//!
+//! [`Asset::from_bytes`] checks the magic, version, flags, body length and
+//! checksum before reading anything else, then every count against the bytes
+//! left before allocating, every index against the vertex count, the strip
+//! offsets, every collapse (in range, alive, not onto itself: the rules of
+//! [`CollapseSequence::validate`]) and every error (finite, not negative).
+//! Every failure is a typed [`AssetError`]; no input panics.
+
+mod frame_codec;
+mod inspect;
+mod sections;
+
+pub use frame_codec::quantize_error;
+pub use inspect::{inspect, AssetInfo, FrameInfo, SectionInfo};
+
+use crate::collapse::{CollapseSequence, SequenceError};
+use crate::morph::{MorphError, TargetBlend};
+use crate::strip::Strips;
+use frame_codec::Neighbours;
+use sections::{
+    decode_frames, decode_pose, decode_strips, decode_targets, encode_frames, encode_strips,
+    encode_targets, pose_bytes,
+};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// One deforming object's LOD data, as built by the per-frame builder and
+/// stored in a `.mlod` file. Frame `k` of `frames.len()` samples `t_k = k / (|r| - 1)`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Asset {
+    pub v0: Vec<[f32; 3]>,
+    pub v1: Vec<[f32; 3]>,
+    pub s0: Strips,
+    pub frames: Vec<CollapseSequence>,
+    /// For an asset made from a weight animation: the targets the GPU adds to `V(0)` so it
+    /// draws the animation, not only the blend of its end poses. `None` for two-pose morphs.
+    pub blend: Option<TargetBlend>,
+}
+
+/// Most morph targets an asset may blend on the GPU (the uniform block holds one weight per
+/// target). More than any animation of one mesh drives; a file asking for more is refused.
+pub const MAX_TARGETS: usize = 64;
+
+/// The first 8 bytes of every `.mlod` file.
+pub const MAGIC: [u8; 8] = *b"\x89MLD\r\n\x1a\n";
+/// The format version this build writes and the newest it reads.
+pub const VERSION: u16 = 1;
+/// Most frames a file may hold. Repeated frames cost two bytes in the file
+/// but a whole sequence in memory, so this bounds what a small file can make
+/// the decoder allocate; it is far more than any animation needs.
+pub const MAX_FRAMES: usize = 4096;
+/// Size of the fixed header.
+pub const HEADER_LEN: usize = 32;
+
+pub(super) const TAG_V0: [u8; 4] = *b"V0  ";
+pub(super) const TAG_V1: [u8; 4] = *b"V1  ";
+pub(super) const TAG_S0: [u8; 4] = *b"S0  ";
+pub(super) const TAG_FRAMES: [u8; 4] = *b"FRMS";
+pub(super) const TAG_TARGETS: [u8; 4] = *b"TGTS";
+pub(super) const SECTION_ENTRY_LEN: usize = 24;
+/// More sections than any version will define: bounds the table before it is read.
+const MAX_SECTIONS: u32 = 64;
+
+/// Why a `.mlod` file could not be read or written.
+#[derive(Debug, Error)]
+pub enum AssetError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error(
+        "not a .mlod file: it starts with {found:02x?} instead of the .mlod magic {MAGIC:02x?}"
+    )]
+    WrongMagic { found: Vec<u8> },
+    #[error("the file is {length} bytes, shorter than the {HEADER_LEN}-byte .mlod header: it was cut off")]
+    TruncatedHeader { length: usize },
+    #[error("the file is format version {found}, newer than version {VERSION} that this morphlod reads: upgrade morphlod")]
+    NewerVersion { found: u16 },
+    #[error("the file claims format version {found}, which never existed (the first is 1): the file is damaged")]
+    UnknownVersion { found: u16 },
+    #[error("the file sets flags {flags:#06x} that this morphlod does not know: it was written by a newer morphlod, upgrade")]
+    UnknownFlags { flags: u16 },
+    #[error("the header announces a {expected}-byte body but only {found} bytes follow: the file was cut off")]
+    TruncatedBody { expected: u64, found: u64 },
+    #[error("the header announces a {expected}-byte body but {found} bytes follow: the file has trailing data")]
+    TrailingBytes { expected: u64, found: u64 },
+    #[error("checksum mismatch: the header says CRC-32 {stored:#010x}, the body has {computed:#010x}: the file is damaged")]
+    Checksum { stored: u32, computed: u32 },
+    #[error(
+        "the section table lists {count} sections (at most {MAX_SECTIONS}) in a {body}-byte body"
+    )]
+    SectionTable { count: u32, body: u64 },
+    #[error("section '{tag}' spans bytes {offset}..{offset}+{length}, outside the body's section area ({start}..{body})")]
+    SectionOutOfRange {
+        tag: String,
+        offset: u64,
+        length: u64,
+        start: u64,
+        body: u64,
+    },
+    #[error("section '{tag}' appears twice")]
+    DuplicateSection { tag: String },
+    #[error("the required section '{tag}' is missing")]
+    MissingSection { tag: String },
+    #[error("section '{tag}' is {length} bytes, not a whole number of {unit}-byte records")]
+    SectionSize { tag: String, length: u64, unit: u64 },
+    #[error("V0 has {v0} vertices but V1 has {v1}: the poses must match")]
+    PoseSizeMismatch { v0: usize, v1: usize },
+    #[error("the poses have {vertices} vertices, more than 32-bit indices address")]
+    TooManyVertices { vertices: usize },
+    #[error("{pose}: vertex {vertex} is not finite ({value:?})")]
+    NonFinitePosition {
+        pose: &'static str,
+        vertex: usize,
+        value: [f32; 3],
+    },
+    #[error("section '{tag}' ends in the middle of {what}: the file is damaged")]
+    Truncated { tag: &'static str, what: String },
+    #[error("section '{tag}': {what} is a number longer than 64 bits")]
+    BadNumber { tag: &'static str, what: String },
+    #[error("section '{tag}': {what} is {count}, more than the {limit} the data allows")]
+    CountTooLarge {
+        tag: &'static str,
+        what: String,
+        count: u64,
+        limit: u64,
+    },
+    #[error("S0 index {position} is {index}, but the asset has {vertices} vertices")]
+    StripIndex {
+        position: usize,
+        index: u64,
+        vertices: usize,
+    },
+    #[error("S0 offset {strip} is {offset} after {previous} (of {indices} indices): offsets must start at 0, never decrease and end at the index count")]
+    StripOffsets {
+        strip: usize,
+        offset: u64,
+        previous: u64,
+        indices: usize,
+    },
+    #[error("frame {frame} has mode {mode}, which is neither 0 (repeat) nor 1 (coded)")]
+    FrameMode { frame: usize, mode: u8 },
+    #[error("frame 0 says it repeats the previous frame, but there is none")]
+    RepeatFirstFrame,
+    #[error("the asset has no frames; it needs at least one collapse sequence")]
+    NoFrames,
+    #[error("frame {frame}: {source}")]
+    Sequence { frame: usize, source: SequenceError },
+    #[error("frame {frame}, collapse {step}: neighbour symbol {symbol} is past vertex {vertex}'s {neighbours} neighbours and the escape")]
+    NeighbourSymbol {
+        frame: usize,
+        step: usize,
+        vertex: u32,
+        symbol: u64,
+        neighbours: usize,
+    },
+    #[error(
+        "frame {frame}, collapse {step}: the error {value} is not a finite, non-negative number"
+    )]
+    BadError {
+        frame: usize,
+        step: usize,
+        value: f32,
+    },
+    #[error("frame {frame} is {declared} bytes but its data ends after {used}")]
+    FrameLength {
+        frame: usize,
+        declared: usize,
+        used: usize,
+    },
+    #[error("section 'TGTS' holds {targets} morph targets; it must hold 1 to {MAX_TARGETS}")]
+    TargetCount { targets: usize },
+    #[error("section 'TGTS' names interpolation {code}, which is none of 0 (STEP), 1 (LINEAR), 2 (CUBICSPLINE)")]
+    TargetInterpolation { code: u8 },
+    #[error("section 'TGTS' is {length} bytes, but {targets} targets with {keyframes} keyframes over {vertices} vertices take {expected}: the file is damaged")]
+    TargetSize {
+        length: usize,
+        targets: usize,
+        keyframes: usize,
+        vertices: usize,
+        expected: u64,
+    },
+    #[error("section 'TGTS': the weight track is invalid: {source}")]
+    TargetTrack { source: MorphError },
+    #[error("section 'TGTS': target {target}, vertex {vertex} has a delta that is not finite ({value:?})")]
+    NonFiniteDelta {
+        target: usize,
+        vertex: usize,
+        value: [f32; 3],
+    },
+    #[error("section '{tag}' is {length} bytes but its data ends after {used}")]
+    SectionTrailing {
+        tag: &'static str,
+        length: usize,
+        used: usize,
+    },
+}
+
+impl Asset {
+    /// The file bytes. Never fails: an asset that breaks the format's rules
+    /// (a collapse out of range, decreasing strip offsets, ...) is written as
+    /// is and refused by [`Asset::from_bytes`] with the matching error. Errors
+    /// are kept at bfloat16 precision (see [`quantize_error`]); frames store
+    /// the vertex count of `v0`.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut sections: Vec<([u8; 4], Vec<u8>)> = vec![
+            (TAG_V0, pose_bytes(&self.v0)),
+            (TAG_V1, pose_bytes(&self.v1)),
+            (TAG_S0, encode_strips(&self.s0)),
+            (
+                TAG_FRAMES,
+                encode_frames(&self.frames, &self.s0, self.v0.len()),
+            ),
+        ];
+        if let Some(blend) = &self.blend {
+            sections.push((TAG_TARGETS, encode_targets(blend)));
+        }
+
+        let mut body = Vec::new();
+        let mut offset = (sections.len() * SECTION_ENTRY_LEN) as u64;
+        for (tag, data) in &sections {
+            body.extend_from_slice(tag);
+            body.extend_from_slice(&0u32.to_le_bytes());
+            body.extend_from_slice(&offset.to_le_bytes());
+            body.extend_from_slice(&(data.len() as u64).to_le_bytes());
+            offset += data.len() as u64;
+        }
+        for (_, data) in &sections {
+            body.extend_from_slice(data);
+        }
+        let mut out = Vec::with_capacity(HEADER_LEN + body.len());
+        out.extend_from_slice(&MAGIC);
+        out.extend_from_slice(&VERSION.to_le_bytes());
+        out.extend_from_slice(&0u16.to_le_bytes());
+        out.extend_from_slice(&(sections.len() as u32).to_le_bytes());
+        out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        out.extend_from_slice(&crc32fast::hash(&body).to_le_bytes());
+        out.extend_from_slice(&0u32.to_le_bytes());
+        out.extend_from_slice(&body);
+        out
+    }
+
+    /// Reads and validates a whole file image (see the module docs).
+    pub fn from_bytes(bytes: &[u8]) -> Result<Asset, AssetError> {
+        Ok(decode(bytes)?.0)
+    }
+
+    /// Writes the file atomically (see [`save_bytes`]).
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), AssetError> {
+        save_bytes(path.as_ref(), &self.to_bytes())
+    }
+
+    /// Reads and validates a `.mlod` file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Asset, AssetError> {
+        let path = path.as_ref();
+        let bytes = std::fs::read(path).map_err(|source| AssetError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Asset::from_bytes(&bytes)
+    }
+}
+
+/// Writes `bytes` atomically: a temporary file in the same directory,
+/// flushed, then renamed over `path`, so readers see the old file or the
+/// whole new one, never a half-written one.
+pub fn save_bytes(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
+    let name = path
+        .file_name()
+        .map_or_else(|| "asset".into(), |n| n.to_string_lossy().into_owned());
+    let temp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let written = std::fs::File::create(&temp).and_then(|mut file| {
+        file.write_all(bytes)?;
+        file.sync_all()
+    });
+    if let Err(source) = written.and_then(|()| std::fs::rename(&temp, path)) {
+        // Best effort: the temporary may not exist if creating it failed.
+        let _ = std::fs::remove_file(&temp);
+        return Err(AssetError::Io {
+            path: path.to_path_buf(),
+            source,
+        });
+    }
+    Ok(())
+}
+
+/// Reads and validates a file image (see the module docs): the asset, its section table
+/// and its frames' sizes (what [`inspect`] reports).
+fn decode(bytes: &[u8]) -> Result<(Asset, Vec<Section>, Vec<FrameInfo>), AssetError> {
+    let (count, body) = check_header(bytes)?;
+    let table = read_section_table(body, count)?;
+    let section = |tag: [u8; 4]| -> Result<&[u8], AssetError> {
+        table
+            .iter()
+            .find(|s| s.tag == tag)
+            .map(|s| &body[s.start..s.end])
+            .ok_or_else(|| AssetError::MissingSection { tag: tag_name(tag) })
+    };
+    let v0 = decode_pose(section(TAG_V0)?, "V0")?;
+    let v1 = decode_pose(section(TAG_V1)?, "V1")?;
+    if v0.len() != v1.len() {
+        return Err(AssetError::PoseSizeMismatch {
+            v0: v0.len(),
+            v1: v1.len(),
+        });
+    }
+    let n = v0.len();
+    if n >= u32::MAX as usize {
+        return Err(AssetError::TooManyVertices { vertices: n });
+    }
+    let s0 = decode_strips(section(TAG_S0)?, n)?;
+    let neighbours = Neighbours::new(&s0, n);
+    let (frames, frame_infos) = decode_frames(section(TAG_FRAMES)?, n, &neighbours)?;
+    let blend = match section(TAG_TARGETS) {
+        Ok(data) => Some(decode_targets(data, n)?),
+        Err(_) => None,
+    };
+
+    let asset = Asset {
+        v0,
+        v1,
+        s0,
+        frames,
+        blend,
+    };
+    Ok((asset, table, frame_infos))
+}
+pub(super) fn tag_name(tag: [u8; 4]) -> String {
+    String::from_utf8_lossy(&tag).into_owned()
+}
+
+pub(super) fn u16_at(b: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes([b[at], b[at + 1]])
+}
+
+pub(super) fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
+}
+
+pub(super) fn u64_at(b: &[u8], at: usize) -> u64 {
+    u64::from(u32_at(b, at)) | (u64::from(u32_at(b, at + 4)) << 32)
+}
+/// Magic, version, flags, length and checksum; returns the section count
+/// and the body.
+fn check_header(bytes: &[u8]) -> Result<(u32, &[u8]), AssetError> {
+    let magic_len = bytes.len().min(MAGIC.len());
+    if bytes[..magic_len] != MAGIC[..magic_len] {
+        return Err(AssetError::WrongMagic {
+            found: bytes[..magic_len].to_vec(),
+        });
+    }
+    if bytes.len() < HEADER_LEN {
+        return Err(AssetError::TruncatedHeader {
+            length: bytes.len(),
+        });
+    }
+    let version = u16_at(bytes, 8);
+    if version > VERSION {
+        return Err(AssetError::NewerVersion { found: version });
+    }
+    if version == 0 {
+        return Err(AssetError::UnknownVersion { found: version });
+    }
+    let flags = u16_at(bytes, 10);
+    if flags != 0 {
+        return Err(AssetError::UnknownFlags { flags });
+    }
+    let expected = u64_at(bytes, 16);
+    let found = (bytes.len() - HEADER_LEN) as u64;
+    if found < expected {
+        return Err(AssetError::TruncatedBody { expected, found });
+    }
+    if found > expected {
+        return Err(AssetError::TrailingBytes { expected, found });
+    }
+    let body = &bytes[HEADER_LEN..];
+    let stored = u32_at(bytes, 24);
+    let computed = crc32fast::hash(body);
+    if stored != computed {
+        return Err(AssetError::Checksum { stored, computed });
+    }
+    Ok((u32_at(bytes, 12), body))
+}
+
+/// One entry of the section table: the tag and the byte range in the body.
+pub(super) struct Section {
+    pub(super) tag: [u8; 4],
+    pub(super) start: usize,
+    pub(super) end: usize,
+}
+
+/// The section table: each section's tag and byte range in the body, all
+/// after the table. Unknown tags are kept (and skipped by the caller).
+fn read_section_table(body: &[u8], count: u32) -> Result<Vec<Section>, AssetError> {
+    let table_len = count as usize * SECTION_ENTRY_LEN;
+    if count > MAX_SECTIONS || table_len > body.len() {
+        return Err(AssetError::SectionTable {
+            count,
+            body: body.len() as u64,
+        });
+    }
+    let mut table: Vec<Section> = Vec::with_capacity(count as usize);
+    for entry in body[..table_len].chunks_exact(SECTION_ENTRY_LEN) {
+        let tag = [entry[0], entry[1], entry[2], entry[3]];
+        let offset = u64_at(entry, 8);
+        let length = u64_at(entry, 16);
+        let end = offset.checked_add(length);
+        if offset < table_len as u64 || end.is_none_or(|e| e > body.len() as u64) {
+            return Err(AssetError::SectionOutOfRange {
+                tag: tag_name(tag),
+                offset,
+                length,
+                start: table_len as u64,
+                body: body.len() as u64,
+            });
+        }
+        if table.iter().any(|s| s.tag == tag) {
+            return Err(AssetError::DuplicateSection { tag: tag_name(tag) });
+        }
+        // Both fit in the body, so in usize.
+        table.push(Section {
+            tag,
+            start: offset as usize,
+            end: (offset + length) as usize,
+        });
+    }
+    Ok(table)
+}

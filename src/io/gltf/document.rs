@@ -1,0 +1,608 @@
+//! The validated glTF document: container split, JSON pre-check and validation, buffers
+//! resolved and length-checked, and the mesh-level reads (geometry, targets, default
+//! weights, weight tracks, node transforms). Accessor data is read in `accessor.rs`.
+
+use super::accessor::triangulate;
+use super::{display_name, interpolation, list_names, pick};
+use crate::io::LoadError;
+use crate::mesh::IndexedMesh;
+use crate::morph::WeightTrack;
+use base64::Engine;
+use gltf::accessor::Dimensions;
+use gltf::mesh::Mode;
+use std::path::{Path, PathBuf};
+
+/// The largest accessor without a buffer view we materialise (it reads as zeros
+/// plus sparse values): its count comes from the file and no data backs it, so
+/// a few bytes of JSON could otherwise ask for gigabytes. 256 MiB holds a
+/// 22-million-vertex sparse morph target.
+pub(super) const MAX_VIEWLESS_BYTES: usize = 1 << 28;
+
+/// Triangle primitives of one mesh, concatenated: positions, triangles and, when
+/// asked, per-target POSITION deltas concatenated the same way.
+pub(super) struct Geometry {
+    pub(super) positions: Vec<[f32; 3]>,
+    pub(super) triangles: Vec<[u32; 3]>,
+    pub(super) targets: Vec<Vec<[f32; 3]>>,
+}
+
+/// A validated glTF document with its buffers loaded and length-checked.
+pub(super) struct Document {
+    pub(super) path: PathBuf,
+    pub(super) document: gltf::Document,
+    pub(super) buffers: Vec<Vec<u8>>,
+}
+
+impl Document {
+    pub(super) fn open(path: &Path) -> Result<Document, LoadError> {
+        let bytes = crate::io::read(path)?;
+        let is_glb = bytes.starts_with(b"glTF")
+            || path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+        let (json, bin) = if is_glb {
+            split_glb(path, &bytes)?
+        } else {
+            (bytes.as_slice(), None)
+        };
+        let json_error = |message: String| LoadError::GltfJson {
+            path: path.to_path_buf(),
+            message,
+        };
+        let root: gltf::json::Root =
+            gltf::json::deserialize::from_slice(json).map_err(|e| json_error(e.to_string()))?;
+        precheck(&root).map_err(json_error)?;
+        let document = gltf::Document::from_json(root).map_err(|e| json_error(e.to_string()))?;
+        let buffers = document
+            .buffers()
+            .map(|buffer| load_buffer(path, &buffer, bin))
+            .collect::<Result<Vec<_>, LoadError>>()?;
+        Ok(Document {
+            path: path.to_path_buf(),
+            document,
+            buffers,
+        })
+    }
+
+    pub(super) fn data_error(&self, element: &str, message: String) -> LoadError {
+        LoadError::GltfData {
+            path: self.path.clone(),
+            element: element.to_string(),
+            message,
+        }
+    }
+
+    pub(super) fn unsupported(&self, element: &str, what: String) -> LoadError {
+        LoadError::GltfUnsupported {
+            path: self.path.clone(),
+            element: element.to_string(),
+            what,
+        }
+    }
+
+    pub(super) fn select_mesh(&self, wanted: Option<&str>) -> Result<gltf::Mesh<'_>, LoadError> {
+        let names: Vec<Option<&str>> = self.document.meshes().map(|m| m.name()).collect();
+        let index = match wanted {
+            Some(w) => pick(w, &names),
+            None => (!names.is_empty()).then_some(0),
+        };
+        index
+            .and_then(|i| self.document.meshes().nth(i))
+            .ok_or_else(|| LoadError::GltfNotFound {
+                path: self.path.clone(),
+                kind: "mesh",
+                wanted: wanted.unwrap_or("(the first mesh)").to_string(),
+                available: list_names(&names),
+            })
+    }
+
+    pub(super) fn geometry(
+        &self,
+        mesh: &gltf::Mesh,
+        with_targets: bool,
+    ) -> Result<Geometry, LoadError> {
+        let mut out = Geometry {
+            positions: Vec::new(),
+            triangles: Vec::new(),
+            targets: Vec::new(),
+        };
+        let mesh_name = display_name(mesh.name(), mesh.index());
+        for primitive in mesh.primitives() {
+            let element = format!("mesh {mesh_name} primitive {}", primitive.index());
+            let mode = primitive.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                return Err(self.unsupported(
+                    &element,
+                    format!("primitive mode {mode:?} (morphlod needs triangles)"),
+                ));
+            }
+            let Some(position) = primitive.get(&gltf::Semantic::Positions) else {
+                return Err(self.data_error(&element, "has no POSITION attribute".to_string()));
+            };
+            let positions = self.read_vec3(&position, &format!("{element} POSITION"))?;
+            // u32 indices with 0xFFFFFFFF reserved as the strip restart downstream.
+            let total = out.positions.len() + positions.len();
+            if total >= u32::MAX as usize {
+                return Err(self.unsupported(
+                    &element,
+                    format!("a mesh of {total} vertices (at most 4294967294)"),
+                ));
+            }
+            let offset = out.positions.len() as u32;
+            let corners = match primitive.indices() {
+                Some(indices) => self.read_indices(&indices, &format!("{element} indices"))?,
+                None => (0..positions.len() as u32).collect(),
+            };
+            if let Some((i, &v)) = corners
+                .iter()
+                .enumerate()
+                .find(|(_, &v)| v as usize >= positions.len())
+            {
+                return Err(self.data_error(
+                    &element,
+                    format!(
+                        "index {i} is {v}, but POSITION has only {} vertices",
+                        positions.len()
+                    ),
+                ));
+            }
+            let triangles = triangulate(mode, &corners)
+                .map_err(|message| self.data_error(&element, message))?;
+            out.triangles.extend(
+                triangles
+                    .iter()
+                    .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
+            );
+            if with_targets {
+                self.append_targets(&primitive, &element, positions.len(), &mut out.targets)?;
+            }
+            out.positions.extend(positions);
+        }
+        Ok(out)
+    }
+
+    /// Appends one primitive's POSITION deltas to the per-target arrays. Every
+    /// primitive of a mesh must have the same number of targets (glTF §3.7.2.2).
+    pub(super) fn append_targets(
+        &self,
+        primitive: &gltf::Primitive,
+        element: &str,
+        vertices: usize,
+        targets: &mut Vec<Vec<[f32; 3]>>,
+    ) -> Result<(), LoadError> {
+        let count = primitive.morph_targets().len();
+        if primitive.index() == 0 {
+            targets.resize(count, Vec::new());
+        } else if count != targets.len() {
+            return Err(self.data_error(
+                element,
+                format!(
+                    "has {count} morph targets but primitive 0 has {}; all primitives of a mesh need the same targets",
+                    targets.len()
+                ),
+            ));
+        }
+        for (t, (target, out)) in primitive
+            .morph_targets()
+            .zip(targets.iter_mut())
+            .enumerate()
+        {
+            let target_element = format!("{element} target {t} POSITION");
+            match target.positions() {
+                Some(accessor) => {
+                    let deltas = self.read_vec3(&accessor, &target_element)?;
+                    if deltas.len() != vertices {
+                        return Err(self.data_error(
+                            &target_element,
+                            format!(
+                                "has {} deltas but the primitive has {vertices} vertices",
+                                deltas.len()
+                            ),
+                        ));
+                    }
+                    out.extend(deltas);
+                }
+                // A target without POSITION moves no vertex of this primitive.
+                None => out.extend(std::iter::repeat_n([0.0; 3], vertices)),
+            }
+        }
+        Ok(())
+    }
+
+    /// `mesh.weights`, or zeros when absent; its length must match the targets.
+    pub(super) fn default_weights(
+        &self,
+        mesh: &gltf::Mesh,
+        targets: usize,
+    ) -> Result<Vec<f32>, LoadError> {
+        match mesh.weights() {
+            None => Ok(vec![0.0; targets]),
+            Some(w) if w.len() == targets && w.iter().all(|x| x.is_finite()) => Ok(w.to_vec()),
+            Some(w) => Err(self.data_error(
+                &format!("mesh {} weights", display_name(mesh.name(), mesh.index())),
+                format!(
+                    "has {} entries {w:?} for {targets} morph targets; it needs one finite weight per target",
+                    w.len()
+                ),
+            )),
+        }
+    }
+
+    /// The weight track of the first channel of `animation` that drives the
+    /// weights of a node instancing `mesh`; `None` when there is none.
+    pub(super) fn weight_track(
+        &self,
+        animation: &gltf::Animation,
+        mesh: &gltf::Mesh,
+        targets: usize,
+    ) -> Result<Option<WeightTrack>, LoadError> {
+        let channel = animation.channels().find(|c| {
+            c.target().property() == gltf::animation::Property::MorphTargetWeights
+                && c.target().node().mesh().map(|m| m.index()) == Some(mesh.index())
+        });
+        let Some(channel) = channel else {
+            return Ok(None);
+        };
+        let sampler = channel.sampler();
+        let element = format!(
+            "animation {} sampler {}",
+            display_name(animation.name(), animation.index()),
+            sampler.index()
+        );
+        let times = self.read_floats(
+            &sampler.input(),
+            &format!("{element} input"),
+            Dimensions::Scalar,
+        )?;
+        let values = self.read_floats(
+            &sampler.output(),
+            &format!("{element} output"),
+            Dimensions::Scalar,
+        )?;
+        WeightTrack::new(
+            interpolation(sampler.interpolation()),
+            times,
+            values,
+            targets,
+        )
+        .map(Some)
+        .map_err(|e| self.data_error(&element, e.to_string()))
+    }
+
+    /// World matrix of the first node instancing `mesh` (identity when none),
+    /// applied to the positions (as points) and target deltas (as vectors).
+    pub(super) fn transform(
+        &self,
+        mesh: &gltf::Mesh,
+        out: &mut IndexedMesh,
+        deltas: &mut [Vec<[f32; 3]>],
+    ) -> Result<(), LoadError> {
+        let Some(node) = self
+            .document
+            .nodes()
+            .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
+        else {
+            return Ok(());
+        };
+        let matrix = self.world_matrix(node.index());
+        for p in &mut out.positions {
+            *p = matrix.transform_point3(glam::Vec3::from(*p)).to_array();
+        }
+        for target in deltas.iter_mut() {
+            for d in target.iter_mut() {
+                *d = matrix.transform_vector3(glam::Vec3::from(*d)).to_array();
+            }
+        }
+        if matrix.determinant() < 0.0 {
+            for t in &mut out.triangles {
+                t.swap(1, 2);
+            }
+        }
+        let element = format!("node {} transform", display_name(node.name(), node.index()));
+        let bad = out
+            .positions
+            .iter()
+            .chain(deltas.iter().flatten())
+            .any(|p| !p.iter().all(|c| c.is_finite()));
+        if bad {
+            return Err(self.data_error(
+                &element,
+                "makes a position non-finite (overflow or NaN in the matrix)".to_string(),
+            ));
+        }
+        Ok(())
+    }
+
+    pub(super) fn world_matrix(&self, node: usize) -> glam::Mat4 {
+        let count = self.document.nodes().len();
+        let mut parent = vec![None; count];
+        for n in self.document.nodes() {
+            for child in n.children() {
+                if let Some(slot) = parent.get_mut(child.index()) {
+                    *slot = Some(n.index());
+                }
+            }
+        }
+        let local = |i: usize| {
+            self.document
+                .nodes()
+                .nth(i)
+                .map_or(glam::Mat4::IDENTITY, |n| {
+                    glam::Mat4::from_cols_array_2d(&n.transform().matrix())
+                })
+        };
+        let mut matrix = local(node);
+        let mut current = node;
+        // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
+        for _ in 0..count {
+            match parent.get(current).copied().flatten() {
+                Some(p) => {
+                    matrix = local(p) * matrix;
+                    current = p;
+                }
+                None => break,
+            }
+        }
+        matrix
+    }
+}
+
+/// Splits a GLB file into its JSON chunk and optional BIN chunk, checking the
+/// header and every chunk length against the actual byte count (GLB spec §4.4).
+fn split_glb<'a>(path: &Path, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>), LoadError> {
+    let error = |message: String| LoadError::GltfContainer {
+        path: path.to_path_buf(),
+        message,
+    };
+    let word = |at: usize| -> Option<u32> {
+        let b = bytes.get(at..at.checked_add(4)?)?;
+        Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let (Some(magic), Some(version), Some(length)) = (bytes.get(0..4), word(4), word(8)) else {
+        return Err(error(format!(
+            "the file has {} bytes, less than the 12-byte GLB header",
+            bytes.len()
+        )));
+    };
+    if magic != b"glTF" {
+        return Err(error(format!(
+            "bad magic {magic:?}: a GLB file starts with \"glTF\""
+        )));
+    }
+    if version != 2 {
+        return Err(error(format!(
+            "GLB version {version}; only version 2 is supported"
+        )));
+    }
+    let length = length as usize;
+    if length > bytes.len() {
+        return Err(error(format!(
+            "the header declares {length} bytes but the file has {}: it is truncated",
+            bytes.len()
+        )));
+    }
+    let mut json = None;
+    let mut bin = None;
+    let mut at = 12;
+    let mut chunk = 0;
+    while at < length {
+        let (Some(chunk_length), Some(kind)) = (word(at), word(at + 4)) else {
+            return Err(error(format!(
+                "chunk {chunk} header at byte {at} runs past the end"
+            )));
+        };
+        let start = at + 8;
+        let end = start
+            .checked_add(chunk_length as usize)
+            .filter(|&e| e <= length)
+            .ok_or_else(|| {
+                error(format!(
+                    "chunk {chunk} at byte {at} declares {chunk_length} bytes, but only {} remain",
+                    length.saturating_sub(start)
+                ))
+            })?;
+        let body = &bytes[start..end];
+        match (chunk, kind) {
+            (0, 0x4E4F_534A) => json = Some(body),
+            (0, _) => {
+                return Err(error(format!(
+                    "the first chunk has type 0x{kind:08X}; it must be JSON"
+                )))
+            }
+            (1, 0x004E_4942) => bin = Some(body),
+            // Unknown chunk types must be ignored (GLB spec §4.4.3).
+            _ => {}
+        }
+        at = end;
+        chunk += 1;
+    }
+    match json {
+        Some(json) => Ok((json, bin)),
+        None => Err(error("the file has no JSON chunk".to_string())),
+    }
+}
+
+/// What the `gltf` validator misses, checked before it and the accessors run:
+/// it indexes `accessors[POSITION]` unchecked, and it validates an animation's
+/// samplers but never its channels, so an unknown target path or an
+/// out-of-range target node would reach `Checked::unwrap` or an unchecked index
+/// in the crate's accessors and panic.
+fn precheck(root: &gltf::json::Root) -> Result<(), String> {
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            if channel.target.node.value() >= root.nodes.len() {
+                return Err(format!(
+                    "animations[{a}].channels[{c}].target.node refers to node {}, but the file has {} nodes",
+                    channel.target.node.value(),
+                    root.nodes.len()
+                ));
+            }
+            if channel.target.path == gltf::json::validation::Checked::Invalid {
+                return Err(format!(
+                    "animations[{a}].channels[{c}].target.path is not one of translation, rotation, scale, weights"
+                ));
+            }
+        }
+    }
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &primitive.attributes {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}].attributes.{} refers to accessor {}, but the file has {} accessors",
+                        semantic.to_string(),
+                        index.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    check_hierarchy(root)
+}
+
+/// The node hierarchy must be a set of disjoint strict trees (glTF 2.0, "Nodes and
+/// Hierarchy"): no node has two parents and none is its own ancestor. A file that breaks this
+/// is invalid, so it is refused with the node named rather than placed by some partial walk.
+fn check_hierarchy(root: &gltf::json::Root) -> Result<(), String> {
+    let count = root.nodes.len();
+    let mut parent: Vec<Option<usize>> = vec![None; count];
+    for (n, node) in root.nodes.iter().enumerate() {
+        for child in node.children.iter().flatten() {
+            let c = child.value();
+            match parent.get_mut(c) {
+                None => {
+                    return Err(format!(
+                        "nodes[{n}].children refers to node {c}, but the file has {count} nodes"
+                    ))
+                }
+                Some(Some(p)) => {
+                    return Err(format!(
+                        "node {c} is a child of both node {p} and node {n}; a node has at most one parent"
+                    ))
+                }
+                Some(slot) => *slot = Some(n),
+            }
+        }
+    }
+    // 0: not seen, 1: on the walk from the current start, 2: leads to a root.
+    let mut state = vec![0u8; count];
+    let mut walk = Vec::new();
+    for start in 0..count {
+        let mut current = Some(start);
+        while let Some(c) = current {
+            match state[c] {
+                2 => break,
+                1 => {
+                    return Err(format!(
+                        "node {c} is its own ancestor: the node hierarchy has a cycle, glTF allows only trees"
+                    ))
+                }
+                _ => {
+                    state[c] = 1;
+                    walk.push(c);
+                    current = parent[c];
+                }
+            }
+        }
+        for c in walk.drain(..) {
+            state[c] = 2;
+        }
+    }
+    Ok(())
+}
+
+/// One buffer's bytes (exactly `byteLength`) from the GLB BIN chunk, a base64
+/// data URI or a file relative to the glTF file.
+fn load_buffer(
+    path: &Path,
+    buffer: &gltf::Buffer,
+    bin: Option<&[u8]>,
+) -> Result<Vec<u8>, LoadError> {
+    let element = format!("buffer {}", buffer.index());
+    let data_error = |message: String| LoadError::GltfData {
+        path: path.to_path_buf(),
+        element: element.clone(),
+        message,
+    };
+    let data = match buffer.source() {
+        gltf::buffer::Source::Bin => bin
+            .ok_or_else(|| {
+                data_error("refers to the GLB binary chunk, but the file has none".to_string())
+            })?
+            .to_vec(),
+        gltf::buffer::Source::Uri(uri) => {
+            if let Some(rest) = uri.strip_prefix("data:") {
+                let Some((header, payload)) = rest.split_once(',') else {
+                    return Err(data_error(
+                        "data URI has no ',' before its data".to_string(),
+                    ));
+                };
+                if !header.ends_with(";base64") {
+                    return Err(LoadError::GltfUnsupported {
+                        path: path.to_path_buf(),
+                        element,
+                        what: format!("a data URI that is not base64 (data:{header})"),
+                    });
+                }
+                base64::engine::general_purpose::STANDARD
+                    .decode(payload)
+                    .map_err(|e| data_error(format!("data URI is not valid base64: {e}")))?
+            } else if uri.contains("://") {
+                return Err(LoadError::GltfUnsupported {
+                    path: path.to_path_buf(),
+                    element,
+                    what: format!("the non-local URI '{uri}'"),
+                });
+            } else {
+                let file = path
+                    .parent()
+                    .unwrap_or(Path::new(""))
+                    .join(percent_decode(uri));
+                std::fs::read(&file).map_err(|source| LoadError::GltfExternal {
+                    path: path.to_path_buf(),
+                    buffer: buffer.index(),
+                    file,
+                    source,
+                })?
+            }
+        }
+    };
+    if data.len() < buffer.length() {
+        return Err(data_error(format!(
+            "declares byteLength {} but its data has only {} bytes",
+            buffer.length(),
+            data.len()
+        )));
+    }
+    let mut data = data;
+    data.truncate(buffer.length());
+    Ok(data)
+}
+
+/// URIs in glTF are percent-encoded (`my%20mesh.bin`).
+pub(super) fn percent_decode(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = bytes
+            .get(i + 1..i + 3)
+            .and_then(|h| std::str::from_utf8(h).ok())
+            .and_then(|h| u8::from_str_radix(h, 16).ok());
+        match (bytes[i], hex) {
+            (b'%', Some(byte)) => {
+                out.push(byte);
+                i += 3;
+            }
+            (b, _) => {
+                out.push(b);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}

@@ -1,0 +1,366 @@
+//! glTF 2.0 (`.gltf` + `.bin` / data URIs) and GLB input: one mesh's triangles,
+//! its morph targets and the weight animations that drive them (this module: file → mesh,
+//! file → [`Morph`]), plus a summary of the file for `morphlod info` ([`summary`]).
+//!
+//! Everything goes through one internal `Document` (`document.rs`): the GLB container is
+//! split there (the `gltf` crate's GLB reader subtracts the header size from the
+//! declared length unchecked), the JSON is parsed and validated by the `gltf`
+//! crate after a pre-check its validator needs, every buffer is resolved and
+//! length-checked, and accessors are read by our own bounds-checked reader
+//! (`accessor.rs`) instead of `gltf`'s `Reader`, which slices with file-provided offsets
+//! and strides and panics when they point past the data.
+
+mod accessor;
+mod document;
+#[cfg(test)]
+mod morph_tests;
+pub mod summary;
+
+pub use summary::{inspect, AnimationSummary, GltfSummary, MeshSummary, WeightChannelSummary};
+
+use crate::io::{LoadError, LoadOptions};
+use crate::mesh::IndexedMesh;
+use crate::morph::{Interpolation, Morph, MorphTarget, WeightTrack, Weights};
+use document::Document;
+use std::path::Path;
+
+/// Which poses of a glTF mesh's morph targets make the morph.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MorphSource {
+    /// One target, by name (from `mesh.extras.targetNames`) or index:
+    /// `V(0)` = base (all weights 0, ignoring the mesh's default weights, so the
+    /// morph shows exactly that target), `V(1)` = base + the target at weight 1.
+    Target(String),
+    /// A weight animation, by name or index, played over its whole duration,
+    /// evaluated with its own interpolation (STEP, LINEAR or CUBICSPLINE).
+    Animation(String),
+    /// `V(0)` = base (all weights 0), `V(1)` = the mesh's default weights
+    /// (`mesh.weights`, all 0 when absent).
+    DefaultWeights,
+}
+
+/// Loads the triangles of one mesh (all its triangle primitives, concatenated).
+/// `options.gltf_mesh` picks the mesh by name or index (default: the first);
+/// with `options.apply_transforms` the world matrix of the first node that
+/// instances the mesh is applied (winding flipped under a mirroring matrix so
+/// front faces stay counter-clockwise).
+pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, LoadError> {
+    let doc = Document::open(path)?;
+    let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
+    let geometry = doc.geometry(&mesh, false)?;
+    let mut mesh_out = IndexedMesh::new(geometry.positions, geometry.triangles);
+    if options.apply_transforms {
+        doc.transform(&mesh, &mut mesh_out, &mut [])?;
+    }
+    super::validated(mesh_out, path)
+}
+
+/// What [`load_morph`] needs from a file: the selected mesh
+/// (transformed as [`load_mesh`] does), its targets with deltas transformed by the
+/// same matrix, its default weights, and every animation of the file with the
+/// weight track that animates this mesh (`None` when it does not).
+struct GltfMorph {
+    mesh: IndexedMesh,
+    mesh_name: String,
+    targets: Vec<MorphTarget>,
+    default_weights: Vec<f32>,
+    animations: Vec<AnimationWeights>,
+}
+
+struct AnimationWeights {
+    name: Option<String>,
+    track: Option<WeightTrack>,
+}
+
+fn read_morph(path: &Path, options: &LoadOptions) -> Result<GltfMorph, LoadError> {
+    let doc = Document::open(path)?;
+    let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
+    let geometry = doc.geometry(&mesh, true)?;
+    let names = target_names(&mesh, geometry.targets.len());
+    let mut mesh_out = IndexedMesh::new(geometry.positions, geometry.triangles);
+    let mut deltas = geometry.targets;
+    if options.apply_transforms {
+        doc.transform(&mesh, &mut mesh_out, &mut deltas)?;
+    }
+    let default_weights = doc.default_weights(&mesh, deltas.len())?;
+    let animations = doc
+        .document
+        .animations()
+        .map(|animation| {
+            Ok(AnimationWeights {
+                name: animation.name().map(str::to_string),
+                track: doc.weight_track(&animation, &mesh, deltas.len())?,
+            })
+        })
+        .collect::<Result<Vec<_>, LoadError>>()?;
+    let targets = names
+        .into_iter()
+        .zip(deltas)
+        .map(|(name, deltas)| MorphTarget { name, deltas })
+        .collect();
+    Ok(GltfMorph {
+        mesh: mesh_out,
+        mesh_name: display_name(mesh.name(), mesh.index()),
+        targets,
+        default_weights,
+        animations,
+    })
+}
+
+/// A morph from a glTF mesh's morph targets (see [`MorphSource`]). The mesh is
+/// chosen and placed by `options` exactly as [`load_mesh`] does.
+pub fn load_morph(
+    path: &Path,
+    options: &LoadOptions,
+    source: &MorphSource,
+) -> Result<Morph, LoadError> {
+    let data = read_morph(path, options)?;
+    let shown = path.to_path_buf();
+    if data.targets.is_empty() {
+        return Err(LoadError::NoTargets {
+            path: shown,
+            mesh: data.mesh_name,
+        });
+    }
+    let mut targets = data.targets;
+    let weights = match source {
+        MorphSource::Target(wanted) => {
+            let names: Vec<Option<&str>> = targets.iter().map(|t| Some(t.name.as_str())).collect();
+            let Some(i) = pick(wanted, &names) else {
+                return Err(LoadError::NoSuchTarget {
+                    path: shown,
+                    wanted: wanted.clone(),
+                    available: list_names(&names),
+                });
+            };
+            // Only the chosen target contributes, so keep only its deltas.
+            targets = vec![targets.swap_remove(i)];
+            Weights::TwoPose {
+                w0: vec![0.0],
+                w1: vec![1.0],
+            }
+        }
+        MorphSource::DefaultWeights => Weights::TwoPose {
+            w0: vec![0.0; targets.len()],
+            w1: data.default_weights,
+        },
+        MorphSource::Animation(wanted) => {
+            let names: Vec<Option<&str>> =
+                data.animations.iter().map(|a| a.name.as_deref()).collect();
+            let Some(i) = pick(wanted, &names) else {
+                return Err(LoadError::NoSuchAnimation {
+                    path: shown,
+                    wanted: wanted.clone(),
+                    available: list_names(&names),
+                });
+            };
+            match data.animations.into_iter().nth(i).and_then(|a| a.track) {
+                Some(track) => Weights::Animated(track),
+                None => {
+                    return Err(LoadError::NoWeightChannel {
+                        path: shown,
+                        animation: wanted.clone(),
+                        mesh: data.mesh_name,
+                    })
+                }
+            }
+        }
+    };
+    Ok(Morph::from_parts(
+        data.mesh.triangles,
+        data.mesh.positions,
+        targets,
+        weights,
+    )?)
+}
+
+pub(super) fn quoted(name: &Option<String>) -> String {
+    name.as_ref()
+        .map_or("(unnamed)".to_string(), |n| format!("'{n}'"))
+}
+
+/// `name` when present, else the index as text: how messages name an element.
+pub(super) fn display_name(name: Option<&str>, index: usize) -> String {
+    name.map_or(index.to_string(), |n| format!("'{n}'"))
+}
+
+/// Finds an element by exact name first, then by decimal index: names win so
+/// a mesh literally called "2" stays reachable.
+pub(super) fn pick(wanted: &str, names: &[Option<&str>]) -> Option<usize> {
+    names
+        .iter()
+        .position(|n| *n == Some(wanted))
+        .or_else(|| wanted.parse::<usize>().ok().filter(|&i| i < names.len()))
+}
+
+/// `0 'a', 1 (unnamed), ...` for "not found" messages.
+pub(super) fn list_names(names: &[Option<&str>]) -> String {
+    if names.is_empty() {
+        return "(none)".to_string();
+    }
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| n.map_or(format!("{i} (unnamed)"), |n| format!("{i} '{n}'")))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Target names from `mesh.extras.targetNames` (the de-facto convention); a
+/// missing or non-string entry becomes `target {i}`.
+pub(super) fn target_names(mesh: &gltf::Mesh, count: usize) -> Vec<String> {
+    let names: Vec<gltf::json::Value> = mesh
+        .extras()
+        .as_ref()
+        .and_then(|raw| gltf::json::deserialize::from_str::<gltf::json::Value>(raw.get()).ok())
+        .and_then(|extras| extras.get("targetNames")?.as_array().cloned())
+        .unwrap_or_default();
+    (0..count)
+        .map(|i| {
+            names
+                .get(i)
+                .and_then(|v| v.as_str())
+                .map_or(format!("target {i}"), str::to_string)
+        })
+        .collect()
+}
+
+pub(super) fn interpolation(i: gltf::animation::Interpolation) -> Interpolation {
+    match i {
+        gltf::animation::Interpolation::Step => Interpolation::Step,
+        gltf::animation::Interpolation::Linear => Interpolation::Linear,
+        gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::accessor::triangulate;
+    use super::document::percent_decode;
+    use super::*;
+    use gltf::mesh::Mode;
+    use std::path::PathBuf;
+
+    #[test]
+    fn strips_keep_orientation_and_fans_follow_the_spec() {
+        // Strip 0 1 2 3 4: triangles (0,1,2), (1,3,2), (2,3,4): all the same winding
+        // as drawn by a GPU strip (odd triangles swapped).
+        assert_eq!(
+            triangulate(Mode::TriangleStrip, &[0, 1, 2, 3, 4]).unwrap(),
+            vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]
+        );
+        // Degenerate joints (repeated corners) are dropped; parity still counts
+        // them: (3,4,5) sits at odd position 5, so it is drawn as (3,5,4).
+        assert_eq!(
+            triangulate(Mode::TriangleStrip, &[0, 1, 2, 2, 3, 3, 4, 5]).unwrap(),
+            vec![[0, 1, 2], [3, 5, 4]]
+        );
+        // Fan 0 1 2 3: (1,2,0), (2,3,0) per glTF §3.7.2.1.
+        assert_eq!(
+            triangulate(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap(),
+            vec![[1, 2, 0], [2, 3, 0]]
+        );
+        assert!(triangulate(Mode::Triangles, &[0, 1]).is_err());
+    }
+
+    #[test]
+    fn pick_prefers_names_then_indices() {
+        let names = [Some("a"), None, Some("0")];
+        assert_eq!(pick("a", &names), Some(0));
+        assert_eq!(pick("0", &names), Some(2));
+        assert_eq!(pick("1", &names), Some(1));
+        assert_eq!(pick("3", &names), None);
+        assert_eq!(list_names(&names), "0 'a', 1 (unnamed), 2 '0'");
+    }
+
+    #[test]
+    fn percent_decoding() {
+        assert_eq!(percent_decode("my%20mesh.bin"), "my mesh.bin");
+        assert_eq!(percent_decode("100%"), "100%");
+    }
+
+    fn asset(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("assets")
+            .join(name)
+    }
+
+    #[test]
+    fn loads_the_animated_morph_cube() {
+        let path = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
+        let mesh = load_mesh(&path, &LoadOptions::default()).unwrap();
+        assert_eq!((mesh.vertex_count(), mesh.triangle_count()), (24, 12));
+        mesh.validate().unwrap();
+        // The node scales by 100: the cube's 0.01 half-size becomes 1.
+        let placed = LoadOptions {
+            apply_transforms: true,
+            ..LoadOptions::default()
+        };
+        let moved = load_mesh(&path, &placed).unwrap();
+        let (lo, hi) = moved.bounds().unwrap();
+        assert!(
+            lo.iter().chain(&hi).all(|c| (c.abs() - 1.0).abs() < 1e-3),
+            "{lo:?} {hi:?}"
+        );
+        let summary = inspect(&path).unwrap();
+        assert_eq!(summary.meshes.len(), 1);
+        assert_eq!(summary.meshes[0].target_names.len(), 2);
+        assert_eq!(summary.animations.len(), 1);
+        let channel = &summary.animations[0].weight_channels[0];
+        assert_eq!(channel.interpolation, Interpolation::Linear);
+        assert_eq!(channel.keyframes, 127);
+        assert!((channel.duration - 4.2).abs() < 1e-3);
+        let text = summary.to_string();
+        assert!(
+            text.contains("'Cube'") && text.contains("'Square'"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn loads_the_makehuman_files() {
+        let body = asset("makehuman_body.glb");
+        let mesh = load_mesh(&body, &LoadOptions::default()).unwrap();
+        assert_eq!(
+            (mesh.vertex_count(), mesh.triangle_count()),
+            (13_380, 26_756)
+        );
+        mesh.validate().unwrap();
+        let summary = inspect(&body).unwrap();
+        assert_eq!(
+            summary.meshes[0].target_names,
+            [
+                "caucasian-male-young",
+                "caucasian-female-old",
+                "caucasian-male-baby",
+                "universal-male-young-averagemuscle-maxweight"
+            ]
+        );
+        assert_eq!(summary.meshes[0].default_weights, vec![0.0; 4]);
+        let channel = &summary.animations[0].weight_channels[0];
+        assert_eq!((channel.keyframes, channel.duration), (9, 8.0));
+        let head = asset("makehuman_head.glb");
+        let summary = inspect(&head).unwrap();
+        let m = &summary.meshes[0];
+        assert_eq!((m.vertices, m.triangles), (4_437, 8_818));
+        assert_eq!(m.target_names.len(), 8);
+        assert_eq!(m.target_names[0], "jawOpen");
+        assert_eq!(m.target_names[7], "mouthPucker");
+    }
+
+    #[test]
+    fn unknown_mesh_lists_the_available_ones() {
+        let path = asset("makehuman_head.glb");
+        let options = LoadOptions {
+            gltf_mesh: Some("face".to_string()),
+            ..LoadOptions::default()
+        };
+        let err = load_mesh(&path, &options).unwrap_err();
+        assert!(matches!(err, LoadError::GltfNotFound { kind: "mesh", .. }));
+        assert!(
+            err.to_string()
+                .contains("no mesh 'face'; the file has: 0 (unnamed)"),
+            "{err}"
+        );
+    }
+}
