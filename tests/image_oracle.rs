@@ -22,7 +22,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use common::gpu::Gpu;
+use common::gpu::{assert_one_multi_draw_each, Gpu, Recorder};
 use common::{strip_draw, Rng};
 use glam::{Mat4, Vec3};
 use morphlod::collapse::{canonical, CollapseSequence};
@@ -299,7 +299,7 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
                 }
                 strips.set_t(t)?;
                 strips.prepare(queue);
-                let drawn = target.render(device, queue, &mut [&mut strips])?;
+                let drawn = ctx.render_one(&target, &strips);
 
                 let reference = seq.reference_mesh(&input.triangles, lod);
                 let lists = reference_lists(&reference, &state, model.strip_count());
@@ -316,7 +316,7 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
                     setup(&mut listed, view_proj)?;
                     listed.set_t(t)?;
                     listed.prepare(queue);
-                    images.push(target.render(device, queue, &mut [&mut listed])?);
+                    images.push(ctx.render_one(&target, &listed));
                 }
                 if drawn != images[0] {
                     let what = format!("{} t={t} lod={lod} of {max}", input.name);
@@ -388,7 +388,7 @@ fn back_face_culling_hides_nothing() -> Result<(), GpuError> {
         )?;
         setup(&mut object, view_proj)?;
         object.prepare(queue);
-        target.render(device, queue, &mut [&mut object])
+        Ok::<_, GpuError>(ctx.render_one(&target, &object))
     };
     for input in [load_static("cow.off"), load_static("bunny.obj")] {
         let (_, Lod { seq, model }) = build_lod(&input);
@@ -538,12 +538,17 @@ fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
                 peak = peak.max(lod_bytes);
                 writes += upload.writes();
                 let mut encoder = device.create_command_encoder(&Default::default());
-                {
+                let calls = {
                     let mut pass = target.begin_pass(&mut encoder);
-                    object.render(&mut pass);
-                }
+                    let mut recorder = Recorder {
+                        pass: &mut pass,
+                        calls: Vec::new(),
+                    };
+                    object.render(&mut recorder);
+                    recorder.calls
+                };
                 queue.submit([encoder.finish()]);
-                assert_eq!(object.draw_calls(), f as u64 + 1, "one draw per frame");
+                assert_one_multi_draw_each(&calls, &[&object]);
             }
             // The last frame's image is the object at max LOD, drawn.
             let image = target.read_image(device, queue)?;
@@ -555,7 +560,7 @@ fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
                  ({:.1}%), {:.1} write_buffer calls per frame; last frame covers {} px; {:.2} s",
                 input.name,
                 if exponential { "exponential" } else { "linear" },
-                object.draw_calls(),
+                FRAMES,
                 100.0 * average / full_bytes as f64,
                 100.0 * peak as f64 / full_bytes as f64,
                 writes as f64 / FRAMES as f64,
@@ -622,12 +627,11 @@ fn two_objects_share_one_pipeline() -> Result<(), GpuError> {
     let [a, b] = &mut crowd[..] else {
         unreachable!("two objects were pushed");
     };
-    let alone_a = target.render(device, queue, &mut [&mut *a])?;
-    let alone_b = target.render(device, queue, &mut [&mut *b])?;
-    let (before_a, before_b) = (a.draw_calls(), b.draw_calls());
-    let together = target.render(device, queue, &mut [&mut *a, &mut *b])?;
-    let draws = (a.draw_calls() - before_a) + (b.draw_calls() - before_b);
-    assert_eq!(draws, 2, "two objects in one pass: two draw calls");
+    let alone_a = ctx.render_one(&target, a);
+    let alone_b = ctx.render_one(&target, b);
+    let (together, calls) = ctx.render_recorded(&target, &[&*a, &*b]);
+    // Two objects in one pass: two draw calls, each of its own records.
+    assert_one_multi_draw_each(&calls, &[&*a, &*b]);
     let (covered_a, covered_b) = (coverage(&alone_a), coverage(&alone_b));
     assert!(
         covered_a > 2000 && covered_b > 1000,

@@ -9,7 +9,7 @@ use glyphon::{
     Attrs, Buffer, Cache, Color, ColorMode, Family, FontSystem, Metrics, Resolution, Shaping,
     SwashCache, TextArea, TextAtlas, TextBounds, TextRenderer, Viewport,
 };
-use morphlod::gpu::{LodObject, MorphPipeline, RenderTarget, ShadeMode, Upload};
+use morphlod::gpu::{DrawCounter, LodObject, MorphPipeline, RenderTarget, ShadeMode, Upload};
 use morphlod::Lod;
 
 use super::cache::BuiltMorph;
@@ -273,10 +273,10 @@ impl Scene {
     /// Records the current object (one multi-draw) and the readout into `pass`, whose
     /// attachments have the formats the scene was made for.
     pub fn draw(&mut self, pass: &mut wgpu::RenderPass<'_>) -> Result<(), DemoError> {
-        if let Some(current) = self.objects.get_mut(self.current) {
-            let before = current.object.object().draw_calls();
-            current.object.render(pass);
-            self.last.draw_calls = current.object.object().draw_calls() - before;
+        if let Some(current) = self.objects.get(self.current) {
+            let mut counter = DrawCounter::new(pass);
+            current.object.render(&mut counter);
+            self.last.draw_calls = counter.draw_calls;
         }
         self.readout.draw(pass)
     }

@@ -13,6 +13,7 @@
 
 use std::sync::Arc;
 
+use super::commands::RenderCommands;
 use super::{Draws, GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, DeformingState, Lod, SetError};
@@ -95,8 +96,9 @@ impl LodObject {
         self.object.prepare(queue)
     }
 
-    /// Draws the object with exactly one `multi_draw_indexed_indirect`.
-    pub fn render(&mut self, pass: &mut wgpu::RenderPass<'_>) {
+    /// Draws the object with exactly one `multi_draw_indexed_indirect` (see
+    /// [`Object::render`]).
+    pub fn render(&self, pass: &mut (impl RenderCommands + ?Sized)) {
         self.object.render(pass);
     }
 

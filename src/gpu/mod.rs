@@ -49,6 +49,7 @@
 //! because each may sit at its own LOD and frame.
 
 pub mod camera;
+mod commands;
 mod context;
 mod lod_object;
 mod object;
@@ -58,6 +59,7 @@ mod records;
 mod render_target;
 mod upload;
 
+pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
 pub use lod_object::{s0_regions, LodObject};
 pub use object::{Object, Topology};

@@ -42,6 +42,7 @@ use std::ops::Range;
 
 use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
+use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
 use super::pose::Pose;
 use super::records::{DrawRecords, ARGS_BYTES};
@@ -84,7 +85,6 @@ pub struct Object {
     records: DrawRecords,
     /// Uniforms, morph targets and the bind group.
     pose: Pose,
-    draw_calls: u64,
 }
 
 impl Object {
@@ -210,7 +210,6 @@ impl Object {
             mirror: IndexMirror::new(indices),
             records,
             pose,
-            draw_calls: 0,
         })
     }
 
@@ -568,22 +567,18 @@ impl Object {
         upload
     }
 
-    /// Draws every record with exactly one `multi_draw_indexed_indirect`. Sets its own
-    /// pipeline, bind group, vertex and index buffers, so objects can be drawn in any order in
-    /// one pass.
-    pub fn render(&mut self, pass: &mut wgpu::RenderPass<'_>) {
+    /// Draws every record with exactly one `multi_draw_indexed_indirect` (the indirect buffer
+    /// from offset 0, one record per entry of [`indirect_args`](Self::indirect_args)). Sets
+    /// its own pipeline, bind group, vertex and index buffers, so objects can be drawn in any
+    /// order in one pass. `pass` is a `wgpu::RenderPass` or anything else implementing
+    /// [`RenderCommands`] (wrap it in a [`DrawCounter`](super::DrawCounter) to count draws).
+    pub fn render(&self, pass: &mut (impl RenderCommands + ?Sized)) {
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, self.pose.bind_group(), &[]);
-        pass.set_vertex_buffer(0, self.v0.slice(..));
-        pass.set_vertex_buffer(1, self.v1.slice(..));
-        pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+        pass.set_bind_group(0, self.pose.bind_group());
+        pass.set_vertex_buffer(0, &self.v0);
+        pass.set_vertex_buffer(1, &self.v1);
+        pass.set_index_buffer(&self.index_buffer, wgpu::IndexFormat::Uint32);
         pass.multi_draw_indexed_indirect(&self.indirect_buffer, 0, self.records.args.len() as u32);
-        self.draw_calls += 1;
-    }
-
-    /// How many draw calls [`Object::render`] has issued so far (one per render).
-    pub fn draw_calls(&self) -> u64 {
-        self.draw_calls
     }
 }
 

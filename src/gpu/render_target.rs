@@ -113,12 +113,12 @@ impl RenderTarget {
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        objects: &mut [&mut Object],
+        objects: &[&Object],
     ) -> Result<image::RgbaImage, GpuError> {
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = self.begin_pass(&mut encoder);
-            for object in objects.iter_mut() {
+            for object in objects {
                 object.render(&mut pass);
             }
         }

@@ -7,11 +7,14 @@
 //!   `MAP_READ` staging buffer).
 //! * [`Gpu::drawn_by`]: the triangles one `multi_draw_indexed_indirect` of an object draws,
 //!   decoded from the index and indirect buffers as they are on the GPU.
+//! * [`Gpu::render_recorded`]: renders through a [`Recorder`] that forwards every command to
+//!   the real pass and keeps it, so [`assert_one_multi_draw_each`] sees the draw calls really
+//!   issued and their arguments (not a counter the object keeps about itself).
 
 use std::io::Write;
 use std::sync::mpsc;
 
-use morphlod::gpu::{Context, GpuError, MorphPipeline, Object, RenderTarget};
+use morphlod::gpu::{Context, GpuError, MorphPipeline, Object, RenderCommands, RenderTarget};
 
 use super::strip_draw;
 
@@ -106,6 +109,40 @@ impl Gpu {
         words
     }
 
+    /// Renders `object` alone through a [`Recorder`] and checks that it issued exactly one
+    /// multi-draw of its own records ([`assert_one_multi_draw_each`]).
+    pub fn render_one(&self, target: &RenderTarget, object: &Object) -> image::RgbaImage {
+        let (image, calls) = self.render_recorded(target, &[object]);
+        assert_one_multi_draw_each(&calls, &[object]);
+        image
+    }
+
+    /// Renders `objects` in one pass through a [`Recorder`] wrapped around the real render
+    /// pass, submits, reads the image back and returns it with every recorded command.
+    pub fn render_recorded(
+        &self,
+        target: &RenderTarget,
+        objects: &[&Object],
+    ) -> (image::RgbaImage, Vec<Call>) {
+        let mut encoder = self.device().create_command_encoder(&Default::default());
+        let calls = {
+            let mut pass = target.begin_pass(&mut encoder);
+            let mut recorder = Recorder {
+                pass: &mut pass,
+                calls: Vec::new(),
+            };
+            for object in objects {
+                object.render(&mut recorder);
+            }
+            recorder.calls
+        };
+        self.queue().submit([encoder.finish()]);
+        let image = target
+            .read_image(self.device(), self.queue())
+            .expect("the image reads back");
+        (image, calls)
+    }
+
     /// The index buffer and the drawn indirect records of `object` as the GPU holds them, and
     /// the triangles one render of it draws: `multi_draw_indexed_indirect` over the first
     /// `indirect_args().len()` records (the count `render` passes), decoded with
@@ -195,4 +232,96 @@ pub fn draw_indexed_indirect(
         }
     }
     out
+}
+
+/// One command `Object::render` issued, as [`Recorder`] saw it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Call {
+    SetPipeline,
+    SetBindGroup(u32),
+    SetVertexBuffer(u32, wgpu::Buffer),
+    SetIndexBuffer(wgpu::Buffer, wgpu::IndexFormat),
+    MultiDrawIndexedIndirect {
+        indirect: wgpu::Buffer,
+        offset: u64,
+        count: u32,
+    },
+}
+
+/// A render pass that keeps every command and forwards it to the real pass.
+pub struct Recorder<'a, 'p> {
+    pub pass: &'a mut wgpu::RenderPass<'p>,
+    pub calls: Vec<Call>,
+}
+
+impl RenderCommands for Recorder<'_, '_> {
+    fn set_pipeline(&mut self, pipeline: &wgpu::RenderPipeline) {
+        self.calls.push(Call::SetPipeline);
+        self.pass.set_pipeline(pipeline);
+    }
+
+    fn set_bind_group(&mut self, index: u32, bind_group: &wgpu::BindGroup) {
+        self.calls.push(Call::SetBindGroup(index));
+        self.pass.set_bind_group(index, bind_group, &[]);
+    }
+
+    fn set_vertex_buffer(&mut self, slot: u32, buffer: &wgpu::Buffer) {
+        self.calls.push(Call::SetVertexBuffer(slot, buffer.clone()));
+        self.pass.set_vertex_buffer(slot, buffer.slice(..));
+    }
+
+    fn set_index_buffer(&mut self, buffer: &wgpu::Buffer, format: wgpu::IndexFormat) {
+        self.calls
+            .push(Call::SetIndexBuffer(buffer.clone(), format));
+        self.pass.set_index_buffer(buffer.slice(..), format);
+    }
+
+    fn multi_draw_indexed_indirect(&mut self, indirect: &wgpu::Buffer, offset: u64, count: u32) {
+        self.calls.push(Call::MultiDrawIndexedIndirect {
+            indirect: indirect.clone(),
+            offset,
+            count,
+        });
+        self.pass
+            .multi_draw_indexed_indirect(indirect, offset, count);
+    }
+}
+
+/// `calls` are exactly one draw per object, in order: each object's draw is one
+/// `multi_draw_indexed_indirect` of its own indirect buffer from offset 0 over all its
+/// records, issued while its own index buffer (u32) is bound; nothing else draws.
+pub fn assert_one_multi_draw_each(calls: &[Call], objects: &[&Object]) {
+    let draws: Vec<(usize, &Call)> = calls
+        .iter()
+        .enumerate()
+        .filter(|(_, call)| matches!(call, Call::MultiDrawIndexedIndirect { .. }))
+        .collect();
+    assert_eq!(
+        draws.len(),
+        objects.len(),
+        "one multi-draw per object expected, the pass recorded {calls:?}"
+    );
+    for (&(at, draw), object) in draws.iter().zip(objects) {
+        let expected = Call::MultiDrawIndexedIndirect {
+            indirect: object.indirect_buffer().clone(),
+            offset: 0,
+            count: object.indirect_args().len() as u32,
+        };
+        assert_eq!(
+            *draw, expected,
+            "the draw of an object reads its own records"
+        );
+        let bound = calls[..at]
+            .iter()
+            .rev()
+            .find(|call| matches!(call, Call::SetIndexBuffer(..)));
+        assert_eq!(
+            bound,
+            Some(&Call::SetIndexBuffer(
+                object.index_buffer().clone(),
+                wgpu::IndexFormat::Uint32
+            )),
+            "the object's index buffer is bound when it draws"
+        );
+    }
 }

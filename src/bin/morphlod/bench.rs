@@ -31,7 +31,8 @@ use morphlod::asset::Asset;
 use morphlod::deform::{DeformingModel, Lod};
 use morphlod::gpu::camera::frame_both_poses;
 use morphlod::gpu::{
-    s0_regions, Context, Draws, GpuError, LodObject, MorphPipeline, Object, RenderTarget, Topology,
+    s0_regions, Context, DrawCounter, Draws, GpuError, LodObject, MorphPipeline, Object,
+    RenderTarget, Topology,
 };
 use morphlod::strip::strip_triangles;
 use morphlod::Error;
@@ -203,9 +204,9 @@ pub fn run_bench(
 
     let repeats = options.repeats.max(1);
     // The fastest of `count` draws of `object`; the first also carries the frame's uploads.
-    let fastest = |target: &RenderTarget, object: &mut Object, count: usize| {
+    let fastest = |target: &RenderTarget, object: &Object, count: usize| {
         (0..count).try_fold(f64::INFINITY, |best, _| {
-            gpu_frame(device, queue, target, object).map(|ms| best.min(ms))
+            gpu_frame(device, queue, target, object).map(|(ms, _)| best.min(ms))
         })
     };
     let mut rows = Vec::with_capacity(2 * frames);
@@ -214,7 +215,7 @@ pub fn run_bench(
         strips.set_view_proj(camera);
         // Warm-up: first draws create pipelines' backing state and fill caches.
         strips.prepare(queue);
-        gpu_frame(device, queue, &target, strips.object_mut())?;
+        gpu_frame(device, queue, &target, strips.object())?;
         for i in 0..frames {
             let x = i as f32 / (frames - 1) as f32;
             let (t, lod) = (x, sweep.fraction(x));
@@ -225,10 +226,8 @@ pub fn run_bench(
             let start = Instant::now();
             let upload = strips.prepare(queue);
             let prepare_us = micros(start);
-            let draws_before = strips.object().draw_calls();
-            let first_ms = gpu_frame(device, queue, &target, strips.object_mut())?;
-            let draws = strips.object().draw_calls() - draws_before;
-            let strips_ms = first_ms.min(fastest(&target, strips.object_mut(), repeats - 1)?);
+            let (first_ms, draws) = gpu_frame(device, queue, &target, strips.object())?;
+            let strips_ms = first_ms.min(fastest(&target, strips.object(), repeats - 1)?);
 
             let start = Instant::now();
             let live: Vec<u32> = (0..strips.object().region_count())
@@ -300,18 +299,20 @@ fn gpu_frame(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     target: &RenderTarget,
-    object: &mut Object,
-) -> Result<f64, GpuError> {
+    object: &Object,
+) -> Result<(f64, u64), GpuError> {
     let mut encoder = device.create_command_encoder(&Default::default());
-    {
+    let draws = {
         let mut pass = target.begin_pass(&mut encoder);
-        object.render(&mut pass);
-    }
+        let mut counter = DrawCounter::new(&mut pass);
+        object.render(&mut counter);
+        counter.draw_calls
+    };
     let command = encoder.finish();
     let start = Instant::now();
     queue.submit([command]);
     device.poll(wgpu::PollType::wait_indefinitely())?;
-    Ok(start.elapsed().as_secs_f64() * 1e3)
+    Ok((start.elapsed().as_secs_f64() * 1e3, draws))
 }
 
 fn mean(values: &[f64]) -> f64 {

@@ -93,7 +93,7 @@ pub fn render_sheet(
         for (col, &t) in ts.iter().enumerate() {
             object.set(t, lod)?;
             let upload = object.prepare(queue);
-            let image = target.render(device, queue, &mut [object.object_mut()])?;
+            let image = target.render(device, queue, &[object.object()])?;
             image::imageops::replace(
                 &mut sheet,
                 &image,
