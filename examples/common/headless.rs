@@ -43,6 +43,10 @@ pub fn run_headless(
     remove_old_frames(out)?;
     let mut first = None;
     let mut last = PathBuf::new();
+    // The resident set after the warm-up frames (pipelines, caches, staging pools fill up) and
+    // at the end: the loop must not grow with the number of frames.
+    let warm_up = (frames / 10).max(1);
+    let mut warm_resident = None;
     for i in 0..frames {
         // The bench's linear sweep: t runs 0 → 1 while the LOD coarsens with it.
         let x = if frames > 1 {
@@ -78,6 +82,24 @@ pub fn run_headless(
         );
         first.get_or_insert_with(|| path.clone());
         last = path;
+        if i + 1 == warm_up {
+            warm_resident = resident_mb();
+        }
+    }
+    if let (Some(before), Some(after)) = (warm_resident, resident_mb()) {
+        let growth_mb = after - before;
+        println!(
+            "{}: resident set {before:.1} MB after frame {warm_up}, {after:.1} MB after frame {frames}",
+            demo.name
+        );
+        if let Some(bound_mb) = args.max_growth_mb.filter(|&bound| growth_mb > bound) {
+            return Err(DemoError::MemoryGrowth {
+                growth_mb,
+                bound_mb,
+                from: warm_up,
+                to: frames,
+            });
+        }
     }
     if let Some(first) = first {
         println!(
@@ -109,4 +131,11 @@ fn remove_old_frames(out: &Path) -> Result<(), DemoError> {
         }
     }
     Ok(())
+}
+
+/// The process's resident set in MB (`/proc/self/statm`, 4 KiB pages), or `None` off Linux.
+fn resident_mb() -> Option<f64> {
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: f64 = statm.split_whitespace().nth(1)?.parse().ok()?;
+    Some(pages * 4096.0 / 1e6)
 }

@@ -55,6 +55,13 @@ pub enum DemoError {
     Window(String),
     #[error("drawing the readout text failed: {0}")]
     Text(String),
+    #[error("the resident set grew by {growth_mb:.1} MB over frames {from}..{to} (--max-growth-mb {bound_mb}): memory is not bounded")]
+    MemoryGrowth {
+        growth_mb: f64,
+        bound_mb: f64,
+        from: u32,
+        to: u32,
+    },
 }
 
 impl DemoError {
@@ -88,6 +95,10 @@ pub struct CommonArgs {
     /// Start with one colour per strip
     #[arg(long)]
     pub strips: bool,
+    /// Headless: fail when the resident set grows by more than this many MB between the end of
+    /// the first tenth of the frames (warm-up) and the last frame (Linux only)
+    #[arg(long)]
+    pub max_growth_mb: Option<f64>,
 }
 
 fn parse_size(text: &str) -> Result<(u32, u32), String> {
