@@ -11,7 +11,6 @@ use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, Format, LoadOptions};
 use morphlod::mesh::clean::{clean, CleanOptions};
-use morphlod::mesh::IndexedMesh;
 use morphlod::morph::Morph;
 use morphlod::topology::analyze;
 use morphlod::Asset;
@@ -75,10 +74,13 @@ struct BuildArgs {
     /// Sampled animation frames |r| (1 samples t = 0 only).
     #[arg(long, default_value_t = DEFAULT_FRAMES)]
     frames: usize,
-    /// Merge vertices with identical V(0) positions. Only for files whose
-    /// copies coincide in every pose: a copy that moves apart tears otherwise.
+    /// Merge vertices at identical positions in every pose. A triangle soup
+    /// (no vertex shared by two triangles) is welded without it.
     #[arg(long)]
     weld: bool,
+    /// Weld nothing, not even a triangle soup.
+    #[arg(long, conflicts_with = "weld")]
+    no_weld: bool,
     /// The .mlod file to write.
     #[arg(short, long, value_name = "OUT.mlod")]
     output: PathBuf,
@@ -154,8 +156,12 @@ struct InfoArgs {
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Merge vertices with identical positions before the topology report.
+    /// A triangle soup (no vertex shared by two triangles) is welded without it.
     #[arg(long)]
     weld: bool,
+    /// Weld nothing, not even a triangle soup.
+    #[arg(long, conflicts_with = "weld")]
+    no_weld: bool,
     /// glTF: the mesh to load, by name or index (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     mesh: Option<String>,
@@ -195,7 +201,7 @@ fn info(args: &InfoArgs) -> ExitCode {
         let report = if is_asset(path) {
             asset_info(path)
         } else {
-            info_one(path, &options, args.weld)
+            info_one(path, &options, &clean_options(args.weld, args.no_weld))
         };
         match report {
             Ok(report) => {
@@ -221,10 +227,13 @@ fn info(args: &InfoArgs) -> ExitCode {
 
 /// The report for one file, built whole so a failure midway prints nothing
 /// half-done.
-fn info_one(path: &Path, options: &LoadOptions, weld: bool) -> Result<String, String> {
+fn info_one(
+    path: &Path,
+    options: &LoadOptions,
+    clean_options: &CleanOptions,
+) -> Result<String, String> {
     let mesh = load_mesh(path, options).map_err(|e| e.to_string())?;
-    let cleaned =
-        clean(&mesh, &CleanOptions { weld }).map_err(|e| format!("{}: {e}", path.display()))?;
+    let cleaned = clean(&mesh, clean_options).map_err(|e| format!("{}: {e}", path.display()))?;
     let topology = analyze(&cleaned.mesh).map_err(|e| format!("{}: {e}", path.display()))?;
     let format = Format::from_path(path).map_or("unknown", Format::name);
     let mut out = format!("{}\n", path.display());
@@ -237,7 +246,7 @@ fn info_one(path: &Path, options: &LoadOptions, weld: bool) -> Result<String, St
     if let Some((lo, hi)) = mesh.bounds() {
         out += &format!("  bounds            {lo:?} .. {hi:?}\n");
     }
-    out += &format!("cleaning (weld {})\n", if weld { "on" } else { "off" });
+    out += &format!("cleaning ({})\n", weld_mode(clean_options));
     out += &format!("{}\n", cleaned.report);
     out += &format!("topology (after cleaning)\n{topology}\n");
     if Format::from_path(path) == Some(Format::Gltf) {
@@ -289,7 +298,7 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     let morph = load_morph(args, &options)?;
     let load_time = total.elapsed();
     let clean_start = Instant::now();
-    let morph = clean_morph(morph, args.weld)?;
+    let morph = clean_morph(morph, &clean_options(args.weld, args.no_weld))?;
     if let Some(blend) = morph.target_blend() {
         eprintln!(
             "note: a weight animation: the asset keeps the {} targets it drives ({} keyframes, {}) \
@@ -352,19 +361,28 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// Cleaning decisions (welds, dropped triangles) are taken on V(0) and applied to every
-/// pose through `select`, so all poses keep one connectivity. Prints the cleaning summary.
-fn clean_morph(morph: Morph, weld: bool) -> Result<Morph, String> {
-    let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
-    let cleaned = clean(&base, &CleanOptions { weld }).map_err(|e| e.to_string())?;
-    println!(
-        "cleaning (weld {})\n{}",
-        if weld { "on" } else { "off" },
-        cleaned.report
-    );
-    morph
-        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
-        .map_err(|e| e.to_string())
+/// `--weld` / `--no-weld` as cleaning options (neither: only a triangle soup is welded).
+fn clean_options(weld: bool, no_weld: bool) -> CleanOptions {
+    CleanOptions {
+        weld,
+        weld_soup: !no_weld,
+    }
+}
+
+fn weld_mode(options: &CleanOptions) -> &'static str {
+    match (options.weld, options.weld_soup) {
+        (true, _) => "weld on",
+        (false, true) => "weld off, triangle soups welded",
+        (false, false) => "weld off",
+    }
+}
+
+/// Cleans through [`Morph::clean`] (decisions on V(0), welds only where every
+/// pose agrees, one connectivity for all poses) and prints the cleaning summary.
+fn clean_morph(morph: Morph, options: &CleanOptions) -> Result<Morph, String> {
+    let (morph, report) = morph.clean(options).map_err(|e| e.to_string())?;
+    println!("cleaning ({})\n{report}", weld_mode(options));
+    Ok(morph)
 }
 
 fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> {
@@ -378,6 +396,16 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
             Morph::from_meshes(&a, &b).map_err(|e| e.to_string())
         }
         [path] => {
+            if Format::from_path(path) != Some(Format::Gltf) {
+                // An OBJ, OFF or PLY file is one mesh: it has no targets to pick.
+                return Err(format!(
+                    "{}: a single input must be a glTF file with morph targets (.gltf, .glb); \
+                     to morph a {} mesh, give two meshes with the same connectivity: \
+                     `morphlod build V0 V1 -o OUT.mlod`",
+                    path.display(),
+                    Format::from_path(path).map_or("mesh", Format::name)
+                ));
+            }
             let source = match (&args.target, &args.animation) {
                 (Some(t), _) => MorphSource::Target(t.clone()),
                 (None, Some(a)) => MorphSource::Animation(a.clone()),
@@ -389,12 +417,6 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     ))
                 }
             };
-            if Format::from_path(path) != Some(Format::Gltf) {
-                return Err(format!(
-                    "{}: --target and --animation need a glTF file (.gltf, .glb); for other formats give two meshes",
-                    path.display()
-                ));
-            }
             morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())
         }
         _ => Err("give one glTF file or two meshes".into()),
@@ -482,7 +504,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
     let source = MorphSource::Target(DEMO_TARGET.into());
     let morph = morphlod::io::load_morph(Path::new(DEMO_INPUT), &LoadOptions::default(), &source)
         .map_err(|e| e.to_string())?;
-    let morph = clean_morph(morph, false)?;
+    let morph = clean_morph(morph, &CleanOptions::default())?;
     let (asset, report) = Builder::new(&morph)
         .frames(DEMO_FRAMES)
         .build()
