@@ -143,3 +143,113 @@ fn build_welds_a_soup_morph() {
         "{stdout}"
     );
 }
+
+// ---- item 6: extreme scales --------------------------------------------------------
+
+/// A closed octahedron scaled by `scale`, as OFF text: a small mesh that still
+/// simplifies and renders.
+fn octahedron(scale: f64, stretch: f64) -> String {
+    let mut out = String::from("OFF\n6 8 0\n");
+    for p in [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ] {
+        let q = [p[0] * scale * stretch, p[1] * scale, p[2] * scale];
+        out += &format!("{:e} {:e} {:e}\n", q[0], q[1], q[2]);
+    }
+    for f in [
+        [0, 2, 4],
+        [2, 1, 4],
+        [1, 3, 4],
+        [3, 0, 4],
+        [2, 0, 5],
+        [1, 2, 5],
+        [3, 1, 5],
+        [0, 3, 5],
+    ] {
+        out += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+    }
+    out
+}
+
+/// Builds the octahedron morph at `scale` into `dir/name.mlod`.
+fn build_octahedron(dir: &Scratch, name: &str, scale: f64) -> PathBuf {
+    let (a, b) = (
+        dir.path(&format!("{name}0.off")),
+        dir.path(&format!("{name}1.off")),
+    );
+    std::fs::write(&a, octahedron(scale, 1.0)).unwrap();
+    std::fs::write(&b, octahedron(scale, 1.5)).unwrap();
+    let out_path = dir.path(&format!("{name}.mlod"));
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--frames",
+        "2",
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    out_path
+}
+
+/// The fraction of a PNG's pixels that differ from its corner pixel (the
+/// background), and how many distinct colours those pixels have.
+fn drawn_fraction(png: &Path) -> (f64, usize) {
+    let image = image::open(png).unwrap().to_rgba8();
+    let background = *image.get_pixel(0, 0);
+    let drawn: Vec<_> = image.pixels().filter(|&&p| p != background).collect();
+    let mut colours: Vec<[u8; 4]> = drawn.iter().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    (
+        drawn.len() as f64 / f64::from(image.width() * image.height()),
+        colours.len(),
+    )
+}
+
+/// Item 6: meshes about 1e19 and 1e-22 across render visibly and shaded (or fail
+/// with a clear error), never as a blank image with exit code 0.
+#[test]
+fn render_extreme_scales_is_not_blank() {
+    let dir = Scratch::new("scales");
+    for (name, scale) in [("huge", 1e19), ("tiny", 1e-22), ("unit", 1.0)] {
+        let asset = build_octahedron(&dir, name, scale);
+        let png = dir.path(&format!("{name}.png"));
+        let out = morphlod(&[
+            "render",
+            asset.to_str().unwrap(),
+            "--size",
+            "64",
+            "-o",
+            png.to_str().unwrap(),
+        ]);
+        let stderr = text(&out.stderr);
+        if !out.status.success() && stderr.contains("adapter") {
+            eprintln!("skipping: no GPU adapter ({stderr})");
+            return;
+        }
+        if out.status.success() {
+            let (drawn, colours) = drawn_fraction(&png);
+            assert!(
+                drawn > 0.05,
+                "{name} (scale {scale}): only {drawn} of the pixels drawn"
+            );
+            // Shaded, not ambient only: the visible faces of the octahedron differ.
+            assert!(
+                colours >= 3,
+                "{name} (scale {scale}): {colours} colours, the faces are not shaded"
+            );
+        } else {
+            assert!(
+                stderr.contains("scale") || stderr.contains("too"),
+                "{name}: {stderr}"
+            );
+        }
+    }
+}
