@@ -144,7 +144,7 @@ fn build_welds_a_soup_morph() {
     );
 }
 
-// ---- item 6: extreme scales --------------------------------------------------------
+// ---- phase 2: items 3, 6, 9, 11 --------------------------------------------------
 
 /// A closed octahedron scaled by `scale`, as OFF text: a small mesh that still
 /// simplifies and renders.
@@ -196,6 +196,83 @@ fn build_octahedron(dir: &Scratch, name: &str, scale: f64) -> PathBuf {
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     out_path
+}
+
+/// Item 9: `--t -0.5` parses (as a number, not as a flag), and out-of-range t is
+/// handled by one rule with --lod: clamped to [0, 1] with a note saying so.
+#[test]
+fn render_negative_and_out_of_range_numbers() {
+    let dir = Scratch::new("negative");
+    let asset = build_octahedron(&dir, "oct", 1.0);
+    let png = dir.path("out.png");
+    let out = morphlod(&[
+        "render",
+        asset.to_str().unwrap(),
+        "--t",
+        "-0.5",
+        "--lod",
+        "1.5",
+        "--size",
+        "32",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    if stderr.contains("no GPU adapter") || stderr.contains("adapter") && !out.status.success() {
+        eprintln!("skipping: no GPU adapter ({stderr})");
+        return;
+    }
+    assert!(!stderr.contains("unexpected argument"), "{stderr}");
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("t -0.5 is outside [0, 1]: clamped to 0"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("lod 1.5 is outside [0, 1]: clamped to 1"),
+        "{stderr}"
+    );
+    // NaN is refused by both.
+    let out = morphlod(&[
+        "render",
+        asset.to_str().unwrap(),
+        "--t",
+        "NaN",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("not a number"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+/// Item 3: a sheet whose image would pass the limit is refused before any
+/// allocation, and the message says the limit.
+#[test]
+fn render_refuses_a_huge_sheet() {
+    let dir = Scratch::new("huge-sheet");
+    let asset = build_octahedron(&dir, "oct", 1.0);
+    let png = dir.path("out.png");
+    let out = morphlod(&[
+        "render",
+        asset.to_str().unwrap(),
+        "--t",
+        "0,0.25,0.5,0.75",
+        "--lod",
+        "0,0.25,0.5,0.75",
+        "--size",
+        "16384",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("65536 x 65536"), "{stderr}");
+    assert!(stderr.contains("limit"), "{stderr}");
+    assert!(!png.exists());
 }
 
 /// The fraction of a PNG's pixels that differ from its corner pixel (the
@@ -252,4 +329,60 @@ fn render_extreme_scales_is_not_blank() {
             );
         }
     }
+}
+
+/// Item 11: clear errors for a directory, for a mesh given to `render`, and for
+/// a `build` output that would overwrite an input or is not `.mlod`.
+#[test]
+fn clear_errors_for_wrong_paths() {
+    let dir = Scratch::new("paths");
+    let out = morphlod(&["info", dir.0.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is a directory"), "{stderr}");
+    assert!(!stderr.contains("extension"), "{stderr}");
+
+    let cow = asset("cow.off");
+    let png = dir.path("cow.png");
+    let out = morphlod(&["render", cow.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("this is a mesh: build it first with `morphlod build`"),
+        "{stderr}"
+    );
+    assert!(stderr.len() < 400, "{stderr}");
+
+    let (a, b) = (dir.path("a.off"), dir.path("b.off"));
+    std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
+    std::fs::write(&b, octahedron(1.0, 1.5)).unwrap();
+    let before = std::fs::read(&b).unwrap();
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        b.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is one of the inputs"), "{stderr}");
+    assert_eq!(
+        std::fs::read(&b).unwrap(),
+        before,
+        "the input was overwritten"
+    );
+
+    let wrong = dir.path("out.png");
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        wrong.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains(".mlod"), "{stderr}");
+    assert!(!wrong.exists());
 }

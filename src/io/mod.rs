@@ -226,6 +226,16 @@ impl Format {
 
 /// Loads one mesh, choosing the loader by the file's extension.
 pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, LoadError> {
+    // A directory has no extension to dispatch on; say what it is.
+    if path.is_dir() {
+        return Err(LoadError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "it is a directory, not a mesh file",
+            ),
+        });
+    }
     match Format::from_path(path) {
         Some(Format::Obj) => obj::load(path),
         Some(Format::Off) => off::load(path),

@@ -90,11 +90,23 @@ struct BuildArgs {
 struct RenderArgs {
     /// The .mlod asset to render.
     asset: PathBuf,
-    /// Times t in [0, 1], comma-separated: one column each.
-    #[arg(long = "t", value_delimiter = ',', default_value = "0.5")]
+    /// Times t in [0, 1], comma-separated: one column each. Values outside are
+    /// clamped into [0, 1] (with a note); NaN is refused.
+    #[arg(
+        long = "t",
+        value_delimiter = ',',
+        default_value = "0.5",
+        allow_negative_numbers = true
+    )]
     ts: Vec<f32>,
     /// LOD fractions in [0, 1] (0 = full detail), comma-separated: one row each.
-    #[arg(long, value_delimiter = ',', default_value = "0")]
+    /// Values outside are clamped into [0, 1] (with a note); NaN is refused.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0",
+        allow_negative_numbers = true
+    )]
     lod: Vec<f32>,
     /// `base` shades the surface, `strips` gives every strip its own colour.
     #[arg(long, value_enum, default_value_t = Colour::Base)]
@@ -290,6 +302,7 @@ fn ms(d: Duration) -> String {
 
 /// Loads the inputs into one morph, cleans it, builds, writes and reports.
 fn build(args: &BuildArgs) -> Result<(), String> {
+    check_output(&args.output, &args.inputs)?;
     let total = Instant::now();
     let options = LoadOptions {
         gltf_mesh: args.mesh.clone(),
@@ -358,6 +371,32 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     );
     println!("  total             {}", ms(total.elapsed()));
     println!("asset {}\n{info}", args.output.display());
+    Ok(())
+}
+
+/// Refuses a `build` output that is not `.mlod` or that is one of the inputs
+/// (the build would overwrite its own source).
+fn check_output(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    };
+    if let Some(input) = inputs.iter().find(|input| same(input, output)) {
+        return Err(format!(
+            "{}: the output is one of the inputs ({}); choose another output file",
+            output.display(),
+            input.display()
+        ));
+    }
+    if !output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mlod"))
+    {
+        return Err(format!(
+            "{}: the output must be a .mlod file (morphlod writes its own asset format)",
+            output.display()
+        ));
+    }
     Ok(())
 }
 
@@ -454,20 +493,80 @@ fn stage_table(report: &BuildReport, load: Duration, clean: Duration) -> String 
 
 /// Renders one asset's (t, lod) grid to a PNG and prints what each cell drew.
 fn render(args: &RenderArgs) -> Result<(), String> {
-    let bytes = std::fs::read(&args.asset).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let ts = unit_values("t", &args.ts)?;
+    let fractions = unit_values("lod", &args.lod)?;
+    check_sheet_size(args.size, ts.len(), fractions.len())?;
+    let bytes = read_asset(&args.asset)?;
     let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
     let options = SheetOptions {
         cell: args.size,
         shade: args.color.shade(),
         ..SheetOptions::default()
     };
-    let lods: Vec<Lod> = args.lod.iter().map(|&f| Lod::Fraction(f)).collect();
-    render_to_png(&asset, &args.ts, &lods, &options, &args.output)
+    let lods: Vec<Lod> = fractions.iter().map(|&f| Lod::Fraction(f)).collect();
+    render_to_png(&asset, &ts, &lods, &options, &args.output)
+}
+
+/// One rule for `--t` and `--lod`, the library's: values outside [0, 1] are clamped (the
+/// CLI says so on stderr), NaN is refused.
+fn unit_values(name: &str, values: &[f32]) -> Result<Vec<f32>, String> {
+    values
+        .iter()
+        .map(|&v| {
+            if v.is_nan() {
+                return Err(format!(
+                    "--{name}: {v} is not a number; give values in [0, 1]"
+                ));
+            }
+            let clamped = v.clamp(0.0, 1.0);
+            if clamped != v {
+                eprintln!("note: {name} {v} is outside [0, 1]: clamped to {clamped}");
+            }
+            Ok(clamped)
+        })
+        .collect()
+}
+
+/// The most pixels a contact sheet may have: 8192 x 8192, 256 MiB as RGBA, the
+/// sheet being assembled in memory before it is written.
+const MAX_SHEET_PIXELS: u64 = 8192 * 8192;
+
+/// Refuses a sheet whose image would pass [`MAX_SHEET_PIXELS`], before anything is allocated.
+fn check_sheet_size(cell: u32, columns: usize, rows: usize) -> Result<(), String> {
+    let (w, h) = (
+        u64::from(cell) * columns as u64,
+        u64::from(cell) * rows as u64,
+    );
+    if w.saturating_mul(h) > MAX_SHEET_PIXELS || cell == 0 {
+        return Err(format!(
+            "the sheet would be {w} x {h} pixels ({columns} columns x {rows} rows of {cell}); \
+             the limit is {MAX_SHEET_PIXELS} pixels (8192 x 8192) and a cell must be at least 1: \
+             lower --size or give fewer --t / --lod values"
+        ));
+    }
+    Ok(())
+}
+
+/// The bytes of a `.mlod` file, or a clear error for a mesh or a directory given instead.
+fn read_asset(path: &Path) -> Result<Vec<u8>, String> {
+    if path.is_dir() {
+        return Err(format!(
+            "{}: is a directory, not a .mlod asset",
+            path.display()
+        ));
+    }
+    if !is_asset(path) && Format::from_path(path).is_some() {
+        return Err(format!(
+            "{}: this is a mesh: build it first with `morphlod build` (then give the .mlod file)",
+            path.display()
+        ));
+    }
+    std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Runs the frame-rate benchmark and prints its summary (and writes the rows as JSON).
 fn bench(args: &BenchArgs) -> Result<(), String> {
-    let bytes = std::fs::read(&args.asset).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let bytes = read_asset(&args.asset)?;
     let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
     let model = Arc::new(DeformingModel::new(&asset).map_err(|e| e.to_string())?);
     let context = Context::headless().map_err(|e| e.to_string())?;
