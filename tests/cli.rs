@@ -386,3 +386,50 @@ fn clear_errors_for_wrong_paths() {
     assert!(stderr.contains(".mlod"), "{stderr}");
     assert!(!wrong.exists());
 }
+
+/// A closed cube as OFF text (6 quads, 12 triangles): another connectivity than the octahedron.
+fn cube() -> String {
+    let mut out = String::from("OFF\n8 6 0\n");
+    for k in 0..8 {
+        let c = |bit: u32| if k & bit == 0 { -1.0 } else { 1.0 };
+        out += &format!("{} {} {}\n", c(1), c(2), c(4));
+    }
+    for f in [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ] {
+        out += &format!("4 {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    out
+}
+
+/// Item 10: two meshes of different connectivity build through the supermesh,
+/// with a note saying so, instead of an error suggesting one.
+#[test]
+fn build_different_connectivity_builds_a_supermesh() {
+    let dir = Scratch::new("supermesh");
+    let (a, b, out_path) = (
+        dir.path("oct.off"),
+        dir.path("cube.off"),
+        dir.path("out.mlod"),
+    );
+    std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
+    std::fs::write(&b, cube()).unwrap();
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--frames",
+        "2",
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("supermesh"), "{stderr}");
+    assert!(out_path.exists(), "{stdout}");
+}

@@ -56,9 +56,9 @@ pub struct Morph {
 pub enum MorphError {
     #[error("the poses have {a} and {b} vertices; a morph needs one vertex count")]
     PoseSizeMismatch { a: usize, b: usize },
-    #[error("the meshes have {a} and {b} triangles; a same-connectivity morph needs identical triangle lists (use a supermesh for different connectivity)")]
+    #[error("the meshes have {a} and {b} triangles; a same-connectivity morph needs one triangle list (meshes of different connectivity need the supermesh builder, morph::supermesh)")]
     TriangleCountMismatch { a: usize, b: usize },
-    #[error("the meshes differ first at triangle {index}: {a:?} versus {b:?}; a same-connectivity morph needs identical triangle lists")]
+    #[error("the meshes differ first at triangle {index}: {a:?} versus {b:?}; a same-connectivity morph needs one triangle list (meshes of different connectivity need the supermesh builder, morph::supermesh)")]
     TriangleMismatch {
         index: usize,
         a: [u32; 3],

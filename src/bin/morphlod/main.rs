@@ -11,7 +11,8 @@ use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, Format, LoadOptions};
 use morphlod::mesh::clean::{clean, CleanOptions};
-use morphlod::morph::Morph;
+use morphlod::morph::supermesh::{Supermesh, SupermeshOptions};
+use morphlod::morph::{Morph, MorphError};
 use morphlod::topology::analyze;
 use morphlod::Asset;
 use std::io::{IsTerminal, Read};
@@ -59,7 +60,8 @@ enum Command {
 #[derive(Args)]
 struct BuildArgs {
     /// A glTF file with morph targets (with --target or --animation), or two
-    /// mesh files with the same connectivity: V(0) and V(1).
+    /// mesh files V(0) and V(1): of the same connectivity, or two closed genus-0
+    /// meshes of different connectivity (a supermesh of both is built).
     #[arg(required = true, num_args = 1..=2, value_name = "INPUT")]
     inputs: Vec<PathBuf>,
     /// glTF: morph from the base mesh to this morph target (name or index).
@@ -432,7 +434,28 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
             }
             let a = load_mesh(a, options).map_err(|e| e.to_string())?;
             let b = load_mesh(b, options).map_err(|e| e.to_string())?;
-            Morph::from_meshes(&a, &b).map_err(|e| e.to_string())
+            match Morph::from_meshes(&a, &b) {
+                Err(
+                    why @ (MorphError::PoseSizeMismatch { .. }
+                    | MorphError::TriangleCountMismatch { .. }
+                    | MorphError::TriangleMismatch { .. }),
+                ) => {
+                    // Different connectivity: the supermesh gives both one triangulation.
+                    eprintln!(
+                        "note: not the same connectivity ({why}): building a supermesh of the two"
+                    );
+                    let (supermesh, report) =
+                        Supermesh::build(&a, &b, &SupermeshOptions::default()).map_err(|e| {
+                            format!("the meshes differ in connectivity and no supermesh could be built: {e}")
+                        })?;
+                    eprintln!(
+                        "note: supermesh of {} + {} vertices: {} vertices, {} triangles",
+                        report.a_vertices, report.b_vertices, report.vertices, report.triangles
+                    );
+                    supermesh.to_morph().map_err(|e| e.to_string())
+                }
+                other => other.map_err(|e| e.to_string()),
+            }
         }
         [path] => {
             if Format::from_path(path) != Some(Format::Gltf) {
