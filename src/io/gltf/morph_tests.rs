@@ -249,7 +249,8 @@ fn select_applies_a_cleaning_result_to_every_target() {
             weld: true,
             ..CleanOptions::default()
         },
-    ).unwrap();
+    )
+    .unwrap();
     let kept = morph
         .select(&cleaned.vertex_map, cleaned.mesh.triangles.clone())
         .unwrap();
