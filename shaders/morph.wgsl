@@ -82,7 +82,13 @@ fn strip_colour(id: u32) -> vec3<f32> {
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    let c = cross(dpdy(in.world), dpdx(in.world));
+    // Each derivative is scaled to its largest component first: for a mesh ~1e19 across,
+    // dot(c, c) would overflow f32 (n = 0, ambient only), and for one ~1e-22 across it would
+    // underflow; scaled, the normal is the same at every size.
+    let a = dpdy(in.world);
+    let b = dpdx(in.world);
+    let c = cross(a / max(max(abs(a.x), max(abs(a.y), abs(a.z))), 1e-37),
+                  b / max(max(abs(b.x), max(abs(b.y), abs(b.z))), 1e-37));
     // A zero-area fragment footprint gives c = 0: n stays 0 and the fragment gets ambient only,
     // instead of the NaN that normalize(0) would produce.
     let n = c * inverseSqrt(max(dot(c, c), 1e-30));

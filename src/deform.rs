@@ -22,6 +22,8 @@
 //! invisible except in time and in how much the dirty log holds.
 
 use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::Arc;
 use thiserror::Error;
 
 use crate::asset::Asset;
@@ -120,6 +122,10 @@ pub enum SetError {
     WrongModel,
 }
 
+/// What equal frames must share (collapse count, first collapse): narrows the
+/// by-value comparisons when frames are deduplicated.
+type FrameKey = (usize, Option<(u32, u32)>);
+
 /// One sampled frame: its change lists and its LOD tables.
 #[derive(Clone, Debug)]
 struct Frame {
@@ -134,7 +140,10 @@ struct Frame {
 #[derive(Clone, Debug)]
 pub struct DeformingModel {
     layout: StripLayout,
-    frames: Vec<Frame>,
+    /// One entry per sampled frame; equal frames (same collapse sequence)
+    /// share one `Frame`, so memory grows with the distinct frames of the
+    /// file, not with its frame count (a repeated frame costs 2 bytes on disk).
+    frames: Vec<Arc<Frame>>,
     id: u64,
 }
 
@@ -172,13 +181,38 @@ impl DeformingModel {
             ChangeListError::TooManyVertices { .. } => DeformError::TooManyVertices { vertices: n },
             e => DeformError::Strips(e),
         })?;
-        let built: Vec<Result<Frame, DeformError>> = asset
-            .frames
+        // Equal sequences are built once: `first[k]` is the first frame equal to frame k.
+        // Compared by value (bit-equal errors included), grouped by length and first collapse
+        // so that the comparisons stay few.
+        let mut groups: HashMap<FrameKey, Vec<usize>> = HashMap::new();
+        let mut first: Vec<usize> = Vec::with_capacity(asset.frames.len());
+        for (k, seq) in asset.frames.iter().enumerate() {
+            let key = (
+                seq.collapses.len(),
+                seq.collapses.first().map(|c| (c.u, c.w)),
+            );
+            let group = groups.entry(key).or_default();
+            match group.iter().find(|&&j| asset.frames[j] == *seq) {
+                Some(&j) => first.push(j),
+                None => {
+                    group.push(k);
+                    first.push(k);
+                }
+            }
+        }
+        let distinct: Vec<usize> = (0..first.len()).filter(|&k| first[k] == k).collect();
+        let built: Vec<Result<Arc<Frame>, DeformError>> = distinct
             .par_iter()
-            .enumerate()
-            .map(|(frame, seq)| build_frame(&layout, frame, seq))
+            .map(|&frame| build_frame(&layout, frame, &asset.frames[frame]).map(Arc::new))
             .collect();
-        let frames = built.into_iter().collect::<Result<Vec<Frame>, _>>()?;
+        let mut shared: Vec<Option<Arc<Frame>>> = vec![None; first.len()];
+        for (&k, frame) in distinct.iter().zip(built) {
+            shared[k] = Some(frame?);
+        }
+        let frames: Vec<Arc<Frame>> = first
+            .iter()
+            .map(|&j| shared[j].clone().expect("every first frame was built"))
+            .collect();
         Ok(DeformingModel {
             layout,
             frames,
@@ -189,6 +223,15 @@ impl DeformingModel {
     /// Number of sampled frames `|r|`.
     pub fn frame_count(&self) -> usize {
         self.frames.len()
+    }
+
+    /// Number of distinct frames: what the model's memory grows with (equal
+    /// frames share one copy of their change lists and tables).
+    pub fn distinct_frames(&self) -> usize {
+        let mut seen: Vec<*const Frame> = self.frames.iter().map(Arc::as_ptr).collect();
+        seen.sort_unstable();
+        seen.dedup();
+        seen.len()
     }
 
     /// The shared layout: `S0` and the region table.

@@ -407,7 +407,14 @@ mod tests {
         }
         // Welding the cow's two coincident vertices pinches the surface there.
         let cow = off::load(&dir.join("cow.off")).unwrap();
-        let welded = clean(&cow, &CleanOptions { weld: true }).unwrap();
+        let welded = clean(
+            &cow,
+            &CleanOptions {
+                weld: true,
+                ..CleanOptions::default()
+            },
+        )
+        .unwrap();
         let r = analyze(&welded.mesh).unwrap();
         assert_eq!(r.vertices, 2903);
         assert_eq!(r.non_manifold_vertices, 1, "{r}");

@@ -127,6 +127,19 @@ fn cases() -> Vec<Case> {
     let mut list_past_end = binary_ply(3, 1, &TRIANGLE, &[]);
     list_past_end.push(255);
     list_past_end.extend_from_slice(&0i32.to_le_bytes());
+    // A sawtooth polygon of 10,003 corners: non-convex, past the ear-clipping limit.
+    let mut sawtooth = String::new();
+    let teeth = 10_000;
+    let mut corners = vec![[0, 0], [teeth, 0]];
+    corners.extend((0..=teeth).rev().map(|k| [k, 1 + k % 2]));
+    for [x, y] in &corners {
+        sawtooth += &format!("v {x} {y} 0\n");
+    }
+    sawtooth += "f";
+    for i in 1..=corners.len() {
+        sawtooth += &format!(" {i}");
+    }
+    sawtooth += "\n";
     vec![
         // ---- OBJ
         case("index zero", Obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
@@ -169,6 +182,9 @@ fn cases() -> Vec<Case> {
             |e| matches!(e, E::InvalidMesh { source: MeshError::Empty { .. }, .. }), &[]),
         case("Latin-1 in a number", Obj, &b"v 0 0 0\nv 1 \xe90 0\n"[..],
             |e| matches!(e, E::Syntax { at, .. } if *at == line(2)), &[]),
+        case("non-convex polygon past the ear-clipping limit", Obj, sawtooth,
+            |e| matches!(e, E::PolygonTooLarge { at, corners: 10_003, limit: 10_000, .. } if *at == line(10_004)),
+            &["line 10004", "non-convex polygon of 10003 corners", "10000"]),
         // ---- OFF
         case("truncated vertices", Off, "OFF\n3 1 0\n0 0 0\n1 0 0\n",
             |e| matches!(e, E::Truncated { .. }), &["vertex 2 of the 3"]),
@@ -321,6 +337,19 @@ fn obj_latin1_outside_numbers_loads() {
         Path::new("x.obj"),
     );
     assert!(ok.is_ok(), "{ok:?}");
+}
+
+/// A UTF-8 byte-order mark (what Windows editors put first) is not part of the
+/// first line: every format loads the same with and without it.
+#[test]
+fn byte_order_mark_is_ignored() {
+    for (name, bytes) in valid_inputs() {
+        let plain = parse_any(name, &bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let marked = [&b"\xEF\xBB\xBF"[..], &bytes].concat();
+        let with_mark =
+            parse_any(name, &marked).unwrap_or_else(|e| panic!("{name} with a BOM: {e}"));
+        assert_eq!(with_mark, plain, "{name} with a BOM");
+    }
 }
 
 /// The valid files the table's cases break, and that the mutation tests start from, load.

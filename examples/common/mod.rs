@@ -143,7 +143,14 @@ impl TargetPoses {
         let morph = load_morph(path, &LoadOptions::default(), &MorphSource::DefaultWeights)
             .map_err(DemoError::lib)?;
         let base = IndexedMesh::new(morph.base().to_vec(), morph.triangles().to_vec());
-        let cleaned = clean(&base, &CleanOptions { weld: false }).map_err(DemoError::lib)?;
+        let cleaned = clean(
+            &base,
+            &CleanOptions {
+                weld: false,
+                weld_soup: false,
+            },
+        )
+        .map_err(DemoError::lib)?;
         let morph = morph
             .select(&cleaned.vertex_map, cleaned.mesh.triangles)
             .map_err(DemoError::lib)?;

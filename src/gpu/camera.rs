@@ -4,7 +4,7 @@
 //! The box is enclosed in its bounding sphere so the fit holds for any view direction and for
 //! every pose of a morph when the caller passes the union of both poses' bounds.
 
-use glam::{Mat4, Vec3};
+use glam::{DMat4, DVec3, DVec4, Mat4, Vec3};
 
 use super::GpuError;
 
@@ -71,17 +71,22 @@ pub fn fit_to_bounds(
             expected: "width / height must be finite and positive",
         });
     }
+    // In f64: the f32 half-diagonal of a box ~1e19 across overflows (its squared length
+    // passes f32::MAX) and that of a box ~1e-22 across underflows to 0; either used to fall
+    // back to radius 1 and frame empty space. The f32 matrices are checked at the end.
+    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
     let centre = (lo + hi) * 0.5;
     let radius = match (hi - lo).length() * 0.5 {
         r if r > 0.0 && r.is_finite() => r,
         _ => 1.0,
     };
-    let forward = direction.normalize();
-    let up = if forward.cross(Vec3::Y).length_squared() < 1e-6 {
-        Vec3::NEG_Z
+    let forward = direction.as_dvec3().normalize();
+    let up = if forward.cross(DVec3::Y).length_squared() < 1e-6 {
+        DVec3::NEG_Z
     } else {
-        Vec3::Y
+        DVec3::Y
     };
+    let margin = f64::from(DEPTH_MARGIN);
     let (distance, proj) = match projection {
         Projection::Perspective { vertical_fov } => {
             if !(vertical_fov > 0.0 && vertical_fov < std::f32::consts::PI) {
@@ -91,17 +96,18 @@ pub fn fit_to_bounds(
                     expected: "the angle is in radians and must lie strictly between 0 and π",
                 });
             }
+            let (fov, aspect) = (f64::from(vertical_fov), f64::from(aspect));
             // The sphere fits when its radius subtends at most the narrower half-angle.
-            let half_y = vertical_fov * 0.5;
+            let half_y = fov * 0.5;
             let half_x = (half_y.tan() * aspect).atan();
             let distance = radius / half_y.min(half_x).sin();
-            let near = (distance - radius * (1.0 + DEPTH_MARGIN)).max(distance * 1e-3);
-            let far = distance + radius * (1.0 + DEPTH_MARGIN);
-            let proj =
-                glam::camera::rh::proj::directx::perspective(vertical_fov, aspect, near, far);
+            let near = (distance - radius * (1.0 + margin)).max(distance * 1e-3);
+            let far = distance + radius * (1.0 + margin);
+            let proj = perspective(fov, aspect, near, far);
             (distance, proj)
         }
         Projection::Orthographic => {
+            let aspect = f64::from(aspect);
             let (half_w, half_h) = if aspect >= 1.0 {
                 (radius * aspect, radius)
             } else {
@@ -109,17 +115,64 @@ pub fn fit_to_bounds(
             };
             // Any distance past the sphere works; 2r keeps near and far well separated.
             let distance = 2.0 * radius;
-            let near = distance - radius * (1.0 + DEPTH_MARGIN);
-            let far = distance + radius * (1.0 + DEPTH_MARGIN);
-            let proj = glam::camera::rh::proj::directx::orthographic(
-                -half_w, half_w, -half_h, half_h, near, far,
-            );
+            let near = distance - radius * (1.0 + margin);
+            let far = distance + radius * (1.0 + margin);
+            let proj = orthographic(half_w, half_h, near, far);
             (distance, proj)
         }
     };
     let eye = centre - forward * distance;
-    let view = glam::camera::rh::view::look_at_mat4(eye, centre, up);
-    Ok(Camera { view, proj })
+    let view = look_to(eye, forward, up);
+    let camera = Camera {
+        view: view.as_mat4(),
+        proj: proj.as_mat4(),
+    };
+    let finite = |m: Mat4| m.to_cols_array().iter().all(|c| c.is_finite());
+    if !finite(camera.view) || !finite(camera.proj) || !finite(camera.view_proj()) {
+        return Err(GpuError::InvalidParameter {
+            what: "bounds",
+            value: format!("{lo}..{hi}"),
+            expected: "a box whose camera fits in f32 (about 1e-30 to 1e30 across): scale the mesh",
+        });
+    }
+    Ok(camera)
+}
+
+/// glam's right-handed DirectX/WebGPU perspective (depth in [0, 1]), in f64.
+fn perspective(fov: f64, aspect: f64, near: f64, far: f64) -> DMat4 {
+    let h = 1.0 / (fov * 0.5).tan();
+    let w = h / aspect;
+    let r = far / (near - far);
+    DMat4::from_cols(
+        DVec4::new(w, 0.0, 0.0, 0.0),
+        DVec4::new(0.0, h, 0.0, 0.0),
+        DVec4::new(0.0, 0.0, r, -1.0),
+        DVec4::new(0.0, 0.0, r * near, 0.0),
+    )
+}
+
+/// glam's right-handed DirectX/WebGPU orthographic projection of the centred
+/// box `±half_w × ±half_h × [near, far]`, in f64.
+fn orthographic(half_w: f64, half_h: f64, near: f64, far: f64) -> DMat4 {
+    let r = 1.0 / (near - far);
+    DMat4::from_cols(
+        DVec4::new(1.0 / half_w, 0.0, 0.0, 0.0),
+        DVec4::new(0.0, 1.0 / half_h, 0.0, 0.0),
+        DVec4::new(0.0, 0.0, r, 0.0),
+        DVec4::new(0.0, 0.0, r * near, 1.0),
+    )
+}
+
+/// glam's right-handed view looking from `eye` along the unit vector `forward`, in f64.
+fn look_to(eye: DVec3, forward: DVec3, up: DVec3) -> DMat4 {
+    let s = forward.cross(up).normalize();
+    let u = s.cross(forward);
+    DMat4::from_cols(
+        DVec4::new(s.x, u.x, -forward.x, 0.0),
+        DVec4::new(s.y, u.y, -forward.y, 0.0),
+        DVec4::new(s.z, u.z, -forward.z, 0.0),
+        DVec4::new(-eye.dot(s), -eye.dot(u), eye.dot(forward), 1.0),
+    )
 }
 
 /// A perspective camera looking along `direction` that frames the union of both poses of
@@ -177,6 +230,40 @@ mod tests {
                 assert!(extent > 0.4, "{direction} {projection:?}: extent {extent}");
             }
         }
+    }
+
+    /// Boxes ~1e19 and ~1e-22 across are framed like a unit box (their f32 half-diagonal
+    /// overflows or underflows), not replaced by a sphere of radius 1.
+    #[test]
+    fn extreme_scales_are_framed() {
+        let persp = Projection::Perspective { vertical_fov: 0.8 };
+        for scale in [1e19f32, 1e-22, 1.0, 3e30, 1e-30] {
+            let (min, max) = ([-scale; 3], [scale, scale * 0.5, scale]);
+            let camera = fit_to_bounds(min, max, Vec3::new(0.3, -0.2, -1.0), 1.0, persp)
+                .unwrap_or_else(|e| panic!("scale {scale}: {e}"));
+            let m = camera.view_proj();
+            let mut extent = 0.0f32;
+            for k in 0..8 {
+                let corner = Vec3::new(
+                    if k & 1 == 0 { min[0] } else { max[0] },
+                    if k & 2 == 0 { min[1] } else { max[1] },
+                    if k & 4 == 0 { min[2] } else { max[2] },
+                );
+                let clip = m * corner.extend(1.0);
+                let ndc = clip.truncate() / clip.w;
+                assert!(ndc.is_finite(), "scale {scale}: {ndc}");
+                assert!(
+                    ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0,
+                    "scale {scale}: {ndc}"
+                );
+                assert!((0.0..=1.0).contains(&ndc.z), "scale {scale}: {ndc}");
+                extent = extent.max(ndc.x.abs()).max(ndc.y.abs());
+            }
+            assert!(extent > 0.4, "scale {scale}: extent {extent}");
+        }
+        // Past what f32 matrices can hold: a clear error, not a blank picture.
+        let err = fit_to_bounds([-3e38; 3], [3e38; 3], Vec3::Z, 1.0, persp).unwrap_err();
+        assert!(err.to_string().contains("scale the mesh"), "{err}");
     }
 
     #[test]

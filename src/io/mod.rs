@@ -12,9 +12,11 @@ pub mod gltf;
 pub mod obj;
 pub mod off;
 pub mod ply;
+mod polygon;
 mod text;
 
 pub use gltf::{load_morph, MorphSource};
+pub use polygon::MAX_EAR_CLIPPED_CORNERS;
 
 use crate::mesh::{IndexedMesh, MeshError};
 use crate::morph::MorphError;
@@ -95,6 +97,14 @@ pub enum LoadError {
         path: PathBuf,
         at: Location,
         corners: usize,
+    },
+    /// A non-convex polygon too large to ear-clip (see [`MAX_EAR_CLIPPED_CORNERS`]).
+    #[error("{}: {at}: a non-convex polygon of {corners} corners: morphlod ear-clips non-convex polygons of up to {limit} corners; triangulate it in the program that wrote the file", .path.display())]
+    PolygonTooLarge {
+        path: PathBuf,
+        at: Location,
+        corners: usize,
+        limit: usize,
     },
     /// The file ends before the records its header announced.
     #[error("{}: the file ends before {expected}: it is truncated, or its header counts are wrong", .path.display())]
@@ -216,6 +226,16 @@ impl Format {
 
 /// Loads one mesh, choosing the loader by the file's extension.
 pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, LoadError> {
+    // A directory has no extension to dispatch on; say what it is.
+    if path.is_dir() {
+        return Err(LoadError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "it is a directory, not a mesh file",
+            ),
+        });
+    }
     match Format::from_path(path) {
         Some(Format::Obj) => obj::load(path),
         Some(Format::Off) => off::load(path),

@@ -3,9 +3,11 @@
 //! Texture coordinates, normals, groups, smoothing groups, materials, lines
 //! and points carry nothing a triangle mesh of positions needs, so their
 //! statements (and any unknown statement) are skipped; only the vertex part
-//! of each `v/vt/vn` face corner is used. Polygons are fan-triangulated.
+//! of each `v/vt/vn` face corner is used. Polygons are triangulated by
+//! [`super::polygon`]: the fan when convex, ear clipping when not.
 
-use super::text::{self, coordinate, fan, integer, tokens};
+use super::polygon::Polygons;
+use super::text::{self, coordinate, integer, tokens};
 use super::{read, validated, LoadError, Location};
 use crate::mesh::IndexedMesh;
 use std::path::Path;
@@ -17,9 +19,9 @@ pub fn load(path: &Path) -> Result<IndexedMesh, LoadError> {
 
 /// Parses OBJ bytes; `path` only names the file in errors.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
+    let bytes = text::strip_bom(bytes);
     let mut positions: Vec<[f32; 3]> = Vec::new();
-    let mut triangles: Vec<[u32; 3]> = Vec::new();
-    let mut corners: Vec<u32> = Vec::new();
+    let mut faces = Faces::default();
     // Positive indices may legally point at vertices defined further down
     // (some exporters write faces first), so they are range-checked once all
     // vertices are known; the largest one and its line are enough for that.
@@ -44,15 +46,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
             }
             None => (line, n),
         };
-        statement(
-            line,
-            n,
-            path,
-            &mut positions,
-            &mut triangles,
-            &mut corners,
-            &mut largest,
-        )?;
+        statement(line, n, path, &mut positions, &mut faces, &mut largest)?;
         joined.clear();
     }
     // A `\` on the last line continues into nothing: parse what was joined.
@@ -62,8 +56,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
             first,
             path,
             &mut positions,
-            &mut triangles,
-            &mut corners,
+            &mut faces,
             &mut largest,
         )?;
     }
@@ -77,7 +70,21 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
             });
         }
     }
+    let Faces {
+        mut triangles,
+        polygons,
+        ..
+    } = faces;
+    polygons.finish(&positions, &mut triangles, path, Location::Line)?;
     validated(IndexedMesh::new(positions, triangles), path)
+}
+
+/// The faces read so far, and the corner buffer reused for each.
+#[derive(Default)]
+struct Faces {
+    triangles: Vec<[u32; 3]>,
+    corners: Vec<u32>,
+    polygons: Polygons,
 }
 
 /// One logical line: a `v` or `f` statement is parsed, anything else skipped.
@@ -86,8 +93,7 @@ fn statement(
     n: usize,
     path: &Path,
     positions: &mut Vec<[f32; 3]>,
-    triangles: &mut Vec<[u32; 3]>,
-    corners: &mut Vec<u32>,
+    faces: &mut Faces,
     largest: &mut Option<(u32, usize)>,
 ) -> Result<(), LoadError> {
     let at = Location::Line(n);
@@ -108,6 +114,11 @@ fn statement(
             positions.push(position);
         }
         Some(b"f") => {
+            let Faces {
+                triangles,
+                corners,
+                polygons,
+            } = faces;
             corners.clear();
             for corner in words {
                 // `v`, `v/vt`, `v//vn`, `v/vt/vn`: the vertex is the first field.
@@ -122,7 +133,7 @@ fn statement(
                     corners: corners.len(),
                 });
             }
-            fan(corners, triangles);
+            polygons.push(corners, triangles, n);
         }
         _ => {}
     }

@@ -9,7 +9,8 @@
 //! reliable record boundary. Only the first three vertex values and the `n`
 //! face indices are used; the rest of a line is ignored.
 
-use super::text::{self, capacity, coordinate, count, fan, integer, tokens};
+use super::polygon::Polygons;
+use super::text::{self, capacity, coordinate, count, integer, tokens};
 use super::{read, validated, LoadError, Location};
 use crate::mesh::IndexedMesh;
 use std::path::Path;
@@ -21,6 +22,7 @@ pub fn load(path: &Path) -> Result<IndexedMesh, LoadError> {
 
 /// Parses OFF bytes; `path` only names the file in errors.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
+    let bytes = text::strip_bom(bytes);
     let syntax = |line: usize, message: String| LoadError::Syntax {
         path: path.to_path_buf(),
         at: Location::Line(line),
@@ -113,6 +115,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
 
     let mut triangles = Vec::with_capacity(capacity(face_count, bytes.len(), 8));
     let mut corners: Vec<u32> = Vec::new();
+    let mut polygons = Polygons::default();
     for i in 0..face_count {
         let Some((n, line)) = records.next() else {
             return Err(LoadError::Truncated {
@@ -156,8 +159,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
                 ),
             ));
         }
-        fan(&corners, &mut triangles);
+        polygons.push(&corners, &mut triangles, n);
     }
+    polygons.finish(&positions, &mut triangles, path, Location::Line)?;
     validated(IndexedMesh::new(positions, triangles), path)
 }
 

@@ -8,7 +8,8 @@
 //! ones we want. Big-endian files are rejected rather than byte-swapped: they
 //! are rare, and a wrong guess would load garbage silently.
 
-use super::text::{self, capacity, fan, finite_f32};
+use super::polygon::Polygons;
+use super::text::{self, capacity, finite_f32};
 use super::{read, validated, LoadError, Location};
 use crate::mesh::IndexedMesh;
 use std::path::Path;
@@ -20,6 +21,7 @@ pub fn load(path: &Path) -> Result<IndexedMesh, LoadError> {
 
 /// Parses PLY bytes; `path` only names the file in errors.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
+    let bytes = text::strip_bom(bytes);
     let header = Header::parse(bytes, path)?;
     let body = bytes.get(header.body_start..).unwrap_or_default();
     let mut reader = match header.encoding {
@@ -39,6 +41,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
     let mut positions: Vec<[f32; 3]> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
+    let mut polygons = Polygons::default();
     for (e, element) in header.elements.iter().enumerate() {
         // Reserve only what the body can hold at the element's smallest
         // record size: the header count alone is not trusted.
@@ -104,7 +107,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
                             })?;
                         corners.push(vertex);
                     }
-                    fan(&corners, &mut triangles);
+                    polygons.push(&corners, &mut triangles, index);
                 }
             } else {
                 for property in &element.properties {
@@ -113,6 +116,12 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
             }
         }
     }
+    let faces = &header.elements[layout.face].name;
+    polygons.finish(&positions, &mut triangles, path, |index| Location::Record {
+        element: faces.clone(),
+        index,
+        line: None,
+    })?;
     validated(IndexedMesh::new(positions, triangles), path)
 }
 

@@ -125,14 +125,9 @@ pub(crate) fn capacity(count: usize, file_len: usize, min_bytes: usize) -> usize
     count.min(file_len / min_bytes.max(1) + 1)
 }
 
-/// Appends the fan triangulation of a convex polygon: `(c0, ci, ci+1)`.
-/// Keeps the polygon's orientation, which is the only thing a loader can
-/// know about it (non-convex polygons need ear clipping with the geometry;
-/// the formats we read are triangles or convex quads in practice).
-pub(crate) fn fan(corners: &[u32], triangles: &mut Vec<[u32; 3]>) {
-    if let Some((&first, rest)) = corners.split_first() {
-        for pair in rest.windows(2) {
-            triangles.push([first, pair[0], pair[1]]);
-        }
-    }
+/// `bytes` without a leading UTF-8 byte-order mark (`EF BB BF`, written
+/// first by many Windows editors). It is not part of the first line: left
+/// there, it glues onto the first keyword (`\u{feff}v`, `\u{feff}OFF`).
+pub(crate) fn strip_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
 }

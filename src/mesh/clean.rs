@@ -2,6 +2,13 @@
 //! no triangle with a repeated vertex, no triangle twice, no unused vertex,
 //! and optionally one vertex per position.
 //!
+//! A **triangle soup** (every triangle its own three vertices, as many DCC
+//! exporters write meshes; see [`detect_soup`]) is welded by default: left
+//! apart, each triangle is its own component with three boundary edges, and
+//! the simplifier, which never crosses a boundary, shows holes at every coarse
+//! LOD. Detection is strict (no vertex shared by two triangles), so no other
+//! mesh is welded unless asked; [`CleanOptions::weld_soup`] turns it off.
+//!
 //! Cleaning is a stable compaction: surviving vertices and triangles keep
 //! their relative order, and [`Cleaned::vertex_map`] says where every new
 //! vertex came from. A morph needs that map to clean every pose the same way
@@ -25,15 +32,74 @@ use std::fmt;
 use thiserror::Error;
 
 /// What [`clean`] may change besides dropping degenerate, duplicate and unused elements.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CleanOptions {
     /// Merge vertices with identical positions (bit-identical, with -0.0
     /// equal to 0.0) into the first of them. Off by default because a file
     /// may split vertices on purpose (UV or normal seams, a morph whose poses
     /// separate the copies); on for files that just failed to share them.
     /// Only the positions of the mesh given (one pose) are compared: for a
-    /// morph, weld only copies that coincide in every pose, or poses tear.
+    /// morph, [`clean_poses`] (or [`crate::morph::Morph::clean`]) welds only
+    /// copies that coincide in every pose, so no pose tears.
     pub weld: bool,
+    /// Weld a triangle soup ([`detect_soup`]) even when `weld` is off. On by
+    /// default: a soup has no connectivity to keep, and every coarse LOD of
+    /// it tears. Off keeps the file's vertices exactly (the soup is still
+    /// reported in [`CleanReport::soup`]).
+    pub weld_soup: bool,
+}
+
+impl Default for CleanOptions {
+    fn default() -> Self {
+        CleanOptions {
+            weld: false,
+            weld_soup: true,
+        }
+    }
+}
+
+/// A triangle soup found by [`detect_soup`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Soup {
+    pub triangles: usize,
+    /// Vertices at the position of an earlier vertex: what welding merges.
+    pub shared_positions: usize,
+}
+
+/// Whether `mesh` is a triangle soup: more than one triangle, no vertex used
+/// by two triangles (or twice by one), and at least one vertex at the
+/// position of another, so that welding joins something. Strict on purpose:
+/// a single shared vertex anywhere means the file has connectivity, and it
+/// is kept. Indices out of range make it `None` (validation reports them).
+pub fn detect_soup(mesh: &IndexedMesh) -> Option<Soup> {
+    let n = mesh.positions.len();
+    if mesh.triangles.len() < 2 {
+        return None;
+    }
+    let mut used = vec![false; n];
+    for &v in mesh.triangles.iter().flatten() {
+        let slot = used.get_mut(v as usize)?;
+        if *slot {
+            return None;
+        }
+        *slot = true;
+    }
+    let mut seen: HashSet<[u32; 3]> = HashSet::with_capacity(n);
+    let shared_positions = mesh
+        .positions
+        .iter()
+        .filter(|p| !seen.insert(weld_key(p)))
+        .count();
+    (shared_positions > 0).then_some(Soup {
+        triangles: mesh.triangles.len(),
+        shared_positions,
+    })
+}
+
+/// A position as welding compares it: bit-identical, with -0.0 equal to 0.0.
+fn weld_key(p: &[f32; 3]) -> [u32; 3] {
+    // `+ 0.0` turns -0.0 into 0.0: the same point, different bits.
+    p.map(|c| (c + 0.0).to_bits())
 }
 
 /// What [`clean`] found and did; counts of the input unless said otherwise.
@@ -53,6 +119,10 @@ pub struct CleanReport {
     pub opposite_twins: usize,
     /// Kept triangles with three distinct vertices but zero area.
     pub zero_area_triangles: usize,
+    /// The input is a triangle soup ([`detect_soup`]).
+    pub soup: Option<Soup>,
+    /// The soup was welded because of [`CleanOptions::weld_soup`] (not `weld`).
+    pub soup_welded: bool,
     pub output_vertices: usize,
     pub output_triangles: usize,
 }
@@ -105,7 +175,25 @@ impl fmt::Display for CleanReport {
             f,
             "  zero area         {} triangles kept (may not be flat in other poses)",
             self.zero_area_triangles
-        )
+        )?;
+        if let Some(soup) = self.soup {
+            write!(
+                f,
+                "\n  triangle soup     {} triangles share no vertex ({} vertices at an earlier vertex's position): ",
+                soup.triangles, soup.shared_positions
+            )?;
+            if self.soup_welded {
+                write!(f, "welded (keep it apart with --no-weld)")?;
+            } else if self.welded_vertices > 0 {
+                write!(f, "welded")?;
+            } else {
+                write!(
+                    f,
+                    "NOT welded: every triangle is its own piece and coarse LODs show holes; drop --no-weld to join it"
+                )?;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -130,24 +218,54 @@ pub struct PoseTooShort {
 /// Fails only if the mesh is invalid (`IndexedMesh::validate`), since every
 /// step indexes positions by the triangles' indices.
 pub fn clean(mesh: &IndexedMesh, options: &CleanOptions) -> Result<Cleaned, MeshError> {
+    clean_poses(mesh, &[], options)
+}
+
+/// [`clean`] for a mesh with more poses (a morph's other poses, or its
+/// targets' offsets): a weld merges two vertices only where they coincide in
+/// `mesh` *and* in every pose of `also`, so no pose tears. Each pose of `also`
+/// needs one entry per vertex of `mesh` ([`MeshError::PoseSize`] otherwise).
+pub fn clean_poses(
+    mesh: &IndexedMesh,
+    also: &[&[[f32; 3]]],
+    options: &CleanOptions,
+) -> Result<Cleaned, MeshError> {
     mesh.validate()?;
     let n = mesh.positions.len();
+    if let Some((pose, p)) = also.iter().enumerate().find(|(_, p)| p.len() != n) {
+        return Err(MeshError::PoseSize {
+            pose,
+            vertices: p.len(),
+            expected: n,
+        });
+    }
+    let soup = detect_soup(mesh);
+    let soup_welded = !options.weld && options.weld_soup && soup.is_some();
     let mut report = CleanReport {
         input_vertices: n,
         input_triangles: mesh.triangles.len(),
+        soup,
+        soup_welded,
         ..CleanReport::default()
     };
 
     // `rep[v]`: the vertex that stands for `v` (itself unless welded). The
     // first vertex at a position wins, so welding never moves a vertex later.
-    let rep: Vec<u32> = if options.weld {
+    let rep: Vec<u32> = if (options.weld || soup_welded) && also.is_empty() {
         let mut first: HashMap<[u32; 3], u32> = HashMap::with_capacity(n);
         (0..n as u32)
             .zip(&mesh.positions)
-            .map(|(v, p)| {
-                // `+ 0.0` turns -0.0 into 0.0: the same point, different bits.
-                let key = p.map(|c| (c + 0.0).to_bits());
-                *first.entry(key).or_insert(v)
+            .map(|(v, p)| *first.entry(weld_key(p)).or_insert(v))
+            .collect()
+    } else if options.weld || soup_welded {
+        let mut first: HashMap<Vec<u32>, u32> = HashMap::with_capacity(n);
+        (0..n)
+            .map(|v| {
+                let key: Vec<u32> = std::iter::once(&mesh.positions[v])
+                    .chain(also.iter().map(|pose| &pose[v]))
+                    .flat_map(weld_key)
+                    .collect();
+                *first.entry(key).or_insert(v as u32)
             })
             .collect()
     } else {
@@ -306,7 +424,14 @@ mod tests {
         let mesh = IndexedMesh::new(positions, vec![[0, 1, 2], [5, 4, 2], [0, 2, 3], [1, 4, 3]]);
         let unwelded = clean(&mesh, &CleanOptions::default()).unwrap();
         assert!(unwelded.report.is_unchanged());
-        let welded = clean(&mesh, &CleanOptions { weld: true }).unwrap();
+        let welded = clean(
+            &mesh,
+            &CleanOptions {
+                weld: true,
+                ..CleanOptions::default()
+            },
+        )
+        .unwrap();
         let r = welded.report;
         assert_eq!(r.welded_vertices, 2);
         assert_eq!(r.duplicate_triangles, 1); // [5,4,2] became [0,1,2]
@@ -343,7 +468,14 @@ mod tests {
         let plain = clean(&cow, &CleanOptions::default()).unwrap();
         assert!(plain.report.is_unchanged(), "{}", plain.report);
         assert_eq!(plain.mesh, cow);
-        let welded = clean(&cow, &CleanOptions { weld: true }).unwrap();
+        let welded = clean(
+            &cow,
+            &CleanOptions {
+                weld: true,
+                ..CleanOptions::default()
+            },
+        )
+        .unwrap();
         assert_eq!(welded.report.welded_vertices, 1, "{}", welded.report);
         assert_eq!(welded.mesh.vertex_count(), 2903);
         assert_eq!(welded.mesh.triangle_count(), 5804);

@@ -30,6 +30,14 @@ pub enum MeshError {
         index: u32,
         vertices: usize,
     },
+    /// A pose given beside the mesh (for example to weld only copies that
+    /// coincide in every pose) has another vertex count.
+    #[error("pose {pose} has {vertices} vertices, but the mesh has {expected}: every pose needs one position per vertex")]
+    PoseSize {
+        pose: usize,
+        vertices: usize,
+        expected: usize,
+    },
     #[error("the mesh has {vertices} vertices; morphlod indexes with u32 and reserves 0xFFFFFFFF as the strip restart, so at most 4294967294 are supported")]
     TooManyVertices { vertices: usize },
 }

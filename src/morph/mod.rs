@@ -19,7 +19,8 @@ mod track;
 
 pub use track::{Interpolation, WeightTrack};
 
-use crate::mesh::IndexedMesh;
+use crate::mesh::clean::{clean_poses, CleanOptions, CleanReport};
+use crate::mesh::{IndexedMesh, MeshError};
 use thiserror::Error;
 
 /// One morph target: per-vertex position offsets added with a weight.
@@ -55,9 +56,9 @@ pub struct Morph {
 pub enum MorphError {
     #[error("the poses have {a} and {b} vertices; a morph needs one vertex count")]
     PoseSizeMismatch { a: usize, b: usize },
-    #[error("the meshes have {a} and {b} triangles; a same-connectivity morph needs identical triangle lists (use a supermesh for different connectivity)")]
+    #[error("the meshes have {a} and {b} triangles; a same-connectivity morph needs one triangle list (meshes of different connectivity need the supermesh builder, morph::supermesh)")]
     TriangleCountMismatch { a: usize, b: usize },
-    #[error("the meshes differ first at triangle {index}: {a:?} versus {b:?}; a same-connectivity morph needs identical triangle lists")]
+    #[error("the meshes differ first at triangle {index}: {a:?} versus {b:?}; a same-connectivity morph needs one triangle list (meshes of different connectivity need the supermesh builder, morph::supermesh)")]
     TriangleMismatch {
         index: usize,
         a: [u32; 3],
@@ -111,6 +112,8 @@ pub enum MorphError {
     WeightNotFinite { index: usize },
     #[error("weight track output value {index} is not finite")]
     TrackValue { index: usize },
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
 }
 
 impl Morph {
@@ -191,7 +194,9 @@ impl Morph {
     }
 
     /// A two-pose morph from two meshes with the same connectivity: same vertex
-    /// count and identical triangle lists (same order, same corner order).
+    /// count and the same triangle list (same order, same orientation; a
+    /// triangle may start at another corner, `[1, 2, 0]` for `[0, 1, 2]`).
+    /// The triangles of `a` are used; `b` gives the pose `V(1)`.
     pub fn from_meshes(a: &IndexedMesh, b: &IndexedMesh) -> Result<Morph, MorphError> {
         if a.positions.len() != b.positions.len() {
             return Err(MorphError::PoseSizeMismatch {
@@ -209,7 +214,7 @@ impl Morph {
             .triangles
             .iter()
             .zip(&b.triangles)
-            .position(|(x, y)| x != y)
+            .position(|(&[p, q, r], &y)| y != [p, q, r] && y != [q, r, p] && y != [r, p, q])
         {
             return Err(MorphError::TriangleMismatch {
                 index,
@@ -257,6 +262,19 @@ impl Morph {
             })
             .collect();
         Morph::from_parts(triangles, gather(&self.base), targets, self.weights.clone())
+    }
+
+    /// Cleans the morph ([`crate::mesh::clean`]) once on `V(0)` and applies the
+    /// result to every pose through [`Morph::select`], so all poses keep one
+    /// connectivity. Welding (asked for, or of a triangle soup) merges only
+    /// vertices that coincide in `V(0)` and in every target's offsets, that is
+    /// in every pose: a copy that moves apart in some pose is kept apart.
+    pub fn clean(&self, options: &CleanOptions) -> Result<(Morph, CleanReport), MorphError> {
+        let base = IndexedMesh::new(self.v0(), self.triangles.clone());
+        let also: Vec<&[[f32; 3]]> = self.targets.iter().map(|t| &t.deltas[..]).collect();
+        let cleaned = clean_poses(&base, &also, options)?;
+        let morph = self.select(&cleaned.vertex_map, cleaned.mesh.triangles)?;
+        Ok((morph, cleaned.report))
     }
 
     pub fn triangles(&self) -> &[[u32; 3]] {
@@ -447,6 +465,27 @@ mod tests {
         assert!(matches!(
             Morph::from_meshes(&quad(0.0), &one_triangle),
             Err(MorphError::TriangleCountMismatch { a: 2, b: 1 })
+        ));
+    }
+
+    /// `[0, 1, 2]` and `[1, 2, 0]` are one triangle (same corners, same orientation):
+    /// meshes differing only in each triangle's starting corner are one connectivity,
+    /// and the first mesh's triangles are used. The reverse `[0, 2, 1]` is not.
+    #[test]
+    fn from_meshes_accepts_rotated_triangles() {
+        let mut rotated = quad(2.0);
+        rotated.triangles = rotated
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| [b, c, a])
+            .collect();
+        let morph = Morph::from_meshes(&quad(0.0), &rotated).unwrap();
+        assert_eq!(morph.triangles(), &quad(0.0).triangles[..]);
+        assert_eq!(morph.v1(), rotated.positions);
+        rotated.triangles[1] = [0, 3, 2];
+        assert!(matches!(
+            Morph::from_meshes(&quad(0.0), &rotated),
+            Err(MorphError::TriangleMismatch { index: 1, .. })
         ));
     }
 

@@ -11,8 +11,8 @@ use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, Format, LoadOptions};
 use morphlod::mesh::clean::{clean, CleanOptions};
-use morphlod::mesh::IndexedMesh;
-use morphlod::morph::Morph;
+use morphlod::morph::supermesh::{Supermesh, SupermeshOptions};
+use morphlod::morph::{Morph, MorphError};
 use morphlod::topology::analyze;
 use morphlod::Asset;
 use std::io::{IsTerminal, Read};
@@ -60,7 +60,8 @@ enum Command {
 #[derive(Args)]
 struct BuildArgs {
     /// A glTF file with morph targets (with --target or --animation), or two
-    /// mesh files with the same connectivity: V(0) and V(1).
+    /// mesh files V(0) and V(1): of the same connectivity, or two closed genus-0
+    /// meshes of different connectivity (a supermesh of both is built).
     #[arg(required = true, num_args = 1..=2, value_name = "INPUT")]
     inputs: Vec<PathBuf>,
     /// glTF: morph from the base mesh to this morph target (name or index).
@@ -75,10 +76,13 @@ struct BuildArgs {
     /// Sampled animation frames |r| (1 samples t = 0 only).
     #[arg(long, default_value_t = DEFAULT_FRAMES)]
     frames: usize,
-    /// Merge vertices with identical V(0) positions. Only for files whose
-    /// copies coincide in every pose: a copy that moves apart tears otherwise.
+    /// Merge vertices at identical positions in every pose. A triangle soup
+    /// (no vertex shared by two triangles) is welded without it.
     #[arg(long)]
     weld: bool,
+    /// Weld nothing, not even a triangle soup.
+    #[arg(long, conflicts_with = "weld")]
+    no_weld: bool,
     /// The .mlod file to write.
     #[arg(short, long, value_name = "OUT.mlod")]
     output: PathBuf,
@@ -88,11 +92,23 @@ struct BuildArgs {
 struct RenderArgs {
     /// The .mlod asset to render.
     asset: PathBuf,
-    /// Times t in [0, 1], comma-separated: one column each.
-    #[arg(long = "t", value_delimiter = ',', default_value = "0.5")]
+    /// Times t in [0, 1], comma-separated: one column each. Values outside are
+    /// clamped into [0, 1] (with a note); NaN is refused.
+    #[arg(
+        long = "t",
+        value_delimiter = ',',
+        default_value = "0.5",
+        allow_negative_numbers = true
+    )]
     ts: Vec<f32>,
     /// LOD fractions in [0, 1] (0 = full detail), comma-separated: one row each.
-    #[arg(long, value_delimiter = ',', default_value = "0")]
+    /// Values outside are clamped into [0, 1] (with a note); NaN is refused.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0",
+        allow_negative_numbers = true
+    )]
     lod: Vec<f32>,
     /// `base` shades the surface, `strips` gives every strip its own colour.
     #[arg(long, value_enum, default_value_t = Colour::Base)]
@@ -154,8 +170,12 @@ struct InfoArgs {
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// Merge vertices with identical positions before the topology report.
+    /// A triangle soup (no vertex shared by two triangles) is welded without it.
     #[arg(long)]
     weld: bool,
+    /// Weld nothing, not even a triangle soup.
+    #[arg(long, conflicts_with = "weld")]
+    no_weld: bool,
     /// glTF: the mesh to load, by name or index (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     mesh: Option<String>,
@@ -195,7 +215,7 @@ fn info(args: &InfoArgs) -> ExitCode {
         let report = if is_asset(path) {
             asset_info(path)
         } else {
-            info_one(path, &options, args.weld)
+            info_one(path, &options, &clean_options(args.weld, args.no_weld))
         };
         match report {
             Ok(report) => {
@@ -221,10 +241,13 @@ fn info(args: &InfoArgs) -> ExitCode {
 
 /// The report for one file, built whole so a failure midway prints nothing
 /// half-done.
-fn info_one(path: &Path, options: &LoadOptions, weld: bool) -> Result<String, String> {
+fn info_one(
+    path: &Path,
+    options: &LoadOptions,
+    clean_options: &CleanOptions,
+) -> Result<String, String> {
     let mesh = load_mesh(path, options).map_err(|e| e.to_string())?;
-    let cleaned =
-        clean(&mesh, &CleanOptions { weld }).map_err(|e| format!("{}: {e}", path.display()))?;
+    let cleaned = clean(&mesh, clean_options).map_err(|e| format!("{}: {e}", path.display()))?;
     let topology = analyze(&cleaned.mesh).map_err(|e| format!("{}: {e}", path.display()))?;
     let format = Format::from_path(path).map_or("unknown", Format::name);
     let mut out = format!("{}\n", path.display());
@@ -237,7 +260,7 @@ fn info_one(path: &Path, options: &LoadOptions, weld: bool) -> Result<String, St
     if let Some((lo, hi)) = mesh.bounds() {
         out += &format!("  bounds            {lo:?} .. {hi:?}\n");
     }
-    out += &format!("cleaning (weld {})\n", if weld { "on" } else { "off" });
+    out += &format!("cleaning ({})\n", weld_mode(clean_options));
     out += &format!("{}\n", cleaned.report);
     out += &format!("topology (after cleaning)\n{topology}\n");
     if Format::from_path(path) == Some(Format::Gltf) {
@@ -281,6 +304,7 @@ fn ms(d: Duration) -> String {
 
 /// Loads the inputs into one morph, cleans it, builds, writes and reports.
 fn build(args: &BuildArgs) -> Result<(), String> {
+    check_output(&args.output, &args.inputs)?;
     let total = Instant::now();
     let options = LoadOptions {
         gltf_mesh: args.mesh.clone(),
@@ -289,7 +313,7 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     let morph = load_morph(args, &options)?;
     let load_time = total.elapsed();
     let clean_start = Instant::now();
-    let morph = clean_morph(morph, args.weld)?;
+    let morph = clean_morph(morph, &clean_options(args.weld, args.no_weld))?;
     if let Some(blend) = morph.target_blend() {
         eprintln!(
             "note: a weight animation: the asset keeps the {} targets it drives ({} keyframes, {}) \
@@ -352,19 +376,54 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// Cleaning decisions (welds, dropped triangles) are taken on V(0) and applied to every
-/// pose through `select`, so all poses keep one connectivity. Prints the cleaning summary.
-fn clean_morph(morph: Morph, weld: bool) -> Result<Morph, String> {
-    let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
-    let cleaned = clean(&base, &CleanOptions { weld }).map_err(|e| e.to_string())?;
-    println!(
-        "cleaning (weld {})\n{}",
-        if weld { "on" } else { "off" },
-        cleaned.report
-    );
-    morph
-        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
-        .map_err(|e| e.to_string())
+/// Refuses a `build` output that is not `.mlod` or that is one of the inputs
+/// (the build would overwrite its own source).
+fn check_output(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    };
+    if let Some(input) = inputs.iter().find(|input| same(input, output)) {
+        return Err(format!(
+            "{}: the output is one of the inputs ({}); choose another output file",
+            output.display(),
+            input.display()
+        ));
+    }
+    if !output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mlod"))
+    {
+        return Err(format!(
+            "{}: the output must be a .mlod file (morphlod writes its own asset format)",
+            output.display()
+        ));
+    }
+    Ok(())
+}
+
+/// `--weld` / `--no-weld` as cleaning options (neither: only a triangle soup is welded).
+fn clean_options(weld: bool, no_weld: bool) -> CleanOptions {
+    CleanOptions {
+        weld,
+        weld_soup: !no_weld,
+    }
+}
+
+fn weld_mode(options: &CleanOptions) -> &'static str {
+    match (options.weld, options.weld_soup) {
+        (true, _) => "weld on",
+        (false, true) => "weld off, triangle soups welded",
+        (false, false) => "weld off",
+    }
+}
+
+/// Cleans through [`Morph::clean`] (decisions on V(0), welds only where every
+/// pose agrees, one connectivity for all poses) and prints the cleaning summary.
+fn clean_morph(morph: Morph, options: &CleanOptions) -> Result<Morph, String> {
+    let (morph, report) = morph.clean(options).map_err(|e| e.to_string())?;
+    println!("cleaning ({})\n{report}", weld_mode(options));
+    Ok(morph)
 }
 
 fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> {
@@ -375,9 +434,40 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
             }
             let a = load_mesh(a, options).map_err(|e| e.to_string())?;
             let b = load_mesh(b, options).map_err(|e| e.to_string())?;
-            Morph::from_meshes(&a, &b).map_err(|e| e.to_string())
+            match Morph::from_meshes(&a, &b) {
+                Err(
+                    why @ (MorphError::PoseSizeMismatch { .. }
+                    | MorphError::TriangleCountMismatch { .. }
+                    | MorphError::TriangleMismatch { .. }),
+                ) => {
+                    // Different connectivity: the supermesh gives both one triangulation.
+                    eprintln!(
+                        "note: not the same connectivity ({why}): building a supermesh of the two"
+                    );
+                    let (supermesh, report) =
+                        Supermesh::build(&a, &b, &SupermeshOptions::default()).map_err(|e| {
+                            format!("the meshes differ in connectivity and no supermesh could be built: {e}")
+                        })?;
+                    eprintln!(
+                        "note: supermesh of {} + {} vertices: {} vertices, {} triangles",
+                        report.a_vertices, report.b_vertices, report.vertices, report.triangles
+                    );
+                    supermesh.to_morph().map_err(|e| e.to_string())
+                }
+                other => other.map_err(|e| e.to_string()),
+            }
         }
         [path] => {
+            if Format::from_path(path) != Some(Format::Gltf) {
+                // An OBJ, OFF or PLY file is one mesh: it has no targets to pick.
+                return Err(format!(
+                    "{}: a single input must be a glTF file with morph targets (.gltf, .glb); \
+                     to morph a {} mesh, give two meshes with the same connectivity: \
+                     `morphlod build V0 V1 -o OUT.mlod`",
+                    path.display(),
+                    Format::from_path(path).map_or("mesh", Format::name)
+                ));
+            }
             let source = match (&args.target, &args.animation) {
                 (Some(t), _) => MorphSource::Target(t.clone()),
                 (None, Some(a)) => MorphSource::Animation(a.clone()),
@@ -389,12 +479,6 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     ))
                 }
             };
-            if Format::from_path(path) != Some(Format::Gltf) {
-                return Err(format!(
-                    "{}: --target and --animation need a glTF file (.gltf, .glb); for other formats give two meshes",
-                    path.display()
-                ));
-            }
             morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())
         }
         _ => Err("give one glTF file or two meshes".into()),
@@ -432,20 +516,80 @@ fn stage_table(report: &BuildReport, load: Duration, clean: Duration) -> String 
 
 /// Renders one asset's (t, lod) grid to a PNG and prints what each cell drew.
 fn render(args: &RenderArgs) -> Result<(), String> {
-    let bytes = std::fs::read(&args.asset).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let ts = unit_values("t", &args.ts)?;
+    let fractions = unit_values("lod", &args.lod)?;
+    check_sheet_size(args.size, ts.len(), fractions.len())?;
+    let bytes = read_asset(&args.asset)?;
     let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
     let options = SheetOptions {
         cell: args.size,
         shade: args.color.shade(),
         ..SheetOptions::default()
     };
-    let lods: Vec<Lod> = args.lod.iter().map(|&f| Lod::Fraction(f)).collect();
-    render_to_png(&asset, &args.ts, &lods, &options, &args.output)
+    let lods: Vec<Lod> = fractions.iter().map(|&f| Lod::Fraction(f)).collect();
+    render_to_png(&asset, &ts, &lods, &options, &args.output)
+}
+
+/// One rule for `--t` and `--lod`, the library's: values outside [0, 1] are clamped (the
+/// CLI says so on stderr), NaN is refused.
+fn unit_values(name: &str, values: &[f32]) -> Result<Vec<f32>, String> {
+    values
+        .iter()
+        .map(|&v| {
+            if v.is_nan() {
+                return Err(format!(
+                    "--{name}: {v} is not a number; give values in [0, 1]"
+                ));
+            }
+            let clamped = v.clamp(0.0, 1.0);
+            if clamped != v {
+                eprintln!("note: {name} {v} is outside [0, 1]: clamped to {clamped}");
+            }
+            Ok(clamped)
+        })
+        .collect()
+}
+
+/// The most pixels a contact sheet may have: 8192 x 8192, 256 MiB as RGBA, the
+/// sheet being assembled in memory before it is written.
+const MAX_SHEET_PIXELS: u64 = 8192 * 8192;
+
+/// Refuses a sheet whose image would pass [`MAX_SHEET_PIXELS`], before anything is allocated.
+fn check_sheet_size(cell: u32, columns: usize, rows: usize) -> Result<(), String> {
+    let (w, h) = (
+        u64::from(cell) * columns as u64,
+        u64::from(cell) * rows as u64,
+    );
+    if w.saturating_mul(h) > MAX_SHEET_PIXELS || cell == 0 {
+        return Err(format!(
+            "the sheet would be {w} x {h} pixels ({columns} columns x {rows} rows of {cell}); \
+             the limit is {MAX_SHEET_PIXELS} pixels (8192 x 8192) and a cell must be at least 1: \
+             lower --size or give fewer --t / --lod values"
+        ));
+    }
+    Ok(())
+}
+
+/// The bytes of a `.mlod` file, or a clear error for a mesh or a directory given instead.
+fn read_asset(path: &Path) -> Result<Vec<u8>, String> {
+    if path.is_dir() {
+        return Err(format!(
+            "{}: is a directory, not a .mlod asset",
+            path.display()
+        ));
+    }
+    if !is_asset(path) && Format::from_path(path).is_some() {
+        return Err(format!(
+            "{}: this is a mesh: build it first with `morphlod build` (then give the .mlod file)",
+            path.display()
+        ));
+    }
+    std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Runs the frame-rate benchmark and prints its summary (and writes the rows as JSON).
 fn bench(args: &BenchArgs) -> Result<(), String> {
-    let bytes = std::fs::read(&args.asset).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let bytes = read_asset(&args.asset)?;
     let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
     let model = Arc::new(DeformingModel::new(&asset).map_err(|e| e.to_string())?);
     let context = Context::headless().map_err(|e| e.to_string())?;
@@ -482,7 +626,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
     let source = MorphSource::Target(DEMO_TARGET.into());
     let morph = morphlod::io::load_morph(Path::new(DEMO_INPUT), &LoadOptions::default(), &source)
         .map_err(|e| e.to_string())?;
-    let morph = clean_morph(morph, false)?;
+    let morph = clean_morph(morph, &CleanOptions::default())?;
     let (asset, report) = Builder::new(&morph)
         .frames(DEMO_FRAMES)
         .build()

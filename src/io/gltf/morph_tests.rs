@@ -243,7 +243,14 @@ fn select_applies_a_cleaning_result_to_every_target() {
     use crate::mesh::clean::{clean, CleanOptions};
     let morph = target(&asset("makehuman_body.glb"), "caucasian-male-baby");
     let base = IndexedMesh::new(morph.v0(), morph.triangles().to_vec());
-    let cleaned = clean(&base, &CleanOptions { weld: true }).unwrap();
+    let cleaned = clean(
+        &base,
+        &CleanOptions {
+            weld: true,
+            ..CleanOptions::default()
+        },
+    )
+    .unwrap();
     let kept = morph
         .select(&cleaned.vertex_map, cleaned.mesh.triangles.clone())
         .unwrap();

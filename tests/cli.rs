@@ -1,0 +1,435 @@
+//! The `morphlod` command line, run as a user runs it: messages and exit codes
+//! for the rough edges of issue 13.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn morphlod(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_morphlod"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn asset(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name)
+}
+
+/// A fresh directory for one test's files, removed when dropped.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(name: &str) -> Scratch {
+        let dir = std::env::temp_dir().join(format!("morphlod-cli-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        Scratch(dir)
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// The cow as a triangle soup: every triangle its own three vertices.
+fn cow_soup() -> String {
+    let cow = morphlod::io::off::load(&asset("cow.off")).unwrap();
+    let mut out = String::new();
+    for t in &cow.triangles {
+        for &v in t {
+            let p = cow.positions[v as usize];
+            out += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+        }
+    }
+    for i in 0..cow.triangles.len() {
+        out += &format!("f {} {} {}\n", 3 * i + 1, 3 * i + 2, 3 * i + 3);
+    }
+    out
+}
+
+/// `info` says a soup is a soup and that it was welded (into the cow's one
+/// closed component), and `--no-weld` keeps it apart but still says so.
+#[test]
+fn info_detects_and_welds_a_soup() {
+    let dir = Scratch::new("soup");
+    let soup = dir.path("soup.obj");
+    std::fs::write(&soup, cow_soup()).unwrap();
+    let out = morphlod(&["info", soup.to_str().unwrap()]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(stdout.contains("triangle soup"), "{stdout}");
+    assert!(stdout.contains("components        1 ("), "{stdout}");
+    assert!(stdout.contains("--no-weld"), "{stdout}");
+
+    let out = morphlod(&["info", "--no-weld", soup.to_str().unwrap()]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(stdout.contains("triangle soup"), "{stdout}");
+    assert!(stdout.contains("components        5804"), "{stdout}");
+}
+
+/// `build one.off` alone: an OFF file holds one mesh and no morph targets, so the
+/// message asks for a second mesh and does not send the user to `morphlod info`.
+#[test]
+fn build_one_off_asks_for_two_meshes() {
+    let dir = Scratch::new("one-off");
+    let out_path = dir.path("out.mlod");
+    let cow = asset("cow.off");
+    let out = morphlod(&[
+        "build",
+        cow.to_str().unwrap(),
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("morphlod info"), "{stderr}");
+    assert!(!stderr.contains("--target"), "{stderr}");
+    assert!(stderr.contains("two meshes"), "{stderr}");
+    assert!(!out_path.exists());
+}
+
+/// `build` welds a two-pose soup morph, says so, and the asset has the welded vertex count.
+#[test]
+fn build_welds_a_soup_morph() {
+    let dir = Scratch::new("soup-build");
+    let (a, b, out_path) = (dir.path("a.obj"), dir.path("b.obj"), dir.path("out.mlod"));
+    let soup = cow_soup();
+    std::fs::write(&a, &soup).unwrap();
+    // V(1): the same soup twice as large (every copy still meets its twins).
+    let scaled: String = soup
+        .lines()
+        .map(|line| match line.strip_prefix("v ") {
+            Some(xyz) => {
+                let p: Vec<f32> = xyz
+                    .split(' ')
+                    .map(|c| c.parse::<f32>().unwrap() * 2.0)
+                    .collect();
+                format!("v {} {} {}\n", p[0], p[1], p[2])
+            }
+            None => format!("{line}\n"),
+        })
+        .collect();
+    std::fs::write(&b, scaled).unwrap();
+    let args = [
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--frames",
+        "2",
+        "-o",
+        out_path.to_str().unwrap(),
+    ];
+    let out = morphlod(&[&["build"][..], &args].concat());
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        stdout.contains("welded (keep it apart with --no-weld)"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("build: 2903 vertices, 5804 triangles"),
+        "{stdout}"
+    );
+}
+
+// ---- phase 2: items 3, 6, 9, 11 --------------------------------------------------
+
+/// A closed octahedron scaled by `scale`, as OFF text: a small mesh that still
+/// simplifies and renders.
+fn octahedron(scale: f64, stretch: f64) -> String {
+    let mut out = String::from("OFF\n6 8 0\n");
+    for p in [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ] {
+        let q = [p[0] * scale * stretch, p[1] * scale, p[2] * scale];
+        out += &format!("{:e} {:e} {:e}\n", q[0], q[1], q[2]);
+    }
+    for f in [
+        [0, 2, 4],
+        [2, 1, 4],
+        [1, 3, 4],
+        [3, 0, 4],
+        [2, 0, 5],
+        [1, 2, 5],
+        [3, 1, 5],
+        [0, 3, 5],
+    ] {
+        out += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+    }
+    out
+}
+
+/// Builds the octahedron morph at `scale` into `dir/name.mlod`.
+fn build_octahedron(dir: &Scratch, name: &str, scale: f64) -> PathBuf {
+    let (a, b) = (
+        dir.path(&format!("{name}0.off")),
+        dir.path(&format!("{name}1.off")),
+    );
+    std::fs::write(&a, octahedron(scale, 1.0)).unwrap();
+    std::fs::write(&b, octahedron(scale, 1.5)).unwrap();
+    let out_path = dir.path(&format!("{name}.mlod"));
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--frames",
+        "2",
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    out_path
+}
+
+/// Item 9: `--t -0.5` parses (as a number, not as a flag), and out-of-range t is
+/// handled by one rule with --lod: clamped to [0, 1] with a note saying so.
+#[test]
+fn render_negative_and_out_of_range_numbers() {
+    let dir = Scratch::new("negative");
+    let asset = build_octahedron(&dir, "oct", 1.0);
+    let png = dir.path("out.png");
+    let out = morphlod(&[
+        "render",
+        asset.to_str().unwrap(),
+        "--t",
+        "-0.5",
+        "--lod",
+        "1.5",
+        "--size",
+        "32",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    if stderr.contains("no GPU adapter") || stderr.contains("adapter") && !out.status.success() {
+        eprintln!("skipping: no GPU adapter ({stderr})");
+        return;
+    }
+    assert!(!stderr.contains("unexpected argument"), "{stderr}");
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("t -0.5 is outside [0, 1]: clamped to 0"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("lod 1.5 is outside [0, 1]: clamped to 1"),
+        "{stderr}"
+    );
+    // NaN is refused by both.
+    let out = morphlod(&[
+        "render",
+        asset.to_str().unwrap(),
+        "--t",
+        "NaN",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("not a number"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+/// Item 3: a sheet whose image would pass the limit is refused before any
+/// allocation, and the message says the limit.
+#[test]
+fn render_refuses_a_huge_sheet() {
+    let dir = Scratch::new("huge-sheet");
+    let asset = build_octahedron(&dir, "oct", 1.0);
+    let png = dir.path("out.png");
+    let out = morphlod(&[
+        "render",
+        asset.to_str().unwrap(),
+        "--t",
+        "0,0.25,0.5,0.75",
+        "--lod",
+        "0,0.25,0.5,0.75",
+        "--size",
+        "16384",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("65536 x 65536"), "{stderr}");
+    assert!(stderr.contains("limit"), "{stderr}");
+    assert!(!png.exists());
+}
+
+/// The fraction of a PNG's pixels that differ from its corner pixel (the
+/// background), and how many distinct colours those pixels have.
+fn drawn_fraction(png: &Path) -> (f64, usize) {
+    let image = image::open(png).unwrap().to_rgba8();
+    let background = *image.get_pixel(0, 0);
+    let drawn: Vec<_> = image.pixels().filter(|&&p| p != background).collect();
+    let mut colours: Vec<[u8; 4]> = drawn.iter().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    (
+        drawn.len() as f64 / f64::from(image.width() * image.height()),
+        colours.len(),
+    )
+}
+
+/// Item 6: meshes about 1e19 and 1e-22 across render visibly and shaded (or fail
+/// with a clear error), never as a blank image with exit code 0.
+#[test]
+fn render_extreme_scales_is_not_blank() {
+    let dir = Scratch::new("scales");
+    for (name, scale) in [("huge", 1e19), ("tiny", 1e-22), ("unit", 1.0)] {
+        let asset = build_octahedron(&dir, name, scale);
+        let png = dir.path(&format!("{name}.png"));
+        let out = morphlod(&[
+            "render",
+            asset.to_str().unwrap(),
+            "--size",
+            "64",
+            "-o",
+            png.to_str().unwrap(),
+        ]);
+        let stderr = text(&out.stderr);
+        if !out.status.success() && stderr.contains("adapter") {
+            eprintln!("skipping: no GPU adapter ({stderr})");
+            return;
+        }
+        if out.status.success() {
+            let (drawn, colours) = drawn_fraction(&png);
+            assert!(
+                drawn > 0.05,
+                "{name} (scale {scale}): only {drawn} of the pixels drawn"
+            );
+            // Shaded, not ambient only: the visible faces of the octahedron differ.
+            assert!(
+                colours >= 3,
+                "{name} (scale {scale}): {colours} colours, the faces are not shaded"
+            );
+        } else {
+            assert!(
+                stderr.contains("scale") || stderr.contains("too"),
+                "{name}: {stderr}"
+            );
+        }
+    }
+}
+
+/// Item 11: clear errors for a directory, for a mesh given to `render`, and for
+/// a `build` output that would overwrite an input or is not `.mlod`.
+#[test]
+fn clear_errors_for_wrong_paths() {
+    let dir = Scratch::new("paths");
+    let out = morphlod(&["info", dir.0.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is a directory"), "{stderr}");
+    assert!(!stderr.contains("extension"), "{stderr}");
+
+    let cow = asset("cow.off");
+    let png = dir.path("cow.png");
+    let out = morphlod(&["render", cow.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("this is a mesh: build it first with `morphlod build`"),
+        "{stderr}"
+    );
+    assert!(stderr.len() < 400, "{stderr}");
+
+    let (a, b) = (dir.path("a.off"), dir.path("b.off"));
+    std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
+    std::fs::write(&b, octahedron(1.0, 1.5)).unwrap();
+    let before = std::fs::read(&b).unwrap();
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        b.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is one of the inputs"), "{stderr}");
+    assert_eq!(
+        std::fs::read(&b).unwrap(),
+        before,
+        "the input was overwritten"
+    );
+
+    let wrong = dir.path("out.png");
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        wrong.to_str().unwrap(),
+    ]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains(".mlod"), "{stderr}");
+    assert!(!wrong.exists());
+}
+
+/// A closed cube as OFF text (6 quads, 12 triangles): another connectivity than the octahedron.
+fn cube() -> String {
+    let mut out = String::from("OFF\n8 6 0\n");
+    for k in 0..8 {
+        let c = |bit: u32| if k & bit == 0 { -1.0 } else { 1.0 };
+        out += &format!("{} {} {}\n", c(1), c(2), c(4));
+    }
+    for f in [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ] {
+        out += &format!("4 {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    out
+}
+
+/// Item 10: two meshes of different connectivity build through the supermesh,
+/// with a note saying so, instead of an error suggesting one.
+#[test]
+fn build_different_connectivity_builds_a_supermesh() {
+    let dir = Scratch::new("supermesh");
+    let (a, b, out_path) = (
+        dir.path("oct.off"),
+        dir.path("cube.off"),
+        dir.path("out.mlod"),
+    );
+    std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
+    std::fs::write(&b, cube()).unwrap();
+    let out = morphlod(&[
+        "build",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--frames",
+        "2",
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("supermesh"), "{stderr}");
+    assert!(out_path.exists(), "{stdout}");
+}

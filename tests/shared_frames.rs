@@ -1,0 +1,52 @@
+//! Issue 13 item 2 (part): equal frames share their data after load. A file
+//! whose 4,096 frames repeat one frame (two bytes a frame on disk) must not
+//! make 4,096 copies of that frame's change lists.
+
+use morphlod::build::Builder;
+use morphlod::deform::DeformingModel;
+use morphlod::Asset;
+
+mod common;
+use common::grid_morph;
+
+/// A valid asset of a `side`² grid whose frames are `pattern` (indices into two built frames).
+fn asset_with_frames(side: u32, pattern: &[usize]) -> Asset {
+    let morph = grid_morph(side, |x, y| ((x * 7 + y * 3) % 5) as f32 * 0.1);
+    let (mut asset, _) = Builder::new(&morph).frames(2).build().expect("build");
+    let built = asset.frames.clone();
+    asset.frames = pattern.iter().map(|&i| built[i].clone()).collect();
+    // Through the file, as a user gets it.
+    Asset::from_bytes(&asset.to_bytes()).expect("a valid file")
+}
+
+#[test]
+fn repeated_frames_share_their_change_lists() {
+    let asset = asset_with_frames(40, &[0; 4096]);
+    let model = DeformingModel::new(&asset).unwrap();
+    assert_eq!(model.frame_count(), 4096);
+    let first = model.frame_changes(0).unwrap();
+    for k in [1, 2047, 4095] {
+        assert!(
+            std::ptr::eq(first, model.frame_changes(k).unwrap()),
+            "frame {k} holds its own copy of frame 0's change lists"
+        );
+    }
+    assert_eq!(model.distinct_frames(), 1);
+}
+
+/// Frames equal to an earlier, non-adjacent frame share too; different frames do not.
+#[test]
+fn only_equal_frames_are_shared() {
+    let asset = asset_with_frames(20, &[0, 0, 1, 1, 0, 1]);
+    if asset.frames[0] == asset.frames[2] {
+        return; // The two built frames happen to be equal: nothing to tell apart.
+    }
+    let model = DeformingModel::new(&asset).unwrap();
+    let f = |k| model.frame_changes(k).unwrap() as *const _;
+    assert_eq!(f(0), f(1));
+    assert_eq!(f(0), f(4));
+    assert_eq!(f(2), f(3));
+    assert_eq!(f(2), f(5));
+    assert_ne!(f(0), f(2));
+    assert_eq!(model.distinct_frames(), 2);
+}
