@@ -215,12 +215,7 @@ mod tests {
                     fit_to_bounds(min, max, direction, aspect, projection).expect("valid input");
                 let m = camera.view_proj();
                 let mut extent = 0.0f32;
-                for k in 0..8 {
-                    let corner = Vec3::new(
-                        if k & 1 == 0 { min[0] } else { max[0] },
-                        if k & 2 == 0 { min[1] } else { max[1] },
-                        if k & 4 == 0 { min[2] } else { max[2] },
-                    );
+                for corner in box_corners(min, max) {
                     let clip = m.project_point3(corner);
                     let what = format!("{direction} {aspect} {projection:?}: {clip}");
                     assert!(clip.x.abs() <= 1.0 && clip.y.abs() <= 1.0, "{what}");
@@ -230,6 +225,17 @@ mod tests {
                 assert!(extent > 0.4, "{direction} {projection:?}: extent {extent}");
             }
         }
+    }
+
+    /// The eight corners of the box `min..max`.
+    fn box_corners(min: [f32; 3], max: [f32; 3]) -> impl Iterator<Item = Vec3> {
+        (0..8).map(move |k| {
+            Vec3::new(
+                if k & 1 == 0 { min[0] } else { max[0] },
+                if k & 2 == 0 { min[1] } else { max[1] },
+                if k & 4 == 0 { min[2] } else { max[2] },
+            )
+        })
     }
 
     /// Boxes ~1e19 and ~1e-22 across are framed like a unit box (their f32 half-diagonal
@@ -243,12 +249,7 @@ mod tests {
                 .unwrap_or_else(|e| panic!("scale {scale}: {e}"));
             let m = camera.view_proj();
             let mut extent = 0.0f32;
-            for k in 0..8 {
-                let corner = Vec3::new(
-                    if k & 1 == 0 { min[0] } else { max[0] },
-                    if k & 2 == 0 { min[1] } else { max[1] },
-                    if k & 4 == 0 { min[2] } else { max[2] },
-                );
+            for corner in box_corners(min, max) {
                 let clip = m * corner.extend(1.0);
                 let ndc = clip.truncate() / clip.w;
                 assert!(ndc.is_finite(), "scale {scale}: {ndc}");
