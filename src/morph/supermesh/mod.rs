@@ -43,6 +43,7 @@ use glam::{DMat3, DVec3};
 use thiserror::Error;
 
 pub use align::Residual;
+pub use embed::EmbeddingQuality;
 
 use crate::mesh::clean::Cleaned;
 use crate::mesh::{IndexedMesh, MeshError};
@@ -190,6 +191,8 @@ pub struct SupermeshReport {
     /// Random rotations the overlay needed (1 unless input was degenerate).
     pub overlay_attempts: usize,
     pub alignment: AlignmentReport,
+    /// Evenness of A's and B's sphere embeddings.
+    pub embedding: [EmbeddingQuality; 2],
     /// Wall time of each stage in seconds (the two embeddings run at once).
     pub stage_seconds: Vec<(Stage, f64)>,
 }
@@ -229,6 +232,13 @@ impl fmt::Display for SupermeshReport {
             self.sphere_area,
             self.sphere_area / (4.0 * std::f64::consts::PI)
         )?;
+        for (side, q) in ["A", "B"].iter().zip(&self.embedding) {
+            writeln!(
+                f,
+                "  embedding {side}       min triangle {:.2e} sr (mean {:.2e}), area distortion p5 {:.3} p50 {:.3} p95 {:.3}",
+                q.min_area, q.mean_area, q.distortion[0], q.distortion[1], q.distortion[2]
+            )?;
+        }
         let a = &self.alignment;
         writeln!(
             f,
@@ -424,6 +434,10 @@ impl Supermesh {
             sphere_area,
             overlay_attempts: attempts,
             alignment,
+            embedding: [
+                embed::quality(&embedded.a, &ca.mesh.positions, &ca.mesh.triangles),
+                embed::quality(&embedded.b, &cb.mesh.positions, &cb.mesh.triangles),
+            ],
             stage_seconds: stages.seconds,
         };
         Ok((supermesh, report))
