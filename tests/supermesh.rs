@@ -325,12 +325,11 @@ fn landmarks_are_pulled_together() {
         r.alignment.landmarks_before.unwrap(),
         r.alignment.landmarks_after.unwrap(),
     );
-    // Every move is fold-rejecting, so a landmark stops where its fan would
-    // fold; the pull must still bring the pairs closer.
-    assert!(
-        after.mean < 0.6 * before.mean && after.max <= before.max,
-        "{before:?} -> {after:?}"
-    );
+    // Each landmark is pulled onto its partner (the overlay then turns B by
+    // a tiny random rotation, at most 2 · 2e-3 rad).
+    println!("landmarks {before:?} -> {after:?}");
+    assert!(before.max > 0.1, "{before:?}");
+    assert!(after.max < 5e-3, "{before:?} -> {after:?}");
 }
 
 #[test]

@@ -61,6 +61,19 @@ const MAX_LEVEL_SWEEPS: usize = 200;
 const LEVEL_BUDGET: usize = 200_000;
 const FINAL_SWEEPS: usize = 8;
 
+/// Each vertex's surface area: a third of the areas of its triangles.
+pub(crate) fn vertex_masses(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<f64> {
+    let mut mass = vec![0.0f64; positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|v| d3(positions[v as usize]));
+        let third = (b - a).cross(c - a).length() / 6.0;
+        for &v in t {
+            mass[v as usize] += third;
+        }
+    }
+    mass
+}
+
 /// The sphere points of every vertex (unused vertices get the north pole).
 pub(crate) fn embed(
     positions: &[[f32; 3]],
@@ -73,14 +86,7 @@ pub(crate) fn embed(
     // Each vertex's surface area (a third of its triangles'), and while
     // collapsed, the sum over the vertices collapsed into it: the surface
     // each vertex of every level stands for.
-    let mut mass = vec![0.0f64; positions.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|v| d3(positions[v as usize]));
-        let third = (b - a).cross(c - a).length() / 6.0;
-        for &v in t {
-            mass[v as usize] += third;
-        }
-    }
+    let mut mass = vertex_masses(positions, triangles);
     for k in 0..hierarchy.records.len() {
         let (u, ring) = hierarchy.ring(k);
         mass[ring[0] as usize] += mass[u as usize];
@@ -563,6 +569,28 @@ fn area_target(mass: &[f64], rings: &[Vec<u32>], points: &[DVec3], v: u32) -> Op
     let x = glam::DVec2::new(m11 * rhs.x - m01 * rhs.y, m00 * rhs.y - m01 * rhs.x) / det;
     let target = o + e1 * x.x + e2 * x.y;
     target.is_finite().then_some(target)
+}
+
+/// Moves `v` to `target`, or a half or a quarter of the way there (along the
+/// chord), whichever first keeps its fan strictly positive. Returns whether
+/// it moved.
+pub(crate) fn move_vertex(rings: &[Vec<u32>], points: &mut [DVec3], v: u32, target: DVec3) -> bool {
+    let ring = &rings[v as usize];
+    let old = points[v as usize];
+    let Some(mut candidate) = target.try_normalize() else {
+        return false;
+    };
+    for _ in 0..3 {
+        if fan_positive(points, candidate, ring) {
+            points[v as usize] = candidate;
+            return true;
+        }
+        match (old + candidate).try_normalize() {
+            Some(c) => candidate = c,
+            None => return false,
+        }
+    }
+    false
 }
 
 /// One fold-rejecting move of `v` toward `target` (default: its neighbours'

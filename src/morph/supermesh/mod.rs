@@ -164,7 +164,8 @@ impl fmt::Debug for SupermeshOptions<'_> {
 /// Alignment quality: distances between A's normalised vertices and B's
 /// normalised surface at the same sphere point (units: the RMS radius of each
 /// normalised shape), before any rotation and as overlaid; for landmarks, the
-/// angles (radians) between each pair's sphere points.
+/// angles (radians) between each pair's sphere points, before any rotation
+/// and after the pull (before the overlay's tiny random rotation).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AlignmentReport {
     pub before: Residual,
@@ -567,10 +568,15 @@ fn align_b(
     let samples = align::samples(&embedded.a, &qa, 4000);
     let lookup = align::SurfaceLookup::new(&SphereMesh::new(&embedded.b, &b.triangles), &qb);
     let before = align::residual(&samples, &lookup, DMat3::IDENTITY);
-    let rotation = if options.align {
-        align::search_rotation(&samples, &lookup)
-    } else {
-        DMat3::IDENTITY
+    let landmark_rotation = align::landmark_rotation(&embedded.a, &embedded.b, landmarks);
+    let rotation = match (options.align, landmark_rotation) {
+        (false, _) => DMat3::IDENTITY,
+        (true, Some(r)) => r,
+        (true, None) => {
+            let b_samples = align::samples(&embedded.b, &qb, 4000);
+            let extra = align::moment_candidates(&samples, &b_samples);
+            align::search_rotation(&samples, &lookup, &extra)
+        }
     };
     let mut points = embedded.b.clone();
     if !align::rotate(&mut points, &b.triangles, rotation) {
@@ -585,14 +591,15 @@ fn align_b(
         ..AlignmentReport::default()
     };
     if !landmarks.is_empty() {
-        report.landmarks_before = Some(align::landmark_angles(&embedded.a, &points, landmarks));
+        report.landmarks_before = Some(align::landmark_angles(&embedded.a, &embedded.b, landmarks));
         let rings = embed::build_rings(points.len(), &b.triangles).map_err(|e| {
             SupermeshError::Embedding {
                 mesh: Side::B,
                 what: format!("{e:?}"),
             }
         })?;
-        align::pull_landmarks(&rings, &mut points, &embedded.a, landmarks, 200);
+        let mass = embed::vertex_masses(&b.positions, &b.triangles);
+        align::pull_landmarks(&mass, &rings, &mut points, &embedded.a, landmarks, 400);
         report.landmarks_after = Some(align::landmark_angles(&embedded.a, &points, landmarks));
     }
     Ok((points, report))
