@@ -248,7 +248,7 @@ pub(crate) fn nearest_rotation(m: DMat3) -> DMat3 {
     let rows = [0, 1, 2].map(|r| [0, 1, 2].map(|c| cols[c][r]));
     let v = principal_axes(rows);
     let sigma = v.map(|x| (x.dot(s * x)).max(0.0).sqrt());
-    if !(sigma[1] > 1e-12 * sigma[0].max(1e-300)) {
+    if sigma[1].partial_cmp(&(1e-12 * sigma[0].max(1e-300))) != Some(std::cmp::Ordering::Greater) {
         return DMat3::IDENTITY;
     }
     let u0 = (m * v[0] / sigma[0]).normalize();

@@ -61,6 +61,20 @@ const MAX_LEVEL_SWEEPS: usize = 200;
 const LEVEL_BUDGET: usize = 200_000;
 const FINAL_SWEEPS: usize = 8;
 
+/// The central projection from the origin: each vertex's position as its
+/// sphere direction, unnormalised (so points on a straight edge stay exactly
+/// on its great circle). `Err(folds)` when some triangle is not strictly
+/// positive seen from the origin or the total area is not 4π.
+pub(crate) fn radial(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Result<Vec<DVec3>, usize> {
+    let points: Vec<DVec3> = positions.iter().map(|&p| d3(p)).collect();
+    let (folds, area) = check_embedding(&points, triangles);
+    let four_pi = 4.0 * std::f64::consts::PI;
+    if folds > 0 || (area - four_pi).abs() > 1e-6 * four_pi {
+        return Err(folds.max(1));
+    }
+    Ok(points)
+}
+
 /// Each vertex's surface area: a third of the areas of its triangles.
 pub(crate) fn vertex_masses(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<f64> {
     let mut mass = vec![0.0f64; positions.len()];
@@ -535,7 +549,7 @@ fn area_target(mass: &[f64], rings: &[Vec<u32>], points: &[DVec3], v: u32) -> Op
         s[j] = mv + mass[ring[j] as usize] + mass[ring[(j + 1) % d] as usize];
         f += s[j];
     }
-    if !(f > 0.0) || !(radius > 0.0) {
+    if f.is_nan() || radius.is_nan() || f <= 0.0 || radius <= 0.0 {
         return None;
     }
     let floor = 1e-4 * f / d as f64;
@@ -544,7 +558,7 @@ fn area_target(mass: &[f64], rings: &[Vec<u32>], points: &[DVec3], v: u32) -> Op
         s[j] = s[j].max(floor) / f;
         area += 0.5 * q[j].perp_dot(q[(j + 1) % d]);
     }
-    if !(area > 0.0) {
+    if area.is_nan() || area <= 0.0 {
         return None;
     }
     // A_t(x) = ½ (q_j × q_{j+1} + x × (q_j − q_{j+1})) = c_t + g_t · x.
@@ -563,7 +577,7 @@ fn area_target(mass: &[f64], rings: &[Vec<u32>], points: &[DVec3], v: u32) -> Op
         rhs += g * (w * (s[j] - c));
     }
     let det = m00 * m11 - m01 * m01;
-    if !(det > 0.0) {
+    if det.is_nan() || det <= 0.0 {
         return None;
     }
     let x = glam::DVec2::new(m11 * rhs.x - m01 * rhs.y, m00 * rhs.y - m01 * rhs.x) / det;
