@@ -492,10 +492,62 @@ pub(crate) fn relax(
 ) {
     for _ in 0..sweeps {
         for &v in vertices {
-            let target = area_target(mass, rings, points, v);
-            relax_vertex(rings, points, v, target);
+            match area_target(mass, rings, points, v) {
+                Some(target) => {
+                    relax_vertex(rings, points, v, Some(target));
+                }
+                None => {
+                    guarded_umbrella(mass, rings, points, v);
+                }
+            }
         }
     }
+}
+
+/// The fan's area energy on the sphere, `Σ_t A_t² / S_t` (spherical areas
+/// `A_t`, surface areas `S_t` from the masses), with `v` at `p`: smallest
+/// when the fan's spherical area is shared as its surface area is.
+fn fan_energy(mass: &[f64], ring: &[u32], points: &[DVec3], v: u32, p: DVec3) -> f64 {
+    let d = ring.len();
+    let mv = mass[v as usize];
+    (0..d)
+        .map(|j| {
+            let (a, b) = (ring[j] as usize, ring[(j + 1) % d] as usize);
+            let area = super::sphere::spherical_area(p, points[a], points[b]);
+            let s = (mv + mass[a] + mass[b]).max(1e-300);
+            area * area / s
+        })
+        .sum()
+}
+
+/// Where a ring is too wide for [`area_target`]'s chart (coarse levels): a
+/// fold-rejecting move toward the neighbours' mean, or a half or a quarter
+/// of the way, kept only if it lowers the fan's spherical [`fan_energy`]
+/// (the spherical umbrella operator alone collapses coarse meshes).
+fn guarded_umbrella(mass: &[f64], rings: &[Vec<u32>], points: &mut [DVec3], v: u32) -> bool {
+    let ring = &rings[v as usize];
+    if ring.is_empty() {
+        return false;
+    }
+    let old = points[v as usize];
+    let target = ring.iter().map(|&r| points[r as usize]).sum::<DVec3>();
+    let Some(mut candidate) = target.try_normalize() else {
+        return false;
+    };
+    let before = fan_energy(mass, ring, points, v, old);
+    for _ in 0..3 {
+        if fan_positive(points, candidate, ring)
+            && fan_energy(mass, ring, points, v, candidate) < before
+        {
+            points[v as usize] = candidate;
+            return true;
+        }
+        match (old + candidate).try_normalize() {
+            Some(c) => candidate = c,
+            None => return false,
+        }
+    }
+    false
 }
 
 /// Weight of the umbrella (shape) term against the area term in
