@@ -308,6 +308,7 @@ proptest! {
         let options = SupermeshOptions { seed, ..SupermeshOptions::default() };
         let (s, r) = build(&a, &a, &options);
         check(&a, &a, &s, &r, 500);
+        overlays_onto_itself(&a);
         let b = refined(&a);
         let (s, r) = build(&a, &b, &options);
         check(&a, &b, &s, &r, 500);
@@ -426,6 +427,21 @@ fn landmarks_are_pulled_together() {
     println!("landmarks {before:?} -> {after:?}");
     assert!(before.max > 0.1, "{before:?}");
     assert!(after.max < 5e-3, "{before:?} -> {after:?}");
+    // Without the random rotation each landmark pair ends exactly on one
+    // sphere point: one supermesh vertex of both meshes.
+    let exact = SupermeshOptions {
+        perturb: false,
+        ..options
+    };
+    let (s, r) = build(&a, &b, &exact);
+    check(&a, &b, &s, &r, 300);
+    assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0);
+    for &(la, lb) in &exact.landmarks {
+        assert!(
+            s.origins.contains(&Origin::Both { a: la, b: lb }),
+            "landmark pair ({la}, {lb}) not merged"
+        );
+    }
 }
 
 #[test]
