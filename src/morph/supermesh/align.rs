@@ -6,12 +6,17 @@
 //!    each signed by its third moment, right-handed);
 //! 2. [`search_rotation`]: the rotation `R` of B's sphere that minimises the
 //!    mean distance between A's normalised vertices and B's normalised surface
-//!    at the same sphere point: the 24 rotations of the cube, each also turned
-//!    by 40° and 80° about z, then a local descent with halving angles from
-//!    the best four;
-//! 3. [`pull_landmarks`] (optional): each B landmark's sphere point walks
-//!    toward its A partner's by fold-rejecting moves while every other B
-//!    vertex relaxes with the landmarks pinned.
+//!    at the same sphere point. Candidates: the first-order guesses
+//!    [`moment_candidates`] (each embedding's best rotation from sphere to
+//!    shape, composed with the 24 rotations of the cube for the principal
+//!    axes' order and signs), and the 24 rotations of the cube each also
+//!    turned by 0°, 40° and 80° about z; then a local descent with halving
+//!    angles (20° down to 0.1°) from the best six. With two or more
+//!    landmark pairs the rotation is instead the Kabsch fit of B's landmark
+//!    sphere points onto A's ([`landmark_rotation`]);
+//! 3. [`pull_landmarks`] (with landmarks): each B landmark's sphere point
+//!    walks onto its A partner's, dragging a cap of its neighbours along by
+//!    a smooth field of fold-rejecting moves.
 //!
 //! B's surface at a sphere point is read from a cube map of its projective
 //! barycentric interpolation ([`SurfaceLookup`]), so one candidate costs one
@@ -19,7 +24,6 @@
 
 use glam::{DMat3, DVec3};
 
-use super::embed::relax_vertex;
 use super::sphere::{orient, projective_barycentric, Location, SphereMesh};
 
 /// Mean and largest distance between corresponding points.
@@ -226,6 +230,68 @@ fn cost(samples: &[(DVec3, DVec3)], b: &SurfaceLookup, rotation: DMat3) -> f64 {
     residual(samples, b, rotation).mean
 }
 
+/// The 24 proper rotations of the cube (signed axis permutations).
+fn cube_rotations() -> Vec<DMat3> {
+    candidates().into_iter().step_by(3).collect()
+}
+
+/// The rotation nearest to `m` (the orthogonal factor of its polar
+/// decomposition, with the reflection removed: Kabsch), from the
+/// eigenvectors of `mᵀm`; the identity when `m` has rank below 2.
+pub(crate) fn nearest_rotation(m: DMat3) -> DMat3 {
+    let s = m.transpose() * m;
+    let cols = [
+        s.x_axis.to_array(),
+        s.y_axis.to_array(),
+        s.z_axis.to_array(),
+    ];
+    let rows = [0, 1, 2].map(|r| [0, 1, 2].map(|c| cols[c][r]));
+    let v = principal_axes(rows);
+    let sigma = v.map(|x| (x.dot(s * x)).max(0.0).sqrt());
+    if sigma[1].partial_cmp(&(1e-12 * sigma[0].max(1e-300))) != Some(std::cmp::Ordering::Greater) {
+        return DMat3::IDENTITY;
+    }
+    let u0 = (m * v[0] / sigma[0]).normalize();
+    let u1 = (m * v[1] / sigma[1]).normalize();
+    let u1 = (u1 - u0 * u0.dot(u1)).normalize();
+    let u2 = u0.cross(u1);
+    let v2 = v[0].cross(v[1]);
+    let u = DMat3::from_cols(u0, u1, u2);
+    let w = DMat3::from_cols(v[0], v[1], v2);
+    u * w.transpose()
+}
+
+/// `Σ x yᵀ` over pairs.
+fn correlation(pairs: impl Iterator<Item = (DVec3, DVec3)>) -> DMat3 {
+    let mut m = DMat3::ZERO;
+    for (x, y) in pairs {
+        m += DMat3::from_cols(x * y.x, x * y.y, x * y.z);
+    }
+    m
+}
+
+/// The rotation of B's sphere that best takes B's landmarks onto A's
+/// (Kabsch on the sphere points); `None` for fewer than two pairs.
+pub(crate) fn landmark_rotation(a: &[DVec3], b: &[DVec3], pairs: &[(u32, u32)]) -> Option<DMat3> {
+    (pairs.len() >= 2).then(|| {
+        nearest_rotation(correlation(pairs.iter().map(|&(la, lb)| {
+            (a[la as usize].normalize(), b[lb as usize].normalize())
+        })))
+    })
+}
+
+/// First-order guesses: each shape's best rotation from sphere to shape
+/// (`U`, nearest to `Σ q sᵀ`), so `R = U_Aᵀ C U_B` for each rotation `C` of
+/// the cube (the principal axes' order and signs may differ).
+pub(crate) fn moment_candidates(a: &[(DVec3, DVec3)], b: &[(DVec3, DVec3)]) -> Vec<DMat3> {
+    let ua = nearest_rotation(correlation(a.iter().map(|&(s, q)| (q, s))));
+    let ub = nearest_rotation(correlation(b.iter().map(|&(s, q)| (q, s))));
+    cube_rotations()
+        .into_iter()
+        .map(|c| ua.transpose() * c * ub)
+        .collect()
+}
+
 /// The 24 proper rotations of the cube, each composed with 0°, 40° and 80°
 /// about z, so the coarse set has a rotation within some 40° of any other.
 fn candidates() -> Vec<DMat3> {
@@ -259,15 +325,20 @@ fn candidates() -> Vec<DMat3> {
 }
 
 /// The rotation of B's sphere that best matches the shapes (see module docs).
-pub(crate) fn search_rotation(samples: &[(DVec3, DVec3)], b: &SurfaceLookup) -> DMat3 {
+pub(crate) fn search_rotation(
+    samples: &[(DVec3, DVec3)],
+    b: &SurfaceLookup,
+    extra: &[DMat3],
+) -> DMat3 {
     let mut scored: Vec<(f64, DMat3)> = candidates()
         .into_iter()
+        .chain(extra.iter().copied())
         .map(|r| (cost(samples, b, r), r))
         .collect();
     scored.sort_by(|x, y| x.0.total_cmp(&y.0));
     scored
         .into_iter()
-        .take(4)
+        .take(6)
         .map(|(c, r)| descend(samples, b, r, c))
         .min_by(|x, y| x.0.total_cmp(&y.0))
         .map(|(_, r)| r)
@@ -281,7 +352,7 @@ fn descend(
     mut c: f64,
 ) -> (f64, DMat3) {
     let mut angle = 20f64.to_radians();
-    while angle > 0.25f64.to_radians() {
+    while angle > 0.1f64.to_radians() {
         let mut improved = false;
         for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
             for sign in [1.0, -1.0] {
@@ -312,12 +383,20 @@ pub(crate) fn landmark_angles(a: &[DVec3], b: &[DVec3], pairs: &[(u32, u32)]) ->
     out
 }
 
-/// Rings around each landmark that relax while it moves.
-const NEIGHBOURHOOD: u32 = 4;
+/// Largest angle (radians) a landmark moves in one iteration.
+const LANDMARK_STEP: f64 = 0.04;
 
-/// Pulls B's landmark vertices toward their A partners' sphere points (see
-/// module docs). Every move keeps every triangle strictly positive.
+/// Pulls B's landmark vertices onto their A partners' sphere points: each
+/// iteration turns a cap around each landmark toward its goal by a smooth
+/// field (the landmark by up to [`LANDMARK_STEP`], its neighbours less and
+/// less out to the cap's rim, front first), every vertex by a fold-rejecting
+/// move, then relaxes the cap (area-proportional, landmarks pinned). The cap
+/// (the landmark's two rings and whatever lies within 0.8 of the way to the
+/// nearest other landmark) may carry other landmarks along; they are pulled
+/// back in their own turn. When the straight way is blocked the landmark
+/// veers off by up to ±1.2 rad.
 pub(crate) fn pull_landmarks(
+    mass: &[f64],
     rings: &[Vec<u32>],
     b: &mut [DVec3],
     a: &[DVec3],
@@ -331,65 +410,89 @@ pub(crate) fn pull_landmarks(
     for &(_, lb) in pairs {
         pinned[lb as usize] = true;
     }
-    // Only the landmarks' neighbourhoods (a few rings) relax: a global
-    // umbrella relaxation with a few pinned points drifts toward a cluster.
-    let mut depth = vec![u32::MAX; b.len()];
-    let mut queue: std::collections::VecDeque<u32> = pairs.iter().map(|p| p.1).collect();
-    for &v in &queue {
-        depth[v as usize] = 0;
-    }
-    while let Some(v) = queue.pop_front() {
-        if depth[v as usize] >= NEIGHBOURHOOD {
-            continue;
-        }
-        for &n in &rings[v as usize] {
-            if depth[n as usize] == u32::MAX {
-                depth[n as usize] = depth[v as usize] + 1;
-                queue.push_back(n);
-            }
-        }
-    }
-    let free: Vec<u32> = (0..b.len() as u32)
-        .filter(|&v| !pinned[v as usize] && depth[v as usize] != u32::MAX)
-        .collect();
-    let max_step = 0.1;
+    let mut mark = vec![u32::MAX; b.len()];
+    let mut stamp = 0u32;
+    let mut cap: Vec<u32> = Vec::new();
+    let mut free: Vec<u32> = Vec::new();
     for _ in 0..iterations {
         let mut remaining = 0.0f64;
-        for &(la, lb) in pairs {
-            let goal = a[la as usize];
-            let at = b[lb as usize];
+        for (k, &(la, lb)) in pairs.iter().enumerate() {
+            let goal = a[la as usize].normalize();
+            let at = b[lb as usize].normalize();
             let angle = at.angle_between(goal);
             remaining = remaining.max(angle);
-            if angle < 1e-9 {
+            if angle < 1e-12 {
                 continue;
             }
-            let s = (max_step / angle).min(1.0);
-            let target = slerp(at, goal, s);
-            relax_vertex(rings, b, lb, Some(target));
+            if angle <= LANDMARK_STEP && super::embed::move_vertex(rings, b, lb, goal) {
+                continue;
+            }
+            let step = angle.min(LANDMARK_STEP);
+            let toward = (goal - at * at.dot(goal))
+                .try_normalize()
+                .unwrap_or_else(|| at.any_orthonormal_vector());
+            let nearest = pairs
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != k)
+                .map(|(_, p)| at.angle_between(b[p.1 as usize]))
+                .fold(f64::INFINITY, f64::min);
+            let radius = (2.0 * angle).clamp(0.3, 1.2).min(0.8 * nearest);
+            // The cap: the landmark's two rings and the vertices within
+            // `radius` of it, by a walk.
+            stamp += 1;
+            cap.clear();
+            mark[lb as usize] = stamp;
+            let mut depth = vec![(lb, 0u32)];
+            while let Some((v, level)) = depth.pop() {
+                cap.push(v);
+                for &n in &rings[v as usize] {
+                    if mark[n as usize] != stamp
+                        && (level < 2 || at.angle_between(b[n as usize]) < radius)
+                    {
+                        mark[n as usize] = stamp;
+                        depth.push((n, level + 1));
+                    }
+                }
+            }
+            let radius = cap
+                .iter()
+                .map(|&v| 1.05 * at.angle_between(b[v as usize]))
+                .fold(radius, f64::max);
+            // Straight toward the goal, or when something is in the way
+            // (another landmark, a fan that would fold), veering off.
+            for detour in [0.0f64, 0.6, -0.6, 1.2, -1.2] {
+                let direction = toward * detour.cos() + at.cross(toward) * detour.sin();
+                let axis = at.cross(direction).normalize();
+                cap.sort_by(|&x, &y| {
+                    direction
+                        .dot(b[y as usize])
+                        .total_cmp(&direction.dot(b[x as usize]))
+                });
+                for &v in &cap {
+                    let r = at.angle_between(b[v as usize]) / radius;
+                    // Flat in the middle so the landmark's fan moves with it.
+                    let falloff = if r < 0.4 {
+                        1.0
+                    } else {
+                        let x = ((r - 0.4) / 0.6).min(1.0);
+                        1.0 - x * x * (3.0 - 2.0 * x)
+                    };
+                    let turn = DMat3::from_axis_angle(axis, step * falloff);
+                    super::embed::move_vertex(rings, b, v, turn * b[v as usize]);
+                }
+                if b[lb as usize].normalize().angle_between(at) > 0.25 * step {
+                    break;
+                }
+            }
+            free.clear();
+            free.extend(cap.iter().copied().filter(|&v| !pinned[v as usize]));
+            super::embed::relax(mass, rings, b, &free, 2);
         }
-        if remaining < 1e-6 {
+        if remaining < 1e-12 {
             break;
         }
-        for &v in &free {
-            relax_vertex(rings, b, v, None);
-        }
     }
-}
-
-fn slerp(a: DVec3, b: DVec3, t: f64) -> DVec3 {
-    let (a, b) = (a.normalize(), b.normalize());
-    let angle = a.angle_between(b);
-    if angle < 1e-12 {
-        return b;
-    }
-    let s = angle.sin();
-    if s.abs() < 1e-12 {
-        // Antipodal: any great circle will do; go through a perpendicular.
-        let perp = a.any_orthonormal_vector();
-        return (a * (t * std::f64::consts::PI).cos() + perp * (t * std::f64::consts::PI).sin())
-            .normalize();
-    }
-    (a * ((1.0 - t) * angle).sin() / s + b * (t * angle).sin() / s).normalize()
 }
 
 /// Rotates sphere points; `false` when rounding folded a triangle (the
@@ -427,6 +530,21 @@ mod tests {
         for m in c {
             assert!((m.determinant() - 1.0).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn nearest_rotation_recovers_a_rotation_and_kabsch() {
+        let r = DMat3::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 2.0);
+        let n = nearest_rotation(r * DMat3::from_diagonal(DVec3::new(3.0, 2.0, 0.5)));
+        assert!(
+            (n - r).abs_diff_eq(DMat3::ZERO, 1e-9) || n.abs_diff_eq(r, 1e-9),
+            "{n} {r}"
+        );
+        assert_eq!(cube_rotations().len(), 24);
+        let b = vec![DVec3::X, DVec3::Y, DVec3::new(0.3, 0.4, 0.8).normalize()];
+        let a: Vec<DVec3> = b.iter().map(|&p| r * p).collect();
+        let k = landmark_rotation(&a, &b, &[(0, 0), (1, 1), (2, 2)]).unwrap();
+        assert!(k.abs_diff_eq(r, 1e-9), "{k} {r}");
     }
 
     #[test]

@@ -14,20 +14,27 @@
 //! 3. [`Stage::Align`] (`align.rs`): normalise both shapes, rotate B's sphere
 //!    to match equal sphere points, optionally pull landmark pairs together.
 //! 4. [`Stage::Overlay`] (`overlay.rs`): after a tiny seeded random rotation of
-//!    B's sphere (so A and B points are in general position), intersect every
-//!    A face with every B face it overlaps, exactly, and fan-triangulate the
-//!    convex pieces.
+//!    B's sphere (so A and B points are practically in general position),
+//!    intersect every A face with every B face it overlaps, exactly (with
+//!    Simulation of Simplicity for what coincides), fan-triangulate the
+//!    convex pieces, and merge coincident vertices.
 //! 5. [`Stage::Positions`] (`positions.rs`): `V(0)` and `V(1)` of every
 //!    supermesh vertex by projective barycentrics (A's vertices keep their
 //!    position bit for bit in `V(0)`, B's in `V(1)`).
 //!
 //! Vertex count: every A vertex, every B vertex and every crossing of an A
-//! edge with a B edge is one supermesh vertex, `V = V_A + V_B + crossings`.
-//! Coincidences (a B vertex exactly on an A vertex or edge) are not merged:
-//! an exact zero orientation between A and B points makes the overlay start
-//! again under another random rotation (up to [`OVERLAY_ATTEMPTS`] times),
-//! so the count always holds; with [`SupermeshOptions::perturb`] off such
-//! input is [`SupermeshError::Degenerate`].
+//! edge with a B edge is one supermesh vertex, except that a B vertex exactly
+//! on an A vertex is one vertex with both origins ([`Origin::Both`]):
+//! `V = V_A + V_B − coincident + crossings`. Coincidences are handled
+//! exactly, not avoided: the overlay decides every orientation under
+//! Simulation of Simplicity, then merges what the symbolic perturbation
+//! separated (a B vertex on an A vertex, crossings at a vertex lying on the
+//! other mesh's edge, crossings of overlapping edges) and flips away
+//! zero-area triangles; so the same mesh overlaid on itself with
+//! [`SupermeshOptions::perturb`] off is the mesh itself. The tiny random
+//! rotation (on by default) just makes such cases rare on real input.
+//! [`SupermeshError::Degenerate`] is left for a merge that cannot be
+//! completed (not expected).
 
 mod align;
 mod check;
@@ -43,6 +50,7 @@ use glam::{DMat3, DVec3};
 use thiserror::Error;
 
 pub use align::Residual;
+pub use embed::EmbeddingQuality;
 
 use crate::mesh::clean::Cleaned;
 use crate::mesh::{IndexedMesh, MeshError};
@@ -115,6 +123,9 @@ pub enum Origin {
     A(u32),
     /// Vertex of B: `v1` is its B position, bit for bit.
     B(u32),
+    /// Vertex `a` of A and vertex `b` of B at exactly the same sphere point,
+    /// merged: `v0` is A's position and `v1` B's, both bit for bit.
+    Both { a: u32, b: u32 },
     /// Crossing of A's edge `a_edge` with B's edge `b_edge` (low index first).
     Crossing { a_edge: [u32; 2], b_edge: [u32; 2] },
 }
@@ -127,10 +138,17 @@ pub struct SupermeshOptions<'a> {
     /// Seed of the random rotation of B's sphere (deterministic).
     pub seed: u64,
     /// Whether B's sphere gets a tiny random rotation before the overlay
-    /// (on by default; off only to test degenerate input).
+    /// (on by default; off keeps exact coincidences, which are merged).
     pub perturb: bool,
     /// Whether B's sphere is rotated to match the shapes (on by default).
     pub align: bool,
+    /// Embed each mesh by central projection from the origin instead of
+    /// the collapse-and-split embedding (off by default): for meshes that
+    /// are star-shaped about the origin (every triangle positive seen from
+    /// it, checked exactly; otherwise [`SupermeshError::Embedding`]), e.g. a
+    /// mesh and its refinement, whose shared points then coincide exactly on
+    /// the sphere.
+    pub radial: bool,
     /// Called with each stage and its progress in `[0, 1]`; may be called
     /// from two threads at once (the embeddings run in parallel).
     pub progress: Option<&'a (dyn Fn(Stage, f32) + Sync)>,
@@ -143,6 +161,7 @@ impl Default for SupermeshOptions<'_> {
             seed: 0x6d6f_7270_686c_6f64,
             perturb: true,
             align: true,
+            radial: false,
             progress: None,
         }
     }
@@ -155,6 +174,7 @@ impl fmt::Debug for SupermeshOptions<'_> {
             .field("seed", &self.seed)
             .field("perturb", &self.perturb)
             .field("align", &self.align)
+            .field("radial", &self.radial)
             .field("progress", &self.progress.is_some())
             .finish()
     }
@@ -163,7 +183,8 @@ impl fmt::Debug for SupermeshOptions<'_> {
 /// Alignment quality: distances between A's normalised vertices and B's
 /// normalised surface at the same sphere point (units: the RMS radius of each
 /// normalised shape), before any rotation and as overlaid; for landmarks, the
-/// angles (radians) between each pair's sphere points.
+/// angles (radians) between each pair's sphere points, before any rotation
+/// and after the pull (before the overlay's tiny random rotation).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AlignmentReport {
     pub before: Residual,
@@ -183,6 +204,9 @@ pub struct SupermeshReport {
     pub triangles: usize,
     /// Supermesh vertices on an A edge and a B edge.
     pub crossings: usize,
+    /// B vertices exactly on an A vertex, merged with it ([`Origin::Both`]):
+    /// `vertices = V_A + V_B − coincident + crossings`.
+    pub coincident: usize,
     /// Supermesh triangles not strictly positive on the sphere (exact); 0.
     pub fold_overs: usize,
     /// Sum of the supermesh triangles' spherical areas (4π when bijective).
@@ -190,6 +214,8 @@ pub struct SupermeshReport {
     /// Random rotations the overlay needed (1 unless input was degenerate).
     pub overlay_attempts: usize,
     pub alignment: AlignmentReport,
+    /// Evenness of A's and B's sphere embeddings.
+    pub embedding: [EmbeddingQuality; 2],
     /// Wall time of each stage in seconds (the two embeddings run at once).
     pub stage_seconds: Vec<(Stage, f64)>,
 }
@@ -221,7 +247,11 @@ impl fmt::Display for SupermeshReport {
             self.triangles,
             self.estimated_vertices()
         )?;
-        writeln!(f, "  crossings         {}", self.crossings)?;
+        writeln!(
+            f,
+            "  crossings         {} (coincident vertices merged: {})",
+            self.crossings, self.coincident
+        )?;
         writeln!(
             f,
             "  fold-overs        {} (sphere area {:.9} = 4π · {:.9})",
@@ -229,6 +259,13 @@ impl fmt::Display for SupermeshReport {
             self.sphere_area,
             self.sphere_area / (4.0 * std::f64::consts::PI)
         )?;
+        for (side, q) in ["A", "B"].iter().zip(&self.embedding) {
+            writeln!(
+                f,
+                "  embedding {side}       min triangle {:.2e} sr (mean {:.2e}), area distortion p5 {:.3} p50 {:.3} p95 {:.3}",
+                q.min_area, q.mean_area, q.distortion[0], q.distortion[1], q.distortion[2]
+            )?;
+        }
         let a = &self.alignment;
         writeln!(
             f,
@@ -303,7 +340,7 @@ pub enum SupermeshError {
         "the spherical embedding of mesh {mesh} failed ({what}); please report this with the mesh"
     )]
     Embedding { mesh: Side, what: String },
-    #[error("A and B points coincide exactly on the sphere in {attempts} attempt(s); turn the random rotation on (SupermeshOptions::perturb) or change its seed")]
+    #[error("coincident A and B points could not be merged in {attempts} attempt(s); turn the random rotation on (SupermeshOptions::perturb) or change its seed, and please report this with the meshes")]
     Degenerate { attempts: usize },
     #[error("the overlay did not close between A face {a_face} and B face {b_face}; please report this with the meshes")]
     Overlay { a_face: u32, b_face: u32 },
@@ -399,7 +436,7 @@ impl Supermesh {
             seconds: Vec::new(),
         };
         let (ca, cb, landmarks) = stages.run(Stage::Check, || check_inputs(a, b, options))?;
-        let embedded = embed_both(&ca, &cb, options.progress, &mut stages.seconds)?;
+        let embedded = embed_both(&ca, &cb, options, &mut stages.seconds)?;
         let (b_aligned, mut alignment) = stages.run(Stage::Align, || {
             align_b(&ca.mesh, &cb.mesh, &embedded, &landmarks, options)
         })?;
@@ -420,10 +457,15 @@ impl Supermesh {
             vertices: supermesh.v0.len(),
             triangles: supermesh.triangles.len(),
             crossings: overlay.crossings,
+            coincident: overlay.coincident,
             fold_overs,
             sphere_area,
             overlay_attempts: attempts,
             alignment,
+            embedding: [
+                embed::quality(&embedded.a, &ca.mesh.positions, &ca.mesh.triangles),
+                embed::quality(&embedded.b, &cb.mesh.positions, &cb.mesh.triangles),
+            ],
             stage_seconds: stages.seconds,
         };
         Ok((supermesh, report))
@@ -507,9 +549,11 @@ fn map_landmarks(
 fn embed_both(
     ca: &Cleaned,
     cb: &Cleaned,
-    progress: Option<&(dyn Fn(Stage, f32) + Sync)>,
+    options: &SupermeshOptions,
     seconds: &mut Vec<(Stage, f64)>,
 ) -> Result<Embedded, SupermeshError> {
+    let progress = options.progress;
+    let radial = options.radial;
     let one = |mesh: &IndexedMesh, stage: Stage, side: Side| {
         let start = Instant::now();
         let mut report = |f: f32| {
@@ -518,12 +562,23 @@ fn embed_both(
             }
         };
         report(0.0);
-        let out = embed::embed(&mesh.positions, &mesh.triangles, &mut report).map_err(|e| {
-            SupermeshError::Embedding {
-                mesh: side,
-                what: format!("{e:?}"),
-            }
-        });
+        let out = if radial {
+            embed::radial(&mesh.positions, &mesh.triangles).map_err(|folds| {
+                SupermeshError::Embedding {
+                    mesh: side,
+                    what: format!(
+                        "central projection from the origin folds {folds} triangle(s): the mesh is not star-shaped about the origin; turn SupermeshOptions::radial off"
+                    ),
+                }
+            })
+        } else {
+            embed::embed(&mesh.positions, &mesh.triangles, &mut report).map_err(|e| {
+                SupermeshError::Embedding {
+                    mesh: side,
+                    what: format!("{e:?}"),
+                }
+            })
+        };
         report(1.0);
         (out, start.elapsed().as_secs_f64())
     };
@@ -553,10 +608,15 @@ fn align_b(
     let samples = align::samples(&embedded.a, &qa, 4000);
     let lookup = align::SurfaceLookup::new(&SphereMesh::new(&embedded.b, &b.triangles), &qb);
     let before = align::residual(&samples, &lookup, DMat3::IDENTITY);
-    let rotation = if options.align {
-        align::search_rotation(&samples, &lookup)
-    } else {
-        DMat3::IDENTITY
+    let landmark_rotation = align::landmark_rotation(&embedded.a, &embedded.b, landmarks);
+    let rotation = match (options.align, landmark_rotation) {
+        (false, _) => DMat3::IDENTITY,
+        (true, Some(r)) => r,
+        (true, None) => {
+            let b_samples = align::samples(&embedded.b, &qb, 4000);
+            let extra = align::moment_candidates(&samples, &b_samples);
+            align::search_rotation(&samples, &lookup, &extra)
+        }
     };
     let mut points = embedded.b.clone();
     if !align::rotate(&mut points, &b.triangles, rotation) {
@@ -571,14 +631,15 @@ fn align_b(
         ..AlignmentReport::default()
     };
     if !landmarks.is_empty() {
-        report.landmarks_before = Some(align::landmark_angles(&embedded.a, &points, landmarks));
+        report.landmarks_before = Some(align::landmark_angles(&embedded.a, &embedded.b, landmarks));
         let rings = embed::build_rings(points.len(), &b.triangles).map_err(|e| {
             SupermeshError::Embedding {
                 mesh: Side::B,
                 what: format!("{e:?}"),
             }
         })?;
-        align::pull_landmarks(&rings, &mut points, &embedded.a, landmarks, 200);
+        let mass = embed::vertex_masses(&b.positions, &b.triangles);
+        align::pull_landmarks(&mass, &rings, &mut points, &embedded.a, landmarks, 400);
         report.landmarks_after = Some(align::landmark_angles(&embedded.a, &points, landmarks));
     }
     Ok((points, report))
@@ -659,6 +720,10 @@ fn assemble(
         .map(|n| match *n {
             Node::A(v) => Origin::A(ma[v as usize]),
             Node::B(v) => Origin::B(mb[v as usize]),
+            Node::Both(a, b) => Origin::Both {
+                a: ma[a as usize],
+                b: mb[b as usize],
+            },
             Node::Crossing { a, b, .. } => Origin::Crossing {
                 a_edge: a.map(|v| ma[v as usize]),
                 b_edge: b.map(|v| mb[v as usize]),

@@ -14,16 +14,18 @@
 //! overlaps breadth first from the face holding one of its vertices (found by
 //! walking), crossing only A edges that meet the inside of `G`.
 //!
-//! Input in general position is assumed: an orientation that is exactly zero
-//! between an A point and B points (a B vertex on an A vertex or edge, or an
-//! A vertex on a B edge) stops the overlay with [`OverlayError::Degenerate`];
-//! the caller then turns B by another tiny random rotation and tries again.
+//! Coincidences (a B vertex on an A vertex or edge, an A vertex on a B edge,
+//! overlapping edges) are decided by Simulation of Simplicity
+//! ([`orient_sos`]): every orientation is answered as for one infinitesimally
+//! perturbed configuration in general position, so the logic above runs
+//! unchanged, and [`resolve_coincidences`] then merges the nodes the
+//! perturbation pulled apart and flips away zero-area triangles.
 
 use std::collections::{HashMap, VecDeque};
 
 use glam::DVec3;
 
-use super::sphere::{chord_parameter, orient, Location, SphereMesh};
+use super::sphere::{chord_parameter, orient, orient_sos, same_direction, Location, SphereMesh};
 use crate::mesh::adjacency::NONE;
 
 /// Where a supermesh vertex comes from.
@@ -31,6 +33,8 @@ use crate::mesh::adjacency::NONE;
 pub(crate) enum Node {
     A(u32),
     B(u32),
+    /// A vertex and a B vertex at exactly the same sphere point.
+    Both(u32, u32),
     /// The crossing of A edge `a` (point `(1 − ta) a[0] + ta a[1]` of its chord)
     /// with B edge `b` (at `tb`); each edge is stored low index first.
     Crossing {
@@ -50,6 +54,8 @@ pub(crate) struct Overlay {
     /// The A face that holds each B vertex.
     pub b_in_a: Vec<u32>,
     pub crossings: usize,
+    /// B vertices exactly on an A vertex (merged into one node each).
+    pub coincident: usize,
     /// Output triangles not strictly positive on the sphere (only possible
     /// through rounding of constructed crossing points; reported, expected 0).
     pub folds: usize,
@@ -57,7 +63,7 @@ pub(crate) struct Overlay {
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) enum OverlayError {
-    /// An exact zero orientation between A and B points.
+    /// Coincident points that could not be merged into a valid triangulation.
     Degenerate,
     /// A polygon walk did not close (cannot happen in general position).
     Inconsistent { a_face: u32, b_face: u32 },
@@ -75,13 +81,16 @@ struct Pair {
 }
 
 impl Pair {
-    fn new(f: [DVec3; 3], g: [DVec3; 3]) -> Result<Pair, OverlayError> {
+    /// `fi`, `gi`: the corners' global indices for [`orient_sos`] (A's
+    /// vertex indices, B's offset by A's vertex count).
+    fn new(f: [DVec3; 3], g: [DVec3; 3], fi: [u32; 3], gi: [u32; 3]) -> Result<Pair, OverlayError> {
         let mut sa = [[0.0; 3]; 3];
         let mut sb = [[0.0; 3]; 3];
         for i in 0..3 {
             for j in 0..3 {
-                sa[i][j] = orient(g[j], g[(j + 1) % 3], f[i]);
-                sb[i][j] = orient(f[i], f[(i + 1) % 3], g[j]);
+                let (j1, i1) = ((j + 1) % 3, (i + 1) % 3);
+                sa[i][j] = orient_sos([g[j], g[j1], f[i]], [gi[j], gi[j1], fi[i]]);
+                sb[i][j] = orient_sos([f[i], f[i1], g[j]], [fi[i], fi[i1], gi[j]]);
                 if sa[i][j] == 0.0 || sb[i][j] == 0.0 {
                     return Err(OverlayError::Degenerate);
                 }
@@ -279,7 +288,13 @@ impl Builder<'_> {
         seen.push(start);
         let mut stack = vec![start];
         while let Some(f) = stack.pop() {
-            let p = Pair::new(self.ma.corners(f), gc)?;
+            let na = self.ma.points.len() as u32;
+            let p = Pair::new(
+                self.ma.corners(f),
+                gc,
+                self.ma.triangles[f as usize],
+                gt.map(|v| v + na),
+            )?;
             if p.is_empty() {
                 continue;
             }
@@ -330,6 +345,7 @@ pub(crate) fn overlay(
             a_in_b: vec![NONE; na],
             b_in_a: vec![NONE; nb],
             crossings: 0,
+            coincident: 0,
             folds: 0,
         },
         crossing_ids: HashMap::new(),
@@ -357,7 +373,10 @@ pub(crate) fn overlay(
                 Some(f) => f,
                 None => match ma.locate(mb.points[gt[0] as usize], hint, &mut rng) {
                     Location::Inside(f) => f,
-                    Location::Degenerate(_) => return Err(OverlayError::Degenerate),
+                    Location::Degenerate(_) => {
+                        locate_sos(ma, mb.points[gt[0] as usize], na as u32 + gt[0])
+                            .ok_or(OverlayError::Degenerate)?
+                    }
                 },
             };
             builder.b_face(g, start, &mut seen)?;
@@ -380,5 +399,194 @@ pub(crate) fn overlay(
             b_face: NONE,
         });
     }
-    Ok(builder.out)
+    let mut out = builder.out;
+    resolve_coincidences(ma, mb, &mut out)?;
+    Ok(out)
+}
+
+/// The A face that holds B point `p` (global index `id`) under the
+/// symbolic perturbation, by a scan.
+fn locate_sos(ma: &SphereMesh, p: DVec3, id: u32) -> Option<u32> {
+    (0..ma.triangles.len() as u32).find(|&t| {
+        let v = ma.triangles[t as usize];
+        let c = ma.corners(t);
+        (0..3).all(|i| {
+            let i1 = (i + 1) % 3;
+            orient_sos([c[i], c[i1], p], [v[i], v[i1], id]) > 0.0
+        })
+    })
+}
+
+/// Undoes the symbolic perturbation where it made something of nothing.
+///
+/// Under [`orient_sos`] a B vertex exactly on an A vertex is a separate
+/// node a zero distance away, a B vertex exactly on an A edge is crossed by
+/// that edge's neighbouring B edges at itself, and two overlapping edges
+/// cross somewhere along their overlap; each such crossing and such B
+/// vertex is merged into the node it coincides with (contracting
+/// zero-length edges of the overlay), triangles left with a repeated corner
+/// are dropped, and zero-area triangles whose three corners lie on one
+/// great circle are flipped away against their neighbour across the long
+/// edge. Exact: the coincidences are decided by exact orientations of input
+/// points.
+#[allow(clippy::needless_range_loop)] // Node ids index several arrays.
+fn resolve_coincidences(
+    ma: &SphereMesh,
+    mb: &SphereMesh,
+    out: &mut Overlay,
+) -> Result<(), OverlayError> {
+    let na = ma.points.len() as u32;
+    let n = out.nodes.len();
+    let mut target: Vec<u32> = (0..n as u32).collect();
+    let mut any = false;
+    // B vertices on A vertices: the B node goes into the A node.
+    for (b, &f) in out.b_in_a.iter().enumerate() {
+        let pb = mb.points[b];
+        if let Some(&a) = ma.triangles[f as usize]
+            .iter()
+            .find(|&&a| same_direction(ma.points[a as usize], pb))
+        {
+            target[na as usize + b] = a;
+            out.nodes[a as usize] = Node::Both(a, b as u32);
+            out.coincident += 1;
+            any = true;
+        }
+    }
+    // Crossings at an endpoint, or of overlapping edges.
+    for k in 0..n {
+        let Node::Crossing { a, b, .. } = out.nodes[k] else {
+            continue;
+        };
+        let pa = a.map(|v| ma.points[v as usize]);
+        let pb = b.map(|v| mb.points[v as usize]);
+        let a_on = [0, 1].map(|i| orient(pb[0], pb[1], pa[i]) == 0.0);
+        let b_on = [0, 1].map(|j| orient(pa[0], pa[1], pb[j]) == 0.0);
+        let to = if a_on[0] && a_on[1] {
+            // Overlapping edges on one great circle: the endpoint inside
+            // the overlap nearest to where the crossing was put.
+            let inside = |p: DVec3, q: [DVec3; 2]| {
+                let (u, w) = (q[0].cross(p), p.cross(q[1]));
+                let axis = q[0].cross(q[1]);
+                u.dot(axis) >= 0.0 && w.dot(axis) >= 0.0
+            };
+            let at = out.sphere[k];
+            let mut best: Option<(f64, u32)> = None;
+            for i in 0..2 {
+                if inside(pa[i], pb) {
+                    let d = (pa[i].normalize() - at).length();
+                    if best.is_none_or(|(e, _)| d < e) {
+                        best = Some((d, a[i]));
+                    }
+                }
+                if inside(pb[i], pa) {
+                    let d = (pb[i].normalize() - at).length();
+                    if best.is_none_or(|(e, _)| d < e) {
+                        best = Some((d, na + b[i]));
+                    }
+                }
+            }
+            best.map(|(_, v)| v)
+        } else if let Some(i) = (0..2).find(|&i| a_on[i]) {
+            Some(a[i])
+        } else {
+            (0..2).find(|&j| b_on[j]).map(|j| na + b[j])
+        };
+        if let Some(v) = to {
+            target[k] = v;
+            out.crossings -= 1;
+            any = true;
+        }
+    }
+    if !any {
+        return Ok(());
+    }
+    // Follow chains (a crossing into a B vertex into an A vertex).
+    let find = |mut v: u32, target: &[u32]| {
+        while target[v as usize] != v {
+            v = target[v as usize];
+        }
+        v
+    };
+    let mut index = vec![NONE; n];
+    let (mut nodes, mut sphere) = (Vec::new(), Vec::new());
+    for k in 0..n {
+        if find(k as u32, &target) == k as u32 {
+            index[k] = nodes.len() as u32;
+            nodes.push(out.nodes[k]);
+            sphere.push(out.sphere[k]);
+        }
+    }
+    let mut triangles: Vec<[u32; 3]> = out
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| index[find(v, &target) as usize]))
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
+        .collect();
+    flip_collinear(&sphere, &mut triangles)?;
+    out.nodes = nodes;
+    out.sphere = sphere;
+    out.triangles = triangles;
+    Ok(())
+}
+
+/// Removes zero-area triangles `(p, m, r)` whose corners lie on one great
+/// circle with `m` between `p` and `r`: with the neighbour `(r, p, s)`
+/// across the long edge they become `(p, m, s)` and `(m, r, s)`.
+fn flip_collinear(sphere: &[DVec3], triangles: &mut [[u32; 3]]) -> Result<(), OverlayError> {
+    let mut edges: HashMap<(u32, u32), usize> = HashMap::new();
+    for (k, t) in triangles.iter().enumerate() {
+        for i in 0..3 {
+            edges.insert((t[i], t[(i + 1) % 3]), k);
+        }
+    }
+    let flat = |t: [u32; 3]| {
+        orient(
+            sphere[t[0] as usize],
+            sphere[t[1] as usize],
+            sphere[t[2] as usize],
+        ) == 0.0
+    };
+    let mut todo: Vec<usize> = (0..triangles.len())
+        .filter(|&k| flat(triangles[k]))
+        .collect();
+    let mut budget = 16 * todo.len() + 16;
+    while let Some(k) = todo.pop() {
+        let t = triangles[k];
+        if !flat(t) {
+            continue;
+        }
+        budget = budget.checked_sub(1).ok_or(OverlayError::Degenerate)?;
+        // The middle corner: the one its two neighbours lie on either side of.
+        let p = t.map(|v| sphere[v as usize].normalize());
+        let Some(i) = (0..3).find(|&i| {
+            let (a, b) = (p[(i + 2) % 3] - p[i], p[(i + 1) % 3] - p[i]);
+            a.dot(b) < 0.0
+        }) else {
+            return Err(OverlayError::Degenerate);
+        };
+        let (m, r, pp) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
+        // t = (pp, m, r) cyclically; the long edge r → pp.
+        let Some(&j) = edges.get(&(pp, r)) else {
+            return Err(OverlayError::Degenerate);
+        };
+        let u = triangles[j];
+        let s = u[(u.iter().position(|&x| x == pp).unwrap() + 2) % 3];
+        for tri in [t, u] {
+            for e in 0..3 {
+                edges.remove(&(tri[e], tri[(e + 1) % 3]));
+            }
+        }
+        triangles[k] = [pp, m, s];
+        triangles[j] = [m, r, s];
+        for kk in [k, j] {
+            let tri = triangles[kk];
+            for e in 0..3 {
+                edges.insert((tri[e], tri[(e + 1) % 3]), kk);
+            }
+            if flat(tri) {
+                todo.push(kk);
+            }
+        }
+    }
+    Ok(())
 }

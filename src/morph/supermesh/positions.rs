@@ -59,6 +59,7 @@ pub(crate) fn poses(overlay: &Overlay, a: &Surface, b: &Surface) -> (Vec<[f32; 3
         .map(|(node, &p)| match *node {
             Node::A(v) => (a.positions[v as usize], b.at(p, overlay.a_in_b[v as usize])),
             Node::B(v) => (a.at(p, overlay.b_in_a[v as usize]), b.positions[v as usize]),
+            Node::Both(va, vb) => (a.positions[va as usize], b.positions[vb as usize]),
             Node::Crossing {
                 a: ea,
                 ta,

@@ -30,6 +30,69 @@ pub(crate) fn orient(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     orient3d(coord(a), coord(b), coord(c), coord(DVec3::ZERO))
 }
 
+/// [`orient`] under Simulation of Simplicity (Edelsbrunner & Mücke 1990):
+/// never zero. Coordinate `c` of the point with global index `id` is
+/// perturbed by `ε^(2^(3 id + c))`; when the exact determinant is zero its
+/// sign is that of the first non-vanishing coefficient of the expansion in
+/// ε, each an exact determinant of the rows with some rows replaced by unit
+/// vectors. The same points always get the same answer, and the answers are
+/// those of one configuration in general position (the perturbed one), so
+/// the general-position overlay logic runs unchanged on coincident input.
+/// A zero is returned as `±1e-300`, so callers that interpolate by the value
+/// put the point where it is: on the line.
+pub(crate) fn orient_sos(p: [DVec3; 3], id: [u32; 3]) -> f64 {
+    let exact = orient(p[0], p[1], p[2]);
+    if exact != 0.0 {
+        return exact;
+    }
+    // Entries (row, column) from the most perturbed (lowest index) on.
+    let mut entries = [(0u64, 0usize, 0usize); 9];
+    for r in 0..3 {
+        for c in 0..3 {
+            entries[r * 3 + c] = (3 * id[r] as u64 + c as u64, r, c);
+        }
+    }
+    entries.sort_unstable();
+    for mask in 1u32..512 {
+        let mut rows = p;
+        let (mut used_r, mut used_c) = (0u8, 0u8);
+        let mut ok = true;
+        for (b, &(_, r, c)) in entries.iter().enumerate() {
+            if mask >> b & 1 == 1 {
+                if used_r >> r & 1 == 1 || used_c >> c & 1 == 1 {
+                    ok = false;
+                    break;
+                }
+                used_r |= 1 << r;
+                used_c |= 1 << c;
+                let mut e = DVec3::ZERO;
+                e[c] = 1.0;
+                rows[r] = e;
+            }
+        }
+        if !ok {
+            continue;
+        }
+        let o = orient(rows[0], rows[1], rows[2]);
+        if o != 0.0 {
+            return 1e-300f64.copysign(o);
+        }
+    }
+    // Unreachable: three unit rows of a permutation have a non-zero determinant.
+    1e-300
+}
+
+/// Whether `a` and `b` are exactly the same direction.
+pub(crate) fn same_direction(a: DVec3, b: DVec3) -> bool {
+    use robust::{orient2d, Coord};
+    let zero = Coord { x: 0.0, y: 0.0 };
+    let c = |x: f64, y: f64| Coord { x, y };
+    orient2d(c(a.x, a.y), c(b.x, b.y), zero) == 0.0
+        && orient2d(c(a.y, a.z), c(b.y, b.z), zero) == 0.0
+        && orient2d(c(a.z, a.x), c(b.z, b.x), zero) == 0.0
+        && a.dot(b) > 0.0
+}
+
 /// Area of the spherical triangle with vertices in the directions `a, b, c`
 /// (signed: negative when clockwise), by Van Oosterom–Strackee.
 pub(crate) fn spherical_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
@@ -219,6 +282,22 @@ mod tests {
         assert_eq!(orient(x, y, x + y), 0.0);
         let area = spherical_area(x, y, z);
         assert!((area - std::f64::consts::PI / 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn simulation_of_simplicity_is_consistent_and_never_zero() {
+        let (x, y) = (DVec3::X, DVec3::Y);
+        let m = x + y;
+        // Collinear: never zero, and antisymmetric under swapping two rows.
+        let o = orient_sos([x, y, m], [0, 1, 2]);
+        assert!(o != 0.0);
+        assert_eq!(orient_sos([y, x, m], [1, 0, 2]).signum(), -o.signum());
+        // Coincident points: still a sign; a point and its copy are on
+        // opposite sides of each other's edges in a consistent way.
+        let s1 = orient_sos([x, y, x], [0, 1, 5]);
+        let s2 = orient_sos([y, x, x], [1, 0, 5]);
+        assert!(s1 != 0.0 && s2 == -s1);
+        assert!(same_direction(x * 2.0, x) && !same_direction(x, -x) && !same_direction(x, m));
     }
 
     #[test]
