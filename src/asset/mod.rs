@@ -471,17 +471,18 @@ fn decode(
     };
     // The frames' framing (count, lengths) first: with the section sizes it bounds
     // what the rest allocates, checked against the budget before any of it is.
-    let (v0_data, v1_data, s0_data) = (section(TAG_V0)?, section(TAG_V1)?, section(TAG_S0)?);
-    let parts = frame_parts(section(TAG_FRAMES)?)?;
-    let needed = load_bytes_needed(bytes.len(), &table, &parts);
-    if needed > options.max_bytes {
-        return Err(AssetError::OverBudget {
-            needed,
-            budget: options.max_bytes,
-        });
+    // (A missing or malformed "FRMS" is reported below, in its place among the checks.)
+    if let Ok(parts) = section(TAG_FRAMES).and_then(frame_parts) {
+        let needed = load_bytes_needed(bytes.len(), &table, &parts);
+        if needed > options.max_bytes {
+            return Err(AssetError::OverBudget {
+                needed,
+                budget: options.max_bytes,
+            });
+        }
     }
-    let v0 = decode_pose(v0_data, "V0")?;
-    let v1 = decode_pose(v1_data, "V1")?;
+    let v0 = decode_pose(section(TAG_V0)?, "V0")?;
+    let v1 = decode_pose(section(TAG_V1)?, "V1")?;
     if v0.len() != v1.len() {
         return Err(AssetError::PoseSizeMismatch {
             v0: v0.len(),
@@ -492,8 +493,9 @@ fn decode(
     if n >= u32::MAX as usize {
         return Err(AssetError::TooManyVertices { vertices: n });
     }
-    let s0 = decode_strips(s0_data, n)?;
+    let s0 = decode_strips(section(TAG_S0)?, n)?;
     let neighbours = Neighbours::new(&s0, n);
+    let parts = frame_parts(section(TAG_FRAMES)?)?;
     let (frames, frame_infos) = decode_frames(&parts, n, &neighbours)?;
     let blend = match section(TAG_TARGETS) {
         Ok(data) => Some(decode_targets(data, n)?),
