@@ -16,7 +16,10 @@ use crate::morph::Morph;
 use crate::simplify::{simplify, SimplifyOptions};
 use crate::strip::stripify;
 use rayon::prelude::*;
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use thiserror::Error;
 
@@ -144,30 +147,58 @@ impl<'a> Builder<'a> {
         }
 
         let done = AtomicUsize::new(0);
-        let frame = |k: usize| -> Result<(CollapseSequence, Duration), BuildError> {
-            let begin = Instant::now();
-            let t = if frames == 1 {
+        let time_of = |k: usize| {
+            if frames == 1 {
                 0.0
             } else {
                 k as f32 / (frames - 1) as f32
-            };
+            }
+        };
+        // Equal poses make equal sequences (the simplifier is deterministic), so a frame
+        // whose sampled positions equal an earlier frame's bit for bit shares that frame's
+        // sequence instead of simplifying again (held poses, a mesh morphed to itself).
+        // `candidate[k]`: the first frame whose pose hashes like frame k's; the poses are
+        // compared in full before sharing.
+        let hashes: Vec<u64> = (0..frames)
+            .into_par_iter()
+            .map(|k| pose_hash(&morph.positions_at(time_of(k))))
+            .collect();
+        let mut first_by_hash: HashMap<u64, usize> = HashMap::new();
+        let candidate: Vec<usize> = hashes
+            .iter()
+            .enumerate()
+            .map(|(k, &h)| *first_by_hash.entry(h).or_insert(k))
+            .collect();
+        let frame = |k: usize| -> Result<(Built, Duration), BuildError> {
+            let begin = Instant::now();
+            let t = time_of(k);
             let pose = morph.positions_at(t);
-            if let Some((vertex, &value)) = pose
-                .iter()
-                .enumerate()
-                .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
-            {
-                return Err(BuildError::NonFinitePose {
-                    frame: k,
-                    t,
-                    vertex,
-                    value,
-                });
-            }
-            let mut sequence = simplify(&pose, triangles, &self.simplify);
-            for c in &mut sequence.collapses {
-                c.error = quantize_error(c.error);
-            }
+            let j = candidate[k];
+            let same = j != k && {
+                let earlier = morph.positions_at(time_of(j));
+                bit_equal(&pose, &earlier)
+            };
+            let built = if same {
+                Built::SameAs(j)
+            } else {
+                if let Some((vertex, &value)) = pose
+                    .iter()
+                    .enumerate()
+                    .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
+                {
+                    return Err(BuildError::NonFinitePose {
+                        frame: k,
+                        t,
+                        vertex,
+                        value,
+                    });
+                }
+                let mut sequence = simplify(&pose, triangles, &self.simplify);
+                for c in &mut sequence.collapses {
+                    c.error = quantize_error(c.error);
+                }
+                Built::Sequence(Arc::new(sequence))
+            };
             let elapsed = begin.elapsed();
             let frames_done = done.fetch_add(1, Ordering::Relaxed) + 1;
             if let Some(report) = self.progress {
@@ -176,7 +207,7 @@ impl<'a> Builder<'a> {
                     frames,
                 });
             }
-            Ok((sequence, elapsed))
+            Ok((built, elapsed))
         };
         let ((s0, strip_time), (built, frames_wall)) = rayon::join(
             || {
@@ -190,14 +221,22 @@ impl<'a> Builder<'a> {
                 (built, begin.elapsed())
             },
         );
-        let (sequences, frame_times): (Vec<CollapseSequence>, Vec<Duration>) =
-            built?.into_iter().unzip();
+        let (built, frame_times): (Vec<Built>, Vec<Duration>) = built?.into_iter().unzip();
+        let mut sequences: Vec<Arc<CollapseSequence>> = Vec::with_capacity(frames);
+        for b in built {
+            // `j < k` and frame j simplified its own pose (it is the first of its hash).
+            let sequence = match b {
+                Built::Sequence(sequence) => sequence,
+                Built::SameAs(j) => sequences[j].clone(),
+            };
+            sequences.push(sequence);
+        }
         let report = BuildReport {
             vertices: n,
             triangles: triangles.len(),
             strips: s0.len(),
             strip_indices: s0.indices.len(),
-            collapses: sequences.iter().map(CollapseSequence::len).collect(),
+            collapses: sequences.iter().map(|s| s.len()).collect(),
             strip_time,
             frame_times,
             frames_wall,
@@ -213,6 +252,28 @@ impl<'a> Builder<'a> {
         };
         Ok((asset, report))
     }
+}
+
+/// What the builder made of one frame.
+enum Built {
+    Sequence(Arc<CollapseSequence>),
+    /// The pose equals this earlier frame's, bit for bit: share its sequence.
+    SameAs(usize),
+}
+
+fn pose_hash(pose: &[[f32; 3]]) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for p in pose {
+        p.map(f32::to_bits).hash(&mut h);
+    }
+    h.finish()
+}
+
+fn bit_equal(a: &[[f32; 3]], b: &[[f32; 3]]) -> bool {
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| x.map(f32::to_bits) == y.map(f32::to_bits))
 }
 
 #[cfg(test)]

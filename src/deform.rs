@@ -26,7 +26,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use thiserror::Error;
 
-use crate::asset::Asset;
+use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState};
 
@@ -104,6 +104,8 @@ pub enum DeformError {
     },
     #[error("frame {frame}'s collapse sequence is invalid: {source}; rebuild the asset")]
     Sequence { frame: usize, source: SequenceError },
+    #[error("the model needs about {needed} bytes of memory, over the {budget}-byte budget: raise the budget (`--memory-budget MB` on the command line, `DeformingModel::with_budget` in code) if the asset is trusted")]
+    OverBudget { needed: u64, budget: u64 },
     #[error("frame {frame}'s change lists cannot be built: {source}")]
     Frame {
         frame: usize,
@@ -150,8 +152,19 @@ pub struct DeformingModel {
 impl DeformingModel {
     /// Validates `asset` (poses of one length and finite, `S0` well formed
     /// and in range, every frame's sequence valid for that vertex count, at
-    /// least one frame) and builds every frame's change lists, in parallel.
+    /// least one frame) and builds every frame's change lists, in parallel, under the
+    /// default memory budget ([`DEFAULT_MAX_BYTES`], see [`with_budget`](Self::with_budget)).
     pub fn new(asset: &Asset) -> Result<DeformingModel, DeformError> {
+        DeformingModel::with_budget(asset, DEFAULT_MAX_BYTES)
+    }
+
+    /// [`new`](Self::new), refusing with [`DeformError::OverBudget`], before building any
+    /// frame, a model whose estimated size exceeds `max_bytes`. Equal frames share one
+    /// built frame, so the estimate counts each distinct frame once:
+    /// `8 · S0 + Σ_distinct (16 · S0 + 64 · collapses + 256) + 8 · frames` bytes, with `S0`
+    /// the strip entries; the per-collapse figure is above every frame measured
+    /// (tests/asset_budget.rs checks the estimate against the built model).
+    pub fn with_budget(asset: &Asset, max_bytes: u64) -> Result<DeformingModel, DeformError> {
         if asset.frames.is_empty() {
             return Err(DeformError::NoFrames);
         }
@@ -192,7 +205,10 @@ impl DeformingModel {
                 seq.collapses.first().map(|c| (c.u, c.w)),
             );
             let group = groups.entry(key).or_default();
-            match group.iter().find(|&&j| asset.frames[j] == *seq) {
+            match group
+                .iter()
+                .find(|&&j| Arc::ptr_eq(&asset.frames[j], seq) || asset.frames[j] == *seq)
+            {
                 Some(&j) => first.push(j),
                 None => {
                     group.push(k);
@@ -201,6 +217,13 @@ impl DeformingModel {
             }
         }
         let distinct: Vec<usize> = (0..first.len()).filter(|&k| first[k] == k).collect();
+        let needed = estimate_bytes(asset, &distinct);
+        if needed > max_bytes {
+            return Err(DeformError::OverBudget {
+                needed,
+                budget: max_bytes,
+            });
+        }
         let built: Vec<Result<Arc<Frame>, DeformError>> = distinct
             .par_iter()
             .map(|&frame| build_frame(&layout, frame, &asset.frames[frame]).map(Arc::new))
@@ -278,6 +301,16 @@ impl DeformingModel {
             .map(|f| f.changes.byte_size() + f.errors.len() * 4)
             .collect()
     }
+}
+
+/// The size [`DeformingModel::with_budget`] checks: see its docs.
+fn estimate_bytes(asset: &Asset, distinct: &[usize]) -> u64 {
+    let slots = asset.s0.indices.len() as u64;
+    let frames: u64 = distinct
+        .iter()
+        .map(|&k| 16 * slots + 64 * asset.frames[k].collapses.len() as u64 + 256)
+        .sum();
+    8 * slots + frames + 8 * asset.frames.len() as u64
 }
 
 fn build_frame(

@@ -13,7 +13,7 @@ use morphlod::strip::Strips;
 use morphlod::Asset;
 use proptest::prelude::*;
 use std::path::PathBuf;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 mod common;
 use common::{fix_header, grid_morph};
@@ -95,14 +95,14 @@ fn tiny_asset() -> Asset {
             indices: vec![1, 2, 0, 3],
             offsets: vec![0, 4],
         },
-        frames: vec![CollapseSequence {
+        frames: vec![Arc::new(CollapseSequence {
             vertex_count: 4,
             collapses: vec![Collapse {
                 u: 3,
                 w: 0,
                 error: 0.5,
             }],
-        }],
+        })],
         blend: None,
     }
 }
@@ -153,7 +153,7 @@ fn repeated_frames_are_stored_once() {
 fn escapes_round_trip() {
     // 3 → 1 is not an edge of S0: w must be written through the escape.
     let mut asset = tiny_asset();
-    asset.frames[0].collapses = vec![
+    Arc::make_mut(&mut asset.frames[0]).collapses = vec![
         Collapse {
             u: 3,
             w: 1,
@@ -261,7 +261,7 @@ fn strip_index_out_of_range_with_valid_checksum() {
 #[test]
 fn collapse_out_of_range_with_valid_checksum() {
     let mut asset = tiny_asset();
-    asset.frames[0].collapses[0].w = 7;
+    Arc::make_mut(&mut asset.frames[0]).collapses[0].w = 7;
     assert!(matches!(
         Asset::from_bytes(&asset.to_bytes()),
         Err(AssetError::Sequence {
@@ -295,7 +295,7 @@ fn strip_offsets_decreasing() {
 #[test]
 fn sequence_collapsing_a_vertex_twice() {
     let mut asset = tiny_asset();
-    asset.frames[0].collapses = vec![
+    Arc::make_mut(&mut asset.frames[0]).collapses = vec![
         Collapse {
             u: 3,
             w: 0,
@@ -319,7 +319,7 @@ fn sequence_collapsing_a_vertex_twice() {
         })
     ));
     // Onto a vertex that is gone is refused the same way.
-    asset.frames[0].collapses[1] = Collapse {
+    Arc::make_mut(&mut asset.frames[0]).collapses[1] = Collapse {
         u: 1,
         w: 3,
         error: 0.0,

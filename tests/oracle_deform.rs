@@ -34,6 +34,7 @@ use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
 use morphlod::{Asset, DeformingModel, DeformingState, Lod};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// A full multiset check every this many steps.
 const FULL_STRIDE: usize = 97;
@@ -43,11 +44,15 @@ const FULL_STRIDE: usize = 97;
 fn build_asset(morph: &Morph, frames: usize) -> Asset {
     let tris = morph.triangles();
     let s0 = stripify(tris, morph.vertex_count());
-    let sequences: Vec<CollapseSequence> = (0..frames)
+    let sequences: Vec<Arc<CollapseSequence>> = (0..frames)
         .into_par_iter()
         .map(|k| {
             let t = k as f32 / (frames - 1).max(1) as f32;
-            simplify(&morph.positions_at(t), tris, &SimplifyOptions::default())
+            Arc::new(simplify(
+                &morph.positions_at(t),
+                tris,
+                &SimplifyOptions::default(),
+            ))
         })
         .collect();
     Asset {
@@ -345,10 +350,10 @@ fn unrelated_random_frames() {
     }
     let n = ((w + 1) * (h + 1)) as usize;
     let mut rng = Rng(77);
-    let sequences: Vec<CollapseSequence> = (0..9)
+    let sequences: Vec<Arc<CollapseSequence>> = (0..9)
         .map(|k| {
             let steps = if k == 4 { 0 } else { usize::MAX - k };
-            random_sequence(&tris, n, steps, &mut rng)
+            Arc::new(random_sequence(&tris, n, steps, &mut rng))
         })
         .collect();
     let asset = Asset {
@@ -368,7 +373,7 @@ fn bad_assets_and_requests_are_rejected() {
         v0: vec![[0.0; 3]; 4],
         v1: vec![[1.0; 3]; 4],
         s0: stripify(&tris, 4),
-        frames: vec![random_sequence(&tris, 4, 2, &mut Rng(1))],
+        frames: vec![Arc::new(random_sequence(&tris, 4, 2, &mut Rng(1)))],
         blend: None,
     };
     let model = DeformingModel::new(&good).expect("valid asset");
@@ -399,17 +404,17 @@ fn bad_assets_and_requests_are_rejected() {
         DeformError::Strips(_)
     ));
     assert!(matches!(
-        bad(&|a| a.frames.push(CollapseSequence {
+        bad(&|a| a.frames.push(Arc::new(CollapseSequence {
             vertex_count: 5,
             collapses: Vec::new()
-        })),
+        }))),
         DeformError::FrameVertexCount { frame: 1, .. }
     ));
     assert!(matches!(
         bad(&|a| {
-            let mut s = a.frames[0].clone();
+            let mut s = (*a.frames[0]).clone();
             s.collapses.push(s.collapses[0]);
-            a.frames.push(s);
+            a.frames.push(Arc::new(s));
         }),
         DeformError::Sequence { frame: 1, .. }
     ));

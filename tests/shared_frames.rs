@@ -50,3 +50,37 @@ fn only_equal_frames_are_shared() {
     assert_ne!(f(0), f(2));
     assert_eq!(model.distinct_frames(), 2);
 }
+
+/// Frames whose coded bytes are equal but not adjacent (the file codes each in full)
+/// share one sequence after load.
+#[test]
+fn equal_coded_frames_share_one_sequence_after_load() {
+    let asset = asset_with_frames(20, &[0, 1, 0, 1, 0, 1, 0, 1]);
+    if asset.frames[0] == asset.frames[1] {
+        return;
+    }
+    assert_eq!(asset.frames.len(), 8);
+    assert_eq!(asset.distinct_frames(), 2);
+    for k in 2..8 {
+        assert!(std::sync::Arc::ptr_eq(
+            &asset.frames[k],
+            &asset.frames[k % 2]
+        ));
+    }
+}
+
+/// The builder simplifies a pose once: frames whose sampled positions are equal (a mesh
+/// morphed to itself) share one sequence, and the file is the same as before.
+#[test]
+fn builder_shares_frames_with_equal_poses() {
+    let morph = grid_morph(30, |_, _| 0.0);
+    let (asset, report) = Builder::new(&morph).frames(64).build().expect("build");
+    assert_eq!(asset.frames.len(), 64);
+    assert_eq!(asset.distinct_frames(), 1);
+    assert_eq!(report.collapses.len(), 64);
+    // A morph that moves: every frame its own pose, none shared wrongly.
+    let moving = grid_morph(12, |x, y| ((x * 7 + y * 3) % 5) as f32 * 0.1);
+    let (asset, _) = Builder::new(&moving).frames(5).build().expect("build");
+    let back = Asset::from_bytes(&asset.to_bytes()).unwrap();
+    assert_eq!(back, asset);
+}

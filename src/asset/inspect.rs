@@ -1,7 +1,9 @@
 //! The report of a `.mlod` file (`morphlod info`): its sections, frames and sizes, and
 //! how they compare with the plain indexed mesh.
 
-use super::{decode, tag_name, Asset, AssetError, HEADER_LEN, SECTION_ENTRY_LEN, VERSION};
+use super::{
+    decode, tag_name, Asset, AssetError, AssetLoadOptions, HEADER_LEN, SECTION_ENTRY_LEN, VERSION,
+};
 use crate::strip::strip_triangles;
 use std::fmt;
 
@@ -113,9 +115,17 @@ impl fmt::Display for AssetInfo {
 }
 
 /// Reads and validates a file image like [`Asset::from_bytes`], and says
-/// where its bytes went.
+/// where its bytes went (under the default memory budget).
 pub fn inspect(bytes: &[u8]) -> Result<(Asset, AssetInfo), AssetError> {
-    let (asset, table, frame_infos) = decode(bytes)?;
+    inspect_with(bytes, &AssetLoadOptions::default())
+}
+
+/// [`inspect`] under `options`' memory budget (see [`Asset::load_with`]).
+pub fn inspect_with(
+    bytes: &[u8],
+    options: &AssetLoadOptions,
+) -> Result<(Asset, AssetInfo), AssetError> {
+    let (asset, table, frame_infos) = decode(bytes, options)?;
     let (n, s0, blend) = (asset.v0.len(), &asset.s0, &asset.blend);
     let info = AssetInfo {
         version: VERSION,

@@ -72,7 +72,7 @@ mod inspect;
 mod sections;
 
 pub use frame_codec::quantize_error;
-pub use inspect::{inspect, AssetInfo, FrameInfo, SectionInfo};
+pub use inspect::{inspect, inspect_with, AssetInfo, FrameInfo, SectionInfo};
 
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::morph::{MorphError, TargetBlend};
@@ -80,20 +80,26 @@ use crate::strip::Strips;
 use frame_codec::Neighbours;
 use sections::{
     decode_frames, decode_pose, decode_strips, decode_targets, encode_frames, encode_strips,
-    encode_targets, pose_bytes,
+    encode_targets, frame_parts, pose_bytes, FramePart,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use thiserror::Error;
 
 /// One deforming object's LOD data, as built by the per-frame builder and
 /// stored in a `.mlod` file. Frame `k` of `frames.len()` samples `t_k = k / (|r| - 1)`.
+///
+/// Equal frames share one sequence: the builder and the loader give every frame that
+/// equals an earlier one a clone of that frame's [`Arc`], so memory grows with the
+/// [`distinct_frames`](Asset::distinct_frames), not with the frame count (a repeated frame
+/// costs 2 bytes in the file). To edit one frame, `Arc::make_mut(&mut asset.frames[k])`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Asset {
     pub v0: Vec<[f32; 3]>,
     pub v1: Vec<[f32; 3]>,
     pub s0: Strips,
-    pub frames: Vec<CollapseSequence>,
+    pub frames: Vec<Arc<CollapseSequence>>,
     /// For an asset made from a weight animation: the targets the GPU adds to `V(0)` so it
     /// draws the animation, not only the blend of its end poses. `None` for two-pose morphs.
     pub blend: Option<TargetBlend>,
@@ -107,10 +113,31 @@ pub const MAX_TARGETS: usize = 64;
 pub const MAGIC: [u8; 8] = *b"\x89MLD\r\n\x1a\n";
 /// The format version this build writes and the newest it reads.
 pub const VERSION: u16 = 1;
-/// Most frames a file may hold. Repeated frames cost two bytes in the file
-/// but a whole sequence in memory, so this bounds what a small file can make
-/// the decoder allocate; it is far more than any animation needs.
+/// Most frames a file may hold: far more than any animation needs. It does not bound
+/// memory by itself (a repeated frame costs two bytes in the file); what does is that
+/// equal frames share one sequence and the [`AssetLoadOptions::max_bytes`] budget.
 pub const MAX_FRAMES: usize = 4096;
+
+/// The memory budget [`AssetLoadOptions::default`] (and `DeformingModel::new`) uses: 4 GiB.
+pub const DEFAULT_MAX_BYTES: u64 = 4 << 30;
+
+/// How [`Asset::load_with`] and [`Asset::from_bytes_with`] read a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AssetLoadOptions {
+    /// Most bytes the load may allocate (the file image included), estimated from the
+    /// header, the section sizes and the frames' framing before anything large is
+    /// allocated (see [`Asset::load_with`]); more gives [`AssetError::OverBudget`].
+    /// Default [`DEFAULT_MAX_BYTES`] (4 GiB).
+    pub max_bytes: u64,
+}
+
+impl Default for AssetLoadOptions {
+    fn default() -> Self {
+        AssetLoadOptions {
+            max_bytes: DEFAULT_MAX_BYTES,
+        }
+    }
+}
 /// Size of the fixed header.
 pub const HEADER_LEN: usize = 32;
 
@@ -126,6 +153,8 @@ const MAX_SECTIONS: u32 = 64;
 /// Why a `.mlod` file could not be read or written.
 #[derive(Debug, Error)]
 pub enum AssetError {
+    #[error("loading this file needs up to {needed} bytes of memory, over the {budget}-byte budget: raise the budget (`--memory-budget MB` on the command line, `AssetLoadOptions::max_bytes` in code) if the file is trusted")]
+    OverBudget { needed: u64, budget: u64 },
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -303,9 +332,48 @@ impl Asset {
         out
     }
 
-    /// Reads and validates a whole file image (see the module docs).
+    /// Reads and validates a whole file image (see the module docs) under the default
+    /// memory budget ([`AssetLoadOptions::default`]); see [`Asset::load_with`] for the
+    /// memory the result takes.
     pub fn from_bytes(bytes: &[u8]) -> Result<Asset, AssetError> {
-        Ok(decode(bytes)?.0)
+        Asset::from_bytes_with(bytes, &AssetLoadOptions::default())
+    }
+
+    /// [`from_bytes`](Asset::from_bytes) under `options.max_bytes` (counting `bytes`
+    /// themselves): see [`Asset::load_with`].
+    pub fn from_bytes_with(bytes: &[u8], options: &AssetLoadOptions) -> Result<Asset, AssetError> {
+        Ok(decode(bytes, options)?.0)
+    }
+
+    /// Number of distinct frame sequences (frames sharing one [`Arc`] count once):
+    /// what the frames' memory grows with.
+    pub fn distinct_frames(&self) -> usize {
+        let mut seen: Vec<*const CollapseSequence> = self.frames.iter().map(Arc::as_ptr).collect();
+        seen.sort_unstable();
+        seen.dedup();
+        seen.len()
+    }
+
+    /// Bytes the asset holds on the heap: poses, strips, each distinct frame once, the
+    /// frame table and the targets' deltas (capacities and the small weight track are not
+    /// counted).
+    pub fn heap_bytes(&self) -> usize {
+        let mut seen: Vec<&Arc<CollapseSequence>> = self.frames.iter().collect();
+        seen.sort_unstable_by_key(|f| Arc::as_ptr(f));
+        seen.dedup_by_key(|f| Arc::as_ptr(f));
+        let frames: usize = seen
+            .iter()
+            .map(|f| std::mem::size_of::<CollapseSequence>() + 16 + f.collapses.len() * 12)
+            .sum();
+        let blend = self
+            .blend
+            .as_ref()
+            .map_or(0, |b| b.deltas.iter().map(|d| d.len() * 12).sum::<usize>());
+        (self.v0.len() + self.v1.len()) * 12
+            + (self.s0.indices.len() + self.s0.offsets.len()) * 4
+            + self.frames.len() * std::mem::size_of::<Arc<CollapseSequence>>()
+            + frames
+            + blend
     }
 
     /// Writes the file atomically (see [`save_bytes`]).
@@ -313,14 +381,53 @@ impl Asset {
         save_bytes(path.as_ref(), &self.to_bytes())
     }
 
-    /// Reads and validates a `.mlod` file.
+    /// Reads and validates a `.mlod` file under the default memory budget
+    /// ([`DEFAULT_MAX_BYTES`]); see [`Asset::load_with`].
     pub fn load(path: impl AsRef<Path>) -> Result<Asset, AssetError> {
+        Asset::load_with(path, &AssetLoadOptions::default())
+    }
+
+    /// Reads and validates a `.mlod` file, refusing with [`AssetError::OverBudget`]
+    /// (before reading it, or before decoding anything large) a file whose load would
+    /// allocate more than `options.max_bytes`.
+    ///
+    /// # Memory
+    ///
+    /// Equal frames share one sequence (a repeated frame, and any frame whose coded
+    /// bytes equal an earlier frame's, is decoded once), so the loaded asset holds,
+    /// with `F` the frame count, `D` the distinct frames and `n` the vertices,
+    ///
+    /// ```text
+    /// heap bytes  ≤  4 · file bytes  +  12 · D · n  +  8 · F
+    /// ```
+    ///
+    /// (poses and targets as stored, strip indices widened to `u32` from at least one
+    /// byte each, at most `n − 1` collapses of 12 bytes per distinct frame, one pointer
+    /// per frame). While loading, the file image and the decoder's scratch (neighbour
+    /// lists, about 12 bytes per strip byte, and 8 · n bytes per decoding thread) come
+    /// on top. The budget check uses the worse of these, computed from the section sizes
+    /// and the frames' lengths before they are decoded (a frame of `b` bytes holds at
+    /// most `8 · b / 3` collapses). Measured (tests/asset_budget.rs): a 160 KB file of a
+    /// 71 × 71 grid whose 4,096 frames repeat one frame grows the resident set by under
+    /// 2 MB (it was 248 MB when every frame held its own copy).
+    pub fn load_with(
+        path: impl AsRef<Path>,
+        options: &AssetLoadOptions,
+    ) -> Result<Asset, AssetError> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| AssetError::Io {
+        let io = |source| AssetError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
-        Asset::from_bytes(&bytes)
+        };
+        let length = std::fs::metadata(path).map_err(io)?.len();
+        if length > options.max_bytes {
+            return Err(AssetError::OverBudget {
+                needed: length,
+                budget: options.max_bytes,
+            });
+        }
+        let bytes = std::fs::read(path).map_err(io)?;
+        Asset::from_bytes_with(&bytes, options)
     }
 }
 
@@ -349,7 +456,10 @@ pub fn save_bytes(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
 
 /// Reads and validates a file image (see the module docs): the asset, its section table
 /// and its frames' sizes (what [`inspect`] reports).
-fn decode(bytes: &[u8]) -> Result<(Asset, Vec<Section>, Vec<FrameInfo>), AssetError> {
+fn decode(
+    bytes: &[u8],
+    options: &AssetLoadOptions,
+) -> Result<(Asset, Vec<Section>, Vec<FrameInfo>), AssetError> {
     let (count, body) = check_header(bytes)?;
     let table = read_section_table(body, count)?;
     let section = |tag: [u8; 4]| -> Result<&[u8], AssetError> {
@@ -359,6 +469,18 @@ fn decode(bytes: &[u8]) -> Result<(Asset, Vec<Section>, Vec<FrameInfo>), AssetEr
             .map(|s| &body[s.start..s.end])
             .ok_or_else(|| AssetError::MissingSection { tag: tag_name(tag) })
     };
+    // The frames' framing (count, lengths) first: with the section sizes it bounds
+    // what the rest allocates, checked against the budget before any of it is.
+    // (A missing or malformed "FRMS" is reported below, in its place among the checks.)
+    if let Ok(parts) = section(TAG_FRAMES).and_then(frame_parts) {
+        let needed = load_bytes_needed(bytes.len(), &table, &parts);
+        if needed > options.max_bytes {
+            return Err(AssetError::OverBudget {
+                needed,
+                budget: options.max_bytes,
+            });
+        }
+    }
     let v0 = decode_pose(section(TAG_V0)?, "V0")?;
     let v1 = decode_pose(section(TAG_V1)?, "V1")?;
     if v0.len() != v1.len() {
@@ -373,7 +495,8 @@ fn decode(bytes: &[u8]) -> Result<(Asset, Vec<Section>, Vec<FrameInfo>), AssetEr
     }
     let s0 = decode_strips(section(TAG_S0)?, n)?;
     let neighbours = Neighbours::new(&s0, n);
-    let (frames, frame_infos) = decode_frames(section(TAG_FRAMES)?, n, &neighbours)?;
+    let parts = frame_parts(section(TAG_FRAMES)?)?;
+    let (frames, frame_infos) = decode_frames(&parts, n, &neighbours)?;
     let blend = match section(TAG_TARGETS) {
         Ok(data) => Some(decode_targets(data, n)?),
         Err(_) => None,
@@ -388,6 +511,35 @@ fn decode(bytes: &[u8]) -> Result<(Asset, Vec<Section>, Vec<FrameInfo>), AssetEr
     };
     Ok((asset, table, frame_infos))
 }
+/// Upper bound of the bytes [`decode`] allocates for a file of `file` bytes with this
+/// section table and frame framing (see [`Asset::load_with`], "Memory").
+fn load_bytes_needed(file: usize, table: &[Section], parts: &[FramePart]) -> u64 {
+    let length = |tag: [u8; 4]| {
+        table
+            .iter()
+            .find(|s| s.tag == tag)
+            .map_or(0, |s| (s.end - s.start) as u64)
+    };
+    let n = length(TAG_V0) / 12;
+    let poses = length(TAG_V0) + length(TAG_V1);
+    // Strips: at most one index or offset per byte, 4 bytes each; the neighbour lists
+    // (triangles, fans, offsets) about 40 bytes per index and 24 per vertex at most.
+    let strips = 44 * length(TAG_S0) + 24 * n;
+    let targets = 2 * length(TAG_TARGETS);
+    let mut distinct: Vec<&[u8]> = parts.iter().map(|p| p.bytes).collect();
+    distinct.sort_unstable();
+    distinct.dedup();
+    // A collapse takes at least 3 bits (an index of at least one bit, two codes).
+    let frames: u64 = distinct
+        .iter()
+        .map(|b| 12 * n.min(8 * b.len() as u64 / 3) + 64)
+        .sum();
+    let threads = (rayon::current_num_threads() as u64).min(distinct.len() as u64);
+    let scratch = threads * 8 * n;
+    let table_bytes = parts.len() as u64 * 64;
+    file as u64 + poses + strips + targets + frames + scratch + table_bytes
+}
+
 pub(super) fn tag_name(tag: [u8; 4]) -> String {
     String::from_utf8_lossy(&tag).into_owned()
 }

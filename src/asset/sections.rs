@@ -11,6 +11,8 @@ use crate::morph::{Interpolation, TargetBlend, WeightTrack};
 use crate::strip::Strips;
 use crate::varint;
 use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::Arc;
 
 pub(super) fn pose_bytes(pose: &[[f32; 3]]) -> Vec<u8> {
     let mut out = Vec::with_capacity(pose.len() * 12);
@@ -127,13 +129,13 @@ pub(super) fn decode_targets(data: &[u8], n: usize) -> Result<TargetBlend, Asset
 /// The "FRMS" section: the frame count, then per frame its byte length and its bytes
 /// (a frame equal to the previous one is the single byte `FRAME_REPEAT`). Frames are
 /// coded in parallel; the bytes do not depend on the thread count.
-pub(super) fn encode_frames(frames: &[CollapseSequence], s0: &Strips, n: usize) -> Vec<u8> {
+pub(super) fn encode_frames(frames: &[Arc<CollapseSequence>], s0: &Strips, n: usize) -> Vec<u8> {
     let neighbours = Neighbours::new(s0, n);
     let coded: Vec<Vec<u8>> = frames
         .par_iter()
         .enumerate()
         .map(|(k, seq)| {
-            if k > 0 && frames[k - 1] == *seq {
+            if k > 0 && (Arc::ptr_eq(&frames[k - 1], seq) || frames[k - 1] == *seq) {
                 vec![FRAME_REPEAT]
             } else {
                 encode_frame(seq, n, &neighbours)
@@ -149,13 +151,16 @@ pub(super) fn encode_frames(frames: &[CollapseSequence], s0: &Strips, n: usize) 
     out
 }
 
-/// The frames section: every frame's bytes are delimited first, so coded
-/// frames decode in parallel; repeats are resolved in order afterwards.
-pub(super) fn decode_frames(
-    data: &[u8],
-    n: usize,
-    neighbours: &Neighbours,
-) -> Result<(Vec<CollapseSequence>, Vec<FrameInfo>), AssetError> {
+/// One frame of "FRMS" as stored: its bytes (mode byte first) and the bytes it takes
+/// in the section, its length included.
+pub(super) struct FramePart<'a> {
+    pub(super) bytes: &'a [u8],
+    pub(super) stored: usize,
+}
+
+/// The framing of "FRMS": the frame count and each frame's bytes, nothing decoded.
+/// Allocates one small entry per frame (at most [`MAX_FRAMES`]).
+pub(super) fn frame_parts(data: &[u8]) -> Result<Vec<FramePart<'_>>, AssetError> {
     let mut r = Reader::new(data, "FRMS");
     // Each frame takes at least its length byte and its mode byte.
     let count = r.count(
@@ -172,38 +177,68 @@ pub(super) fn decode_frames(
         // read of the frame's bytes below checks again.
         let len = r.count(&|| format!("frame {frame}'s length"), r.remaining())?;
         let bytes = r.bytes(len, &|| format!("frame {frame}'s {len} bytes"))?;
-        parts.push((bytes, r.pos - start));
+        parts.push(FramePart {
+            bytes,
+            stored: r.pos - start,
+        });
     }
     r.finish()?;
-    let decoded: Vec<Result<Option<CollapseSequence>, AssetError>> = parts
+    Ok(parts)
+}
+
+/// Decodes the frames of [`frame_parts`]. A repeat shares the previous frame's
+/// sequence, and a coded frame whose bytes equal an earlier coded frame's shares that
+/// frame's sequence (decoding is a function of the bytes), so each distinct frame is
+/// decoded and held once.
+pub(super) fn decode_frames(
+    parts: &[FramePart<'_>],
+    n: usize,
+    neighbours: &Neighbours,
+) -> Result<(Vec<Arc<CollapseSequence>>, Vec<FrameInfo>), AssetError> {
+    // `first[k]`: the first frame whose bytes equal frame k's.
+    let mut seen: HashMap<&[u8], usize> = HashMap::new();
+    let first: Vec<usize> = parts
+        .iter()
+        .enumerate()
+        .map(|(k, p)| *seen.entry(p.bytes).or_insert(k))
+        .collect();
+    let decoded: Vec<Result<Option<Arc<CollapseSequence>>, AssetError>> = parts
         .par_iter()
         .enumerate()
-        .map(|(frame, (bytes, _))| match bytes.split_first() {
-            Some((&FRAME_REPEAT, [])) => Ok(None),
-            Some((&FRAME_CODED, rest)) => decode_frame(rest, frame, n, neighbours).map(Some),
-            Some((&FRAME_REPEAT, _)) => Err(AssetError::FrameLength {
-                frame,
-                declared: bytes.len(),
-                used: 1,
-            }),
-            Some((&mode, _)) => Err(AssetError::FrameMode { frame, mode }),
-            None => Err(AssetError::Truncated {
-                tag: "FRMS",
-                what: format!("frame {frame}'s mode"),
-            }),
+        .map(|(frame, part)| {
+            let bytes = part.bytes;
+            match bytes.split_first() {
+                Some((&FRAME_REPEAT, [])) => Ok(None),
+                Some((&FRAME_CODED, _)) if first[frame] != frame => Ok(None),
+                Some((&FRAME_CODED, rest)) => {
+                    decode_frame(rest, frame, n, neighbours).map(|s| Some(Arc::new(s)))
+                }
+                Some((&FRAME_REPEAT, _)) => Err(AssetError::FrameLength {
+                    frame,
+                    declared: bytes.len(),
+                    used: 1,
+                }),
+                Some((&mode, _)) => Err(AssetError::FrameMode { frame, mode }),
+                None => Err(AssetError::Truncated {
+                    tag: "FRMS",
+                    what: format!("frame {frame}'s mode"),
+                }),
+            }
         })
         .collect();
-    let mut frames: Vec<CollapseSequence> = Vec::with_capacity(count);
-    let mut infos = Vec::with_capacity(count);
-    for (result, &(_, bytes)) in decoded.into_iter().zip(&parts) {
-        let repeat = matches!(result, Ok(None));
+    let mut frames: Vec<Arc<CollapseSequence>> = Vec::with_capacity(parts.len());
+    let mut infos = Vec::with_capacity(parts.len());
+    for (k, (result, part)) in decoded.into_iter().zip(parts).enumerate() {
+        let repeat = part.bytes.first() == Some(&FRAME_REPEAT);
         let sequence = match result? {
             Some(sequence) => sequence,
-            None => frames.last().cloned().ok_or(AssetError::RepeatFirstFrame)?,
+            None if repeat => frames.last().cloned().ok_or(AssetError::RepeatFirstFrame)?,
+            // A coded frame equal to an earlier one: that one decoded (or failed first).
+            None => frames[first[k]].clone(),
         };
         infos.push(FrameInfo {
             collapses: sequence.len(),
-            bytes,
+            bytes: part.stored,
             repeat,
         });
         frames.push(sequence);

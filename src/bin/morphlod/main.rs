@@ -4,7 +4,9 @@
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use morphlod::asset::{inspect, save_bytes, MAGIC};
+use morphlod::asset::{
+    inspect, inspect_with, save_bytes, AssetLoadOptions, DEFAULT_MAX_BYTES, MAGIC,
+};
 use morphlod::build::{BuildReport, Builder, Progress, DEFAULT_FRAMES};
 use morphlod::deform::{DeformingModel, Lod};
 use morphlod::gpu::{save_png, Context, ShadeMode};
@@ -119,6 +121,10 @@ struct RenderArgs {
     /// The PNG to write.
     #[arg(short, long, value_name = "OUT.png")]
     output: PathBuf,
+    /// Most memory loading the asset (and building its LOD model) may take, in MiB;
+    /// a file that would need more is refused before it is decoded.
+    #[arg(long = "memory-budget", value_name = "MB", default_value_t = DEFAULT_MAX_BYTES >> 20)]
+    memory_budget: u64,
 }
 
 #[derive(Args)]
@@ -140,6 +146,10 @@ struct BenchArgs {
     /// Also plot frame time and triangles over both sweeps to this PNG file.
     #[arg(long, value_name = "OUT.png")]
     plot: Option<PathBuf>,
+    /// Most memory loading the asset (and building its LOD model) may take, in MiB;
+    /// a file that would need more is refused before it is decoded.
+    #[arg(long = "memory-budget", value_name = "MB", default_value_t = DEFAULT_MAX_BYTES >> 20)]
+    memory_budget: u64,
 }
 
 #[derive(Args)]
@@ -179,6 +189,10 @@ struct InfoArgs {
     /// glTF: the mesh to load, by name or index (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     mesh: Option<String>,
+    /// Most memory loading the asset may take, in MiB;
+    /// a file that would need more is refused before it is decoded.
+    #[arg(long = "memory-budget", value_name = "MB", default_value_t = DEFAULT_MAX_BYTES >> 20)]
+    memory_budget: u64,
 }
 
 fn main() -> ExitCode {
@@ -213,7 +227,7 @@ fn info(args: &InfoArgs) -> ExitCode {
     let mut printed = false;
     for path in &args.files {
         let report = if is_asset(path) {
-            asset_info(path)
+            asset_info(path, args.memory_budget)
         } else {
             info_one(path, &options, &clean_options(args.weld, args.no_weld))
         };
@@ -284,10 +298,19 @@ fn is_asset(path: &Path) -> bool {
         .is_ok_and(|()| head == MAGIC)
 }
 
-fn asset_info(path: &Path) -> Result<String, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+/// `--memory-budget MB` as load options.
+fn budget(mb: u64) -> AssetLoadOptions {
+    AssetLoadOptions {
+        max_bytes: mb.saturating_mul(1 << 20),
+    }
+}
+
+fn asset_info(path: &Path, memory_budget: u64) -> Result<String, String> {
+    let options = budget(memory_budget);
+    let bytes = read_asset(path, &options)?;
     let start = Instant::now();
-    let (_, info) = inspect(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    let (_, info) =
+        inspect_with(&bytes, &options).map_err(|e| format!("{}: {e}", path.display()))?;
     let decode = start.elapsed();
     let mut out = format!(
         "{}\n  format            morphlod asset (.mlod)\n",
@@ -519,15 +542,17 @@ fn render(args: &RenderArgs) -> Result<(), String> {
     let ts = unit_values("t", &args.ts)?;
     let fractions = unit_values("lod", &args.lod)?;
     check_sheet_size(args.size, ts.len(), fractions.len())?;
-    let bytes = read_asset(&args.asset)?;
-    let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let budget = budget(args.memory_budget);
+    let bytes = read_asset(&args.asset, &budget)?;
+    let asset = Asset::from_bytes_with(&bytes, &budget)
+        .map_err(|e| format!("{}: {e}", args.asset.display()))?;
     let options = SheetOptions {
         cell: args.size,
         shade: args.color.shade(),
         ..SheetOptions::default()
     };
     let lods: Vec<Lod> = fractions.iter().map(|&f| Lod::Fraction(f)).collect();
-    render_to_png(&asset, &ts, &lods, &options, &args.output)
+    render_to_png(&asset, &ts, &lods, &options, &args.output, budget.max_bytes)
 }
 
 /// One rule for `--t` and `--lod`, the library's: values outside [0, 1] are clamped (the
@@ -571,7 +596,7 @@ fn check_sheet_size(cell: u32, columns: usize, rows: usize) -> Result<(), String
 }
 
 /// The bytes of a `.mlod` file, or a clear error for a mesh or a directory given instead.
-fn read_asset(path: &Path) -> Result<Vec<u8>, String> {
+fn read_asset(path: &Path, options: &AssetLoadOptions) -> Result<Vec<u8>, String> {
     if path.is_dir() {
         return Err(format!(
             "{}: is a directory, not a .mlod asset",
@@ -584,14 +609,27 @@ fn read_asset(path: &Path) -> Result<Vec<u8>, String> {
             path.display()
         ));
     }
+    let length = std::fs::metadata(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?
+        .len();
+    if length > options.max_bytes {
+        let e = morphlod::asset::AssetError::OverBudget {
+            needed: length,
+            budget: options.max_bytes,
+        };
+        return Err(format!("{}: {e}", path.display()));
+    }
     std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Runs the frame-rate benchmark and prints its summary (and writes the rows as JSON).
 fn bench(args: &BenchArgs) -> Result<(), String> {
-    let bytes = read_asset(&args.asset)?;
-    let asset = Asset::from_bytes(&bytes).map_err(|e| format!("{}: {e}", args.asset.display()))?;
-    let model = Arc::new(DeformingModel::new(&asset).map_err(|e| e.to_string())?);
+    let budget = budget(args.memory_budget);
+    let bytes = read_asset(&args.asset, &budget)?;
+    let asset = Asset::from_bytes_with(&bytes, &budget)
+        .map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    let model =
+        Arc::new(DeformingModel::with_budget(&asset, budget.max_bytes).map_err(|e| e.to_string())?);
     let context = Context::headless().map_err(|e| e.to_string())?;
     let info = context.adapter_info();
     println!(
@@ -652,7 +690,14 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
             shade,
             ..SheetOptions::default()
         };
-        render_to_png(&asset, &ts, &lods, &options, &args.output.join(name))?;
+        render_to_png(
+            &asset,
+            &ts,
+            &lods,
+            &options,
+            &args.output.join(name),
+            DEFAULT_MAX_BYTES,
+        )?;
     }
     Ok(())
 }
@@ -665,8 +710,9 @@ fn render_to_png(
     lods: &[Lod],
     options: &SheetOptions,
     output: &Path,
+    max_bytes: u64,
 ) -> Result<(), String> {
-    let model = Arc::new(DeformingModel::new(asset).map_err(|e| e.to_string())?);
+    let model = Arc::new(DeformingModel::with_budget(asset, max_bytes).map_err(|e| e.to_string())?);
     let context = Context::headless().map_err(|e| e.to_string())?;
     let adapter = context.adapter_info();
     let (sheet, cells) =
