@@ -407,9 +407,8 @@ impl Asset {
     /// lists, about 12 bytes per strip byte, and 8 · n bytes per decoding thread) come
     /// on top. The budget check uses the worse of these, computed from the section sizes
     /// and the frames' lengths before they are decoded (a frame of `b` bytes holds at
-    /// most `8 · b / 3` collapses). Measured (tests/asset_budget.rs): a 160 KB file of a
-    /// 71 × 71 grid whose 4,096 frames repeat one frame grows the resident set by under
-    /// 2 MB (it was 248 MB when every frame held its own copy).
+    /// most `8 · b / 3` collapses). `tests/asset_budget.rs` holds a crafted file to it (figures
+    /// in BENCHMARKS.md).
     pub fn load_with(
         path: impl AsRef<Path>,
         options: &AssetLoadOptions,
