@@ -2,8 +2,9 @@
 //! LodStrips paper's HorseToMan model, with the shared assets `man.off` → `camel.off`).
 //!
 //! The two meshes have different connectivity (17,495 and 9,770 vertices): the morph runs over
-//! their supermesh (`morphlod::morph::supermesh`), one triangulation with a pose on each. Both
-//! files are z-up; the demo turns them y-up (the viewer's up) and the camel side-on.
+//! their supermesh (`morphlod::morph::supermesh`), one triangulation with a pose on each. The
+//! man's file is z-up, the camel's y-up: the demo stands the man up (y is the viewer's up), so
+//! the morph does not also rotate him through 90 degrees.
 //!
 //! ```sh
 //! cargo run --release --example man_to_camel              # window; headless without a display
@@ -70,16 +71,14 @@ fn run(args: &Args) -> Result<(), DemoError> {
         ..SupermeshOptions::default()
     };
     // The options' Debug form (landmarks, seed, perturbation, alignment) is the cache key.
-    let key = format!("supermesh {options:?}; y-up side-on");
+    let key = format!("supermesh {options:?}; man stood up (x, z, -y)");
     let make = move || {
-        let man = y_up(
+        let man = stand_up(
             load_mesh(Path::new(MAN), &LoadOptions::default())
                 .map_err(|e| DemoError::Morphlod(e.into()))?,
         );
-        let camel = y_up(
-            load_mesh(Path::new(CAMEL), &LoadOptions::default())
-                .map_err(|e| DemoError::Morphlod(e.into()))?,
-        );
+        let camel = load_mesh(Path::new(CAMEL), &LoadOptions::default())
+            .map_err(|e| DemoError::Morphlod(e.into()))?;
         let start = Instant::now();
         let (supermesh, report) = Supermesh::build(&man, &camel, &options)
             .map_err(|e| DemoError::Supermesh(e.to_string()))?;
@@ -101,12 +100,11 @@ fn run(args: &Args) -> Result<(), DemoError> {
     common::run(&DEMO, &args.common, morphs)
 }
 
-/// The files are z-up with the camel along y: turn them y-up with the camel along x, a
-/// proper rotation (`(x, y, z)` → `(−y, z, −x)`), so triangles keep their winding. Rotating
-/// both inputs alike gives the same supermesh as the files (up to the rotation).
-fn y_up(mut mesh: IndexedMesh) -> IndexedMesh {
+/// The man's file is z-up: turn him y-up by a proper rotation about x (`(x, y, z)` →
+/// `(x, z, −y)`), so triangles keep their winding.
+fn stand_up(mut mesh: IndexedMesh) -> IndexedMesh {
     for p in &mut mesh.positions {
-        *p = [-p[1], p[2], -p[0]];
+        *p = [p[0], p[2], -p[1]];
     }
     mesh
 }

@@ -304,9 +304,15 @@ fn man_to_camel_supermesh_quality_over_t() {
         .frames(FRAMES)
         .build()
         .expect("the morph builds");
+    let model = morphlod::DeformingModel::new(&asset).expect("a model");
+    let in_memory = model.frame_bytes();
+    let file = asset.to_bytes().len();
     println!(
-        "\nman -> camel supermesh: {} vertices, {} triangles, {FRAMES} frames, {SAMPLES} samples",
-        report.vertices, report.triangles
+        "\nman -> camel supermesh: {} vertices, {} triangles, {FRAMES} frames, {SAMPLES} samples; \
+         file {file} B; per frame in memory (change lists, tables) mean {:.0} B",
+        report.vertices,
+        report.triangles,
+        in_memory.iter().sum::<usize>() as f64 / in_memory.len() as f64
     );
     println!(
         "{:>5} | {:>6} | {:>9} {:>9} | {:>9}",
