@@ -19,7 +19,10 @@ use common::{CommonArgs, Demo, DemoError, TargetPoses};
 
 const DEMO: Demo = Demo {
     name: "body_morph",
-    source: concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_body.glb"),
+    sources: &[concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/makehuman_body.glb"
+    )],
 };
 
 /// The makehuman body morphing to each of its whole-body targets, with continuous LOD.
@@ -36,6 +39,6 @@ fn main() -> ExitCode {
 }
 
 fn run(args: &Args) -> Result<(), DemoError> {
-    let poses = TargetPoses::load(Path::new(DEMO.source))?;
+    let poses = TargetPoses::load(Path::new(DEMO.sources[0]))?;
     common::run(&DEMO, &args.common, poses.neutral_morphs()?)
 }

@@ -22,7 +22,10 @@ use common::{CommonArgs, Demo, DemoError, NamedMorph, TargetPoses};
 
 const DEMO: Demo = Demo {
     name: "face_to_face",
-    source: concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_head.glb"),
+    sources: &[concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/makehuman_head.glb"
+    )],
 };
 
 /// The makehuman head morphing between facial expressions, with continuous LOD.
@@ -42,7 +45,7 @@ fn main() -> ExitCode {
 }
 
 fn run(args: &Args) -> Result<(), DemoError> {
-    let poses = TargetPoses::load(Path::new(DEMO.source))?;
+    let poses = TargetPoses::load(Path::new(DEMO.sources[0]))?;
     let morphs = if args.neutral {
         poses.neutral_morphs()?
     } else {

@@ -11,7 +11,7 @@ use morphlod::build::Progress;
 use morphlod::simplify::SimplifyOptions;
 use morphlod::{Asset, Builder, DeformingModel, Morph};
 
-use super::{DemoError, NamedMorph};
+use super::{DemoError, MorphSpec, NamedMorph};
 
 /// A built morph, ready for the GPU.
 pub struct BuiltMorph {
@@ -21,21 +21,30 @@ pub struct BuiltMorph {
 }
 
 pub fn load_or_build_all(
-    source: &Path,
+    sources: &[&str],
     out: &Path,
     morphs: &[NamedMorph],
     frames: u16,
 ) -> Result<Vec<BuiltMorph>, DemoError> {
-    let bytes = std::fs::read(source).map_err(|source_error| DemoError::Io {
-        path: source.to_path_buf(),
-        source: source_error,
-    })?;
     // The content, not the path or the modification time: an edited or replaced source file
-    // gets new assets, an untouched checkout elsewhere reuses them.
-    let source_hash = crc32fast::hash(&bytes);
+    // gets new assets, an untouched checkout elsewhere reuses them. (One file hashes as
+    // before, so existing caches stay valid.)
+    let mut hasher = crc32fast::Hasher::new();
+    for source in sources {
+        let bytes = std::fs::read(source).map_err(|source_error| DemoError::Io {
+            path: Path::new(source).to_path_buf(),
+            source: source_error,
+        })?;
+        hasher.update(&bytes);
+    }
+    let source_hash = hasher.finalize();
     let mut built = Vec::with_capacity(morphs.len());
     for (i, named) in morphs.iter().enumerate() {
-        let path = out.join(cache_name(&named.label, source_hash, frames));
+        let key = match &named.morph {
+            MorphSpec::Ready(_) => "",
+            MorphSpec::Deferred { key, .. } => key.as_str(),
+        };
+        let path = out.join(cache_name(&named.label, source_hash, frames, key));
         let asset = load_or_build(named, &path, frames, (i + 1, morphs.len()))?;
         let model = Arc::new(DeformingModel::new(&asset).map_err(DemoError::lib)?);
         built.push(BuiltMorph {
@@ -50,7 +59,7 @@ pub fn load_or_build_all(
 /// The cache file of one morph: label, frame count, and a hash of the source file's content
 /// together with every build parameter and the file format, so any change to them names
 /// another file.
-fn cache_name(label: &str, source_hash: u32, frames: u16) -> String {
+fn cache_name(label: &str, source_hash: u32, frames: u16, key: &str) -> String {
     // Target names come from the file: keep the name to characters every file system takes
     // (the hash below still covers the exact label).
     let safe: String = label
@@ -66,13 +75,16 @@ fn cache_name(label: &str, source_hash: u32, frames: u16) -> String {
     // A cached asset built by an older simplifier is still a valid LOD model of the same
     // morph (load checks it against the poses), so the key names what the asset must match,
     // not the code that built it: no rebuild, and no pile of files, after every recompile.
-    let parameters = format!(
+    let mut parameters = format!(
         "source {source_hash:08x}; label {label}; frames {frames}; simplify {:?}; \
          morphlod {} (file format {})",
         SimplifyOptions::default(),
         env!("CARGO_PKG_VERSION"),
         morphlod::asset::VERSION,
     );
+    if !key.is_empty() {
+        parameters += &format!("; {key}");
+    }
     format!(
         "{safe}.f{frames}.{source_hash:08x}{:08x}.mlod",
         crc32fast::hash(parameters.as_bytes())
@@ -89,7 +101,7 @@ fn load_or_build(
         // A cached file is used only if it loads (checksums, structure) and holds exactly the
         // poses this morph has; anything else is rebuilt and overwritten.
         match Asset::load(path) {
-            Ok(asset) if matches_morph(&asset, &named.morph, frames) => {
+            Ok(asset) if matches_spec(&asset, &named.morph, frames) => {
                 println!(
                     "[{number}/{count}] {}: cached {}",
                     named.label,
@@ -108,7 +120,15 @@ fn load_or_build(
             ),
         }
     }
-    let bar = std::io::stderr().is_terminal().then(|| {
+    build(named, path, frames, (number, count))
+}
+
+fn bar_for(
+    frames: u16,
+    named: &NamedMorph,
+    (number, count): (usize, usize),
+) -> Option<ProgressBar> {
+    std::io::stderr().is_terminal().then(|| {
         let bar = ProgressBar::new(u64::from(frames));
         if let Ok(style) =
             ProgressStyle::with_template("{msg} {bar:32} {pos}/{len} frames [{elapsed_precise}]")
@@ -117,14 +137,31 @@ fn load_or_build(
         }
         bar.set_message(format!("[{number}/{count}] building {}", named.label));
         bar
-    });
+    })
+}
+
+fn build(
+    named: &NamedMorph,
+    path: &Path,
+    frames: u16,
+    (number, count): (usize, usize),
+) -> Result<Asset, DemoError> {
+    let start = Instant::now();
+    let made;
+    let morph = match &named.morph {
+        MorphSpec::Ready(morph) => morph,
+        MorphSpec::Deferred { make, .. } => {
+            made = make()?;
+            &made
+        }
+    };
+    let bar = bar_for(frames, named, (number, count));
     let progress = |p: Progress| {
         if let Some(bar) = &bar {
             bar.set_position(p.frames_done as u64);
         }
     };
-    let start = Instant::now();
-    let built = Builder::new(&named.morph)
+    let built = Builder::new(morph)
         .frames(usize::from(frames))
         .progress(&progress)
         .build();
@@ -144,6 +181,15 @@ fn load_or_build(
         path.display()
     );
     Ok(asset)
+}
+
+/// A cached asset of a deferred morph is trusted on its key (sources and parameters); one of
+/// a ready morph must hold exactly its poses.
+fn matches_spec(asset: &Asset, spec: &MorphSpec, frames: u16) -> bool {
+    match spec {
+        MorphSpec::Ready(morph) => matches_morph(asset, morph, frames),
+        MorphSpec::Deferred { .. } => asset.frames.len() == usize::from(frames),
+    }
 }
 
 fn matches_morph(asset: &Asset, morph: &Morph, frames: u16) -> bool {

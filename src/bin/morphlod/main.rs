@@ -13,7 +13,6 @@ use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, Format, LoadOptions};
 use morphlod::mesh::clean::{clean, CleanOptions};
-use morphlod::morph::supermesh::{Supermesh, SupermeshOptions};
 use morphlod::morph::{Morph, MorphError};
 use morphlod::topology::analyze;
 use morphlod::Asset;
@@ -26,9 +25,11 @@ use std::time::{Duration, Instant};
 mod bench;
 mod plot;
 mod sheet;
+mod supermesh;
 
 use bench::{run_bench, BenchOptions};
 use sheet::{render_sheet, SheetOptions};
+use supermesh::{build_supermesh, read_landmarks, SupermeshArgs};
 
 #[derive(Parser)]
 #[command(
@@ -49,6 +50,9 @@ enum Command {
     Info(InfoArgs),
     /// Build a .mlod asset: per-frame LOD collapse sequences over common strips.
     Build(BuildArgs),
+    /// The supermesh of two closed genus-0 meshes of different connectivity, written as
+    /// glTF binary (base = A, one morph target to B, an animation 0 → 1 → 0), with its report.
+    Supermesh(SupermeshArgs),
     /// Render a .mlod asset headless to a PNG: one cell per (t, lod), columns t, rows LOD.
     Render(RenderArgs),
     /// Frame-rate benchmark of a .mlod asset headless: linear and exponential LOD sweeps over
@@ -62,8 +66,8 @@ enum Command {
 #[derive(Args)]
 struct BuildArgs {
     /// A glTF file with morph targets (with --target or --animation), or two
-    /// mesh files V(0) and V(1): of the same connectivity, or two closed genus-0
-    /// meshes of different connectivity (a supermesh of both is built).
+    /// mesh files: V(0) and V(1). Two meshes with different triangles (closed,
+    /// genus 0) are morphed over their supermesh.
     #[arg(required = true, num_args = 1..=2, value_name = "INPUT")]
     inputs: Vec<PathBuf>,
     /// glTF: morph from the base mesh to this morph target (name or index).
@@ -78,6 +82,10 @@ struct BuildArgs {
     /// Sampled animation frames |r| (1 samples t = 0 only).
     #[arg(long, default_value_t = DEFAULT_FRAMES)]
     frames: usize,
+    /// Two meshes of different connectivity: landmark pairs for the supermesh, one
+    /// `vertex_in_a vertex_in_b` a line.
+    #[arg(long, value_name = "PAIRS.txt")]
+    landmarks: Option<PathBuf>,
     /// Merge vertices at identical positions in every pose. A triangle soup
     /// (no vertex shared by two triangles) is welded without it.
     #[arg(long)]
@@ -200,6 +208,7 @@ fn main() -> ExitCode {
     let done = match cli.command {
         Some(Command::Info(args)) => return info(&args),
         Some(Command::Build(args)) => build(&args),
+        Some(Command::Supermesh(args)) => supermesh::supermesh(&args),
         Some(Command::Render(args)) => render(&args),
         Some(Command::Bench(args)) => bench(&args),
         Some(Command::Demo(args)) => demo(&args),
@@ -455,29 +464,35 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
             if args.target.is_some() || args.animation.is_some() {
                 return Err("--target and --animation choose a glTF morph; with two input meshes the morph runs from the first to the second".into());
             }
-            let a = load_mesh(a, options).map_err(|e| e.to_string())?;
-            let b = load_mesh(b, options).map_err(|e| e.to_string())?;
+            let (a_path, b_path) = (a, b);
+            let a = load_mesh(a_path, options).map_err(|e| e.to_string())?;
+            let b = load_mesh(b_path, options).map_err(|e| e.to_string())?;
             match Morph::from_meshes(&a, &b) {
+                Ok(morph) => {
+                    if args.landmarks.is_some() {
+                        eprintln!("note: the meshes have the same connectivity: no supermesh is built and --landmarks is not used");
+                    }
+                    Ok(morph)
+                }
                 Err(
-                    why @ (MorphError::PoseSizeMismatch { .. }
+                    MorphError::PoseSizeMismatch { .. }
                     | MorphError::TriangleCountMismatch { .. }
-                    | MorphError::TriangleMismatch { .. }),
+                    | MorphError::TriangleMismatch { .. },
                 ) => {
-                    // Different connectivity: the supermesh gives both one triangulation.
-                    eprintln!(
-                        "note: not the same connectivity ({why}): building a supermesh of the two"
+                    let landmarks = read_landmarks(args.landmarks.as_deref())?;
+                    let (supermesh, report) = build_supermesh(&a, &b, landmarks)?;
+                    println!(
+                        "{} and {} have different connectivity: built a supermesh ({} vertices, {} triangles, {} crossings)\n{report}",
+                        a_path.display(),
+                        b_path.display(),
+                        report.vertices,
+                        report.triangles,
+                        report.crossings
                     );
-                    let (supermesh, report) =
-                        Supermesh::build(&a, &b, &SupermeshOptions::default()).map_err(|e| {
-                            format!("the meshes differ in connectivity and no supermesh could be built: {e}")
-                        })?;
-                    eprintln!(
-                        "note: supermesh of {} + {} vertices: {} vertices, {} triangles",
-                        report.a_vertices, report.b_vertices, report.vertices, report.triangles
-                    );
+                    warn_fold_overs(&report);
                     supermesh.to_morph().map_err(|e| e.to_string())
                 }
-                other => other.map_err(|e| e.to_string()),
+                Err(e) => Err(e.to_string()),
             }
         }
         [path] => {
@@ -505,6 +520,17 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
             morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())
         }
         _ => Err("give one glTF file or two meshes".into()),
+    }
+}
+
+/// A supermesh with fold-overs is not a bijection between the surfaces (a morphlod bug):
+/// say so, the build goes on.
+fn warn_fold_overs(report: &morphlod::morph::supermesh::SupermeshReport) {
+    if report.fold_overs > 0 {
+        eprintln!(
+            "warning: {} supermesh triangle(s) fold over on the sphere (should be 0; please report this with the meshes)",
+            report.fold_overs
+        );
     }
 }
 

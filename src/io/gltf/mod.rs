@@ -15,6 +15,7 @@ mod document;
 #[cfg(test)]
 mod morph_tests;
 pub mod summary;
+pub mod write;
 
 pub use summary::{inspect, AnimationSummary, GltfSummary, MeshSummary, WeightChannelSummary};
 
