@@ -4,7 +4,7 @@
 //! and points carry nothing a triangle mesh of positions needs, so their
 //! statements (and any unknown statement) are skipped; only the vertex part
 //! of each `v/vt/vn` face corner is used. Polygons are triangulated by
-//! [`super::polygon`]: the fan when convex, ear clipping when not.
+//! `io::polygon`: the fan when convex, ear clipping when not.
 
 use super::polygon::Polygons;
 use super::text::{self, coordinate, integer, tokens};
