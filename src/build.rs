@@ -249,6 +249,7 @@ impl<'a> Builder<'a> {
             s0,
             frames: sequences,
             blend,
+            surface: None,
         };
         Ok((asset, report))
     }

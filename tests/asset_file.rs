@@ -104,6 +104,7 @@ fn tiny_asset() -> Asset {
             }],
         })],
         blend: None,
+        surface: None,
     }
 }
 

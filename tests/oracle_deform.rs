@@ -61,6 +61,7 @@ fn build_asset(morph: &Morph, frames: usize) -> Asset {
         s0,
         frames: sequences,
         blend: morph.target_blend(),
+        surface: None,
     }
 }
 
@@ -362,6 +363,7 @@ fn unrelated_random_frames() {
         s0: stripify(&tris, n),
         frames: sequences,
         blend: None,
+        surface: None,
     };
     walk("random frames", &tris, &asset, 10_000, 5);
 }
@@ -375,6 +377,7 @@ fn bad_assets_and_requests_are_rejected() {
         s0: stripify(&tris, 4),
         frames: vec![Arc::new(random_sequence(&tris, 4, 2, &mut Rng(1)))],
         blend: None,
+        surface: None,
     };
     let model = DeformingModel::new(&good).expect("valid asset");
     let bad = |edit: &dyn Fn(&mut Asset)| {

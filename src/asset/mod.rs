@@ -103,6 +103,28 @@ pub struct Asset {
     /// For an asset made from a weight animation: the targets the GPU adds to `V(0)` so it
     /// draws the animation, not only the blend of its end poses. `None` for two-pose morphs.
     pub blend: Option<TargetBlend>,
+    /// Vertex attributes for shading, for an asset built from a morph with vertex attributes
+    /// (normals, UVs or colours); `None` for position-only sources, drawn faceted.
+    pub surface: Option<Surface>,
+}
+
+/// What the renderer shades an asset's vertices with, beside the positions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Surface {
+    /// Per vertex its topology vertex ([`crate::morph::TopologyMap::of_vertex`]): vertices
+    /// sharing one are copies split at a seam, and every LOD moves them together.
+    pub topology: Vec<u32>,
+    /// Normals at `t = 0` and `t = 1` before normalisation (`base + Σ w_k(0) D_k`, and at 1),
+    /// one per vertex: a two-pose asset draws `normalize(mix(n0, n1, t))`.
+    pub n0: Vec<[f32; 3]>,
+    pub n1: Vec<[f32; 3]>,
+    /// For an asset with a weight animation ([`Asset::blend`]): per blended target, in the
+    /// order of `blend.deltas`, its normal deltas; the drawn normal is
+    /// `normalize(n0 + Σ_k c_k(t) D_k)`. Empty otherwise.
+    pub normal_deltas: Vec<Vec<[f32; 3]>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub colors: Option<Vec<[f32; 4]>>,
+    pub material: crate::morph::Material,
 }
 
 /// Most morph targets an asset may blend on the GPU (the uniform block holds one weight per
@@ -507,6 +529,7 @@ fn decode(
         s0,
         frames,
         blend,
+        surface: None,
     };
     Ok((asset, table, frame_infos))
 }

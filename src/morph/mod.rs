@@ -14,20 +14,27 @@
 //! draws `V(0) + Σ (w_i(t) − w_i(0)) D_i`, the same surface as [`Morph::positions_at`]
 //! up to float rounding.
 
+mod attributes;
 pub mod supermesh;
 mod track;
 
+pub use attributes::{
+    vertex_normals, Attributes, ImageFormat, Material, Normals, Sampler, Texture, TopologyMap,
+};
 pub use track::{Interpolation, WeightTrack};
 
 use crate::mesh::clean::{clean_poses, CleanOptions, CleanReport};
 use crate::mesh::{IndexedMesh, MeshError};
 use thiserror::Error;
 
-/// One morph target: per-vertex position offsets added with a weight.
+/// One morph target: per-vertex position offsets added with a weight, and optionally
+/// normal offsets (glTF's NORMAL target attribute).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MorphTarget {
     pub name: String,
     pub deltas: Vec<[f32; 3]>,
+    /// Normal deltas, one per vertex; `None`: computed ([`Morph::normals`]).
+    pub normal_deltas: Option<Vec<[f32; 3]>>,
 }
 
 /// How the target weights depend on `t ∈ [0, 1]`.
@@ -49,6 +56,7 @@ pub struct Morph {
     base: Vec<[f32; 3]>,
     targets: Vec<MorphTarget>,
     weights: Weights,
+    attributes: Attributes,
 }
 
 /// Why a morph could not be built.
@@ -112,6 +120,17 @@ pub enum MorphError {
     WeightNotFinite { index: usize },
     #[error("weight track output value {index} is not finite")]
     TrackValue { index: usize },
+    #[error("{attribute} has {count} values for {vertices} vertices: give one per vertex")]
+    AttributeCount {
+        attribute: &'static str,
+        count: usize,
+        vertices: usize,
+    },
+    #[error("{attribute} of vertex {vertex} is not finite: fix the source file")]
+    AttributeNotFinite {
+        attribute: &'static str,
+        vertex: usize,
+    },
     #[error(transparent)]
     Mesh(#[from] MeshError),
 }
@@ -139,6 +158,19 @@ impl Morph {
                 });
             }
             check_finite(&format!("morph target '{}'", target.name), &target.deltas)?;
+            if let Some(normals) = &target.normal_deltas {
+                if normals.len() != n {
+                    return Err(MorphError::TargetSize {
+                        target: format!("{} (NORMAL)", target.name),
+                        deltas: normals.len(),
+                        vertices: n,
+                    });
+                }
+                check_finite(
+                    &format!("normal deltas of morph target '{}'", target.name),
+                    normals,
+                )?;
+            }
         }
         let weight_counts = match &weights {
             Weights::TwoPose { w0, w1 } => {
@@ -160,7 +192,15 @@ impl Morph {
             base,
             targets,
             weights,
+            attributes: Attributes::default(),
         })
+    }
+
+    /// The same morph with these vertex attributes (one value per vertex each), checked.
+    pub fn with_attributes(mut self, attributes: Attributes) -> Result<Morph, MorphError> {
+        attributes.validate(self.vertex_count())?;
+        self.attributes = attributes;
+        Ok(self)
     }
 
     /// `V(t) = (1 − t) v0 + t v1` over one triangulation. Stored as base `v0`
@@ -185,6 +225,7 @@ impl Morph {
         let target = MorphTarget {
             name: "V(1)".to_string(),
             deltas,
+            normal_deltas: None,
         };
         let weights = Weights::TwoPose {
             w0: vec![0.0],
@@ -250,18 +291,32 @@ impl Morph {
                 vertices: n,
             });
         }
-        let gather = |values: &[[f32; 3]]| -> Vec<[f32; 3]> {
+        fn gather<T: Copy>(values: &[T], vertex_map: &[u32]) -> Vec<T> {
             vertex_map.iter().map(|&v| values[v as usize]).collect()
-        };
+        }
         let targets = self
             .targets
             .iter()
             .map(|t| MorphTarget {
                 name: t.name.clone(),
-                deltas: gather(&t.deltas),
+                deltas: gather(&t.deltas, vertex_map),
+                normal_deltas: t.normal_deltas.as_ref().map(|d| gather(d, vertex_map)),
             })
             .collect();
-        Morph::from_parts(triangles, gather(&self.base), targets, self.weights.clone())
+        let a = &self.attributes;
+        let attributes = Attributes {
+            normals: a.normals.as_ref().map(|v| gather(v, vertex_map)),
+            uvs: a.uvs.as_ref().map(|v| gather(v, vertex_map)),
+            colors: a.colors.as_ref().map(|v| gather(v, vertex_map)),
+            material: a.material.clone(),
+        };
+        Morph::from_parts(
+            triangles,
+            gather(&self.base, vertex_map),
+            targets,
+            self.weights.clone(),
+        )?
+        .with_attributes(attributes)
     }
 
     /// Cleans the morph ([`crate::mesh::clean`]) once on `V(0)` and applies the
@@ -291,6 +346,11 @@ impl Morph {
 
     pub fn weights(&self) -> &Weights {
         &self.weights
+    }
+
+    /// The vertex attributes and material (empty for position-only sources).
+    pub fn attributes(&self) -> &Attributes {
+        &self.attributes
     }
 
     pub fn vertex_count(&self) -> usize {
@@ -525,6 +585,7 @@ mod tests {
         let short = MorphTarget {
             name: "short".to_string(),
             deltas: vec![[0.0; 3]; 3],
+            normal_deltas: None,
         };
         let err = Morph::from_parts(
             vec![[0, 1, 2]],

@@ -97,7 +97,11 @@ fn read_morph(path: &Path, options: &LoadOptions) -> Result<GltfMorph, LoadError
     let targets = names
         .into_iter()
         .zip(deltas)
-        .map(|(name, deltas)| MorphTarget { name, deltas })
+        .map(|(name, deltas)| MorphTarget {
+            name,
+            deltas,
+            normal_deltas: None,
+        })
         .collect();
     Ok(GltfMorph {
         mesh: mesh_out,

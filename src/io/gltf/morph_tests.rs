@@ -127,10 +127,12 @@ fn target_blend_keeps_only_driven_targets() {
         MorphTarget {
             name: "idle".into(),
             deltas: deltas(5.0),
+            normal_deltas: None,
         },
         MorphTarget {
             name: "lift".into(),
             deltas: deltas(1.0),
+            normal_deltas: None,
         },
     ];
     let track = WeightTrack::new(
