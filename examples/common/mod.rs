@@ -135,7 +135,7 @@ pub struct NamedMorph {
 /// A morph's poses, or how to make them when no cached asset holds them.
 pub enum MorphSpec {
     /// Poses known up front: a cached asset is used only if it holds exactly them.
-    Ready(Morph),
+    Ready(Box<Morph>),
     /// Made only when the cache has no asset for it (a supermesh build takes seconds):
     /// `key` names every parameter of that build and is part of the cache key, together
     /// with the content of the demo's source files. (Only man_to_camel makes one.)
@@ -203,7 +203,7 @@ impl TargetPoses {
             .map_err(DemoError::lib)?;
         Ok(NamedMorph {
             label,
-            morph: MorphSpec::Ready(morph),
+            morph: MorphSpec::Ready(Box::new(morph)),
         })
     }
 
