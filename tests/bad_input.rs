@@ -492,3 +492,6 @@ proptest! {
 // per-format files under tests/bad_input/ need explicit paths.
 #[path = "bad_input/gltf.rs"]
 mod gltf;
+
+#[path = "bad_input/gltf_attributes.rs"]
+mod gltf_attributes;

@@ -9,6 +9,7 @@
 //! changed), but always validated, so every later stage can index without checks.
 
 pub mod gltf;
+mod image_header;
 pub mod obj;
 pub mod off;
 pub mod ply;
@@ -16,6 +17,7 @@ mod polygon;
 mod text;
 
 pub use gltf::{load_morph, MorphSource};
+pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;
 
 use crate::mesh::{IndexedMesh, MeshError};
@@ -144,6 +146,21 @@ pub enum LoadError {
     GltfExternal {
         path: PathBuf,
         buffer: usize,
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A texture image that is not a PNG or JPEG (by its bytes), or whose header is corrupt.
+    #[error("{path}: image {image} {message}")]
+    GltfImage {
+        path: PathBuf,
+        image: usize,
+        message: String,
+    },
+    #[error("{path}: image {image} refers to the external file {file}, which cannot be read ({source}); keep the texture images beside the .gltf, or embed them")]
+    GltfImageExternal {
+        path: PathBuf,
+        image: usize,
         file: PathBuf,
         #[source]
         source: std::io::Error,
