@@ -8,6 +8,7 @@
 //! degenerate triangles: that is [`crate::mesh::clean`], which reports what it
 //! changed), but always validated, so every later stage can index without checks.
 
+mod attributed;
 pub mod gltf;
 mod image_header;
 pub mod obj;
@@ -16,6 +17,7 @@ pub mod ply;
 mod polygon;
 mod text;
 
+pub use attributed::{load_attributed, morph_from_pair, AttributedMesh};
 pub use gltf::{load_morph, MorphSource};
 pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;

@@ -20,7 +20,7 @@ pub mod write;
 
 pub use summary::{inspect, AnimationSummary, GltfSummary, MeshSummary, WeightChannelSummary};
 
-use crate::io::{LoadError, LoadOptions};
+use crate::io::{AttributedMesh, LoadError, LoadOptions};
 use crate::mesh::IndexedMesh;
 use crate::morph::{Attributes, Interpolation, Morph, MorphTarget, WeightTrack, Weights};
 use attributes::VertexAttributes;
@@ -56,6 +56,16 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
         doc.transform(&mesh, &mut mesh_out, &mut [])?;
     }
     super::validated(mesh_out, path)
+}
+
+/// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
+/// chosen and placed by `options` as [`load_mesh`] does; its targets are not kept.
+pub fn load_attributed(path: &Path, options: &LoadOptions) -> Result<AttributedMesh, LoadError> {
+    let data = read_morph(path, options)?;
+    Ok(AttributedMesh::unsplit(
+        super::validated(data.mesh, path)?,
+        data.attributes,
+    ))
 }
 
 /// What [`load_morph`] needs from a file: the selected mesh
