@@ -164,6 +164,125 @@ pub(super) fn split_corners<K: Copy + Eq + std::hash::Hash>(
     (vertices, triangles)
 }
 
+/// What `morphlod info` reports about a morph's appearance: its attributes, material and
+/// texture, and how its attribute vertices weld into topology vertices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AttributeSummary {
+    /// Attribute vertices (what the GPU draws).
+    pub vertices: usize,
+    /// Topology vertices ([`Morph::topology`]): the welded surface the simplifier works on.
+    pub topology_vertices: usize,
+    /// Topology vertices with more than one attribute vertex.
+    pub seam_vertices: usize,
+    /// Whether the source gave normals (otherwise they are computed).
+    pub normals: bool,
+    pub uvs: bool,
+    pub colors: bool,
+    pub material: Option<String>,
+    pub base_color: [f32; 4],
+    pub texture: Option<TextureSummary>,
+    pub targets: usize,
+    /// Targets whose NORMAL deltas the source gave (the others' are computed).
+    pub targets_with_normal_deltas: usize,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureSummary {
+    pub format: crate::morph::ImageFormat,
+    pub bytes: usize,
+    /// Width and height from the image header ([`super::image_size`]).
+    pub size: Option<(u32, u32)>,
+    pub sampler: crate::morph::Sampler,
+}
+
+impl AttributeSummary {
+    pub fn of(morph: &Morph) -> AttributeSummary {
+        let topology = morph.topology();
+        let a = morph.attributes();
+        AttributeSummary {
+            vertices: morph.vertex_count(),
+            topology_vertices: topology.topology_count,
+            seam_vertices: topology.seam_vertices(),
+            normals: a.normals.is_some(),
+            uvs: a.uvs.is_some(),
+            colors: a.colors.is_some(),
+            material: a.material.name.clone(),
+            base_color: a.material.base_color,
+            texture: a.material.texture.as_ref().map(|t| TextureSummary {
+                format: t.format,
+                bytes: t.bytes.len(),
+                size: super::image_size(&t.bytes).ok().map(|(_, w, h)| (w, h)),
+                sampler: t.sampler,
+            }),
+            targets: morph.targets().len(),
+            targets_with_normal_deltas: morph
+                .targets()
+                .iter()
+                .filter(|t| t.normal_deltas.is_some())
+                .count(),
+        }
+    }
+}
+
+impl std::fmt::Display for AttributeSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let given = |present: bool| if present { "given" } else { "none" };
+        writeln!(
+            f,
+            "  vertices          {} attribute vertices on {} topology vertices ({} seam vertices)",
+            self.vertices, self.topology_vertices, self.seam_vertices
+        )?;
+        let normals = if self.normals {
+            "given"
+        } else {
+            "none in the file: computed (area-weighted over the welded surface)"
+        };
+        writeln!(f, "  normals           {normals}")?;
+        writeln!(f, "  uvs               {}", given(self.uvs))?;
+        writeln!(f, "  colours           {}", given(self.colors))?;
+        let name = self
+            .material
+            .as_ref()
+            .map_or("(unnamed)".to_string(), |n| format!("'{n}'"));
+        writeln!(
+            f,
+            "  material          {name}, base colour {:?}",
+            self.base_color
+        )?;
+        match &self.texture {
+            None => writeln!(f, "  texture           none")?,
+            Some(t) => {
+                let size = t
+                    .size
+                    .map_or(String::new(), |(w, h)| format!(", {w} x {h} pixels"));
+                let filter = |f: Option<u32>| f.map_or("default".to_string(), |f| f.to_string());
+                writeln!(
+                    f,
+                    "  texture           {}, {} bytes{size}; sampler mag {} min {} wrap {}/{}",
+                    t.format.mime_type(),
+                    t.bytes,
+                    filter(t.sampler.mag_filter),
+                    filter(t.sampler.min_filter),
+                    t.sampler.wrap_s,
+                    t.sampler.wrap_t
+                )?;
+            }
+        }
+        if self.targets > 0 {
+            let computed = match self.targets - self.targets_with_normal_deltas {
+                0 => "",
+                _ => " (the others computed)",
+            };
+            writeln!(
+                f,
+                "  normal deltas     given for {} of {} targets{computed}",
+                self.targets_with_normal_deltas, self.targets
+            )?;
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,7 +17,9 @@ pub mod ply;
 mod polygon;
 mod text;
 
-pub use attributed::{load_attributed, morph_from_pair, AttributedMesh};
+pub use attributed::{
+    load_attributed, morph_from_pair, AttributeSummary, AttributedMesh, TextureSummary,
+};
 pub use gltf::{load_morph, MorphSource};
 pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;
