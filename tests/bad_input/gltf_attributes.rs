@@ -21,6 +21,8 @@ struct Gltf {
     material: bool,
     /// Appended to the primitive list after the triangle's primitive.
     more_primitives: String,
+    /// The node's properties besides `mesh` (a leading comma each).
+    node: String,
 }
 
 fn floats(values: &[f32]) -> Vec<u8> {
@@ -101,7 +103,7 @@ impl Gltf {
   "bufferViews": [{}],
   "accessors": [{}],
   "meshes": [{{"primitives": [{{"attributes": {{{}}}, "targets": [{{{}}}]{material}}}{}]}}],
-  "nodes": [{{"mesh": 0}}]{extra}
+  "nodes": [{{"mesh": 0{}}}]{extra}
 }}"#,
             self.bin.len(),
             self.views.join(", "),
@@ -109,6 +111,7 @@ impl Gltf {
             self.attributes.join(", "),
             self.target.join(", "),
             self.more_primitives,
+            self.node,
         );
         crate::gltf::glb(&json, &self.bin)
     }
@@ -468,4 +471,46 @@ fn spec_allowed_omissions_load() {
     let morph = doc.load("no-position").unwrap();
     assert_eq!((morph.vertex_count(), morph.triangle_count()), (3, 1));
     assert!(morph.attributes().normals.is_none());
+}
+
+/// With `apply_transforms`, normals turn with the inverse transpose of the node's matrix
+/// (so they stay perpendicular to the scaled surface), rescaled to unit length, and each
+/// vertex's normal deltas by the same factor, so `normalize(n + w d)` turns exactly as the
+/// surface does.
+#[test]
+fn node_transforms_turn_normals_and_their_deltas() {
+    let mut doc = Gltf::triangle();
+    let normals = doc.dense(&floats(&[1.0, 1.0, 0.0].repeat(3)), 5126, "VEC3", "");
+    doc.attribute("NORMAL", normals);
+    let deltas = doc.dense(&floats(&[0.0, 0.0, 1.0].repeat(3)), 5126, "VEC3", "");
+    doc.target_attribute("NORMAL", deltas);
+    doc.node = r#", "scale": [2, 1, 1]"#.to_string();
+    let path = doc.write("scaled");
+    let placed = LoadOptions {
+        apply_transforms: true,
+        ..LoadOptions::default()
+    };
+    let morph = load_morph(&path, &placed, &MorphSource::Target("0".to_string())).unwrap();
+    // The face x = y stretched by 2 in x has normal (1/2, 1, 0), unit (1, 2, 0) / √5.
+    let s = 1.0 / 5f32.sqrt();
+    let close = |a: [f32; 3], b: [f32; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-6);
+    let n = morph.attributes().normals.as_ref().unwrap();
+    assert!(close(n[0], [s, 2.0 * s, 0.0]), "{n:?}");
+    // The delta gets the factor 1 / |(1/2, 1, 0)| = 2 / √5 that made the normal unit.
+    let d = morph.targets()[0].normal_deltas.as_ref().unwrap();
+    assert!(close(d[0], [0.0, 0.0, 2.0 * s]), "{d:?}");
+    // Untransformed, as the file has them.
+    let morph = load(&path).unwrap();
+    assert_eq!(
+        morph.attributes().normals.as_ref().unwrap()[0],
+        [1.0, 1.0, 0.0]
+    );
+
+    // A mirror flips the normal with the surface.
+    doc.node = r#", "scale": [-1, 1, 1]"#.to_string();
+    let path = doc.write("mirrored");
+    let morph = load_morph(&path, &placed, &MorphSource::Target("0".to_string())).unwrap();
+    let n = morph.attributes().normals.as_ref().unwrap();
+    let h = 1.0 / 2f32.sqrt();
+    assert!(close(n[0], [-h, h, 0.0]), "{n:?}");
 }
