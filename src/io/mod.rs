@@ -8,14 +8,20 @@
 //! degenerate triangles: that is [`crate::mesh::clean`], which reports what it
 //! changed), but always validated, so every later stage can index without checks.
 
+mod attributed;
 pub mod gltf;
+mod image_header;
 pub mod obj;
 pub mod off;
 pub mod ply;
 mod polygon;
 mod text;
 
+pub use attributed::{
+    load_attributed, morph_from_pair, AttributeSummary, AttributedMesh, TextureSummary,
+};
 pub use gltf::{load_morph, MorphSource};
+pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;
 
 use crate::mesh::{IndexedMesh, MeshError};
@@ -144,6 +150,21 @@ pub enum LoadError {
     GltfExternal {
         path: PathBuf,
         buffer: usize,
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A texture image that is not a PNG or JPEG (by its bytes), or whose header is corrupt.
+    #[error("{path}: image {image} {message}")]
+    GltfImage {
+        path: PathBuf,
+        image: usize,
+        message: String,
+    },
+    #[error("{path}: image {image} refers to the external file {file}, which cannot be read ({source}); keep the texture images beside the .gltf, or embed them")]
+    GltfImageExternal {
+        path: PathBuf,
+        image: usize,
         file: PathBuf,
         #[source]
         source: std::io::Error,

@@ -11,11 +11,13 @@ use morphlod::build::{BuildReport, Builder, Progress, DEFAULT_FRAMES};
 use morphlod::deform::{DeformingModel, Lod};
 use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::MorphSource;
-use morphlod::io::{load_mesh, Format, LoadOptions};
+use morphlod::io::{
+    load_attributed, load_mesh, morph_from_pair, AttributeSummary, Format, LoadError, LoadOptions,
+};
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::morph::{Morph, MorphError};
 use morphlod::topology::analyze;
-use morphlod::Asset;
+use morphlod::{Asset, IndexedMesh};
 use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -286,11 +288,46 @@ fn info_one(
     out += &format!("cleaning ({})\n", weld_mode(clean_options));
     out += &format!("{}\n", cleaned.report);
     out += &format!("topology (after cleaning)\n{topology}\n");
+    let start = Instant::now();
+    let surface = load_surface(path, options)?;
+    let load = start.elapsed();
+    out += &format!(
+        "attributes (loaded with them in {})\n{}",
+        ms(load),
+        AttributeSummary::of(&surface)
+    );
+    let topology = surface.topology();
+    if !topology.is_identity() {
+        // The report above counts attribute vertices, split at seams; the simplifier sees
+        // the surface with those copies joined.
+        let mut positions = vec![[0.0; 3]; topology.topology_count];
+        for (v, &t) in topology.of_vertex.iter().enumerate() {
+            positions[t as usize] = surface.base()[v];
+        }
+        let welded = IndexedMesh::new(positions, topology.triangles(surface.triangles()));
+        let report = analyze(&welded).map_err(|e| format!("{}: {e}", path.display()))?;
+        out += &format!("topology of the welded surface (seam copies joined)\n{report}\n");
+    }
     if Format::from_path(path) == Some(Format::Gltf) {
         let summary = morphlod::io::gltf::inspect(path).map_err(|e| e.to_string())?;
         out += &format!("glTF contents\n{summary}");
     }
     Ok(out)
+}
+
+/// The file as the pipeline sees it: a glTF mesh with its targets (at their default
+/// weights) and attributes, or any mesh with its attributes and no targets.
+fn load_surface(path: &Path, options: &LoadOptions) -> Result<Morph, String> {
+    if Format::from_path(path) == Some(Format::Gltf) {
+        match morphlod::io::load_morph(path, options, &MorphSource::DefaultWeights) {
+            Err(LoadError::NoTargets { .. }) => {}
+            other => return other.map_err(|e| e.to_string()),
+        }
+    }
+    load_attributed(path, options)
+        .map_err(|e| e.to_string())?
+        .to_static_morph()
+        .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// A `.mlod` file by extension, or any file starting with the `.mlod` magic.
@@ -465,9 +502,9 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                 return Err("--target and --animation choose a glTF morph; with two input meshes the morph runs from the first to the second".into());
             }
             let (a_path, b_path) = (a, b);
-            let a = load_mesh(a_path, options).map_err(|e| e.to_string())?;
-            let b = load_mesh(b_path, options).map_err(|e| e.to_string())?;
-            match Morph::from_meshes(&a, &b) {
+            let a = load_attributed(a_path, options).map_err(|e| e.to_string())?;
+            let b = load_attributed(b_path, options).map_err(|e| e.to_string())?;
+            match morph_from_pair(&a, &b) {
                 Ok(morph) => {
                     if args.landmarks.is_some() {
                         eprintln!("note: the meshes have the same connectivity: no supermesh is built and --landmarks is not used");
@@ -480,7 +517,8 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     | MorphError::TriangleMismatch { .. },
                 ) => {
                     let landmarks = read_landmarks(args.landmarks.as_deref())?;
-                    let (supermesh, report) = build_supermesh(&a, &b, landmarks)?;
+                    let (supermesh, report) =
+                        build_supermesh(&a.positions, &b.positions, landmarks)?;
                     println!(
                         "{} and {} have different connectivity: built a supermesh ({} vertices, {} triangles, {} crossings)\n{report}",
                         a_path.display(),
