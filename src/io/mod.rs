@@ -7,6 +7,15 @@
 //! Loaders return the mesh as the file indexes it (no welding, no dropping of
 //! degenerate triangles: that is [`crate::mesh::clean`], which reports what it
 //! changed), but always validated, so every later stage can index without checks.
+//!
+//! Vertex attributes (normals, texture coordinates, colours) and the material come with
+//! [`load_morph`] (glTF) and [`load_attributed`] (every format, as [`AttributedMesh`]:
+//! OBJ corners split into attribute vertices at seams); [`load_mesh`] stays position-only.
+//! UVs follow glTF's convention (`v` down), OBJ and PLY ones are flipped to it. A texture
+//! image is kept encoded; its header is checked at load time ([`image_size`]), so an image
+//! that is not a PNG or JPEG, or a missing external one, is a typed error
+//! ([`LoadError::GltfImage`], [`LoadError::GltfImageExternal`]) rather than a silent
+//! fallback to an untextured surface.
 
 mod attributed;
 pub mod gltf;

@@ -103,6 +103,7 @@ impl Document {
         vertices: usize,
         out: &mut MeshAttributes,
     ) -> Result<(), LoadError> {
+        // No primitive read yet: this one fixes the material, TEXCOORD set and targets.
         if out.normals.primitives == 0 {
             let material = primitive.material();
             out.material = material.index();
@@ -114,50 +115,37 @@ impl Document {
                 .map(|_| Column::default())
                 .collect();
         }
+        // The flat components of an attribute and how many make an element.
         let read = |semantic: gltf::Semantic, dimensions: &[Dimensions]| {
             let Some(accessor) = primitive.get(&semantic) else {
                 return Ok(None);
             };
-            self.read_attribute(
-                &accessor,
-                &format!("{element} {}", semantic.to_string()),
-                dimensions,
-                vertices,
-            )
-            .map(Some)
+            let element = format!("{element} {}", semantic.to_string());
+            let flat = self.read_attribute(&accessor, &element, dimensions, vertices)?;
+            Ok::<_, LoadError>(Some((flat, accessor.dimensions().multiplicity())))
         };
         let normals = read(gltf::Semantic::Normals, &[Dimensions::Vec3])?;
         out.normals.push(
-            normals.map(|f| f.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()),
+            normals.map(|(f, _)| f.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()),
             vertices,
             [0.0; 3],
         );
         let uvs = read(gltf::Semantic::TexCoords(out.uv_set), &[Dimensions::Vec2])?;
         out.uvs.push(
-            uvs.map(|f| f.chunks_exact(2).map(|c| [c[0], c[1]]).collect()),
+            uvs.map(|(f, _)| f.chunks_exact(2).map(|c| [c[0], c[1]]).collect()),
             vertices,
             [0.0; 2],
         );
-        let colors = match primitive.get(&gltf::Semantic::Colors(0)) {
-            Some(accessor) => {
-                let rgba = accessor.dimensions() == Dimensions::Vec4;
-                let flat = read(
-                    gltf::Semantic::Colors(0),
-                    &[Dimensions::Vec3, Dimensions::Vec4],
-                )?
-                .unwrap_or_default();
-                Some(if rgba {
-                    flat.chunks_exact(4)
-                        .map(|c| [c[0], c[1], c[2], c[3]])
-                        .collect()
-                } else {
-                    flat.chunks_exact(3)
-                        .map(|c| [c[0], c[1], c[2], 1.0])
-                        .collect()
-                })
-            }
-            None => None,
-        };
+        let colors = read(
+            gltf::Semantic::Colors(0),
+            &[Dimensions::Vec3, Dimensions::Vec4],
+        )?
+        .map(|(flat, n)| {
+            // RGB colours are opaque.
+            flat.chunks_exact(n)
+                .map(|c| [c[0], c[1], c[2], c.get(3).copied().unwrap_or(1.0)])
+                .collect()
+        });
         out.colors.push(colors, vertices, [1.0; 4]);
         // `append_targets` checked that every primitive has the first one's target count.
         for (t, (target, column)) in primitive
