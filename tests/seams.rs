@@ -1,0 +1,243 @@
+//! Seams through the pipeline, on generated morphs split at UV seams (tests/common:
+//! `seamed_sphere`, `cut_grid`): the builder's attribute-level sequences move whole topology
+//! vertices, no boundary LOD opens a crack or folds a UV triangle, the runtime shows only
+//! step boundaries, and random walks draw the attribute-level reference mesh.
+
+mod common;
+
+use common::{cut_grid, seamed_sphere, strip_draw, Rng};
+use morphlod::collapse::{canonical_multiset, CollapseSequence};
+use morphlod::morph::{Attributes, Morph};
+use morphlod::seams::{check_steps, expand, SeamError, SeamRule, StepBoundaries, Wedges};
+use morphlod::simplify::{simplify, simplify_with_seams, SimplifyOptions};
+use morphlod::{Asset, Builder, DeformingModel, DeformingState, Lod};
+
+const FRAMES: usize = 5;
+
+fn morphs() -> Vec<(&'static str, Morph)> {
+    vec![
+        ("sphere", seamed_sphere(12, 16)),
+        ("cut grid", cut_grid(12)),
+    ]
+}
+
+fn build(morph: &Morph) -> Asset {
+    Builder::new(morph).frames(FRAMES).build().unwrap().0
+}
+
+/// The step boundaries of `seq`, from their definition.
+fn boundaries(seq: &CollapseSequence, topology: &[u32]) -> Vec<usize> {
+    let c = &seq.collapses;
+    (0..=c.len())
+        .filter(|&l| {
+            l == 0 || l == c.len() || topology[c[l - 1].u as usize] != topology[c[l].u as usize]
+        })
+        .collect()
+}
+
+/// Twice the signed UV area of a triangle.
+fn uv_area(uvs: &[[f32; 2]], t: [u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|v| uvs[v as usize].map(f64::from));
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+#[test]
+fn the_generated_morphs_have_seams() {
+    for (name, morph) in morphs() {
+        let map = morph.topology();
+        assert!(map.seam_vertices() > 0, "{name}: no seam");
+        assert!(map.topology_count < morph.vertex_count(), "{name}");
+    }
+}
+
+#[test]
+fn every_frame_moves_whole_topology_vertices() {
+    for (name, morph) in morphs() {
+        let asset = build(&morph);
+        let surface = asset
+            .surface
+            .as_ref()
+            .expect("a morph with UVs gets a surface");
+        let map = morph.topology();
+        assert_eq!(surface.topology, map.of_vertex);
+        let wedges = Wedges::new(&map.of_vertex, map.topology_count);
+        for (k, seq) in asset.frames.iter().enumerate() {
+            seq.validate().unwrap();
+            check_steps(seq, &wedges, &map.of_vertex)
+                .unwrap_or_else(|e| panic!("{name} frame {k}: {e}"));
+            assert!(
+                seq.len() > morph.vertex_count() / 2,
+                "{name} frame {k}: {} collapses",
+                seq.len()
+            );
+        }
+    }
+}
+
+/// At every boundary LOD of every frame: copies of one position at full detail still share a
+/// topology vertex (no crack), and no triangle's UV orientation flipped or vanished.
+#[test]
+fn no_cracks_and_no_uv_folds_at_any_boundary() {
+    for (name, morph) in morphs() {
+        let asset = build(&morph);
+        let map = morph.topology();
+        let uvs = morph.attributes().uvs.as_ref().unwrap();
+        let tris = morph.triangles();
+        for (k, seq) in asset.frames.iter().enumerate() {
+            let bounds = boundaries(seq, &map.of_vertex);
+            assert!(bounds.len() > 10, "{name} frame {k}");
+            for &l in &bounds {
+                let anc = seq.survivors(l);
+                let mut survivor_topology = vec![u32::MAX; map.topology_count];
+                for (v, &a) in anc.iter().enumerate() {
+                    let t = &mut survivor_topology[map.of_vertex[v] as usize];
+                    let s = map.of_vertex[a as usize];
+                    assert!(
+                        *t == u32::MAX || *t == s,
+                        "{name} frame {k} LOD {l}: copies of topology vertex {} part (crack)",
+                        map.of_vertex[v]
+                    );
+                    *t = s;
+                }
+                for &t in tris {
+                    let mapped = t.map(|v| anc[v as usize]);
+                    if mapped[0] == mapped[1] || mapped[1] == mapped[2] || mapped[0] == mapped[2] {
+                        continue;
+                    }
+                    let (before, after) = (uv_area(uvs, t), uv_area(uvs, mapped));
+                    assert!(
+                        before == 0.0 || (after != 0.0 && (after > 0.0) == (before > 0.0)),
+                        "{name} frame {k} LOD {l}: {t:?} -> {mapped:?} folds in UV ({before} -> {after})"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Seam vertices only move along their seam: the simplifier without the seam rule tears the
+/// sphere's seams (so the checks above can fail), with it the expansion never refuses.
+#[test]
+fn the_rule_is_what_keeps_seams_closed() {
+    let morph = seamed_sphere(12, 16);
+    let map = morph.topology();
+    let rule = SeamRule::new(&map, morph.attributes().uvs.as_deref());
+    let pose = morph.positions_at(0.5);
+    let tris = morph.triangles();
+    let welded_tris = map.triangles(tris);
+    let mut welded_pose = vec![[0.0f32; 3]; map.topology_count];
+    for (v, &t) in map.of_vertex.iter().enumerate() {
+        welded_pose[t as usize] = pose[v];
+    }
+    let blind = simplify(&welded_pose, &welded_tris, &SimplifyOptions::default());
+    assert!(matches!(
+        expand(&blind, tris, &rule),
+        Err(SeamError::Refused { .. })
+    ));
+    let seamed = simplify_with_seams(&pose, tris, &rule, &SimplifyOptions::default());
+    let expanded = expand(&seamed, tris, &rule).unwrap();
+    assert_eq!(expanded.vertex_count as usize, morph.vertex_count());
+}
+
+/// Without seams (every vertex its own topology vertex) and without UVs, the seam-aware
+/// simplifier makes exactly the position-only sequence, and its expansion is itself.
+#[test]
+fn without_seams_the_sequence_is_unchanged() {
+    let morph = common::grid_morph(9, |x, y| 0.2 * (x * y) as f32);
+    let colored = morph
+        .clone()
+        .with_attributes(Attributes {
+            colors: Some(vec![[1.0, 0.5, 0.0, 1.0]; morph.vertex_count()]),
+            ..Default::default()
+        })
+        .unwrap();
+    let map = colored.topology();
+    assert!(map.is_identity());
+    let rule = SeamRule::new(&map, None);
+    let pose = morph.positions_at(0.7);
+    let plain = simplify(&pose, morph.triangles(), &SimplifyOptions::default());
+    let seamed = simplify_with_seams(&pose, morph.triangles(), &rule, &SimplifyOptions::default());
+    assert_eq!(plain, seamed);
+    assert_eq!(expand(&seamed, morph.triangles(), &rule).unwrap(), plain);
+    // A position-only morph builds with no surface.
+    assert!(build(&morph).surface.is_none());
+    assert!(build(&colored).surface.is_some());
+}
+
+/// Random walks (up, down, jumps, frame switches) with every kind of `Lod`: the runtime lands
+/// on a step boundary, the one the request names by the rules of `DeformingModel::resolve`,
+/// and the strips draw the attribute-level reference mesh there.
+#[test]
+fn random_walks_draw_the_reference_at_boundaries() {
+    for (name, morph) in morphs() {
+        let asset = build(&morph);
+        let topology = &asset.surface.as_ref().unwrap().topology;
+        let model = DeformingModel::new(&asset).unwrap();
+        let tris = morph.triangles();
+        let bounds: Vec<StepBoundaries> = asset
+            .frames
+            .iter()
+            .map(|s| StepBoundaries::new(s, topology))
+            .collect();
+        let mut state = DeformingState::new(&model);
+        let mut rng = Rng(0x5EA4 ^ name.len() as u64);
+        for step in 0..400 {
+            let t = match rng.below(4) {
+                0 => state.frame() as f32 / (FRAMES - 1) as f32,
+                _ => rng.unit(),
+            };
+            let k = model.frame_at(t).unwrap();
+            let seq = &asset.frames[k];
+            let max = seq.len();
+            let near = state.lod() as i64 + rng.below(9) as i64 - 4;
+            let steps = if rng.below(3) == 0 {
+                rng.below(max + 2)
+            } else {
+                near.clamp(0, max as i64) as usize
+            };
+            let (lod, expected) = match rng.below(4) {
+                0 => (Lod::Steps(steps), bounds[k].floor(steps)),
+                1 => {
+                    let f = rng.unit();
+                    let l = ((f * max as f32).round() as usize).min(max);
+                    (Lod::Fraction(f), bounds[k].floor(l))
+                }
+                2 => {
+                    let budget = rng.below(tris.len() + 1);
+                    // The finest boundary drawing at most `budget` triangles (else the last).
+                    let l = boundaries(seq, topology)
+                        .into_iter()
+                        .find(|&l| seq.reference_mesh(tris, l).len() <= budget)
+                        .unwrap_or(max);
+                    (Lod::Triangles(budget), l)
+                }
+                _ => {
+                    let e = rng.unit() * 0.05;
+                    let errors = seq.errors();
+                    let l = (0..=max)
+                        .rev()
+                        .find(|&l| errors[l].max(0.0).sqrt() <= e)
+                        .unwrap();
+                    (Lod::MaxError(e), bounds[k].floor(l))
+                }
+            };
+            state.set(&model, t, lod).unwrap();
+            assert_eq!(state.frame(), k, "{name} step {step}");
+            assert_eq!(
+                state.lod(),
+                expected,
+                "{name} step {step}: {lod:?} in frame {k}"
+            );
+            assert!(bounds[k].is_boundary(state.lod()), "{name} step {step}");
+            let drawn: Vec<[u32; 3]> = (0..state.lengths().len())
+                .flat_map(|s| strip_draw(state.strip(s).unwrap()))
+                .collect();
+            assert_eq!(
+                canonical_multiset(drawn),
+                canonical_multiset(seq.reference_mesh(tris, state.lod())),
+                "{name} step {step}: frame {k} LOD {}",
+                state.lod()
+            );
+        }
+    }
+}
