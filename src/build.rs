@@ -442,6 +442,66 @@ mod tests {
         assert_eq!(seen.load(Ordering::Relaxed), 5);
     }
 
+    /// The surface of an animated morph with vertex colours: `n0`, `n1` are the source's
+    /// normals blended with the weights at 0 and 1, unnormalised, and the normal deltas are
+    /// those of the blended targets, in `blend.deltas` order.
+    #[test]
+    fn surfaces_carry_the_blended_normals() {
+        use crate::morph::{Attributes, Interpolation, MorphTarget, WeightTrack};
+        let grid = grid_morph();
+        let n = grid.vertex_count();
+        let lift = |z: f32| MorphTarget {
+            name: format!("lift {z}"),
+            deltas: (0..n)
+                .map(|v| [0.0, 0.0, if v % 3 == 1 { z } else { 0.0 }])
+                .collect(),
+            normal_deltas: None,
+        };
+        // Target 0 is never driven, targets 1 and 2 are (weights from 0.25 to 1 and 0 to 0.5).
+        let track = WeightTrack::new(
+            Interpolation::Linear,
+            vec![0.0, 1.0],
+            vec![0.0, 0.25, 0.0, 0.0, 1.0, 0.5],
+            3,
+        )
+        .unwrap();
+        let morph = Morph::from_parts(
+            grid.triangles().to_vec(),
+            grid.base().to_vec(),
+            vec![lift(2.0), lift(1.0), lift(-1.0)],
+            Weights::Animated(track),
+        )
+        .unwrap()
+        .with_attributes(Attributes {
+            colors: Some(vec![[0.5; 4]; n]),
+            ..Default::default()
+        })
+        .unwrap();
+        let (asset, report) = Builder::new(&morph).frames(3).build().unwrap();
+        let surface = asset.surface.unwrap();
+        let normals = morph.normals();
+        assert_eq!(surface.normal_deltas, normals.deltas[1..].to_vec());
+        assert_eq!(asset.blend.unwrap().deltas.len(), 2);
+        for (got, w) in [(&surface.n0, [0.25f32, 0.0]), (&surface.n1, [1.0, 0.5])] {
+            for (v, got) in got.iter().enumerate() {
+                let want: [f32; 3] = std::array::from_fn(|i| {
+                    normals.base[v][i]
+                        + w[0] * normals.deltas[1][v][i]
+                        + w[1] * normals.deltas[2][v][i]
+                });
+                for i in 0..3 {
+                    assert!(
+                        (got[i] - want[i]).abs() < 1e-6,
+                        "vertex {v}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+        assert_eq!(surface.colors, Some(vec![[0.5; 4]; n]));
+        assert_eq!(surface.topology, (0..n as u32).collect::<Vec<_>>());
+        assert_eq!((report.topology_vertices, report.seam_vertices), (n, 0));
+    }
+
     #[test]
     fn degenerate_triangles_are_refused() {
         let v = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];

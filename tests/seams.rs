@@ -7,6 +7,7 @@ mod common;
 
 use common::{cut_grid, seamed_sphere, strip_draw, Rng};
 use morphlod::collapse::{canonical_multiset, CollapseSequence};
+use morphlod::deform::DeformError;
 use morphlod::morph::{Attributes, Morph};
 use morphlod::seams::{check_steps, expand, SeamError, SeamRule, StepBoundaries, Wedges};
 use morphlod::simplify::{simplify, simplify_with_seams, SimplifyOptions};
@@ -240,4 +241,34 @@ fn random_walks_draw_the_reference_at_boundaries() {
             );
         }
     }
+}
+
+/// A model refuses a surface that does not fit its poses, and a frame that splits a step.
+#[test]
+fn the_model_checks_the_surface() {
+    let asset = build(&cut_grid(8));
+    let mut short = asset.clone();
+    short.surface.as_mut().unwrap().topology.pop();
+    assert!(matches!(
+        DeformingModel::new(&short),
+        Err(DeformError::SurfaceSize { .. })
+    ));
+    let topology = &asset.surface.as_ref().unwrap().topology;
+    let c = &asset.frames[0].collapses;
+    let split = (1..c.len())
+        .filter(|&i| topology[c[i].u as usize] == topology[c[i - 1].u as usize])
+        .map(|i| {
+            let mut f = (*asset.frames[0]).clone();
+            let moved = f.collapses.remove(i);
+            f.collapses.insert(0, moved);
+            f
+        })
+        .find(|f| f.validate().is_ok())
+        .expect("some step's collapse can go first");
+    let mut broken = asset.clone();
+    broken.frames[0] = std::sync::Arc::new(split);
+    assert!(matches!(
+        DeformingModel::new(&broken),
+        Err(DeformError::Seams { frame: 0, .. })
+    ));
 }
