@@ -7,7 +7,7 @@ mod common;
 
 use common::{cut_grid, seamed_sphere, strip_draw, Rng};
 use morphlod::collapse::{canonical_multiset, CollapseSequence};
-use morphlod::deform::DeformError;
+use morphlod::deform::{DeformError, Strategy};
 use morphlod::morph::{Attributes, Morph};
 use morphlod::seams::{check_steps, expand, SeamError, SeamRule, StepBoundaries, Wedges};
 use morphlod::simplify::{simplify, simplify_with_seams, SimplifyOptions};
@@ -222,7 +222,24 @@ fn random_walks_draw_the_reference_at_boundaries() {
                     (Lod::MaxError(e), bounds[k].floor(l))
                 }
             };
-            state.set(&model, t, lod).unwrap();
+            // Now and then, the same move by the other strategy must give the same strips.
+            let other = (step % 7 == 0).then(|| {
+                let mut other = state.clone();
+                other.set_with(&model, t, lod, Strategy::Rebuild).unwrap();
+                other
+            });
+            let used = state.set_with(&model, t, lod, Strategy::Steps).unwrap();
+            assert_eq!(used, Strategy::Steps);
+            if let Some(other) = other {
+                assert_eq!(other.lengths(), state.lengths(), "{name} step {step}");
+                for s in 0..state.lengths().len() {
+                    assert_eq!(
+                        other.strip(s),
+                        state.strip(s),
+                        "{name} step {step}: strip {s}"
+                    );
+                }
+            }
             assert_eq!(state.frame(), k, "{name} step {step}");
             assert_eq!(
                 state.lod(),
@@ -271,4 +288,105 @@ fn the_model_checks_the_surface() {
         DeformingModel::new(&broken),
         Err(DeformError::Seams { frame: 0, .. })
     ));
+}
+
+/// `mesh` cut in two UV islands by the plane `x = centre`: a vertex used on both sides gets one
+/// copy per side, each side a planar UV projection (the far side shifted), so the cut is a seam
+/// loop. It bends into a second pose. Also returns the same morph welded and without attributes.
+fn cut_in_two(mesh: &morphlod::IndexedMesh) -> (Morph, Morph) {
+    let (pos, tris) = (&mesh.positions, &mesh.triangles);
+    let cx = pos.iter().map(|p| p[0] as f64).sum::<f64>() / pos.len() as f64;
+    let (lo, hi) = pos.iter().fold((f32::MAX, f32::MIN), |(lo, hi), p| {
+        (lo.min(p[1]), hi.max(p[1]))
+    });
+    let bend = |p: [f32; 3]| {
+        let s = (p[1] - lo) / (hi - lo).max(f32::MIN_POSITIVE);
+        [p[0] + 0.2 * (hi - lo) * (3.0 * s).sin(), p[1], p[2]]
+    };
+    let mut copy = std::collections::HashMap::new();
+    let (mut v0, mut uvs, mut split_tris) = (Vec::new(), Vec::new(), Vec::new());
+    for t in tris {
+        let side = u32::from(t.iter().map(|&v| pos[v as usize][0] as f64).sum::<f64>() / 3.0 > cx);
+        split_tris.push(t.map(|v| {
+            *copy.entry((v, side)).or_insert_with(|| {
+                let p = pos[v as usize];
+                v0.push(p);
+                uvs.push([p[1] + side as f32 * 10.0, p[2]]);
+                v0.len() as u32 - 1
+            })
+        }));
+    }
+    let v1: Vec<[f32; 3]> = v0.iter().map(|&p| bend(p)).collect();
+    let seamed = Morph::from_poses(split_tris, v0, v1)
+        .unwrap()
+        .with_attributes(Attributes {
+            uvs: Some(uvs),
+            ..Default::default()
+        })
+        .unwrap();
+    let welded = Morph::from_poses(
+        tris.clone(),
+        pos.clone(),
+        pos.iter().map(|&p| bend(p)).collect(),
+    )
+    .unwrap();
+    (seamed, welded)
+}
+
+/// The cost of seams (BENCHMARKS.md, "Seams"): a real mesh cut into two UV islands, built with
+/// its attributes, against the same morph welded without them.
+/// `cargo test --release --test seams -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn measure_seam_cost() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    for file in ["cow.off", "bunny.obj", "man.off"] {
+        let mesh = morphlod::io::load_mesh(&dir.join(file), &Default::default()).unwrap();
+        let (seamed, welded) = cut_in_two(&mesh);
+        println!(
+            "{file}: {} vertices, {} after the cut, {} seam vertices",
+            welded.vertex_count(),
+            seamed.vertex_count(),
+            seamed.topology().seam_vertices()
+        );
+        for (what, morph) in [
+            ("welded, no attributes", &welded),
+            ("cut, with UVs", &seamed),
+        ] {
+            let start = std::time::Instant::now();
+            let (asset, report) = Builder::new(morph).frames(8).build().unwrap();
+            let wall = start.elapsed();
+            let bytes = asset.to_bytes();
+            let info = morphlod::asset::inspect(&bytes).unwrap().1;
+            let section = |tag: &str| {
+                info.sections
+                    .iter()
+                    .find(|s| s.tag.trim_end() == tag)
+                    .map_or(0, |s| s.bytes)
+            };
+            let model = DeformingModel::new(&asset).unwrap();
+            let changes: usize = model.frame_bytes().iter().sum();
+            let attribute: usize = asset.frames.iter().map(|f| f.len()).sum();
+            let topology: usize = match &asset.surface {
+                Some(s) => asset
+                    .frames
+                    .iter()
+                    .map(|f| boundaries(f, &s.topology).len() - 1)
+                    .sum(),
+                None => attribute,
+            };
+            println!(
+                "  {what}: build {:.0} ms (frames {:.0} ms cpu); {topology} topology collapses, {attribute} attribute collapses ({:.3} per topology collapse); FRMS {} B = {:.2} B per topology collapse; SURF {} B; change lists + tables {} B = {:.1} B per topology collapse; file {} B",
+                wall.as_secs_f64() * 1e3,
+                report.frames_cpu().as_secs_f64() * 1e3,
+                attribute as f64 / topology as f64,
+                section("FRMS"),
+                section("FRMS") as f64 / topology as f64,
+                section("SURF"),
+                changes,
+                changes as f64 / topology as f64,
+                bytes.len(),
+            );
+        }
+    }
 }
