@@ -6,14 +6,20 @@
 //! independent, so they run on the rayon pool, and the stripifier runs beside
 //! them (`rayon::join`): on two cores the strips cost no wall time.
 //!
+//! A morph with vertex attributes (normals, UVs, colours) is simplified on its welded
+//! surface ([`Morph::topology`]) under the seam rule ([`crate::seams`]), each frame's
+//! topology sequence expanded to the attribute vertices, and the asset gets a
+//! [`Surface`]; a position-only morph builds exactly as before, with no surface.
+//!
 //! Each collapse error is rounded to the precision the `.mlod` file keeps
 //! ([`crate::asset::quantize_error`]), so a built asset equals the asset read
 //! back from its file, bit for bit.
 
-use crate::asset::{quantize_error, Asset};
+use crate::asset::{quantize_error, Asset, Surface};
 use crate::collapse::CollapseSequence;
-use crate::morph::Morph;
-use crate::simplify::{simplify, SimplifyOptions};
+use crate::morph::{Morph, TopologyMap, Weights};
+use crate::seams::{expand, SeamError, SeamRule};
+use crate::simplify::{simplify, simplify_with_seams, SimplifyOptions};
 use crate::strip::stripify;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -46,6 +52,8 @@ pub enum BuildError {
     },
     #[error("the animation drives {targets} morph targets; the GPU blends at most {max}: bake some into the base mesh or split the animation", max = crate::asset::MAX_TARGETS)]
     TooManyTargets { targets: usize },
+    #[error("frame {frame}: the simplifier made a collapse the seam rule refuses ({source}); this is a bug in morphlod, please report it with the input")]
+    Seams { frame: usize, source: SeamError },
 }
 
 /// How far a build is: sent after each finished frame, from worker threads.
@@ -59,6 +67,11 @@ pub struct Progress {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BuildReport {
     pub vertices: usize,
+    /// Vertices of the welded surface the simplifier works on (equal to `vertices` for a
+    /// morph without vertex attributes).
+    pub topology_vertices: usize,
+    /// Topology vertices with more than one vertex (split at a seam).
+    pub seam_vertices: usize,
     pub triangles: usize,
     pub strips: usize,
     pub strip_indices: usize,
@@ -146,6 +159,14 @@ impl<'a> Builder<'a> {
             }
         }
 
+        // With vertex attributes the simplifier runs on the welded surface under the seam
+        // rule; without, the identity map would change nothing but the time taken.
+        let attributes = morph.attributes();
+        let topology = attributes.has_vertex_attributes().then(|| morph.topology());
+        let rule = topology
+            .as_ref()
+            .map(|map| SeamRule::new(map, attributes.uvs.as_deref()));
+
         let done = AtomicUsize::new(0);
         let time_of = |k: usize| {
             if frames == 1 {
@@ -193,7 +214,14 @@ impl<'a> Builder<'a> {
                         value,
                     });
                 }
-                let mut sequence = simplify(&pose, triangles, &self.simplify);
+                let mut sequence = match &rule {
+                    None => simplify(&pose, triangles, &self.simplify),
+                    Some(rule) => {
+                        let welded = simplify_with_seams(&pose, triangles, rule, &self.simplify);
+                        expand(&welded, triangles, rule)
+                            .map_err(|source| BuildError::Seams { frame: k, source })?
+                    }
+                };
                 for c in &mut sequence.collapses {
                     c.error = quantize_error(c.error);
                 }
@@ -233,6 +261,8 @@ impl<'a> Builder<'a> {
         }
         let report = BuildReport {
             vertices: n,
+            topology_vertices: topology.as_ref().map_or(n, |map| map.topology_count),
+            seam_vertices: topology.as_ref().map_or(0, TopologyMap::seam_vertices),
             triangles: triangles.len(),
             strips: s0.len(),
             strip_indices: s0.indices.len(),
@@ -248,10 +278,48 @@ impl<'a> Builder<'a> {
             v1: morph.v1(),
             s0,
             frames: sequences,
+            surface: topology.map(|map| surface(morph, map)),
             blend,
-            surface: None,
         };
         Ok((asset, report))
+    }
+}
+
+/// The [`Surface`] of a morph with vertex attributes, welded by `topology`.
+fn surface(morph: &Morph, topology: TopologyMap) -> Surface {
+    let normals = morph.normals();
+    // `base + Σ w_k(t) D_k`, left unnormalised so the GPU can blend and normalise.
+    let normals_at = |t: f32| {
+        let mut out = normals.base.clone();
+        for (deltas, &w) in normals.deltas.iter().zip(&morph.weights_at(t)) {
+            if w == 0.0 {
+                continue;
+            }
+            for (n, d) in out.iter_mut().zip(deltas) {
+                n[0] += w * d[0];
+                n[1] += w * d[1];
+                n[2] += w * d[2];
+            }
+        }
+        out
+    };
+    // The targets `Morph::target_blend` keeps (those the animation drives), in its order.
+    let normal_deltas = match morph.weights() {
+        Weights::Animated(track) => (0..morph.targets().len())
+            .filter(|&k| track.drives(k))
+            .map(|k| normals.deltas[k].clone())
+            .collect(),
+        Weights::TwoPose { .. } => Vec::new(),
+    };
+    let attributes = morph.attributes();
+    Surface {
+        topology: topology.of_vertex,
+        n0: normals_at(0.0),
+        n1: normals_at(1.0),
+        normal_deltas,
+        uvs: attributes.uvs.clone(),
+        colors: attributes.colors.clone(),
+        material: attributes.material.clone(),
     }
 }
 
@@ -372,6 +440,66 @@ mod tests {
             .build()
             .unwrap();
         assert_eq!(seen.load(Ordering::Relaxed), 5);
+    }
+
+    /// The surface of an animated morph with vertex colours: `n0`, `n1` are the source's
+    /// normals blended with the weights at 0 and 1, unnormalised, and the normal deltas are
+    /// those of the blended targets, in `blend.deltas` order.
+    #[test]
+    fn surfaces_carry_the_blended_normals() {
+        use crate::morph::{Attributes, Interpolation, MorphTarget, WeightTrack};
+        let grid = grid_morph();
+        let n = grid.vertex_count();
+        let lift = |z: f32| MorphTarget {
+            name: format!("lift {z}"),
+            deltas: (0..n)
+                .map(|v| [0.0, 0.0, if v % 3 == 1 { z } else { 0.0 }])
+                .collect(),
+            normal_deltas: None,
+        };
+        // Target 0 is never driven, targets 1 and 2 are (weights from 0.25 to 1 and 0 to 0.5).
+        let track = WeightTrack::new(
+            Interpolation::Linear,
+            vec![0.0, 1.0],
+            vec![0.0, 0.25, 0.0, 0.0, 1.0, 0.5],
+            3,
+        )
+        .unwrap();
+        let morph = Morph::from_parts(
+            grid.triangles().to_vec(),
+            grid.base().to_vec(),
+            vec![lift(2.0), lift(1.0), lift(-1.0)],
+            Weights::Animated(track),
+        )
+        .unwrap()
+        .with_attributes(Attributes {
+            colors: Some(vec![[0.5; 4]; n]),
+            ..Default::default()
+        })
+        .unwrap();
+        let (asset, report) = Builder::new(&morph).frames(3).build().unwrap();
+        let surface = asset.surface.unwrap();
+        let normals = morph.normals();
+        assert_eq!(surface.normal_deltas, normals.deltas[1..].to_vec());
+        assert_eq!(asset.blend.unwrap().deltas.len(), 2);
+        for (got, w) in [(&surface.n0, [0.25f32, 0.0]), (&surface.n1, [1.0, 0.5])] {
+            for (v, got) in got.iter().enumerate() {
+                let want: [f32; 3] = std::array::from_fn(|i| {
+                    normals.base[v][i]
+                        + w[0] * normals.deltas[1][v][i]
+                        + w[1] * normals.deltas[2][v][i]
+                });
+                for i in 0..3 {
+                    assert!(
+                        (got[i] - want[i]).abs() < 1e-6,
+                        "vertex {v}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+        assert_eq!(surface.colors, Some(vec![[0.5; 4]; n]));
+        assert_eq!(surface.topology, (0..n as u32).collect::<Vec<_>>());
+        assert_eq!((report.topology_vertices, report.seam_vertices), (n, 0));
     }
 
     #[test]

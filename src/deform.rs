@@ -29,6 +29,7 @@ use thiserror::Error;
 use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState};
+use crate::seams::{check_steps, SeamError, StepBoundaries, Wedges};
 
 /// The level of detail to show, resolved against the current frame's tables.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -111,6 +112,10 @@ pub enum DeformError {
         frame: usize,
         source: ChangeListError,
     },
+    #[error("the surface's topology has {topology} entries, the poses have {vertices} vertices; rebuild the asset")]
+    SurfaceSize { topology: usize, vertices: usize },
+    #[error("frame {frame} does not move whole topology vertices: {source}; rebuild the asset")]
+    Seams { frame: usize, source: SeamError },
 }
 
 /// Why [`DeformingState::set`] refused a request (the state is unchanged).
@@ -136,6 +141,9 @@ struct Frame {
     /// distance (square root of the recorded mean squared distance); never
     /// decreasing, `errors[0] = 0`.
     errors: Vec<f32>,
+    /// For an asset with a surface: the LODs that fall between two topology collapses,
+    /// the only ones shown ([`crate::seams`]); `None`: every LOD.
+    boundaries: Option<StepBoundaries>,
 }
 
 /// Every frame's LOD model over one shared `S0`.
@@ -217,6 +225,10 @@ impl DeformingModel {
             }
         }
         let distinct: Vec<usize> = (0..first.len()).filter(|&k| first[k] == k).collect();
+        let topology = match &asset.surface {
+            Some(surface) => Some(seam_topology(&surface.topology, n)?),
+            None => None,
+        };
         let needed = estimate_bytes(asset, &distinct);
         if needed > max_bytes {
             return Err(DeformError::OverBudget {
@@ -226,7 +238,9 @@ impl DeformingModel {
         }
         let built: Vec<Result<Arc<Frame>, DeformError>> = distinct
             .par_iter()
-            .map(|&frame| build_frame(&layout, frame, &asset.frames[frame]).map(Arc::new))
+            .map(|&frame| {
+                build_frame(&layout, frame, &asset.frames[frame], topology.as_ref()).map(Arc::new)
+            })
             .collect();
         let mut shared: Vec<Option<Arc<Frame>>> = vec![None; first.len()];
         for (&k, frame) in distinct.iter().zip(built) {
@@ -276,11 +290,14 @@ impl DeformingModel {
         Ok(((t.clamp(0.0, 1.0) * last as f32).round() as usize).min(last))
     }
 
-    /// `lod` as a step count of frame `k` (clamped to the last frame).
+    /// `lod` as a step count of frame `k` (clamped to the last frame). For an asset with a
+    /// surface the result is a step boundary ([`crate::seams`]): `Steps`, `Fraction` and
+    /// `MaxError` round down to one, `Triangles` (the finest LOD within the budget) moves to
+    /// the next one at or after the LOD it names.
     pub fn resolve(&self, k: usize, lod: Lod) -> Result<usize, SetError> {
         let frame = &self.frames[k.min(self.frames.len() - 1)];
         let max = frame.changes.max_lod();
-        Ok(match lod {
+        let l = match lod {
             Lod::Steps(l) => l.min(max),
             Lod::Fraction(f) if f.is_nan() => return Err(SetError::LodNaN(lod)),
             Lod::Fraction(f) => ((f.clamp(0.0, 1.0) * max as f32).round() as usize).min(max),
@@ -291,6 +308,11 @@ impl DeformingModel {
             }
             Lod::MaxError(e) if e.is_nan() => return Err(SetError::LodNaN(lod)),
             Lod::MaxError(e) => frame.errors.partition_point(|&x| x <= e).saturating_sub(1),
+        };
+        Ok(match (&frame.boundaries, lod) {
+            (None, _) => l,
+            (Some(b), Lod::Triangles(_)) => b.ceil(l),
+            (Some(b), _) => b.floor(l),
         })
     }
 
@@ -298,7 +320,11 @@ impl DeformingModel {
     pub fn frame_bytes(&self) -> Vec<usize> {
         self.frames
             .iter()
-            .map(|f| f.changes.byte_size() + f.errors.len() * 4)
+            .map(|f| {
+                f.changes.byte_size()
+                    + f.errors.len() * 4
+                    + f.boundaries.as_ref().map_or(0, StepBoundaries::byte_size)
+            })
             .collect()
     }
 }
@@ -313,10 +339,24 @@ fn estimate_bytes(asset: &Asset, distinct: &[usize]) -> u64 {
     8 * slots + frames + 8 * asset.frames.len() as u64
 }
 
+/// A surface's topology map, checked against `n` vertices, with its wedges.
+fn seam_topology(of_vertex: &[u32], n: usize) -> Result<(&[u32], Wedges), DeformError> {
+    if of_vertex.len() != n {
+        return Err(DeformError::SurfaceSize {
+            topology: of_vertex.len(),
+            vertices: n,
+        });
+    }
+    // Numbered densely by construction; a sparse map only leaves empty wedges.
+    let count = of_vertex.iter().max().map_or(0, |&t| t as usize + 1);
+    Ok((of_vertex, Wedges::new(of_vertex, count)))
+}
+
 fn build_frame(
     layout: &StripLayout,
     frame: usize,
     seq: &CollapseSequence,
+    topology: Option<&(&[u32], Wedges)>,
 ) -> Result<Frame, DeformError> {
     if seq.vertex_count as usize != layout.vertex_count() {
         return Err(DeformError::FrameVertexCount {
@@ -330,7 +370,19 @@ fn build_frame(
     let changes =
         FrameChanges::build(layout, seq).map_err(|source| DeformError::Frame { frame, source })?;
     let errors = seq.errors().iter().map(|&e| e.max(0.0).sqrt()).collect();
-    Ok(Frame { changes, errors })
+    let boundaries = match topology {
+        Some((of_vertex, wedges)) => {
+            check_steps(seq, wedges, of_vertex)
+                .map_err(|source| DeformError::Seams { frame, source })?;
+            Some(StepBoundaries::new(seq, of_vertex))
+        }
+        None => None,
+    };
+    Ok(Frame {
+        changes,
+        errors,
+        boundaries,
+    })
 }
 
 /// The strips of one [`DeformingModel`] at some `(frame, lod)`, with the log

@@ -16,6 +16,8 @@
 //! * [`topology`] reports components, boundaries, manifoldness and genus.
 //! * [`morph`] owns the supermesh `T` with poses `V(0)`, `V(1)` (and glTF weight animations).
 //! * [`simplify`] produces a quadric-error half-edge [`CollapseSequence`].
+//! * [`seams`] is the rule for collapses across UV seams and the expansion of a welded
+//!   surface's sequence to the attribute vertices the GPU draws.
 //! * [`collapse`] defines what a collapse sequence means: survivors and the reference mesh
 //!   at any LOD, the oracle every test compares against.
 //! * [`build`] runs the per-frame builder: a [`Morph`] to an [`Asset`] (`.mlod`, see [`asset`]).
@@ -51,6 +53,7 @@ pub mod lodstrips;
 pub mod mesh;
 pub mod metrics;
 pub mod morph;
+pub mod seams;
 pub mod simplify;
 pub mod strip;
 pub mod topology;

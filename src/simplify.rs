@@ -37,12 +37,15 @@
 //!   or removes the last triangle of a component;
 //! * no remaining triangle around `u` flips or degenerates: the cosine between
 //!   its normals before and after must exceed
-//!   [`SimplifyOptions::min_normal_cos`].
+//!   [`SimplifyOptions::min_normal_cos`];
+//! * on a mesh with seams ([`simplify_with_seams`]): the seam rule of
+//!   [`crate::seams`] (no torn seam, no folded UV triangle).
 
 use glam::DVec3;
 
 use crate::collapse::{Collapse, CollapseSequence};
 use crate::mesh::adjacency::{VertexTriangles, NONE};
+use crate::seams::SeamRule;
 
 /// Tuning of the simplifier; `Default` matches meshoptimizer's choices.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,11 +93,103 @@ pub fn simplify(
             t.iter().all(|&v| (v as usize) < n) && t[0] != t[1] && t[1] != t[2] && t[0] != t[2]
         })
         .collect();
-    let mut state = State::new(positions, tris, options);
+    let mut state = State::new(positions, tris, options, None);
     state.run();
     CollapseSequence {
         vertex_count: n as u32,
         collapses: state.collapses,
+    }
+}
+
+/// Simplifies a mesh with seams on its welded surface: `positions` and `triangles` are over
+/// attribute vertices, `rule` welds them ([`SeamRule`]). The result is a sequence of
+/// *topology* collapses (over `rule.topology_count()` vertices) that the seam rule accepts
+/// at every step, on top of every rule of [`simplify`]; [`crate::seams::expand`] turns it
+/// into the attribute-level sequence the runtime plays.
+///
+/// Welded copies must share their position (a [`crate::morph::TopologyMap`] guarantees it); each topology
+/// vertex takes the position of its first copy. Triangles with an out-of-range or repeated
+/// attribute index are ignored; a triangle whose corners weld into fewer than three topology
+/// vertices (a sliver across a seam) is not simplified over, and its corners never move.
+/// With an identity map and no UVs the sequence equals [`simplify`]'s.
+pub fn simplify_with_seams(
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    rule: &SeamRule,
+    options: &SimplifyOptions,
+) -> CollapseSequence {
+    let n = positions.len().min(rule.vertex_count());
+    let tn = rule.topology_count();
+    let mut welded = vec![[0.0f32; 3]; tn];
+    for v in (0..n as u32).rev() {
+        welded[rule.topology_of(v) as usize] = positions[v as usize];
+    }
+    let mut tris = Vec::with_capacity(triangles.len());
+    let mut corners = Vec::with_capacity(triangles.len());
+    let mut pinned = Vec::new();
+    for &t in triangles {
+        if !(t.iter().all(|&v| (v as usize) < n) && t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) {
+            continue;
+        }
+        let topo = t.map(|v| rule.topology_of(v));
+        if topo[0] == topo[1] || topo[1] == topo[2] || topo[0] == topo[2] {
+            pinned.extend(topo);
+            continue;
+        }
+        tris.push(topo);
+        corners.push(t);
+    }
+    let seams = Seams {
+        rule,
+        corners,
+        pairs: Vec::new(),
+    };
+    let mut state = State::new(&welded, tris, options, Some(seams));
+    for v in pinned {
+        state.kind[v as usize] = Kind::Locked;
+    }
+    state.run();
+    CollapseSequence {
+        vertex_count: tn as u32,
+        collapses: state.collapses,
+    }
+}
+
+/// The simplifier's view of the seams: the rule, and per live triangle its attribute
+/// corners (kept in step with the topology triangles as collapses re-point them).
+struct Seams<'r, 'm> {
+    rule: &'r SeamRule<'m>,
+    corners: Vec<[u32; 3]>,
+    /// Scratch for the rule's `(a, b)` pairs.
+    pairs: Vec<(u32, u32)>,
+}
+
+impl Seams<'_, '_> {
+    /// Re-points the attribute corners of the surviving triangles `kept` by the pairs of
+    /// the last [`allows`](Self::allows) (the collapse being made), as
+    /// [`crate::seams::expand`] does.
+    fn move_corners(&mut self, kept: &[u32]) {
+        for &t in kept {
+            let tri = &mut self.corners[t as usize];
+            for a in tri.iter_mut() {
+                if let Ok(i) = self.pairs.binary_search_by_key(a, |&(x, _)| x) {
+                    *a = self.pairs[i].1;
+                }
+            }
+        }
+    }
+
+    /// Asks the rule about `u → w` over `fan`, the live triangles of `u`.
+    fn allows(&mut self, u: u32, w: u32, fan: &[u32]) -> bool {
+        let corners = &self.corners;
+        self.rule
+            .map_collapse(
+                u,
+                w,
+                fan.iter().map(|&t| corners[t as usize]),
+                &mut self.pairs,
+            )
+            .is_ok()
     }
 }
 
@@ -360,8 +455,10 @@ impl Queue {
     }
 }
 
-struct State<'o> {
+struct State<'o, 'r, 'm> {
     options: &'o SimplifyOptions,
+    /// `Some` when simplifying the welded surface of a mesh with seams.
+    seams: Option<Seams<'r, 'm>>,
     /// The caller's positions, read as `f64` on use: half the cache
     /// footprint of a `DVec3` copy, and the collapse loop is memory bound.
     pos: &'o [[f32; 3]],
@@ -384,8 +481,13 @@ struct State<'o> {
     collapses: Vec<Collapse>,
 }
 
-impl<'o> State<'o> {
-    fn new(pos: &'o [[f32; 3]], tris: Vec<[u32; 3]>, options: &'o SimplifyOptions) -> Self {
+impl<'o, 'r, 'm> State<'o, 'r, 'm> {
+    fn new(
+        pos: &'o [[f32; 3]],
+        tris: Vec<[u32; 3]>,
+        options: &'o SimplifyOptions,
+        seams: Option<Seams<'r, 'm>>,
+    ) -> Self {
         let n = pos.len();
         let vt = VertexTriangles::new(&tris, n);
         let (kind, boundary_edges) = classify(&tris, &vt);
@@ -404,6 +506,7 @@ impl<'o> State<'o> {
         }
         Self {
             options,
+            seams,
             pos,
             tris,
             kind,
@@ -654,7 +757,10 @@ impl<'o> State<'o> {
                 return false;
             }
         }
-        true
+        match &mut self.seams {
+            Some(seams) => seams.allows(u, w, &self.pool[su..su + lu]),
+            None => true,
+        }
     }
 
     /// Whether a live triangle of `w` uses exactly the vertices `{w, a, b}`.
@@ -675,6 +781,12 @@ impl<'o> State<'o> {
             w,
             error: cost as f32,
         });
+        if let Some(seams) = &mut self.seams {
+            // Fills the pairs `move_corners` applies below; `is_valid` passed, so it allows.
+            let Span { start, len, .. } = self.span[u as usize];
+            let allowed = seams.allows(u, w, &self.pool[start..start + len as usize]);
+            debug_assert!(allowed, "{u} -> {w} was validated");
+        }
         let ku = self.kind[u as usize];
         self.kind[u as usize] = Kind::Collapsed;
         self.queue.remove(u);
@@ -717,6 +829,9 @@ impl<'o> State<'o> {
             }
         }
         moved.truncate(kept);
+        if let Some(seams) = &mut self.seams {
+            seams.move_corners(&moved);
+        }
         self.append_to_list(w, &moved);
         self.scratch = moved;
 

@@ -3,12 +3,12 @@
 //! the bytes of small real assets (with and without repairing the checksum, so
 //! the deeper validation is reached) and asserts that decoding never panics.
 
-use morphlod::asset::{inspect, AssetError, HEADER_LEN, MAGIC, VERSION};
+use morphlod::asset::{inspect, AssetError, AssetLoadOptions, HEADER_LEN, MAGIC, VERSION};
 use morphlod::build::Builder;
 use morphlod::collapse::{Collapse, CollapseSequence, SequenceError};
 use morphlod::io::LoadOptions;
 use morphlod::io::{load_morph, MorphSource};
-use morphlod::morph::Morph;
+use morphlod::morph::{ImageFormat, Morph, Sampler, Texture};
 use morphlod::strip::Strips;
 use morphlod::Asset;
 use proptest::prelude::*;
@@ -16,7 +16,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
 mod common;
-use common::{fix_header, grid_morph};
+use common::{cut_grid, fix_header, grid_morph};
 
 fn asset_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -78,6 +78,33 @@ fn file_with_sections(sections: &[(&[u8; 4], Vec<u8>)]) -> Vec<u8> {
     out.extend_from_slice(&body);
     fix_header(&mut out);
     out
+}
+
+/// The cut grid (a UV seam up its middle) with a texture: an asset with "SURF" and "TEXR".
+fn seamed() -> &'static (Asset, Vec<u8>) {
+    static SEAMED: OnceLock<(Asset, Vec<u8>)> = OnceLock::new();
+    SEAMED.get_or_init(|| {
+        let (mut asset, _) = Builder::new(&cut_grid(8)).frames(3).build().unwrap();
+        let surface = asset.surface.as_mut().expect("UVs give a surface");
+        surface.material.name = Some("skin".into());
+        surface.material.texture = Some(Texture {
+            format: ImageFormat::Png,
+            bytes: b"\x89PNG not really an image: files carry the bytes as given".to_vec(),
+            sampler: Sampler {
+                mag_filter: Some(9729),
+                ..Sampler::default()
+            },
+        });
+        let bytes = asset.to_bytes();
+        (asset, bytes)
+    })
+}
+
+/// Recomputes the CRC-32 a surface section ends with, so an edit reaches the decoder.
+fn reseal(section: &mut [u8]) {
+    let len = section.len() - 4;
+    let crc = crc32fast::hash(&section[..len]);
+    section[len..].copy_from_slice(&crc.to_le_bytes());
 }
 
 fn tiny_asset() -> Asset {
@@ -600,6 +627,216 @@ fn animation_targets_round_trip_and_bad_target_sections_are_refused() {
     ));
 }
 
+#[test]
+fn surfaces_round_trip_and_old_files_have_none() {
+    let (asset, bytes) = seamed();
+    let tags: Vec<[u8; 4]> = sections_of(bytes).iter().map(|(t, _)| *t).collect();
+    assert!(tags.contains(b"SURF") && tags.contains(b"TEXR"));
+    let back = Asset::from_bytes(bytes).unwrap();
+    assert_eq!(&back, asset);
+    assert_eq!(back.to_bytes(), *bytes);
+    assert!(inspect(bytes).is_ok());
+    // A surface without a texture writes no "TEXR".
+    let mut plain = asset.clone();
+    plain.surface.as_mut().unwrap().material.texture = None;
+    let plain_bytes = plain.to_bytes();
+    assert!(!sections_of(&plain_bytes).iter().any(|(t, _)| t == b"TEXR"));
+    assert_eq!(Asset::from_bytes(&plain_bytes).unwrap(), plain);
+    // Assets without attributes write neither section.
+    assert!(grid().0.surface.is_none());
+    assert!(!sections_of(&grid().1)
+        .iter()
+        .any(|(t, _)| t == b"SURF" || t == b"TEXR"));
+}
+
+#[test]
+fn damaged_surface_sections_are_refused() {
+    let (asset, bytes) = seamed();
+    let n = asset.v0.len();
+    assert!(n < 128, "one-byte topology entries below");
+    let original = sections_of(bytes);
+    // The file with section `tag` edited (and the file's header repaired).
+    let edited = |tag: &[u8; 4], edit: &dyn Fn(&mut Vec<u8>)| {
+        let sections: Vec<([u8; 4], Vec<u8>)> = original
+            .iter()
+            .map(|(t, d)| {
+                let mut d = d.clone();
+                if t == tag {
+                    edit(&mut d);
+                }
+                (*t, d)
+            })
+            .collect();
+        let refs: Vec<(&[u8; 4], Vec<u8>)> = sections.iter().map(|(t, d)| (t, d.clone())).collect();
+        Asset::from_bytes(&file_with_sections(&refs))
+    };
+    let err = |tag: &[u8; 4], edit: &dyn Fn(&mut Vec<u8>)| edited(tag, edit).unwrap_err();
+    // Unchanged, the hand-written file loads.
+    assert_eq!(&edited(b"SURF", &|_| {}).unwrap(), asset);
+
+    // A flipped byte: that section's own checksum names it.
+    for tag in [b"SURF", b"TEXR"] {
+        assert!(matches!(
+            err(tag, &|d| d[5] ^= 0x10),
+            AssetError::SectionChecksum { tag: t, .. } if t.as_bytes() == tag
+        ));
+    }
+    // Truncated (resealed): the reader says what it was reading, or that a length is past
+    // the data.
+    for tag in [b"SURF", b"TEXR"] {
+        let e = err(tag, &|d| {
+            d.truncate(d.len() / 2);
+            reseal(d);
+        });
+        assert!(
+            matches!(
+                e,
+                AssetError::Truncated { .. } | AssetError::CountTooLarge { .. }
+            ),
+            "{e}"
+        );
+    }
+    assert!(matches!(
+        err(b"SURF", &|d| d.truncate(3)),
+        AssetError::Truncated { tag: "SURF", .. }
+    ));
+    // A version from the future, and one that never existed.
+    for version in [0u8, 2] {
+        assert!(matches!(
+            err(b"SURF", &|d| {
+                d[0] = version;
+                reseal(d);
+            }),
+            AssetError::SectionVersion { tag: "SURF", found } if found == version
+        ));
+    }
+    assert!(matches!(
+        err(b"SURF", &|d| {
+            d[1] |= 0x80;
+            reseal(d);
+        }),
+        AssetError::SurfaceFlags { .. }
+    ));
+    // Vertex 0's topology vertex past the count (entries start at byte 3).
+    assert!(matches!(
+        err(b"SURF", &|d| {
+            d[3] = d[2];
+            reseal(d);
+        }),
+        AssetError::SurfaceTopology { vertex: 0, .. }
+    ));
+    // Two vertices that do not coincide welded into one.
+    assert!(matches!(
+        err(b"SURF", &|d| {
+            d[4] = d[3];
+            reseal(d);
+        }),
+        AssetError::SurfaceWeld {
+            vertex: 1,
+            first: 0
+        }
+    ));
+    // A NaN normal (n0 of vertex 2, x).
+    assert!(matches!(
+        err(b"SURF", &|d| {
+            let at = 3 + n + 2 * 12;
+            d[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+            reseal(d);
+        }),
+        AssetError::NonFiniteAttribute {
+            attribute: "n0",
+            vertex: 2
+        }
+    ));
+    // Normal deltas for a target the asset does not blend.
+    assert!(matches!(
+        err(b"SURF", &|d| {
+            let at = 3 + n + 24 * n;
+            d[at] = 1;
+            reseal(d);
+        }),
+        AssetError::NormalDeltaCount {
+            found: 1,
+            targets: 0
+        }
+    ));
+    assert!(matches!(
+        err(b"TEXR", &|d| {
+            d[1] = 9;
+            reseal(d);
+        }),
+        AssetError::TextureFormat { code: 9 }
+    ));
+    // A texture with nothing to map it.
+    let without_surface: Vec<(&[u8; 4], Vec<u8>)> = original
+        .iter()
+        .filter(|(t, _)| t != b"SURF")
+        .map(|(t, d)| (t, d.clone()))
+        .collect();
+    assert!(matches!(
+        Asset::from_bytes(&file_with_sections(&without_surface)),
+        Err(AssetError::TextureWithoutSurface)
+    ));
+}
+
+/// The load budget counts the surface: the smallest budget that loads the asset without
+/// its surface refuses it with its surface, and a budget of the plain need plus four times the
+/// surface's section bytes plus 8 bytes per vertex loads it.
+#[test]
+fn the_load_budget_counts_the_surface() {
+    let (asset, bytes) = seamed();
+    let mut plain = asset.clone();
+    plain.surface = None;
+    let plain_bytes = plain.to_bytes();
+    let loads = |bytes: &[u8], max_bytes: u64| {
+        Asset::from_bytes_with(bytes, &AssetLoadOptions { max_bytes }).is_ok()
+    };
+    let (mut lo, mut hi) = (0u64, 1 << 30);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if loads(&plain_bytes, mid) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    assert!(matches!(
+        Asset::from_bytes_with(bytes, &AssetLoadOptions { max_bytes: lo }),
+        Err(AssetError::OverBudget { .. })
+    ));
+    let sections = sections_of(bytes);
+    let length = |tag: &[u8; 4]| sections.iter().find(|(t, _)| t == tag).unwrap().1.len() as u64;
+    let surface = 4 * length(b"SURF") + length(b"TEXR") + 8 * asset.v0.len() as u64;
+    let file_growth = (bytes.len() - plain_bytes.len()) as u64;
+    assert!(loads(bytes, lo + surface + file_growth));
+}
+
+/// A frame that moves only some copies of a seam vertex in a step is refused on load.
+#[test]
+fn frames_that_split_a_seam_are_refused() {
+    let (asset, _) = seamed();
+    let topology = &asset.surface.as_ref().unwrap().topology;
+    // A collapse of a step of more than one collapse, moved to the front (the first such
+    // move that leaves a valid sequence).
+    let c = &asset.frames[1].collapses;
+    let frame = (1..c.len())
+        .filter(|&i| topology[c[i].u as usize] == topology[c[i - 1].u as usize])
+        .map(|i| {
+            let mut f = (*asset.frames[1]).clone();
+            let moved = f.collapses.remove(i);
+            f.collapses.insert(0, moved);
+            f
+        })
+        .find(|f| f.validate().is_ok())
+        .expect("some step's collapse can go first");
+    let mut broken = asset.clone();
+    broken.frames[1] = Arc::new(frame);
+    assert!(matches!(
+        Asset::from_bytes(&broken.to_bytes()),
+        Err(AssetError::SurfaceSteps { frame: 1, .. })
+    ));
+}
+
 #[derive(Clone, Debug)]
 enum Mutation {
     Flip { at: usize, bit: u8 },
@@ -662,11 +899,15 @@ proptest! {
     /// decodes must re-encode to something that decodes to the same asset.
     #[test]
     fn mutated_files_never_panic(
-        which in 0..2usize,
+        which in 0..3usize,
         mutations in prop::collection::vec(mutation(), 1..4),
         repair in any::<bool>(),
     ) {
-        let bytes = if which == 0 { &cube().1 } else { &grid().1 };
+        let bytes = match which {
+            0 => &cube().1,
+            1 => &grid().1,
+            _ => &seamed().1,
+        };
         let mut bytes = bytes.clone();
         for m in &mutations {
             apply(&mut bytes, m);

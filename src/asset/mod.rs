@@ -22,13 +22,17 @@
 //!                    interpolation u8 (0 STEP, 1 LINEAR, 2 CUBICSPLINE) | target count K
 //!                    LEB128 | keyframe count N LEB128 | N f32 times | the track's f32
 //!                    values (N × K, × 3 for CUBICSPLINE) | K × vertices f32 x, y, z deltas
+//!   "SURF", "TEXR"   optional, only for assets with a [`Surface`]: its shading attributes and
+//!                    the material's texture, each with a version byte and its own CRC-32
+//!                    (layout in `surface.rs`; validation below)
 //! ```
 //!
 //! The magic is PNG's trick: the high byte catches 7-bit transfers, the
 //! CR LF / LF pair catches newline translation, `^Z` stops DOS `type`.
 //! Sections are found through the table, so a later minor addition (an extra
 //! section) is skipped by this reader; an incompatible change bumps the version.
-//! "TGTS" is such an addition: a reader that predates it draws the two-pose blend.
+//! "TGTS" is such an addition: a reader that predates it draws the two-pose blend; so are
+//! "SURF" and "TEXR": a reader that predates them draws the asset faceted and untextured.
 //!
 //! # Frame coding
 //!
@@ -64,18 +68,25 @@
 //! checksum before reading anything else, then every count against the bytes
 //! left before allocating, every index against the vertex count, the strip
 //! offsets, every collapse (in range, alive, not onto itself: the rules of
-//! [`CollapseSequence::validate`]) and every error (finite, not negative).
+//! [`CollapseSequence::validate`]) and every error (finite, not negative). A surface is
+//! checked for its own CRC and version, counts, finite values, topology entries in range,
+//! copies of one topology vertex at one position in both poses and in every target, and
+//! every frame moving whole topology vertices ([`crate::seams::check_steps`]); a texture
+//! without a surface is refused.
 //! Every failure is a typed [`AssetError`]; no input panics.
 
 mod frame_codec;
 mod inspect;
 mod sections;
+mod surface;
 
 pub use frame_codec::quantize_error;
 pub use inspect::{inspect, inspect_with, AssetInfo, FrameInfo, SectionInfo};
+pub use surface::SURFACE_VERSION;
 
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::morph::{MorphError, TargetBlend};
+use crate::seams::SeamError;
 use crate::strip::Strips;
 use frame_codec::Neighbours;
 use sections::{
@@ -127,6 +138,20 @@ pub struct Surface {
     pub material: crate::morph::Material,
 }
 
+impl Surface {
+    /// Bytes the surface holds on the heap (capacities not counted).
+    pub fn heap_bytes(&self) -> usize {
+        let n = self.topology.len();
+        let per_vertex = 4
+            + 24
+            + 12 * self.normal_deltas.len()
+            + self.uvs.as_ref().map_or(0, |_| 8)
+            + self.colors.as_ref().map_or(0, |_| 16);
+        let texture = self.material.texture.as_ref().map_or(0, |t| t.bytes.len());
+        n * per_vertex + texture
+    }
+}
+
 /// Most morph targets an asset may blend on the GPU (the uniform block holds one weight per
 /// target). More than any animation of one mesh drives; a file asking for more is refused.
 pub const MAX_TARGETS: usize = 64;
@@ -168,6 +193,8 @@ pub(super) const TAG_V1: [u8; 4] = *b"V1  ";
 pub(super) const TAG_S0: [u8; 4] = *b"S0  ";
 pub(super) const TAG_FRAMES: [u8; 4] = *b"FRMS";
 pub(super) const TAG_TARGETS: [u8; 4] = *b"TGTS";
+pub(super) const TAG_SURFACE: [u8; 4] = *b"SURF";
+pub(super) const TAG_TEXTURE: [u8; 4] = *b"TEXR";
 pub(super) const SECTION_ENTRY_LEN: usize = 24;
 /// More sections than any version will define: bounds the table before it is read.
 const MAX_SECTIONS: u32 = 64;
@@ -308,6 +335,43 @@ pub enum AssetError {
         length: usize,
         used: usize,
     },
+    #[error("section '{tag}': checksum mismatch, it says CRC-32 {stored:#010x} but holds {computed:#010x}: the section is damaged")]
+    SectionChecksum {
+        tag: &'static str,
+        stored: u32,
+        computed: u32,
+    },
+    #[error("section '{tag}' has format version {found}; this morphlod reads versions 1 to {SURFACE_VERSION}: upgrade morphlod (0 never existed: the file is damaged)")]
+    SectionVersion { tag: &'static str, found: u8 },
+    #[error(
+        "section 'SURF' sets flags {flags:#04x} that this morphlod does not know: upgrade morphlod"
+    )]
+    SurfaceFlags { flags: u8 },
+    #[error(
+        "section 'SURF': vertex {vertex} names topology vertex {topology}, but there are {count}"
+    )]
+    SurfaceTopology {
+        vertex: usize,
+        topology: u64,
+        count: usize,
+    },
+    #[error("section 'SURF': {attribute} of vertex {vertex} is not finite")]
+    NonFiniteAttribute {
+        attribute: &'static str,
+        vertex: usize,
+    },
+    #[error("section 'SURF' holds normal deltas for {found} targets, but the asset blends {targets}: the file is damaged")]
+    NormalDeltaCount { found: usize, targets: usize },
+    #[error("section 'SURF': the material name is not UTF-8")]
+    MaterialName,
+    #[error("section 'SURF': vertex {vertex} is a copy of vertex {first} (one topology vertex) but moves differently: a seam would open; rebuild the asset")]
+    SurfaceWeld { vertex: usize, first: usize },
+    #[error("frame {frame} does not fit the surface's seams: {source}; rebuild the asset")]
+    SurfaceSteps { frame: usize, source: SeamError },
+    #[error("section 'TEXR' names image format {code}, which is neither 0 (PNG) nor 1 (JPEG)")]
+    TextureFormat { code: u8 },
+    #[error("the file has a texture ('TEXR') but no surface ('SURF') to map it with: the file is damaged")]
+    TextureWithoutSurface,
 }
 
 impl Asset {
@@ -328,6 +392,12 @@ impl Asset {
         ];
         if let Some(blend) = &self.blend {
             sections.push((TAG_TARGETS, encode_targets(blend)));
+        }
+        if let Some(surface) = &self.surface {
+            sections.push((TAG_SURFACE, surface::encode_surface(surface)));
+            if let Some(texture) = &surface.material.texture {
+                sections.push((TAG_TEXTURE, surface::encode_texture(texture)));
+            }
         }
 
         let mut body = Vec::new();
@@ -396,6 +466,7 @@ impl Asset {
             + self.frames.len() * std::mem::size_of::<Arc<CollapseSequence>>()
             + frames
             + blend
+            + self.surface.as_ref().map_or(0, Surface::heap_bytes)
     }
 
     /// Writes the file atomically (see [`save_bytes`]).
@@ -522,8 +593,20 @@ fn decode(
         Ok(data) => Some(decode_targets(data, n)?),
         Err(_) => None,
     };
+    let targets = blend.as_ref().map_or(0, |b| b.deltas.len());
+    let surface = match (section(TAG_SURFACE), section(TAG_TEXTURE)) {
+        (Ok(data), texture) => {
+            let mut surface = surface::decode_surface(data, n, targets)?;
+            if let Ok(texture) = texture {
+                surface.material.texture = Some(surface::decode_texture(texture)?);
+            }
+            Some(surface)
+        }
+        (Err(_), Ok(_)) => return Err(AssetError::TextureWithoutSurface),
+        (Err(_), Err(_)) => None,
+    };
 
-    let asset = Asset {
+    let mut asset = Asset {
         v0,
         v1,
         s0,
@@ -531,6 +614,10 @@ fn decode(
         blend,
         surface: None,
     };
+    if let Some(surface) = surface {
+        surface::check_surface(&asset, &surface)?;
+        asset.surface = Some(surface);
+    }
     Ok((asset, table, frame_infos))
 }
 /// Upper bound of the bytes [`decode`] allocates for a file of `file` bytes with this
@@ -548,6 +635,12 @@ fn load_bytes_needed(file: usize, table: &[Section], parts: &[FramePart]) -> u64
     // (triangles, fans, offsets) about 40 bytes per index and 24 per vertex at most.
     let strips = 44 * length(TAG_S0) + 24 * n;
     let targets = 2 * length(TAG_TARGETS);
+    // A surface: at most 4 bytes per stored byte (topology entries widened to u32), plus
+    // the seam check's wedges (8 bytes per vertex) and the texture as stored.
+    let surface = match length(TAG_SURFACE) {
+        0 => 0,
+        bytes => 4 * bytes + 8 * n + length(TAG_TEXTURE),
+    };
     let mut distinct: Vec<&[u8]> = parts.iter().map(|p| p.bytes).collect();
     distinct.sort_unstable();
     distinct.dedup();
@@ -559,7 +652,7 @@ fn load_bytes_needed(file: usize, table: &[Section], parts: &[FramePart]) -> u64
     let threads = (rayon::current_num_threads() as u64).min(distinct.len() as u64);
     let scratch = threads * 8 * n;
     let table_bytes = parts.len() as u64 * 64;
-    file as u64 + poses + strips + targets + frames + scratch + table_bytes
+    file as u64 + poses + strips + targets + surface + frames + scratch + table_bytes
 }
 
 pub(super) fn tag_name(tag: [u8; 4]) -> String {

@@ -321,3 +321,141 @@ impl Morph {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::morph::{MorphTarget, Weights};
+    use proptest::prelude::*;
+
+    /// A morph whose vertex `v` sits on point `points[v]` of a small set (so some coincide), with
+    /// one target that moves point `p` by `lift[p]`, except that `split` vertices get a delta of
+    /// their own; random triangles over the vertices.
+    fn morph(points: &[usize], split: &[bool], triangles: &[[u32; 3]], with_uvs: bool) -> Morph {
+        let n = points.len();
+        let at = |p: usize| [p as f32, (p * p % 7) as f32, (p % 3) as f32];
+        let base: Vec<[f32; 3]> = points.iter().map(|&p| at(p)).collect();
+        let deltas: Vec<[f32; 3]> = points
+            .iter()
+            .zip(split)
+            .enumerate()
+            .map(|(v, (&p, &s))| [0.0, 0.0, if s { 10.0 + v as f32 } else { p as f32 * 0.5 }])
+            .collect();
+        let target = MorphTarget {
+            name: "t".into(),
+            deltas,
+            normal_deltas: None,
+        };
+        let m = Morph::from_parts(
+            triangles.to_vec(),
+            base,
+            vec![target],
+            Weights::TwoPose {
+                w0: vec![0.0],
+                w1: vec![1.0],
+            },
+        )
+        .unwrap();
+        if with_uvs {
+            m.with_attributes(Attributes {
+                uvs: Some(vec![[0.5, 0.5]; n]),
+                ..Default::default()
+            })
+            .unwrap()
+        } else {
+            m
+        }
+    }
+
+    fn case() -> impl Strategy<Value = (Vec<usize>, Vec<bool>, Vec<[u32; 3]>)> {
+        (3usize..40).prop_flat_map(|n| {
+            (
+                prop::collection::vec(0usize..12, n),
+                prop::collection::vec(prop::bool::weighted(0.1), n),
+                prop::collection::vec(
+                    (0..n as u32, 0..n as u32, 0..n as u32)
+                        .prop_filter("distinct corners", |(a, b, c)| a != b && b != c && a != c)
+                        .prop_map(|(a, b, c)| [a, b, c]),
+                    1..30,
+                ),
+            )
+        })
+    }
+
+    proptest! {
+        /// Vertices weld exactly when their base positions and target deltas are bit-equal,
+        /// numbered in order of first appearance; the counts and the renumbered triangles follow.
+        #[test]
+        fn topology_welds_exactly_the_coinciding_vertices((points, split, tris) in case()) {
+            let m = morph(&points, &split, &tris, true);
+            let map = m.topology();
+            let n = points.len();
+            prop_assert_eq!(map.of_vertex.len(), n);
+            let same = |a: usize, b: usize| points[a] == points[b] && !split[a] && !split[b];
+            for a in 0..n {
+                for b in 0..n {
+                    prop_assert_eq!(map.of_vertex[a] == map.of_vertex[b], a == b || same(a, b));
+                }
+            }
+            let mut next = 0;
+            for &t in &map.of_vertex {
+                prop_assert!(t <= next);
+                if t == next {
+                    next += 1;
+                }
+            }
+            prop_assert_eq!(map.topology_count, next as usize);
+            let mut copies = vec![0; map.topology_count];
+            for &t in &map.of_vertex {
+                copies[t as usize] += 1;
+            }
+            prop_assert_eq!(map.seam_vertices(), copies.iter().filter(|&&c| c > 1).count());
+            let welded = map.triangles(&tris);
+            for (w, t) in welded.iter().zip(&tris) {
+                prop_assert_eq!(*w, t.map(|v| map.of_vertex[v as usize]));
+            }
+            // Without vertex attributes nothing welds.
+            let plain = morph(&points, &split, &tris, false).topology();
+            prop_assert!(plain.is_identity());
+            prop_assert_eq!(plain, TopologyMap::identity(n));
+        }
+
+        /// Normals are unit length (or +Z where the sum vanishes), equal on copies of one
+        /// topology vertex, and do not change when the mesh is scaled.
+        #[test]
+        fn vertex_normals_are_unit_shared_and_scale_free((points, split, tris) in case()) {
+            let m = morph(&points, &split, &tris, true);
+            let map = m.topology();
+            let normals = vertex_normals(m.base(), &tris, &map);
+            for (v, n) in normals.iter().enumerate() {
+                let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                prop_assert!((len - 1.0).abs() < 1e-5, "vertex {v}: {n:?}");
+                for (u, o) in normals.iter().enumerate() {
+                    if map.of_vertex[u] == map.of_vertex[v] {
+                        prop_assert_eq!(n, o);
+                    }
+                }
+            }
+            let scaled: Vec<[f32; 3]> = m.base().iter().map(|p| p.map(|c| c * 4.0)).collect();
+            for (a, b) in normals.iter().zip(vertex_normals(&scaled, &tris, &map)) {
+                for i in 0..3 {
+                    prop_assert!((a[i] - b[i]).abs() < 1e-5, "{a:?} vs {b:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_flat_counter_clockwise_fan_faces_up() {
+        let pos = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [-1.0, -1.0, 0.0],
+        ];
+        let tris = [[0, 1, 2], [0, 2, 3], [0, 3, 1]];
+        for n in vertex_normals(&pos, &tris, &TopologyMap::identity(4)) {
+            assert_eq!(n, [0.0, 0.0, 1.0]);
+        }
+    }
+}

@@ -345,3 +345,157 @@ pub fn fix_header(bytes: &mut [u8]) {
     let crc = crc32fast::hash(&bytes[HEADER_LEN..]);
     bytes[24..28].copy_from_slice(&crc.to_le_bytes());
 }
+
+/// Attribute vertices made from keys: each distinct key gets the next index (first use order).
+struct Keyed<K> {
+    index: std::collections::HashMap<K, u32>,
+    keys: Vec<K>,
+}
+
+impl<K: std::hash::Hash + Eq + Copy> Keyed<K> {
+    fn new() -> Self {
+        Keyed {
+            index: std::collections::HashMap::new(),
+            keys: Vec::new(),
+        }
+    }
+    fn get(&mut self, key: K) -> u32 {
+        let next = self.keys.len() as u32;
+        *self.index.entry(key).or_insert_with(|| {
+            self.keys.push(key);
+            next
+        })
+    }
+}
+
+/// A UV-mapped sphere split the way DCC tools split one: a longitude seam (the first column
+/// repeated at `u = 1`), one pole copy per slice, and the equator cut between a northern and a
+/// southern UV island (the south mirrored in `u`, so its UV triangles turn the other way). It
+/// morphs into a lumpy, stretched pose. Copies of a position get it from the same grid
+/// coordinates, so they weld bit for bit.
+pub fn seamed_sphere(stacks: u32, slices: u32) -> Morph {
+    assert!(stacks >= 4 && stacks.is_multiple_of(2) && slices >= 3);
+    let half = stacks / 2;
+    // Key: (ring i, column j in 0..=slices, island 0 north / 1 south); a pole's column is
+    // the slice it serves.
+    let mut keyed = Keyed::<(u32, u32, u32)>::new();
+    let mut tris = Vec::new();
+    for i in 0..stacks {
+        let island = u32::from(i >= half);
+        for j in 0..slices {
+            let mut v = |ii: u32, jj: u32| {
+                let column = if ii == 0 || ii == stacks { j } else { jj };
+                keyed.get((ii, column, island))
+            };
+            let (a, b, c, d) = (v(i, j), v(i, j + 1), v(i + 1, j), v(i + 1, j + 1));
+            if i == 0 {
+                tris.push([a, c, d]);
+            } else if i + 1 == stacks {
+                tris.push([c, b, a]);
+            } else {
+                tris.push([a, c, d]);
+                tris.push([a, d, b]);
+            }
+        }
+    }
+    let keys = keyed.keys;
+    let position = |i: u32, j: u32, bumpy: bool| -> [f32; 3] {
+        if i == 0 {
+            return [0.0, 0.0, if bumpy { 1.4 } else { 1.0 }];
+        }
+        if i == stacks {
+            return [0.0, 0.0, -1.0];
+        }
+        let theta = std::f32::consts::PI * i as f32 / stacks as f32;
+        let phi = 2.0 * std::f32::consts::PI * (j % slices) as f32 / slices as f32;
+        let r = if bumpy {
+            1.0 + 0.25 * (3.0 * phi).sin() * theta.sin()
+        } else {
+            1.0
+        };
+        [
+            r * theta.sin() * phi.cos(),
+            r * theta.sin() * phi.sin(),
+            r * theta.cos(),
+        ]
+    };
+    let v0: Vec<[f32; 3]> = keys
+        .iter()
+        .map(|&(i, j, _)| position(i, j, false))
+        .collect();
+    let v1: Vec<[f32; 3]> = keys.iter().map(|&(i, j, _)| position(i, j, true)).collect();
+    let uvs: Vec<[f32; 2]> = keys
+        .iter()
+        .map(|&(i, j, island)| {
+            let pole = i == 0 || i == stacks;
+            let u = (j as f32 + if pole { 0.5 } else { 0.0 }) / slices as f32;
+            let v = i as f32 / stacks as f32;
+            if island == 0 {
+                [u, v]
+            } else {
+                [1.0 - u, v + 0.1]
+            }
+        })
+        .collect();
+    let attributes = morphlod::morph::Attributes {
+        uvs: Some(uvs),
+        ..Default::default()
+    };
+    Morph::from_poses(tris, v0, v1)
+        .and_then(|m| m.with_attributes(attributes))
+        .expect("a seamed sphere is a valid morph")
+}
+
+/// A `side × side` grid morph (as [`grid_morph`], heights `0.3 sin(x) cos(y)` in `V(1)`) cut
+/// by a UV seam up column `side / 2` from the bottom border to the middle: the vertices on
+/// the cut below its end have a left and a right copy (the right island shifted in UV), the
+/// cut's end has one.
+pub fn cut_grid(side: u32) -> Morph {
+    let cut = side / 2;
+    let end = side / 2;
+    let mut keyed = Keyed::<(u32, u32, u32)>::new();
+    let mut tris = Vec::new();
+    for y in 0..side - 1 {
+        for x in 0..side - 1 {
+            let right = u32::from(x >= cut);
+            let mut v = |xx: u32, yy: u32| {
+                let copy = if xx == cut && yy < end { right } else { 0 };
+                keyed.get((xx, yy, copy))
+            };
+            let (a, b, c, d) = (v(x, y), v(x + 1, y), v(x + 1, y + 1), v(x, y + 1));
+            tris.push([a, b, c]);
+            tris.push([a, c, d]);
+        }
+    }
+    let height = |x: u32, y: u32| 0.3 * (x as f32).sin() * (y as f32).cos();
+    let v0: Vec<[f32; 3]> = keyed
+        .keys
+        .iter()
+        .map(|&(x, y, _)| [x as f32, y as f32, 0.0])
+        .collect();
+    let v1: Vec<[f32; 3]> = keyed
+        .keys
+        .iter()
+        .map(|&(x, y, _)| [x as f32, y as f32, height(x, y)])
+        .collect();
+    let uvs: Vec<[f32; 2]> = keyed
+        .keys
+        .iter()
+        .map(|&(x, y, copy)| {
+            let (u, v) = (x as f32 / side as f32, y as f32 / side as f32);
+            let island = if x > cut || (x == cut && copy == 1) {
+                0.1
+            } else {
+                0.0
+            };
+            [u + island, v]
+        })
+        .collect();
+    let attributes = morphlod::morph::Attributes {
+        uvs: Some(uvs),
+        ..Default::default()
+    };
+    Morph::from_poses(tris, v0, v1)
+        .and_then(|m| m.with_attributes(attributes))
+        .expect("a cut grid is a valid morph")
+}
