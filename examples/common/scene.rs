@@ -256,7 +256,7 @@ impl Scene {
         object.set_shade_mode(if view.strips {
             ShadeMode::StripColours
         } else {
-            ShadeMode::BaseColour
+            ShadeMode::Faceted
         });
         let upload = object.prepare(queue);
         let cpu = start.elapsed();

@@ -176,7 +176,7 @@ enum Colour {
 impl Colour {
     fn shade(self) -> ShadeMode {
         match self {
-            Colour::Base => ShadeMode::BaseColour,
+            Colour::Base => ShadeMode::Faceted,
             Colour::Strips => ShadeMode::StripColours,
         }
     }
@@ -709,7 +709,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         Lod::Fraction(0.97),
     ];
     for (shade, name) in [
-        (ShadeMode::BaseColour, "demo.png"),
+        (ShadeMode::Faceted, "demo.png"),
         (ShadeMode::StripColours, "demo_strips.png"),
     ] {
         let options = SheetOptions {

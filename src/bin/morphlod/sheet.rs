@@ -31,7 +31,7 @@ impl Default for SheetOptions {
     fn default() -> Self {
         SheetOptions {
             cell: 256,
-            shade: ShadeMode::BaseColour,
+            shade: ShadeMode::Faceted,
             direction: Vec3::new(-0.35, -0.15, -1.0),
         }
     }
