@@ -120,8 +120,10 @@ struct RenderArgs {
         allow_negative_numbers = true
     )]
     lod: Vec<f32>,
-    /// `base` shades the surface, `strips` gives every strip its own colour.
-    #[arg(long, value_enum, default_value_t = Colour::Base)]
+    /// `textured`: the asset's material and smooth normals (faceted for an asset without a
+    /// surface); `smooth`: smooth normals, one colour; `faceted` (or `base`): the drawn
+    /// triangles' own normals, one colour; `strips`: every strip its own colour, faceted.
+    #[arg(long, value_enum, default_value_t = Colour::Textured)]
     color: Colour,
     /// Cell size in pixels.
     #[arg(long, default_value_t = 384)]
@@ -148,6 +150,10 @@ struct BenchArgs {
     /// Draws of each object per frame; the fastest counts (the first also carries the uploads).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u16).range(1..))]
     repeats: u16,
+    /// How every object is shaded (as `render --color`); the strips are also timed faceted
+    /// each frame, for the cost of the shading.
+    #[arg(long, value_enum, default_value_t = Colour::Textured)]
+    shade: Colour,
     /// Also write every frame's measurements to this JSON file.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -169,14 +175,19 @@ struct DemoArgs {
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Colour {
-    Base,
+    Textured,
+    Smooth,
+    #[value(alias = "base")]
+    Faceted,
     Strips,
 }
 
 impl Colour {
     fn shade(self) -> ShadeMode {
         match self {
-            Colour::Base => ShadeMode::Faceted,
+            Colour::Textured => ShadeMode::Textured,
+            Colour::Smooth => ShadeMode::Smooth,
+            Colour::Faceted => ShadeMode::Faceted,
             Colour::Strips => ShadeMode::StripColours,
         }
     }
@@ -666,6 +677,7 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         frames: args.frames,
         size: args.size,
         repeats: usize::from(args.repeats),
+        shade: args.shade.shade(),
     };
     let report = run_bench(&context, &asset, &model, &options).map_err(|e| e.to_string())?;
     print!("{}", report.summary());
