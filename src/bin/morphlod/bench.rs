@@ -180,8 +180,9 @@ pub fn run_bench(
     let full_triangles = full_list.len() / 3;
     // Every object carries the asset's surface and targets, so all draw the same pose and
     // shading.
-    let list_object =
-        |live: &[u32]| Object::from_asset(device, &pipeline, Topology::List, asset, &[live.to_vec()]);
+    let list_object = |live: &[u32]| {
+        Object::from_asset(device, &pipeline, Topology::List, asset, &[live.to_vec()])
+    };
     let full_s0 = || Object::from_asset(device, &pipeline, Topology::Strip, asset, &regions);
     let mut full_strips = full_s0()?;
     let mut full_per_strip = full_s0()?;
