@@ -336,7 +336,8 @@ impl<'a> Scene<'a> {
              t     {:.3} {}   sampled frame k = {} of {}\n\
              {lod_line}   -> {} of {} collapses\n\
              drawn {} triangles, {} indices ({:.2} per triangle), {} mesh draw call(s)\n\
-             upload {} B this frame (index+indirect {} B, uniforms {} B), set+prepare {:.3} ms\n\
+             upload {} B this frame (index+indirect {} B, uniforms {} B, offsets {} B, \
+             texture {} B), set+prepare {:.3} ms\n\
              shade {shading}   adapter {}{}",
             self.current + 1,
             self.library.len(),
@@ -358,6 +359,8 @@ impl<'a> Scene<'a> {
             upload.bytes(),
             upload.geometry_bytes(),
             upload.uniform_bytes,
+            upload.offset_bytes,
+            upload.texture_bytes,
             self.last.cpu.as_secs_f64() * 1e3,
             self.adapter,
             if self.show_keys { KEYS } else { "" },
