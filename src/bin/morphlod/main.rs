@@ -692,8 +692,9 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// The default asset, compiled in so `cargo run` works from any directory of the checkout.
-const DEMO_INPUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_head.glb");
+/// The default asset, compiled in so `cargo run` works from any directory of the checkout: the
+/// textured face, so the picture shows normals, UVs and seams surviving the LOD.
+const DEMO_INPUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_face.glb");
 const DEMO_TARGET: &str = "jawOpen";
 const DEMO_FRAMES: usize = 16;
 
@@ -714,14 +715,9 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
     println!("asset written to {}", path.display());
 
     let ts = [0.0, 0.25, 0.5, 0.75, 1.0];
-    let lods = [
-        Lod::Fraction(0.0),
-        Lod::Fraction(0.75),
-        Lod::Fraction(0.9),
-        Lod::Fraction(0.97),
-    ];
+    let lods = [Lod::Fraction(0.0), Lod::Fraction(0.75), Lod::Fraction(0.95)];
     for (shade, name) in [
-        (ShadeMode::Faceted, "demo.png"),
+        (ShadeMode::Textured, "demo.png"),
         (ShadeMode::StripColours, "demo_strips.png"),
     ] {
         let options = SheetOptions {
