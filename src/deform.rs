@@ -132,10 +132,30 @@ type FrameKey = (usize, Option<(u32, u32)>);
 #[derive(Clone, Debug)]
 struct Frame {
     changes: FrameChanges,
-    /// `errors[l]`: the largest collapse error among the first `l`, as a
-    /// distance (square root of the recorded mean squared distance); never
-    /// decreasing, `errors[0] = 0`.
-    errors: Vec<f32>,
+    /// `errors[l]`, the largest collapse error among the first `l` as a
+    /// distance (square root of the recorded mean squared distance), never
+    /// decreases and `errors[0] = 0`; it is kept only where it grows: entry
+    /// `i` says that from LOD `error_steps[i]` on (up to the next entry) it is
+    /// `error_values[i]`. Entry 0 is `(0, 0.0)`.
+    error_steps: Vec<u32>,
+    error_values: Vec<f32>,
+}
+
+impl Frame {
+    /// The coarsest LOD whose collapse errors, as distances, are all `≤ e`
+    /// (full detail when `e < 0`).
+    fn coarsest_within(&self, e: f32) -> usize {
+        let j = self.error_values.partition_point(|&x| x <= e);
+        match self.error_steps.get(j) {
+            _ if j == 0 => 0,
+            Some(&next) => next as usize - 1,
+            None => self.changes.max_lod(),
+        }
+    }
+
+    fn byte_size(&self) -> usize {
+        self.changes.byte_size() + (self.error_steps.len() + self.error_values.len()) * 4
+    }
 }
 
 /// Every frame's LOD model over one shared `S0`.
@@ -284,22 +304,15 @@ impl DeformingModel {
             Lod::Steps(l) => l.min(max),
             Lod::Fraction(f) if f.is_nan() => return Err(SetError::LodNaN(lod)),
             Lod::Fraction(f) => ((f.clamp(0.0, 1.0) * max as f32).round() as usize).min(max),
-            Lod::Triangles(budget) => {
-                let budget = u32::try_from(budget).unwrap_or(u32::MAX);
-                let tris = frame.changes.triangle_counts();
-                tris.partition_point(|&t| t > budget).min(max)
-            }
+            Lod::Triangles(budget) => frame.changes.finest_within(budget),
             Lod::MaxError(e) if e.is_nan() => return Err(SetError::LodNaN(lod)),
-            Lod::MaxError(e) => frame.errors.partition_point(|&x| x <= e).saturating_sub(1),
+            Lod::MaxError(e) => frame.coarsest_within(e),
         })
     }
 
     /// Bytes of the per-frame data in RAM (change lists, tables), per frame.
     pub fn frame_bytes(&self) -> Vec<usize> {
-        self.frames
-            .iter()
-            .map(|f| f.changes.byte_size() + f.errors.len() * 4)
-            .collect()
+        self.frames.iter().map(|f| f.byte_size()).collect()
     }
 }
 
@@ -329,8 +342,21 @@ fn build_frame(
         .map_err(|source| DeformError::Sequence { frame, source })?;
     let changes =
         FrameChanges::build(layout, seq).map_err(|source| DeformError::Frame { frame, source })?;
-    let errors = seq.errors().iter().map(|&e| e.max(0.0).sqrt()).collect();
-    Ok(Frame { changes, errors })
+    let (mut error_steps, mut error_values) = (vec![0u32], vec![0.0f32]);
+    for (l, e) in seq.errors().into_iter().enumerate().skip(1) {
+        let e = e.max(0.0).sqrt();
+        if e > error_values[error_values.len() - 1] {
+            error_steps.push(l as u32);
+            error_values.push(e);
+        }
+    }
+    error_steps.shrink_to_fit();
+    error_values.shrink_to_fit();
+    Ok(Frame {
+        changes,
+        error_steps,
+        error_values,
+    })
 }
 
 /// The strips of one [`DeformingModel`] at some `(frame, lod)`, with the log

@@ -31,9 +31,10 @@
 use crate::varint;
 use thiserror::Error;
 
+use super::packed::Narrow;
 use super::runtime::cut;
 use super::{
-    kind_len, push_footer, push_group, push_header, zigzag, CopyEntry, FrameChanges, StripLayout,
+    kind_len, push_footer, push_group, push_header, zigzag, FrameChanges, StripLayout,
     CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
 };
 use crate::collapse::{CollapseSequence, SequenceError, NEVER};
@@ -371,22 +372,47 @@ impl<'a> Replay<'a> {
         self.triangles.push(self.triangles[step] - removed);
     }
 
+    /// Narrows the tables: collapse pairs and copy values to the vertex index
+    /// width, LODs (deaths and births, `NEVER` as `max_lod + 1`) to the LOD
+    /// width, copy anchors to the `S0` slot width; keeps the triangle counts
+    /// only at the cursor samples.
     fn finish(mut self, seq: &CollapseSequence) -> FrameChanges {
         self.cursors.push(self.stream.len() as u32);
         let total = self.buf.len();
+        let max = seq.len();
+        let never = max as u32 + 1;
+        let lod = |d: u32| if d == NEVER { never } else { d };
+        let last_vertex = seq.vertex_count.saturating_sub(1);
+        let copies = flatten_copies(self.region_offsets, &self.tokens);
+        let triangle_samples = (0..self.cursors.len())
+            .map(|j| self.triangles[(j * CURSOR_STRIDE).min(max)])
+            .collect();
+        self.stream.shrink_to_fit();
+        self.cursors.shrink_to_fit();
         FrameChanges {
-            collapses: seq.collapses.iter().map(|c| [c.u, c.w]).collect(),
-            copies: flatten_copies(self.region_offsets, &self.tokens),
+            collapses: Narrow::new(last_vertex, seq.collapses.iter().flat_map(|c| [c.u, c.w])),
             stream: self.stream,
             cursors: self.cursors,
-            triangles: self.triangles,
-            death: {
-                let mut death = self.tokens.death;
-                death.truncate(total);
-                death
-            },
+            triangle_samples,
+            death: Narrow::new(never, self.tokens.death[..total].iter().map(|&d| lod(d))),
+            copy_after: Narrow::new(
+                total.saturating_sub(1) as u32,
+                copies.iter().map(|c| c.after),
+            ),
+            copy_value: Narrow::new(last_vertex, copies.iter().map(|c| c.value)),
+            copy_birth: Narrow::new(never, copies.iter().map(|c| c.birth)),
+            copy_death: Narrow::new(never, copies.iter().map(|c| lod(c.death))),
         }
     }
+}
+
+/// A copy of a neighbour written by a resize, as [`FrameChanges`] stores it
+/// (one column per field there).
+struct CopyEntry {
+    after: u32,
+    value: u32,
+    birth: u32,
+    death: u32,
 }
 
 /// The copies in the order of their strips' token lists, each placed after

@@ -5,9 +5,9 @@
 //!
 //! The data is split so that a deforming object shares everything it can:
 //! [`StripLayout`] (`S0` and the region table) exists once per object, and
-//! each sampled frame owns only a [`FrameChanges`] (its collapse targets,
-//! change stream, triangle table and the entry lifetimes of one-pass
-//! rebuilds). [`LodStrips`] pairs one layout with one frame for a static mesh.
+//! each sampled frame owns only a [`FrameChanges`] (its collapse pairs,
+//! change stream, sampled triangle counts and the entry lifetimes of one-pass
+//! rebuilds, in `u16` where the mesh allows). [`LodStrips`] pairs one layout with one frame for a static mesh.
 //!
 //! Each LOD step `l` (collapse `u → w`) is recorded as
 //! * rewrites: the positions in the strips that hold `u` at LOD `l`
@@ -28,6 +28,7 @@
 //! offset table.
 
 mod build;
+mod packed;
 mod runtime;
 
 pub use build::ChangeListError;
@@ -36,6 +37,7 @@ pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
 use crate::collapse::CollapseSequence;
 use crate::strip::Strips;
 use crate::varint;
+use packed::Narrow;
 
 /// Replacement kinds of a resize: the run `s[i..i+len]` is replaced by copies
 /// of its neighbours `B = s[i-1]` and `C = s[i+len]`.
@@ -107,20 +109,6 @@ impl StripLayout {
     }
 }
 
-/// A strip entry that is not an `S0` slot: a copy of a neighbour written by a
-/// resize (replacement kinds `B`, `C`, `BC`, `BCC`). It lives in the strip for
-/// LODs `birth..death` and sits, in the strip's order of all entries ever
-/// alive, right after the `S0` slot `after` (and after earlier copies there).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct CopyEntry {
-    after: u32,
-    /// The neighbour's value when copied; at LOD `l ≥ birth` the entry holds
-    /// `anc_l(value)` because every later rewrite maps it along.
-    value: u32,
-    birth: u32,
-    death: u32,
-}
-
 /// One collapse sequence's change lists over a [`StripLayout`]: what a frame
 /// of a deforming object owns.
 ///
@@ -130,20 +118,35 @@ struct CopyEntry {
 /// neighbour's value, and resizes only remove contiguous runs and put copies in
 /// their place, so the buffer at LOD `l` is exactly the entries alive at `l`,
 /// in a fixed order, mapped through `anc_l`.
+///
+/// Every table is stored in the narrowest of `u16` and `u32` that holds its
+/// largest value (a vertex index, a LOD or an `S0` slot). The triangle count per LOD is not kept: it is sampled
+/// beside the stream cursors and the steps between two samples are read from
+/// the step headers, which hold the triangles each step removes.
 #[derive(Clone, Debug, Default)]
 pub struct FrameChanges {
-    /// `(u, w)` of each step.
-    collapses: Vec<[u32; 2]>,
+    /// `u` of step `j` at `2j`, `w` at `2j + 1`.
+    collapses: Narrow,
     /// The change stream, see the module docs.
     stream: Vec<u8>,
-    /// Stream position where step `j · CURSOR_STRIDE` starts.
+    /// Stream position where step `min(j · CURSOR_STRIDE, max_lod)` starts.
     cursors: Vec<u32>,
-    /// Triangles drawn at each LOD `0..=max_lod`.
-    triangles: Vec<u32>,
-    /// Per `S0` slot: the first LOD at which it is cut out (`NEVER` if never).
-    death: Vec<u32>,
-    /// Copies, sorted by `after` (then by order within the strip).
-    copies: Vec<CopyEntry>,
+    /// Triangles drawn at step `min(j · CURSOR_STRIDE, max_lod)`, beside `cursors`.
+    triangle_samples: Vec<u32>,
+    /// Per `S0` slot: the first LOD at which it is cut out (`max_lod + 1` if never).
+    death: Narrow,
+    /// A copy of a neighbour written by a resize (replacement kinds `B`, `C`,
+    /// `BC`, `BCC`), one column each, sorted by `after` (then by order within
+    /// the strip). Copy `i` lives in its strip for LODs
+    /// `copy_birth[i]..copy_death[i]` and sits, in the strip's order of all
+    /// entries ever alive, right after the `S0` slot `copy_after[i]` (and
+    /// after earlier copies there). `copy_value[i]` is the neighbour's value
+    /// when copied; at LOD `l ≥ birth` the entry holds `anc_l(value)` because
+    /// every later rewrite maps it along.
+    copy_after: Narrow,
+    copy_value: Narrow,
+    copy_birth: Narrow,
+    copy_death: Narrow,
 }
 
 /// Every this many steps the stream position is kept, so a rebuilt state
@@ -161,12 +164,64 @@ impl FrameChanges {
 
     /// The highest LOD (number of collapses).
     pub fn max_lod(&self) -> usize {
-        self.collapses.len()
+        self.collapses.len() / 2
     }
 
-    /// Triangles drawn at each LOD `0..=max_lod()`; never increasing.
-    pub fn triangle_counts(&self) -> &[u32] {
-        &self.triangles
+    /// `(u, w)` of step `step` (`step < max_lod()`).
+    #[inline]
+    pub(crate) fn collapse(&self, step: usize) -> (u32, u32) {
+        (
+            self.collapses.get(2 * step),
+            self.collapses.get(2 * step + 1),
+        )
+    }
+
+    /// Triangles drawn at LOD `lod` (clamped to `max_lod()`).
+    pub fn triangles_at(&self, lod: usize) -> usize {
+        self.seek(lod).1 as usize
+    }
+
+    /// Triangles drawn at each LOD `0..=max_lod()`; never increasing. Computed
+    /// by one walk over the stream (the frame keeps only samples).
+    pub fn triangle_counts(&self) -> Vec<u32> {
+        let max = self.max_lod();
+        let mut out = vec![0u32; max + 1];
+        let mut at = self.stream.len();
+        let mut tris = *self.triangle_samples.last().unwrap_or(&0);
+        out[max] = tris;
+        for step in (0..max).rev() {
+            at = step_start_before(&self.stream, at);
+            tris += step_removed(&self.stream, at);
+            out[step] = tris;
+        }
+        out
+    }
+
+    /// The finest LOD that draws at most `budget` triangles (the coarsest LOD
+    /// if even that draws more): a binary search over the samples, then a walk
+    /// over at most `CURSOR_STRIDE` step headers.
+    pub fn finest_within(&self, budget: usize) -> usize {
+        let budget = u32::try_from(budget).unwrap_or(u32::MAX);
+        let max = self.max_lod();
+        let j = self.triangle_samples.partition_point(|&t| t > budget);
+        if j == 0 {
+            return 0;
+        }
+        if j == self.triangle_samples.len() {
+            return max;
+        }
+        let mut step = (j * CURSOR_STRIDE).min(max);
+        let mut at = self.cursors[j] as usize;
+        let mut tris = self.triangle_samples[j];
+        while step > (j - 1) * CURSOR_STRIDE {
+            let start = step_start_before(&self.stream, at);
+            let before = tris + step_removed(&self.stream, start);
+            if before > budget {
+                break;
+            }
+            (step, at, tris) = (step - 1, start, before);
+        }
+        step
     }
 
     /// Bytes of the change stream alone.
@@ -176,40 +231,53 @@ impl FrameChanges {
 
     /// Number of copy entries (see the type docs), for size reports.
     pub fn copy_count(&self) -> usize {
-        self.copies.len()
+        self.copy_after.len()
     }
 
-    /// Bytes this frame holds in RAM: collapse targets, change stream, cursor
-    /// samples, the triangle table and the entry lifetimes used by rebuilds.
+    /// Bytes this frame holds in RAM: collapse pairs, change stream, cursor
+    /// and triangle samples and the entry lifetimes used by rebuilds.
     pub fn byte_size(&self) -> usize {
-        self.collapses.len() * 8
+        self.collapses.byte_size()
             + self.stream.len()
-            + (self.cursors.len() + self.triangles.len() + self.death.len()) * 4
-            + self.copies.len() * std::mem::size_of::<CopyEntry>()
+            + (self.cursors.len() + self.triangle_samples.len()) * 4
+            + self.death.byte_size()
+            + self.copy_after.byte_size()
+            + self.copy_value.byte_size()
+            + self.copy_birth.byte_size()
+            + self.copy_death.byte_size()
     }
 
-    /// Stream position where step `lod` starts: from the next kept cursor,
-    /// walk back over step footers (at most `CURSOR_STRIDE - 1` of them).
-    fn cursor_at(&self, lod: usize) -> usize {
+    /// Stream position where step `lod` starts and the triangles drawn there:
+    /// from the next kept sample, walk back over step footers (at most
+    /// `CURSOR_STRIDE - 1` of them), adding the triangles each step removed.
+    fn seek(&self, lod: usize) -> (usize, u32) {
         let lod = lod.min(self.max_lod());
         let sample = lod.div_ceil(CURSOR_STRIDE);
-        let (mut step, mut at) = match self.cursors.get(sample) {
-            Some(&at) if sample * CURSOR_STRIDE <= self.max_lod() => {
-                (sample * CURSOR_STRIDE, at as usize)
-            }
-            _ => (self.max_lod(), self.stream.len()),
+        let (mut step, mut at, mut tris) = if sample * CURSOR_STRIDE <= self.max_lod() {
+            (
+                sample * CURSOR_STRIDE,
+                self.cursors[sample] as usize,
+                self.triangle_samples[sample],
+            )
+        } else {
+            (
+                self.max_lod(),
+                self.stream.len(),
+                *self.triangle_samples.last().unwrap_or(&0),
+            )
         };
         while step > lod {
             at = step_start_before(&self.stream, at);
+            tris += step_removed(&self.stream, at);
             step -= 1;
         }
-        at
+        (at, tris)
     }
 
     /// Work units of a one-pass rebuild at `lod` (entries to visit plus
     /// survivors to resolve), for choosing between a rebuild and stepping.
     pub fn rebuild_work(&self, layout: &StripLayout, lod: usize) -> usize {
-        self.death.len() + self.copies.len() + layout.vertex_count() + lod.min(self.max_lod())
+        self.death.len() + self.copy_count() + layout.vertex_count() + lod.min(self.max_lod())
     }
 }
 
@@ -280,6 +348,12 @@ fn push_header(out: &mut Vec<u8>, groups: u32, resizes: u32, removed: u32) {
         varint::put_u32(out, resizes);
         varint::put_u32(out, removed);
     }
+}
+
+/// Triangles removed by the step whose header starts at `at`.
+fn step_removed(stream: &[u8], at: usize) -> u32 {
+    let mut at = at;
+    read_header(stream, &mut at).2
 }
 
 fn read_header(stream: &[u8], at: &mut usize) -> (u32, u32, u32) {

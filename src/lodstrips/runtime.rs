@@ -170,12 +170,22 @@ impl StripsState {
         let lod = lod.min(frame.max_lod());
         self.anc.clear();
         self.anc.extend(0..layout.vertex_count);
-        for &[u, w] in frame.collapses[..lod].iter().rev() {
+        for step in (0..lod).rev() {
+            let (u, w) = frame.collapse(step);
             self.anc[u as usize] = self.anc[w as usize];
         }
         let l = lod as u32;
-        let copies = &frame.copies;
+        let copies = frame.copy_count();
+        // The anchor of copy `ci` (past the last copy: beyond every slot).
+        let anchor = |ci: usize| {
+            if ci < copies {
+                frame.copy_after.get(ci) as usize
+            } else {
+                usize::MAX
+            }
+        };
         let mut ci = 0;
+        let mut next_after = anchor(0);
         for s in 0..layout.strip_count() {
             let start = layout.region_offsets[s] as usize;
             let end = layout.region_offsets[s + 1] as usize;
@@ -183,23 +193,25 @@ impl StripsState {
             let mut p = start;
             while p < end {
                 // `S0` slots up to the next copy anchor, then its copies.
-                let stop = match copies.get(ci) {
-                    Some(c) if (c.after as usize) < end => c.after as usize + 1,
-                    _ => end,
+                let stop = if next_after < end {
+                    next_after + 1
+                } else {
+                    end
                 };
-                for (&v, &death) in layout.s0[p..stop].iter().zip(&frame.death[p..stop]) {
-                    if death > l {
-                        self.indices[q] = self.anc[v as usize];
+                for slot in p..stop {
+                    if frame.death.get(slot) > l {
+                        self.indices[q] = self.anc[layout.s0[slot] as usize];
                         q += 1;
                     }
                 }
                 p = stop;
-                while let Some(c) = copies.get(ci).filter(|c| c.after as usize + 1 == stop) {
-                    if c.birth <= l && l < c.death {
-                        self.indices[q] = self.anc[c.value as usize];
+                while next_after == stop - 1 {
+                    if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
+                        self.indices[q] = self.anc[frame.copy_value.get(ci) as usize];
                         q += 1;
                     }
                     ci += 1;
+                    next_after = anchor(ci);
                 }
             }
             let live = (q - start) as u32;
@@ -210,8 +222,7 @@ impl StripsState {
             self.mark(s, 0, live);
         }
         self.lod = lod;
-        self.triangles = frame.triangles[lod];
-        self.cursor = frame.cursor_at(lod);
+        (self.cursor, self.triangles) = frame.seek(lod);
     }
 
     /// Hands the dirty log to the uploader and clears it.
@@ -258,7 +269,7 @@ impl StripsState {
     /// Applies step `self.lod`: rewrites `u → w`, then the resizes in order.
     fn coarsen(&mut self, model: &FrameChanges) {
         let s = &model.stream;
-        let [_, w] = model.collapses[self.lod];
+        let (_, w) = model.collapse(self.lod);
         let mut at = self.cursor;
         let (groups, resizes, removed) = read_header(s, &mut at);
         at = self.rewrite(model, at, groups, w);
@@ -290,7 +301,7 @@ impl StripsState {
     fn refine(&mut self, model: &FrameChanges) {
         let s = &model.stream;
         let start = step_start_before(s, self.cursor);
-        let [u, _] = model.collapses[self.lod - 1];
+        let (u, _) = model.collapse(self.lod - 1);
         let mut at = start;
         let (groups, resizes, removed) = read_header(s, &mut at);
         let rewrites = at;
