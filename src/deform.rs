@@ -28,6 +28,7 @@ use thiserror::Error;
 
 use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
+use crate::lodstrips::packed::Narrow;
 use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState};
 
 /// The level of detail to show, resolved against the current frame's tables.
@@ -134,27 +135,48 @@ struct Frame {
     changes: FrameChanges,
     /// `errors[l]`, the largest collapse error among the first `l` as a
     /// distance (square root of the recorded mean squared distance), never
-    /// decreases and `errors[0] = 0`; it is kept only where it grows: entry
-    /// `i` says that from LOD `error_steps[i]` on (up to the next entry) it is
-    /// `error_values[i]`. Entry 0 is `(0, 0.0)`.
-    error_steps: Vec<u32>,
-    error_values: Vec<f32>,
+    /// decreases and `errors[0] = 0`; it is kept only where it grows: from LOD
+    /// `error_steps[i]` on (up to the next entry) it is the square root of the
+    /// recorded error whose `f32` bits are `error_keys[i] << error_shift`.
+    /// The recorded errors are positive there, so the keys grow with the
+    /// errors; built assets round errors to bfloat16 (`quantize_error`), whose
+    /// low 16 bits are zero, and then store the top 16 bits only
+    /// (`error_shift = 16`); other errors keep all 32 (`error_shift = 0`).
+    error_steps: Narrow,
+    error_keys: Narrow,
+    error_shift: u32,
 }
 
 impl Frame {
+    /// `errors[error_steps[i]]` (see the field docs).
+    fn error_value(&self, i: usize) -> f32 {
+        f32::from_bits(self.error_keys.get(i) << self.error_shift).sqrt()
+    }
+
     /// The coarsest LOD whose collapse errors, as distances, are all `≤ e`
-    /// (full detail when `e < 0`).
+    /// (full detail when `e < 0`): the LOD before the first growth past `e`.
     fn coarsest_within(&self, e: f32) -> usize {
-        let j = self.error_values.partition_point(|&x| x <= e);
-        match self.error_steps.get(j) {
-            _ if j == 0 => 0,
-            Some(&next) => next as usize - 1,
-            None => self.changes.max_lod(),
+        if e.is_nan() || e < 0.0 {
+            return 0;
+        }
+        let (mut lo, mut hi) = (0, self.error_keys.len());
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.error_value(mid) <= e {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        if lo < self.error_steps.len() {
+            self.error_steps.get(lo) as usize - 1
+        } else {
+            self.changes.max_lod()
         }
     }
 
     fn byte_size(&self) -> usize {
-        self.changes.byte_size() + (self.error_steps.len() + self.error_values.len()) * 4
+        self.changes.byte_size() + self.error_steps.byte_size() + self.error_keys.byte_size()
     }
 }
 
@@ -342,20 +364,30 @@ fn build_frame(
         .map_err(|source| DeformError::Sequence { frame, source })?;
     let changes =
         FrameChanges::build(layout, seq).map_err(|source| DeformError::Frame { frame, source })?;
-    let (mut error_steps, mut error_values) = (vec![0u32], vec![0.0f32]);
+    // The LODs where the running maximum grows (as a distance) and its recorded value there.
+    let (mut steps, mut keys) = (Vec::new(), Vec::new());
+    let mut distance = 0.0f32;
     for (l, e) in seq.errors().into_iter().enumerate().skip(1) {
-        let e = e.max(0.0).sqrt();
-        if e > error_values[error_values.len() - 1] {
-            error_steps.push(l as u32);
-            error_values.push(e);
+        let d = e.max(0.0).sqrt();
+        if d > distance {
+            distance = d;
+            steps.push(l as u32);
+            keys.push(e.to_bits());
         }
     }
-    error_steps.shrink_to_fit();
-    error_values.shrink_to_fit();
+    let error_shift = if keys.iter().all(|k| k & 0xFFFF == 0) {
+        16
+    } else {
+        0
+    };
     Ok(Frame {
         changes,
-        error_steps,
-        error_values,
+        error_steps: Narrow::new(seq.len() as u32, steps),
+        error_keys: Narrow::new(
+            keys.last().map_or(0, |k| k >> error_shift),
+            keys.iter().map(|k| k >> error_shift),
+        ),
+        error_shift,
     })
 }
 

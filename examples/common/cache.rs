@@ -45,8 +45,11 @@ pub fn load_or_build_all(
             MorphSpec::Deferred { key, .. } => key.as_str(),
         };
         let path = out.join(cache_name(&named.label, source_hash, frames, key));
-        let asset = load_or_build(named, &path, frames, (i + 1, morphs.len()))?;
+        let mut asset = load_or_build(named, &path, frames, (i + 1, morphs.len()))?;
         let model = Arc::new(DeformingModel::new(&asset).map_err(DemoError::lib)?);
+        // The model holds what the runtime needs of the sequences; the demo draws from the
+        // poses and targets.
+        asset.release_frames();
         built.push(BuiltMorph {
             label: named.label.clone(),
             asset,

@@ -28,7 +28,7 @@
 //! offset table.
 
 mod build;
-mod packed;
+pub(crate) mod packed;
 mod runtime;
 
 pub use build::ChangeListError;
