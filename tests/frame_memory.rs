@@ -164,3 +164,48 @@ fn releasing_the_asset_frames_keeps_every_lod_request() {
     state.set(&model, 0.6, Lod::Fraction(0.5)).expect("set");
     assert!(state.triangle_count() > 0);
 }
+
+/// The triangle counts a frame keeps only as samples every 64 steps: every LOD's count, read
+/// back by [`FrameChanges::triangles_at`] and [`FrameChanges::finest_within`], is the
+/// reference mesh's (checked at a spread of LODs) and agrees with the full table.
+#[test]
+fn sampled_triangle_counts_answer_every_lod() {
+    let _alone = ALONE.lock().unwrap_or_else(|e| e.into_inner());
+    let asset = head_asset();
+    let model = DeformingModel::new(&asset).expect("model");
+    let original = asset.s0.triangles();
+    for k in [0, FRAMES - 1] {
+        let frame = model.frame_changes(k).unwrap();
+        let counts = frame.triangle_counts();
+        assert_eq!(counts.len(), frame.max_lod() + 1);
+        for l in (0..=frame.max_lod())
+            .step_by(97)
+            .chain([63, 64, 65, frame.max_lod()])
+        {
+            assert_eq!(
+                counts[l] as usize,
+                asset.frames[k].reference_mesh(&original, l).len(),
+                "frame {k}, LOD {l}"
+            );
+        }
+        for (l, &c) in counts.iter().enumerate() {
+            assert_eq!(frame.triangles_at(l), c as usize, "frame {k}, LOD {l}");
+        }
+        assert_eq!(
+            frame.triangles_at(usize::MAX),
+            counts[frame.max_lod()] as usize
+        );
+        let budgets = (0..=counts[0] as usize + 2)
+            .step_by(7)
+            .chain([0, 1, 4, usize::MAX]);
+        for budget in budgets {
+            let b = u32::try_from(budget).unwrap_or(u32::MAX);
+            let expected = counts.partition_point(|&t| t > b).min(frame.max_lod());
+            assert_eq!(
+                frame.finest_within(budget),
+                expected,
+                "frame {k}, budget {budget}"
+            );
+        }
+    }
+}

@@ -7,7 +7,8 @@
 //! [`StripLayout`] (`S0` and the region table) exists once per object, and
 //! each sampled frame owns only a [`FrameChanges`] (its collapse pairs,
 //! change stream, sampled triangle counts and the entry lifetimes of one-pass
-//! rebuilds, in `u16` where the mesh allows). [`LodStrips`] pairs one layout with one frame for a static mesh.
+//! rebuilds, in `u16` where the mesh allows). [`LodStrips`] pairs one layout
+//! with one frame for a static mesh.
 //!
 //! Each LOD step `l` (collapse `u → w`) is recorded as
 //! * rewrites: the positions in the strips that hold `u` at LOD `l`
@@ -120,9 +121,10 @@ impl StripLayout {
 /// in a fixed order, mapped through `anc_l`.
 ///
 /// Every table is stored in the narrowest of `u16` and `u32` that holds its
-/// largest value (a vertex index, a LOD or an `S0` slot). The triangle count per LOD is not kept: it is sampled
-/// beside the stream cursors and the steps between two samples are read from
-/// the step headers, which hold the triangles each step removes.
+/// largest value (a vertex index, a LOD or an `S0` slot). The triangle count
+/// per LOD is not kept: it is sampled beside the stream cursors and the steps
+/// between two samples are read from the step headers, which hold the
+/// triangles each step removes.
 #[derive(Clone, Debug, Default)]
 pub struct FrameChanges {
     /// `u` of step `j` at `2j`, `w` at `2j + 1`.
