@@ -34,8 +34,8 @@ use thiserror::Error;
 use super::packed::Narrow;
 use super::runtime::cut;
 use super::{
-    kind_len, push_footer, push_group, push_header, zigzag, FrameChanges, StripLayout,
-    CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
+    kind_len, push_footer, push_group, push_header, push_resize, FrameChanges, ResizeRun,
+    StripLayout, CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
 };
 use crate::collapse::{CollapseSequence, SequenceError, NEVER};
 use crate::strip::Strips;
@@ -526,14 +526,22 @@ fn reduce(
             junction(&region.values[..current], i, j).map(|kind| (i, j - i, kind))
         };
         if let Some((at, len, kind)) = cut_at {
-            varint::put_u32(out, group);
-            varint::put_u32(out, at as u32);
-            varint::put_u32(out, ((len as u32) << 3) | u32::from(kind));
-            let mut previous = if at > 0 { region.values[at - 1] } else { 0 };
-            for &v in &region.values[at..at + len] {
-                varint::put_u32(out, zigzag(v, previous));
-                previous = v;
-            }
+            let values = &region.values[..current];
+            push_resize(
+                out,
+                group,
+                at as u32,
+                kind,
+                ResizeRun {
+                    values: &values[at..at + len],
+                    previous: if at > 0 { values[at - 1] } else { 0 },
+                    before: [
+                        at.checked_sub(2).map(|k| values[k]),
+                        at.checked_sub(1).map(|k| values[k]),
+                    ],
+                    right: values.get(at + len).copied(),
+                },
+            );
             current = region.cut(current, at, len, kind);
             count += 1;
         }

@@ -393,6 +393,121 @@ fn read_group(stream: &[u8], at: &mut usize) -> (u32, u32) {
     (v >> 2, count)
 }
 
+/// Appends a resize record: its head, then the removed indices `values` (the
+/// run `strip[at..at + len]` before the cut, `previous` the index before it or
+/// 0, `right` the index after it unless the run ends the strip).
+///
+/// The head is one byte in the common case: the rewrite group in 2 bits, the
+/// replacement kind in 3 and `len - 1` in 3, with 3 (group) and 7 (length)
+/// escaping to a LEB128 number after the byte; then the position `at`.
+///
+/// Each removed index is a 2-bit symbol, four to a byte: 0 repeats the index
+/// before it, 1 is the run's right neighbour, 2 repeats the index two before
+/// it (degenerate runs are mostly `a a a` and `a b a b`), 3 escapes to a
+/// zigzag difference to the index before it, stored after the symbols.
+fn push_resize(out: &mut Vec<u8>, group: u32, at: u32, kind: u16, run: ResizeRun) {
+    let len = run.values.len() as u32;
+    let g = group.min(3);
+    let l = (len - 1).min(7);
+    out.push((g | u32::from(kind) << 2 | l << 5) as u8);
+    if g == 3 {
+        varint::put_u32(out, group - 3);
+    }
+    if l == 7 {
+        varint::put_u32(out, len - 1 - 7);
+    }
+    varint::put_u32(out, at);
+    let mut previous = run.previous;
+    let mut symbols = 0u8;
+    let escapes = out.len() + run.values.len().div_ceil(4);
+    let mut escaped = Vec::new();
+    for (k, &v) in run.values.iter().enumerate() {
+        let two_back = match k {
+            0 => run.before[0],
+            1 => run.before[1],
+            _ => Some(run.values[k - 2]),
+        };
+        let symbol = if v == previous {
+            0
+        } else if Some(v) == run.right {
+            1
+        } else if Some(v) == two_back {
+            2
+        } else {
+            varint::put_u32(&mut escaped, zigzag(v, previous));
+            3
+        };
+        symbols |= symbol << (2 * (k % 4));
+        if k % 4 == 3 || k + 1 == run.values.len() {
+            out.push(symbols);
+            symbols = 0;
+        }
+        previous = v;
+    }
+    debug_assert_eq!(out.len(), escapes);
+    out.extend_from_slice(&escaped);
+}
+
+/// The context [`push_resize`] codes a run's removed indices in.
+struct ResizeRun<'a> {
+    values: &'a [u32],
+    /// The index before the run, or 0 at the strip's start.
+    previous: u32,
+    /// The indices two and one before the first removed one, where the strip has them.
+    before: [Option<u32>; 2],
+    /// The index after the run, unless the run ends the strip.
+    right: Option<u32>,
+}
+
+/// Reads a resize head: `(group, at, len, kind)`.
+fn read_resize_head(stream: &[u8], at: &mut usize) -> (u32, usize, usize, u16) {
+    let b = u32::from(stream[*at]);
+    *at += 1;
+    let mut group = b & 3;
+    let kind = ((b >> 2) & 7) as u16;
+    let mut len = (b >> 5) + 1;
+    if group == 3 {
+        group += varint::read_u32(stream, at);
+    }
+    if len == 8 {
+        len += varint::read_u32(stream, at);
+    }
+    let i = varint::read_u32(stream, at) as usize;
+    (group, i, len as usize, kind)
+}
+
+/// Skips the removed indices of a `len`-index resize record.
+fn skip_removed(stream: &[u8], at: &mut usize, len: usize) {
+    let bytes = len.div_ceil(4);
+    let mut escapes = 0;
+    for k in 0..len {
+        escapes += usize::from((stream[*at + k / 4] >> (2 * (k % 4))) & 3 == 3);
+    }
+    *at += bytes;
+    for _ in 0..escapes {
+        varint::read_u32(stream, at);
+    }
+}
+
+/// Restores the removed indices of a resize record into `region[i..i + len]`:
+/// the strip's indices from the region's start, with the run's right neighbour
+/// already moved to `region[i + len]` (if the run did not end the strip).
+fn restore_removed(stream: &[u8], at: &mut usize, region: &mut [u32], i: usize, len: usize) {
+    let symbols = *at;
+    *at += len.div_ceil(4);
+    let mut previous = if i > 0 { region[i - 1] } else { 0 };
+    for k in 0..len {
+        let v = match (stream[symbols + k / 4] >> (2 * (k % 4))) & 3 {
+            0 => previous,
+            1 => region[i + len],
+            2 => region[i + k - 2],
+            _ => unzigzag(varint::read_u32(stream, at), previous),
+        };
+        region[i + k] = v;
+        previous = v;
+    }
+}
+
 /// A removed index stored as the zigzag difference to the index before it:
 /// degenerate runs repeat their neighbours, so this is mostly 0 (one byte).
 fn zigzag(value: u32, previous: u32) -> u32 {

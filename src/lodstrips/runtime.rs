@@ -8,8 +8,8 @@
 //! allocated per change; the scratch vectors are reused.
 
 use super::{
-    kind_len, read_group, read_header, step_start_before, unzigzag, FrameChanges, LodStrips,
-    StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
+    kind_len, read_group, read_header, read_resize_head, restore_removed, skip_removed,
+    step_start_before, FrameChanges, LodStrips, StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
 };
 use crate::varint;
 
@@ -274,13 +274,9 @@ impl StripsState {
         let (groups, resizes, removed) = read_header(s, &mut at);
         at = self.rewrite(model, at, groups, w);
         for _ in 0..resizes {
-            let strip = self.group_strips[varint::read_u32(s, &mut at) as usize] as usize;
-            let i = varint::read_u32(s, &mut at) as usize;
-            let lk = varint::read_u32(s, &mut at);
-            let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
-            for _ in 0..len {
-                varint::read_u32(s, &mut at);
-            }
+            let (group, i, len, kind) = read_resize_head(s, &mut at);
+            let strip = self.group_strips[group as usize] as usize;
+            skip_removed(s, &mut at, len);
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
             let region = &mut self.indices[base..base + live];
@@ -319,29 +315,19 @@ impl StripsState {
         self.scratch.clear();
         for _ in 0..resizes {
             self.scratch.push(at);
-            varint::read_u32(s, &mut at);
-            varint::read_u32(s, &mut at);
-            let len = varint::read_u32(s, &mut at) >> 3;
-            for _ in 0..len {
-                varint::read_u32(s, &mut at);
-            }
+            let (_, _, len, _) = read_resize_head(s, &mut at);
+            skip_removed(s, &mut at, len);
         }
         for k in (0..self.scratch.len()).rev() {
             let mut at = self.scratch[k];
-            let strip = self.group_strips[varint::read_u32(s, &mut at) as usize] as usize;
-            let i = varint::read_u32(s, &mut at) as usize;
-            let lk = varint::read_u32(s, &mut at);
-            let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
+            let (group, i, len, kind) = read_resize_head(s, &mut at);
+            let strip = self.group_strips[group as usize] as usize;
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
             let new_live = live + len - kind_len(kind);
             let region = &mut self.indices[base..base + new_live];
             region.copy_within(i + kind_len(kind)..live, i + len);
-            let mut previous = if i > 0 { region[i - 1] } else { 0 };
-            for slot in &mut region[i..i + len] {
-                previous = unzigzag(varint::read_u32(s, &mut at), previous);
-                *slot = previous;
-            }
+            restore_removed(s, &mut at, region, i, len);
             self.lens[strip] = new_live as u32;
             self.mark(strip, i as u32, new_live as u32);
             self.mark_len(strip);
