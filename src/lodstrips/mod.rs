@@ -22,11 +22,13 @@
 //! parity, hence its orientation), and every window created at the junction is
 //! degenerate. Leading runs are removed in even lengths, trailing runs whole.
 //!
-//! The change stream is a flat `Vec<u8>` of LEB128 numbers: rewrite positions
-//! delta-coded per strip, removed indices as zigzag differences to their left
-//! neighbour. Each step ends with its own length, readable backward, so the
-//! runtime walks the stream in both directions from a cursor without an
-//! offset table.
+//! The change stream is a flat `Vec<u8>`, mostly LEB128 numbers: rewrite
+//! positions delta-coded per strip; per cut a one-byte head (group, kind,
+//! length) and its position, the removed indices as 2-bit symbols (repeat the
+//! index before, the right neighbour, the index two before, or an escape to a
+//! zigzag difference; see `push_resize`). Each step ends with its own length,
+//! readable backward, so the runtime walks the stream in both directions from
+//! a cursor without an offset table.
 
 mod build;
 pub(crate) mod packed;
