@@ -546,3 +546,58 @@ fn step_start_before(stream: &[u8], end: usize) -> usize {
         at -= 1;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Resize records round-trip through the one-byte head (group and length escapes
+    /// included) and the removed-index symbols (every symbol, escapes, runs at the strip's
+    /// start and end), and `skip_removed` lands where `restore_removed` does.
+    #[test]
+    fn resize_records_round_trip() {
+        let mut seed = 12345u32;
+        let mut next = |m: u32| {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) % m
+        };
+        for case in 0..2000 {
+            let live = 1 + next(40) as usize;
+            let strip: Vec<u32> = (0..live)
+                .map(|_| if next(3) == 0 { next(1 << 20) } else { next(4) })
+                .collect();
+            let at = next(live as u32) as usize;
+            let len = 1 + next((live - at) as u32) as usize;
+            let kind = next(5) as u16;
+            let group = next(if case % 2 == 0 { 5 } else { 300 });
+            let mut out = vec![0xAB];
+            push_resize(
+                &mut out,
+                group,
+                at as u32,
+                kind,
+                ResizeRun {
+                    values: &strip[at..at + len],
+                    previous: if at > 0 { strip[at - 1] } else { 0 },
+                    before: [
+                        at.checked_sub(2).map(|k| strip[k]),
+                        at.checked_sub(1).map(|k| strip[k]),
+                    ],
+                    right: strip.get(at + len).copied(),
+                },
+            );
+            out.push(0xCD);
+            let mut p = 1;
+            assert_eq!(read_resize_head(&out, &mut p), (group, at, len, kind));
+            let mut skipped = p;
+            skip_removed(&out, &mut skipped, len);
+            assert_eq!(out[skipped], 0xCD, "case {case}");
+            // The strip as refining finds it: the run cut out, its right part moved back.
+            let mut region = strip.clone();
+            region[at..at + len].fill(u32::MAX);
+            restore_removed(&out, &mut p, &mut region, at, len);
+            assert_eq!(p, skipped, "case {case}");
+            assert_eq!(region, strip, "case {case}");
+        }
+    }
+}
