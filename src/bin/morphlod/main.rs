@@ -655,13 +655,14 @@ fn render(args: &RenderArgs) -> Result<(), String> {
     let bytes = read_asset(&args.asset, &budget)?;
     let asset = Asset::from_bytes_with(&bytes, &budget)
         .map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    drop(bytes);
     let options = SheetOptions {
         cell: args.size,
         shade: args.color.shade(),
         ..SheetOptions::default()
     };
     let lods: Vec<Lod> = fractions.iter().map(|&f| Lod::Fraction(f)).collect();
-    render_to_png(&asset, &ts, &lods, &options, &args.output, budget.max_bytes)
+    render_to_png(asset, &ts, &lods, &options, &args.output, budget.max_bytes)
 }
 
 /// One rule for `--t` and `--lod`, the library's: values outside [0, 1] are clamped (the
@@ -735,10 +736,13 @@ fn read_asset(path: &Path, options: &AssetLoadOptions) -> Result<Vec<u8>, String
 fn bench(args: &BenchArgs) -> Result<(), String> {
     let budget = budget(args.memory_budget);
     let bytes = read_asset(&args.asset, &budget)?;
-    let asset = Asset::from_bytes_with(&bytes, &budget)
+    let mut asset = Asset::from_bytes_with(&bytes, &budget)
         .map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    drop(bytes);
     let model =
         Arc::new(DeformingModel::with_budget(&asset, budget.max_bytes).map_err(|e| e.to_string())?);
+    // The model holds what the runtime needs of the sequences; the bench reads the poses only.
+    asset.release_frames();
     let context = Context::headless().map_err(|e| e.to_string())?;
     let info = context.adapter_info();
     println!(
@@ -797,7 +801,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
             ..SheetOptions::default()
         };
         render_to_png(
-            &asset,
+            asset.clone(),
             &ts,
             &lods,
             &options,
@@ -811,14 +815,18 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
 /// Renders headless (no window is opened: this works on machines without a display) and
 /// says where the image went.
 fn render_to_png(
-    asset: &Asset,
+    mut asset: Asset,
     ts: &[f32],
     lods: &[Lod],
     options: &SheetOptions,
     output: &Path,
     max_bytes: u64,
 ) -> Result<(), String> {
-    let model = Arc::new(DeformingModel::with_budget(asset, max_bytes).map_err(|e| e.to_string())?);
+    let model =
+        Arc::new(DeformingModel::with_budget(&asset, max_bytes).map_err(|e| e.to_string())?);
+    // The model holds what the runtime needs of the sequences; the sheet reads the poses only.
+    asset.release_frames();
+    let asset = &asset;
     let context = Context::headless().map_err(|e| e.to_string())?;
     let adapter = context.adapter_info();
     let (sheet, cells) =
