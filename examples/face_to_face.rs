@@ -1,16 +1,19 @@
-//! FaceToFace: the makehuman head morphing from one facial expression to the next, with
-//! continuous LOD (the deforming-mesh LodStrips paper's FaceToFace model).
+//! FaceToFace: the MakeHuman face, textured and smooth-shaded, morphing from the neutral face to
+//! each of its 52 ARKit-style expressions, with continuous LOD (the deforming-mesh LodStrips
+//! paper's FaceToFace model, on a real character asset: UV seams, normals, a skin texture).
 //!
-//! Morph `i` runs from expression `i` to expression `i + 1` (cyclically) of the head's 8
-//! morph targets: `V(0)` = base + target A, `V(1)` = base + target B; `n` steps to the next
-//! pair. `--neutral` morphs from the neutral face to each expression instead.
+//! Morph `k` runs from the neutral face (`V(0)`) to expression `k` (`V(1)`), normals blended
+//! with the expression's NORMAL deltas. `]` (or `n`) shows the next expression, `[` the
+//! previous, `m` cycles textured / smooth / faceted; the readout names the expression.
+//! `--pairs` morphs from each expression to the next instead.
 //!
 //! ```sh
 //! cargo run --release --example face_to_face              # window; headless without a display
 //! cargo run --release --example face_to_face -- --headless --frames 24
 //! ```
 //!
-//! The assets are built on first use and cached in `out/face_to_face/` (see `common`).
+//! Each morph's asset is built the first time it is shown and cached in `out/face_to_face/`
+//! (see `common`).
 
 mod common;
 
@@ -18,25 +21,25 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use clap::Parser;
-use common::{CommonArgs, Demo, DemoError, NamedMorph, TargetPoses};
+use common::{CommonArgs, Demo, DemoError, TargetPoses};
 
 const DEMO: Demo = Demo {
     name: "face_to_face",
     sources: &[concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/assets/makehuman_head.glb"
+        "/assets/makehuman_face.glb"
     )],
 };
 
-/// The makehuman head morphing between facial expressions, with continuous LOD.
+/// The MakeHuman face morphing to its facial expressions, with continuous LOD.
 #[derive(Parser, Debug)]
 #[command(name = "face_to_face")]
 struct Args {
     #[command(flatten)]
     common: CommonArgs,
-    /// Morph from the neutral face to each expression instead of between expressions
+    /// Morph from each expression to the next instead of from the neutral face
     #[arg(long)]
-    neutral: bool,
+    pairs: bool,
 }
 
 fn main() -> ExitCode {
@@ -46,22 +49,10 @@ fn main() -> ExitCode {
 
 fn run(args: &Args) -> Result<(), DemoError> {
     let poses = TargetPoses::load(Path::new(DEMO.sources[0]))?;
-    let morphs = if args.neutral {
-        poses.neutral_morphs()?
+    let morphs = if args.pairs {
+        poses.pair_morphs()?
     } else {
-        expression_pairs(&poses)?
+        poses.neutral_morphs()?
     };
     common::run(&DEMO, &args.common, morphs)
-}
-
-/// Expression `i` → expression `i + 1`, wrapping around, so `n` walks through every target.
-fn expression_pairs(poses: &TargetPoses) -> Result<Vec<NamedMorph>, DemoError> {
-    let targets = &poses.targets;
-    (0..targets.len())
-        .map(|i| {
-            let (a, pose_a) = &targets[i];
-            let (b, pose_b) = &targets[(i + 1) % targets.len()];
-            poses.morph(format!("{a}-to-{b}"), pose_a, pose_b)
-        })
-        .collect()
 }

@@ -70,8 +70,12 @@ fn run(args: &Args) -> Result<(), DemoError> {
         landmarks,
         ..SupermeshOptions::default()
     };
-    // The options' Debug form (landmarks, seed, perturbation, alignment) is the cache key.
-    let key = format!("supermesh {options:?}; man stood up (x, z, -y)");
+    // The algorithm's version and the options' Debug form (landmarks, seed, perturbation,
+    // alignment) are the cache key: a reworked embedding must not reuse an old supermesh.
+    let key = format!(
+        "supermesh v{}; {options:?}; man stood up (x, z, -y)",
+        morphlod::morph::supermesh::ALGORITHM_VERSION
+    );
     let make = move || {
         let man = stand_up(
             load_mesh(Path::new(MAN), &LoadOptions::default())

@@ -14,7 +14,14 @@
 // small zero buffer: WebGPU defines an out-of-range storage read to return a value from inside
 // the buffer or zero, so every vertex reads a zero offset.
 //
-// Fragment stage: normals come from screen-space derivatives of the world position,
+// Two vertex stages share this module. vs_main draws a position-only mesh (V(0), V(1)). vs_surface
+// draws a mesh with a surface (gpu::Object with a Surface): it also reads per-vertex normals at
+// t = 0 and t = 1, UVs and colours (buffer slot 2, interleaved), and a normal offset per vertex
+// summed on the CPU exactly like the position offset, and hands the fragment stage
+// normalize(mix(n0, n1, t) + noff) in world space. Still no loop and no branch over targets.
+//
+// Fragment stage of a position-only mesh (fs_main), and the faceted mode of fs_surface: normals
+// come from screen-space derivatives of the world position,
 // n = normalize(cross(dpdy(p), dpdx(p))), not from a per-vertex normal attribute. Why:
 //  * the mesh deforms, so per-vertex normals would have to be blended too, and a linear blend
 //    of two unit normals is not the normal of the blended surface;
@@ -24,25 +31,46 @@
 //  * it is the same for a triangle drawn from a strip or from a list (orientation included:
 //    the construction uses screen axes, so it always points towards the viewer for a
 //    right-handed world and a y-up projection), which the strip-vs-list image test relies on.
-// The cost is flat (faceted) shading, which is what a LOD viewer wants to show anyway.
+// The cost is flat (faceted) shading, which is what a LOD viewer wants to show anyway. A mesh that
+// brings its own normals (a surface) can be drawn smooth: the source's normals are blended like
+// the positions (glTF's rule for morph targets), and a LOD step moves every attribute vertex of a
+// collapsed vertex onto a surviving vertex, whose own normal is then used: an approximation the
+// simplifier's attribute metric keeps small.
 
 struct Uniforms {
     // Projection * view, world to clip space.
     view_proj: mat4x4<f32>,
     // Object to world space.
     model: mat4x4<f32>,
-    // Base colour (rgb; a is written to the target unchanged).
+    // The inverse transpose of model's upper 3x3 (columns xyz; w unused): takes normals to world
+    // space under any invertible model matrix, non-uniform scale included.
+    normal_model: mat4x4<f32>,
+    // The object's colour (rgb; a is written to the target unchanged): faceted and smooth modes.
     color: vec4<f32>,
+    // The material's base colour factor (linear rgba): textured mode.
+    base_color: vec4<f32>,
     // xyz: world-space direction towards the light (need not be unit); w: ambient term in [0, 1].
     light: vec4<f32>,
     // Blend parameter between pose 0 and pose 1.
     t: f32,
-    // 0: base colour; 1: one colour per strip (region), from the instance index.
+    // 0: faceted, object colour; 1: faceted, one colour per strip (region), from the instance
+    // index; 2: smooth, object colour; 3: smooth, textured (base colour * texture * vertex colour).
     mode: u32,
+    // 1: encode the textured mode's linear colour to sRGB (the target format stores values as
+    // is); 0: the target is sRGB and encodes itself.
+    encode_srgb: u32,
 }
+
+const MODE_STRIPS: u32 = 1u;
+const MODE_TEXTURED: u32 = 3u;
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
 @group(0) @binding(1) var<storage, read> offsets: array<f32>;
+// Only in the surface layout: the normal offsets (like `offsets`), the base-colour texture
+// (sRGB, so samples are linear) and its sampler.
+@group(0) @binding(2) var<storage, read> normal_offsets: array<f32>;
+@group(0) @binding(3) var base_texture: texture_2d<f32>;
+@group(0) @binding(4) var base_sampler: sampler;
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -52,6 +80,23 @@ struct VertexOut {
     @location(1) @interpolate(flat) strip: u32,
 }
 
+// The position-only stage's output plus the surface attributes.
+struct SurfaceOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) @interpolate(flat) strip: u32,
+    // World-space unit normal of the vertex (interpolated, renormalised per fragment).
+    @location(2) normal: vec3<f32>,
+    @location(3) uv: vec2<f32>,
+    @location(4) color: vec4<f32>,
+}
+
+// The blended position of vertex `vertex` in object space: the one rule both stages use.
+fn local_position(v0: vec3<f32>, v1: vec3<f32>, vertex: u32) -> vec3<f32> {
+    let at = 3u * vertex;
+    return mix(v0, v1, u.t) + vec3<f32>(offsets[at], offsets[at + 1u], offsets[at + 2u]);
+}
+
 @vertex
 fn vs_main(
     @location(0) v0: vec3<f32>,
@@ -59,13 +104,41 @@ fn vs_main(
     @builtin(instance_index) instance: u32,
     @builtin(vertex_index) vertex: u32,
 ) -> VertexOut {
-    let at = 3u * vertex;
-    let local = mix(v0, v1, u.t) + vec3<f32>(offsets[at], offsets[at + 1u], offsets[at + 2u]);
-    let world = u.model * vec4<f32>(local, 1.0);
+    let world = u.model * vec4<f32>(local_position(v0, v1, vertex), 1.0);
     var out: VertexOut;
     out.clip = u.view_proj * world;
     out.world = world.xyz;
     out.strip = instance;
+    return out;
+}
+
+// `v / |v|`, or 0 for a zero vector (where normalize would give NaN), without a branch.
+fn unit_or_zero(v: vec3<f32>) -> vec3<f32> {
+    return v * inverseSqrt(max(dot(v, v), 1e-30));
+}
+
+@vertex
+fn vs_surface(
+    @location(0) v0: vec3<f32>,
+    @location(1) v1: vec3<f32>,
+    @location(2) n0: vec3<f32>,
+    @location(3) n1: vec3<f32>,
+    @location(4) uv: vec2<f32>,
+    @location(5) color: vec4<f32>,
+    @builtin(instance_index) instance: u32,
+    @builtin(vertex_index) vertex: u32,
+) -> SurfaceOut {
+    let world = u.model * vec4<f32>(local_position(v0, v1, vertex), 1.0);
+    let at = 3u * vertex;
+    let noff = vec3<f32>(normal_offsets[at], normal_offsets[at + 1u], normal_offsets[at + 2u]);
+    let local_normal = unit_or_zero(mix(n0, n1, u.t) + noff);
+    var out: SurfaceOut;
+    out.clip = u.view_proj * world;
+    out.world = world.xyz;
+    out.strip = instance;
+    out.normal = unit_or_zero((u.normal_model * vec4<f32>(local_normal, 0.0)).xyz);
+    out.uv = uv;
+    out.color = color;
     return out;
 }
 
@@ -80,22 +153,57 @@ fn strip_colour(id: u32) -> vec3<f32> {
     return 0.25 + 0.75 * rgb;
 }
 
-@fragment
-fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+// The facet normal of the drawn triangle at this fragment, from screen-space derivatives.
+fn facet_normal(world: vec3<f32>) -> vec3<f32> {
     // Each derivative is scaled to its largest component first: for a mesh ~1e19 across,
     // dot(c, c) would overflow f32 (n = 0, ambient only), and for one ~1e-22 across it would
     // underflow; scaled, the normal is the same at every size.
-    let a = dpdy(in.world);
-    let b = dpdx(in.world);
+    let a = dpdy(world);
+    let b = dpdx(world);
     let c = cross(a / max(max(abs(a.x), max(abs(a.y), abs(a.z))), 1e-37),
                   b / max(max(abs(b.x), max(abs(b.y), abs(b.z))), 1e-37));
     // A zero-area fragment footprint gives c = 0: n stays 0 and the fragment gets ambient only,
     // instead of the NaN that normalize(0) would produce.
-    let n = c * inverseSqrt(max(dot(c, c), 1e-30));
+    return c * inverseSqrt(max(dot(c, c), 1e-30));
+}
+
+// Lambert with an ambient floor: the light factor for unit (or zero) normal n.
+fn light_factor(n: vec3<f32>) -> f32 {
     let diffuse = max(dot(n, normalize(u.light.xyz)), 0.0);
-    let shade = u.light.w + (1.0 - u.light.w) * diffuse;
+    return u.light.w + (1.0 - u.light.w) * diffuse;
+}
+
+@fragment
+fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    let shade = light_factor(facet_normal(in.world));
     var base = u.color.rgb;
-    if u.mode == 1u {
+    if u.mode == MODE_STRIPS {
+        base = strip_colour(in.strip);
+    }
+    return vec4<f32>(base * shade, u.color.a);
+}
+
+// The sRGB transfer function (IEC 61966-2-1) of a linear colour in [0, 1].
+fn srgb_encode(linear: vec3<f32>) -> vec3<f32> {
+    let c = clamp(linear, vec3<f32>(0.0), vec3<f32>(1.0));
+    return select(1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055, 12.92 * c, c <= vec3<f32>(0.0031308));
+}
+
+@fragment
+fn fs_surface(in: SurfaceOut) -> @location(0) vec4<f32> {
+    // Sampled before any mode test: textureSample needs uniform control flow (implicit
+    // derivatives), and the mode is uniform anyway.
+    let texel = textureSample(base_texture, base_sampler, in.uv);
+    let smooth_normal = u.mode >= 2u;
+    let n = select(facet_normal(in.world), unit_or_zero(in.normal), smooth_normal);
+    let shade = light_factor(n);
+    if u.mode == MODE_TEXTURED {
+        let albedo = u.base_color * texel * in.color;
+        let lit = albedo.rgb * shade;
+        return vec4<f32>(select(lit, srgb_encode(lit), u.encode_srgb == 1u), albedo.a);
+    }
+    var base = u.color.rgb;
+    if u.mode == MODE_STRIPS {
         base = strip_colour(in.strip);
     }
     return vec4<f32>(base * shade, u.color.a);

@@ -4,7 +4,7 @@
 //! by one loop that reports every failing row; the last test mutates valid
 //! files at random.
 
-use morphlod::io::{load_mesh, obj, off, ply, LoadError, LoadOptions, Location};
+use morphlod::io::{load_mesh, obj, off, ply, AttributedMesh, LoadError, LoadOptions, Location};
 use morphlod::mesh::MeshError;
 use proptest::prelude::*;
 use std::path::Path;
@@ -432,7 +432,84 @@ fn valid_inputs() -> Vec<(&'static str, Vec<u8>)> {
         ),
         ("a.ply", ascii.into_bytes()),
         ("b.ply", binary_ply(3, 1, &TRIANGLE, &[&[0, 1, 2]])),
+        (
+            "uv.obj",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0.5\nvn 0 0 1\n\
+              f 1/1/1 2/2/1 3/3/1\nf 1/5/1 3/-3/1 4/4/-1\n"
+                .to_vec(),
+        ),
+        (
+            "n.ply",
+            b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float u\nproperty float v\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+              0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n0 1 0 0 0 1 0 1\n3 0 1 2\n"
+                .to_vec(),
+        ),
     ]
+}
+
+/// The attribute-vertex parse of an OBJ or PLY input (OFF has no attributes).
+fn parse_attributed(name: &str, bytes: &[u8]) -> Option<Result<AttributedMesh, LoadError>> {
+    let path = Path::new(name);
+    match name.rsplit('.').next() {
+        Some("obj") => Some(obj::parse_attributed(bytes, path)),
+        Some("ply") => Some(ply::parse_attributed(bytes, path)),
+        _ => None,
+    }
+}
+
+/// What every accepted attributed mesh must be: its own position mesh valid, every
+/// attribute vertex naming a position, one value per attribute vertex, and the same
+/// triangles (per corner, the same positions) as the position mesh.
+fn check_attributed(mesh: &AttributedMesh) -> Result<(), String> {
+    mesh.positions.validate().map_err(|e| e.to_string())?;
+    let n = mesh.position_of.len();
+    if mesh
+        .position_of
+        .iter()
+        .any(|&p| p as usize >= mesh.positions.vertex_count())
+    {
+        return Err("an attribute vertex names no position".into());
+    }
+    let a = &mesh.attributes;
+    if a.normals.as_ref().is_some_and(|v| v.len() != n)
+        || a.uvs.as_ref().is_some_and(|v| v.len() != n)
+    {
+        return Err("attribute count differs from the vertex count".into());
+    }
+    let corners = |t: &[u32; 3]| t.map(|v| mesh.position_of.get(v as usize).copied());
+    let same = mesh.triangles.len() == mesh.positions.triangles.len()
+        && mesh
+            .triangles
+            .iter()
+            .zip(&mesh.positions.triangles)
+            .all(|(a, b)| corners(a) == b.map(Some));
+    if !same {
+        return Err("the attribute triangles are not the position triangles".into());
+    }
+    mesh.mesh().validate().map_err(|e| e.to_string())
+}
+
+/// The attributed parses of the valid inputs succeed and are consistent.
+#[test]
+fn valid_inputs_load_with_attributes() {
+    for (name, bytes) in valid_inputs() {
+        if name == "a.obj" {
+            // Its corners name `vt`/`vn` the file never states: only positions load.
+            let err = parse_attributed(name, &bytes).unwrap().unwrap_err();
+            assert!(err.to_string().contains("names no `vt` statement"), "{err}");
+            continue;
+        }
+        if let Some(parsed) = parse_attributed(name, &bytes) {
+            let mesh = parsed.unwrap_or_else(|e| panic!("{name}: {e}"));
+            check_attributed(&mesh).unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+    }
+    let uv = parse_attributed("uv.obj", &valid_inputs()[4].1)
+        .unwrap()
+        .unwrap();
+    // Position 0 has corners (vt 1) and (vt 5), position 2 (vt 3, then vt -3: the same)
+    // twice: one seam.
+    assert_eq!(uv.position_of, vec![0, 0, 1, 2, 3]);
 }
 
 fn parse_any(name: &str, bytes: &[u8]) -> Result<morphlod::IndexedMesh, LoadError> {
@@ -468,13 +545,13 @@ proptest! {
     /// (never panics), and whatever it accepts is a valid mesh.
     #[test]
     fn mutated_files_never_panic(
-        which in 0usize..4,
+        which in any::<prop::sample::Index>(),
         edits in proptest::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 0..8),
         cut in any::<prop::sample::Index>(),
         truncate in any::<bool>(),
     ) {
         let inputs = valid_inputs();
-        let (name, mut bytes) = inputs[which].clone();
+        let (name, mut bytes) = inputs[which.index(inputs.len())].clone();
         for (at, byte) in edits {
             let i = at.index(bytes.len());
             bytes[i] = byte;
@@ -485,6 +562,11 @@ proptest! {
         if let Ok(mesh) = parse_any(name, &bytes) {
             prop_assert!(mesh.validate().is_ok());
         }
+        if let Some(Ok(mesh)) = parse_attributed(name, &bytes) {
+            if let Err(why) = check_attributed(&mesh) {
+                prop_assert!(false, "{}", why);
+            }
+        }
     }
 }
 
@@ -492,3 +574,6 @@ proptest! {
 // per-format files under tests/bad_input/ need explicit paths.
 #[path = "bad_input/gltf.rs"]
 mod gltf;
+
+#[path = "bad_input/gltf_attributes.rs"]
+mod gltf_attributes;

@@ -436,3 +436,35 @@ fn build_different_connectivity_builds_a_supermesh() {
     );
     assert!(out_path.exists(), "{stdout}");
 }
+
+/// `info` on the MakeHuman face (refused before issue 11: zero-initialised accessors) reports
+/// its attributes, the seams, and the welded surface the simplifier works on: one component
+/// with one boundary loop at the neck, as assets/README.md describes it.
+#[test]
+fn info_reports_attributes_and_seams() {
+    let face = asset("makehuman_face.glb");
+    let out = morphlod(&["info", face.to_str().unwrap()]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    for needle in [
+        "4632 attribute vertices on 4437 topology vertices (191 seam vertices)",
+        "normals           given",
+        "uvs               given",
+        "material          'skin', base colour [1.0, 1.0, 1.0, 1.0]",
+        "texture           image/jpeg, 31373 bytes, 1024 x 1024 pixels",
+        "normal deltas     given for 52 of 52 targets\n",
+        "topology of the welded surface (seam copies joined)\n  vertices          4437 (0 isolated)",
+        "boundary          54 edges in 1 loops",
+    ] {
+        assert!(stdout.contains(needle), "{needle:?} not in\n{stdout}");
+    }
+    // A mesh without attributes says its normals are computed and has no seams to weld.
+    let out = morphlod(&["info", asset("cow.off").to_str().unwrap()]);
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("(0 seam vertices)"), "{stdout}");
+    assert!(stdout.contains("none in the file: computed"), "{stdout}");
+    assert!(
+        !stdout.contains("topology of the welded surface"),
+        "{stdout}"
+    );
+}

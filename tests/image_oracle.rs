@@ -18,14 +18,15 @@
 
 mod common;
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use common::gpu::{assert_one_multi_draw_each, Gpu, Recorder};
-use common::{strip_draw, Rng};
+use common::gpu::{
+    assert_one_multi_draw_each, differences, fail_with_images, reference_lists, Gpu, Recorder,
+};
+use common::Rng;
 use glam::{Mat4, Vec3};
-use morphlod::collapse::{canonical, CollapseSequence};
+use morphlod::collapse::CollapseSequence;
 use morphlod::gpu::camera::{self, Projection};
 use morphlod::gpu::{
     self, Draws, GpuError, MorphPipeline, Object, RenderTarget, Topology, RESTART,
@@ -152,75 +153,6 @@ fn setup(object: &mut Object, view_proj: Mat4) -> Result<(), GpuError> {
 
 fn coverage(image: &image::RgbaImage) -> usize {
     image.pixels().filter(|p| p.0 != CLEAR_RGBA).count()
-}
-
-/// Pixels where the images differ, as (x, y, a, b).
-fn differences(a: &image::RgbaImage, b: &image::RgbaImage) -> Vec<(u32, u32, [u8; 4], [u8; 4])> {
-    a.enumerate_pixels()
-        .zip(b.pixels())
-        .filter(|((_, _, pa), pb)| pa != pb)
-        .map(|((x, y, pa), pb)| (x, y, pa.0, pb.0))
-        .collect()
-}
-
-/// Saves both images beside the test binary's scratch directory and fails with the first
-/// differences, so a failure can be looked at.
-fn fail_with_images(what: &str, a: &image::RgbaImage, b: &image::RgbaImage) -> ! {
-    let diffs = differences(a, b);
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"));
-    let stem: String = what
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-        .collect();
-    let (pa, pb) = (
-        dir.join(format!("{stem}_a.png")),
-        dir.join(format!("{stem}_b.png")),
-    );
-    let saved = gpu::save_png(a, &pa).and(gpu::save_png(b, &pb));
-    panic!(
-        "{what}: {} pixels differ (first: {:?}); images {} and {} ({saved:?})",
-        diffs.len(),
-        &diffs[..diffs.len().min(8)],
-        pa.display(),
-        pb.display()
-    );
-}
-
-/// The reference list drawn two ways, the same multiset of oriented triangles in the same
-/// order: `raw` as `reference_mesh` gives it, and `rotated` with each triangle starting at the
-/// vertex the strip draw starts it at (a reference triangle the strips lack keeps its own
-/// rotation, so any disagreement still shows in the image).
-///
-/// Why rotation matters: the rasterizer interpolates the world position from the triangle's
-/// first vertex, so `(a, b, c)` and `(b, c, a)` interpolate with different rounding; the
-/// shader's derivative normal `cross(dpdy(p), dpdx(p))` amplifies that into a ±1 step of an
-/// 8-bit channel on rare pixels. The test prints, per asset, how many pixels differ from the
-/// strips with `raw` (a few, all ±1) and asserts none differ with `rotated`: rotation is the
-/// whole difference; draw order (a tie in depth) is not needed to explain any pixel.
-struct ReferenceLists {
-    raw: Vec<u32>,
-    rotated: Vec<u32>,
-}
-
-fn reference_lists(reference: &[[u32; 3]], state: &StripsState, strips: usize) -> ReferenceLists {
-    // The triangles in the vertex order the GPU rasterizes them (`common::strip_draw`).
-    let drawn: Vec<[u32; 3]> = (0..strips)
-        .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
-        .collect();
-    // Canonical form -> the strip triangles of that form.
-    let mut by_form: HashMap<[u32; 3], Vec<[u32; 3]>> = HashMap::new();
-    for &t in &drawn {
-        by_form.entry(canonical(t)).or_default().push(t);
-    }
-    let mut rotated = Vec::with_capacity(reference.len() * 3);
-    for &t in reference {
-        let as_drawn = by_form.get_mut(&canonical(t)).and_then(Vec::pop);
-        rotated.extend(as_drawn.unwrap_or(t));
-    }
-    ReferenceLists {
-        raw: reference.iter().flatten().copied().collect(),
-        rotated,
-    }
 }
 
 #[test]

@@ -461,7 +461,7 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                     object.set_shade_mode(if on {
                         ShadeMode::StripColours
                     } else {
-                        ShadeMode::BaseColour
+                        ShadeMode::Faceted
                     });
                 }
                 Move::Gap(bytes) => object.object_mut().set_merge_gap(bytes),

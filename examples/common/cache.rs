@@ -1,8 +1,8 @@
 //! The asset cache: each morph's `.mlod` file under the demo's output folder, built with
-//! [`Builder`] when missing, stale or damaged.
+//! [`Builder`] when first asked for and missing, stale or damaged.
 
 use std::io::IsTerminal;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -20,40 +20,72 @@ pub struct BuiltMorph {
     pub model: Arc<DeformingModel>,
 }
 
-pub fn load_or_build_all(
-    sources: &[&str],
-    out: &Path,
-    morphs: &[NamedMorph],
+/// A demo's morphs and where their assets are cached; an asset is loaded or built when asked
+/// for ([`Library::load`]), not up front.
+pub struct Library {
+    morphs: Vec<NamedMorph>,
+    out: PathBuf,
     frames: u16,
-) -> Result<Vec<BuiltMorph>, DemoError> {
-    // The content, not the path or the modification time: an edited or replaced source file
-    // gets new assets, an untouched checkout elsewhere reuses them. (One file hashes as
-    // before, so existing caches stay valid.)
-    let mut hasher = crc32fast::Hasher::new();
-    for source in sources {
-        let bytes = std::fs::read(source).map_err(|source_error| DemoError::Io {
-            path: Path::new(source).to_path_buf(),
-            source: source_error,
-        })?;
-        hasher.update(&bytes);
+    /// CRC-32 of the source files' content, part of every cache key.
+    source_hash: u32,
+}
+
+impl Library {
+    pub fn new(
+        sources: &[&str],
+        out: &Path,
+        morphs: Vec<NamedMorph>,
+        frames: u16,
+    ) -> Result<Library, DemoError> {
+        // The content, not the path or the modification time: an edited or replaced source
+        // file gets new assets, an untouched checkout elsewhere reuses them. (One file hashes
+        // as before, so existing caches stay valid.)
+        let mut hasher = crc32fast::Hasher::new();
+        for source in sources {
+            let bytes = std::fs::read(source).map_err(|source_error| DemoError::Io {
+                path: Path::new(source).to_path_buf(),
+                source: source_error,
+            })?;
+            hasher.update(&bytes);
+        }
+        Ok(Library {
+            morphs,
+            out: out.to_path_buf(),
+            frames,
+            source_hash: hasher.finalize(),
+        })
     }
-    let source_hash = hasher.finalize();
-    let mut built = Vec::with_capacity(morphs.len());
-    for (i, named) in morphs.iter().enumerate() {
+
+    pub fn len(&self) -> usize {
+        self.morphs.len()
+    }
+
+    pub fn label(&self, index: usize) -> &str {
+        self.morphs.get(index).map_or("", |m| m.label.as_str())
+    }
+
+    /// Morph `index`'s asset and runtime model: cached, or built and cached now.
+    pub fn load(&self, index: usize) -> Result<BuiltMorph, DemoError> {
+        let named = self.morphs.get(index).ok_or(DemoError::NoSuchMorph {
+            index,
+            count: self.morphs.len(),
+        })?;
         let key = match &named.morph {
             MorphSpec::Ready(_) => "",
             MorphSpec::Deferred { key, .. } => key.as_str(),
         };
-        let path = out.join(cache_name(&named.label, source_hash, frames, key));
-        let asset = load_or_build(named, &path, frames, (i + 1, morphs.len()))?;
+        let path = self
+            .out
+            .join(cache_name(&named.label, self.source_hash, self.frames, key));
+        let number = (index + 1, self.morphs.len());
+        let asset = load_or_build(named, &path, self.frames, number)?;
         let model = Arc::new(DeformingModel::new(&asset).map_err(DemoError::lib)?);
-        built.push(BuiltMorph {
+        Ok(BuiltMorph {
             label: named.label.clone(),
             asset,
             model,
-        });
+        })
     }
-    Ok(built)
 }
 
 /// The cache file of one morph: label, frame count, and a hash of the source file's content
@@ -192,6 +224,11 @@ fn matches_spec(asset: &Asset, spec: &MorphSpec, frames: u16) -> bool {
     }
 }
 
+/// Same poses and frame count, and a surface exactly when the morph has vertex attributes
+/// (a file cached before attributes were kept is rebuilt).
 fn matches_morph(asset: &Asset, morph: &Morph, frames: u16) -> bool {
-    asset.frames.len() == usize::from(frames) && asset.v0 == morph.v0() && asset.v1 == morph.v1()
+    asset.frames.len() == usize::from(frames)
+        && asset.v0 == morph.v0()
+        && asset.v1 == morph.v1()
+        && asset.surface.is_some() == morph.attributes().has_vertex_attributes()
 }

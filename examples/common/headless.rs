@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use morphlod::gpu::{save_png, Context, RenderTarget};
 
-use super::cache::BuiltMorph;
+use super::cache::Library;
 use super::scene::{LodControl, Scene};
 use super::{CommonArgs, Demo, DemoError, CLEAR};
 
@@ -16,7 +16,7 @@ const HEADLESS_COARSEST: f32 = 0.97;
 pub fn run_headless(
     demo: &Demo,
     args: &CommonArgs,
-    morphs: &[BuiltMorph],
+    library: &Library,
     out: &Path,
 ) -> Result<(), DemoError> {
     let context = Context::headless().map_err(DemoError::lib)?;
@@ -30,7 +30,7 @@ pub fn run_headless(
         queue,
         &info,
         RenderTarget::COLOR_FORMAT,
-        morphs,
+        library,
         args,
     )?;
     scene.view.playing = false;
@@ -38,7 +38,10 @@ pub fn run_headless(
     let frames = args.frames;
     println!(
         "{}: rendering {frames} frames of '{}' headless on {} ({:?}), {width}x{height}",
-        demo.name, morphs[args.morph].label, info.name, info.backend
+        demo.name,
+        library.label(args.morph),
+        info.name,
+        info.backend
     );
     remove_old_frames(out)?;
     let mut first = None;
@@ -68,7 +71,7 @@ pub fn run_headless(
         let image = target.read_image(device, queue).map_err(DemoError::lib)?;
         let path = out.join(format!("frame_{i:04}.png"));
         save_png(&image, &path).map_err(DemoError::lib)?;
-        let state = scene.objects[scene.current].object.state();
+        let state = scene.object.object.state();
         println!(
             "  {} t {:.3} k {:2} lod {:5} triangles {:6} indices {:6} uploaded {:7} B  {:.1} ms",
             path.display(),

@@ -9,7 +9,7 @@
 //! surface (or an offscreen `RenderTarget`) and the render pass; `Scene::update` runs the CPU model
 //! and uploads, `Scene::draw` records one multi-draw for the mesh and the text.
 //!
-//! * `cache` — each morph's `.mlod` file, built when missing, stale or damaged;
+//! * `cache` — each morph's `.mlod` file, built when first shown and missing, stale or damaged;
 //! * `scene` — objects, view state, camera, readout text;
 //! * `headless` — the PNG frame sequence; `window` — the winit window.
 
@@ -23,10 +23,11 @@ use std::path::{Path, PathBuf};
 use morphlod::io::LoadOptions;
 use morphlod::io::{load_morph, MorphSource};
 use morphlod::mesh::clean::{clean, CleanOptions};
+use morphlod::morph::{MorphTarget, Weights};
 use morphlod::{IndexedMesh, Morph};
 use thiserror::Error;
 
-use cache::load_or_build_all;
+use cache::Library;
 use headless::run_headless;
 use window::{run_window, WindowOutcome};
 
@@ -146,17 +147,16 @@ pub enum MorphSpec {
     },
 }
 
-/// The cleaned base mesh of a glTF file and every target as a whole pose (base + deltas).
+/// The cleaned morph of a glTF file: its base mesh, vertex attributes and every morph target
+/// (position and normal deltas), from which a demo makes its two-pose morphs.
 pub struct TargetPoses {
-    pub triangles: Vec<[u32; 3]>,
-    pub base: Vec<[f32; 3]>,
-    /// (name, pose) per morph target, in file order.
-    pub targets: Vec<(String, Vec<[f32; 3]>)>,
+    morph: Morph,
 }
 
 impl TargetPoses {
-    /// Loads every morph target of the first mesh of `path`, cleaned once on the base pose
-    /// (the builder needs triangles without repeated corners) and applied to all poses alike.
+    /// Loads the first mesh of `path` with its targets and attributes, cleaned once on the base
+    /// pose (the builder needs triangles without repeated corners) and applied to every target
+    /// and attribute alike.
     pub fn load(path: &Path) -> Result<TargetPoses, DemoError> {
         let morph = load_morph(path, &LoadOptions::default(), &MorphSource::DefaultWeights)
             .map_err(DemoError::lib)?;
@@ -172,35 +172,33 @@ impl TargetPoses {
         let morph = morph
             .select(&cleaned.vertex_map, cleaned.mesh.triangles)
             .map_err(DemoError::lib)?;
-        let targets = morph
-            .targets()
-            .iter()
-            .map(|target| {
-                let pose = morph
-                    .base()
-                    .iter()
-                    .zip(&target.deltas)
-                    .map(|(p, d)| [p[0] + d[0], p[1] + d[1], p[2] + d[2]])
-                    .collect();
-                (target.name.clone(), pose)
-            })
-            .collect();
-        Ok(TargetPoses {
-            triangles: morph.triangles().to_vec(),
-            base: morph.base().to_vec(),
-            targets,
-        })
+        Ok(TargetPoses { morph })
     }
 
-    /// `V(0)` = `a`, `V(1)` = `b`, labelled `label`.
-    pub fn morph(
-        &self,
-        label: String,
-        a: &[[f32; 3]],
-        b: &[[f32; 3]],
-    ) -> Result<NamedMorph, DemoError> {
-        let morph = Morph::from_poses(self.triangles.clone(), a.to_vec(), b.to_vec())
-            .map_err(DemoError::lib)?;
+    /// A two-pose morph over the file's triangles and attributes: `V(0)` = base + target
+    /// `from` (the base itself for `None`), `V(1)` = base + target `to`, with the targets'
+    /// normal deltas, so the normals deform with the face.
+    fn morph(&self, from: Option<usize>, to: usize) -> Result<NamedMorph, DemoError> {
+        let targets = self.morph.targets();
+        let name = |k: Option<usize>| k.map_or("neutral", |k| targets[k].name.as_str());
+        let label = format!("{}-to-{}", name(from), name(Some(to)));
+        let chosen: Vec<MorphTarget> = from
+            .into_iter()
+            .chain([to])
+            .map(|k| targets[k].clone())
+            .collect();
+        // The last target goes from weight 0 to 1, a `from` target from 1 to 0.
+        let n = chosen.len();
+        let w0 = (0..n).map(|k| f32::from(u8::from(k + 1 < n))).collect();
+        let w1 = (0..n).map(|k| f32::from(u8::from(k + 1 == n))).collect();
+        let morph = Morph::from_parts(
+            self.morph.triangles().to_vec(),
+            self.morph.base().to_vec(),
+            chosen,
+            Weights::TwoPose { w0, w1 },
+        )
+        .and_then(|morph| morph.with_attributes(self.morph.attributes().clone()))
+        .map_err(DemoError::lib)?;
         Ok(NamedMorph {
             label,
             morph: MorphSpec::Ready(Box::new(morph)),
@@ -209,15 +207,25 @@ impl TargetPoses {
 
     /// Neutral (the base mesh) → each target, in file order.
     pub fn neutral_morphs(&self) -> Result<Vec<NamedMorph>, DemoError> {
-        self.targets
-            .iter()
-            .map(|(name, pose)| self.morph(format!("neutral-to-{name}"), &self.base, pose))
+        (0..self.morph.targets().len())
+            .map(|k| self.morph(None, k))
+            .collect()
+    }
+
+    /// Target `i` → target `i + 1`, wrapping around, so stepping walks through every target.
+    /// (Only face_to_face `--pairs` uses it; the other demos compile it unused.)
+    #[allow(dead_code)]
+    pub fn pair_morphs(&self) -> Result<Vec<NamedMorph>, DemoError> {
+        let count = self.morph.targets().len();
+        (0..count)
+            .map(|i| self.morph(Some(i), (i + 1) % count))
             .collect()
     }
 }
 
-/// Runs a demo: builds (or loads) its assets, then opens a window, or renders headless when
-/// asked to or when no window can be opened.
+/// Runs a demo: opens a window, or renders headless when asked to or when no window can be
+/// opened. Each morph's asset is loaded (built when not cached) when it is first shown, so a
+/// demo of many morphs starts as fast as one of a single morph.
 pub fn run(demo: &Demo, args: &CommonArgs, morphs: Vec<NamedMorph>) -> Result<(), DemoError> {
     if args.morph >= morphs.len() {
         return Err(DemoError::NoSuchMorph {
@@ -233,18 +241,18 @@ pub fn run(demo: &Demo, args: &CommonArgs, morphs: Vec<NamedMorph>) -> Result<()
         path: out.clone(),
         source,
     })?;
-    let assets = load_or_build_all(demo.sources, &out, &morphs, args.build_frames)?;
+    let library = Library::new(demo.sources, &out, morphs, args.build_frames)?;
     if args.headless {
-        return run_headless(demo, args, &assets, &out);
+        return run_headless(demo, args, &library, &out);
     }
-    match run_window(demo, args, &assets)? {
+    match run_window(demo, args, &library)? {
         WindowOutcome::Closed => Ok(()),
         WindowOutcome::NoWindow(reason) => {
             println!(
                 "{}: no window can be opened ({reason}); rendering headless instead",
                 demo.name
             );
-            run_headless(demo, args, &assets, &out)
+            run_headless(demo, args, &library, &out)
         }
     }
 }

@@ -1,5 +1,6 @@
-//! The scene: one [`LodObject`] per morph, the view state the keys and mouse change, the
-//! orbit camera and the readout text, recorded into a pass the caller owns.
+//! The scene: the [`LodObject`] of the morph shown (loaded from the library when chosen), the
+//! view state the keys and mouse change, the orbit camera and the readout text, recorded into
+//! a pass the caller owns.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -12,7 +13,7 @@ use glyphon::{
 use morphlod::gpu::{DrawCounter, LodObject, MorphPipeline, RenderTarget, ShadeMode, Upload};
 use morphlod::Lod;
 
-use super::cache::BuiltMorph;
+use super::cache::{BuiltMorph, Library};
 use super::{CommonArgs, DemoError};
 
 /// The one font of the readout, compiled in: CI machines and containers have no system fonts.
@@ -45,6 +46,9 @@ pub struct View {
     pub playing: bool,
     pub lod: LodControl,
     pub strips: bool,
+    /// The shading while strips are not coloured: textured (the default; an asset without a
+    /// surface draws faceted), smooth or faceted.
+    pub shade: ShadeMode,
     pub yaw: f32,
     pub pitch: f32,
     /// Camera distance relative to the distance that frames the object.
@@ -60,6 +64,7 @@ impl View {
             playing: true,
             lod: LodControl::Fraction(0.0),
             strips,
+            shade: ShadeMode::Textured,
             yaw: 0.35f32.atan2(1.0),
             pitch: (0.15f32 / (0.35f32 * 0.35 + 0.15 * 0.15 + 1.0).sqrt()).asin(),
             zoom: 1.0,
@@ -96,6 +101,15 @@ impl View {
                 let factor = if coarser { 1.5 } else { 1.0 / 1.5 };
                 LodControl::Pixels((p * factor).clamp(0.05, 500.0))
             }
+        };
+    }
+
+    /// Textured → smooth → faceted → textured.
+    pub fn next_shade(&mut self) {
+        self.shade = match self.shade {
+            ShadeMode::Textured => ShadeMode::Smooth,
+            ShadeMode::Smooth => ShadeMode::Faceted,
+            ShadeMode::Faceted | ShadeMode::StripColours => ShadeMode::Textured,
         };
     }
 
@@ -145,10 +159,13 @@ pub struct FrameStats {
     pub draw_calls: u64,
 }
 
-/// One object per morph (all on the GPU, sharing one pipeline, so switching is instant), the
-/// view state and the readout.
-pub struct Scene {
-    pub objects: Vec<SceneObject>,
+/// The object of the morph shown (one at a time: a face demo has 52 morphs, each with its
+/// texture; switching loads the next from the cache, or builds it), the view state and the
+/// readout.
+pub struct Scene<'a> {
+    library: &'a Library,
+    pipeline: MorphPipeline,
+    pub object: SceneObject,
     pub current: usize,
     pub view: View,
     readout: Readout,
@@ -165,7 +182,8 @@ pub struct Scene {
 /// The readout's key help, under the figures.
 const KEYS: &str =
     "\nkeys  <-/-> t  space play/pause  up/down LOD finer/coarser  l fraction/pixels\n      \
-                    s strip colours  n next morph  drag orbit  wheel zoom  r reset view  q quit";
+     ]/n next morph  [ previous  m textured/smooth/faceted  s strip colours\n      \
+     drag orbit  wheel zoom  r reset view  q quit";
 
 pub struct SceneObject {
     label: String,
@@ -174,49 +192,57 @@ pub struct SceneObject {
     radius: f32,
 }
 
-impl Scene {
+impl SceneObject {
+    fn new(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        built: BuiltMorph,
+    ) -> Result<SceneObject, DemoError> {
+        let mut object = LodObject::new(device, pipeline, &built.asset, Arc::clone(&built.model))
+            .map_err(DemoError::lib)?;
+        object.set_color(SKIN);
+        let both: Vec<[f32; 3]> = built
+            .asset
+            .v0
+            .iter()
+            .chain(&built.asset.v1)
+            .copied()
+            .collect();
+        // Built assets have vertices; an empty one would have failed DeformingModel::new.
+        let (min, max) = morphlod::mesh::bounds(&both).unwrap_or(([0.0; 3], [0.0; 3]));
+        let (min, max) = (Vec3::from(min), Vec3::from(max));
+        let radius = ((max - min).length() * 0.5).max(1e-6);
+        Ok(SceneObject {
+            label: built.label,
+            object,
+            centre: (min + max) * 0.5,
+            radius,
+        })
+    }
+}
+
+impl<'a> Scene<'a> {
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         adapter: &wgpu::AdapterInfo,
         color_format: wgpu::TextureFormat,
-        morphs: &[BuiltMorph],
+        library: &'a Library,
         args: &CommonArgs,
-    ) -> Result<Scene, DemoError> {
+    ) -> Result<Scene<'a>, DemoError> {
         let pipeline = MorphPipeline::new(device, color_format, Some(RenderTarget::DEPTH_FORMAT));
-        let mut objects = Vec::with_capacity(morphs.len());
-        for built in morphs {
-            let mut object =
-                LodObject::new(device, &pipeline, &built.asset, Arc::clone(&built.model))
-                    .map_err(DemoError::lib)?;
-            object.set_color(SKIN);
-            let both: Vec<[f32; 3]> = built
-                .asset
-                .v0
-                .iter()
-                .chain(&built.asset.v1)
-                .copied()
-                .collect();
-            // Built assets have vertices; an empty one would have failed DeformingModel::new.
-            let (min, max) = morphlod::mesh::bounds(&both).unwrap_or(([0.0; 3], [0.0; 3]));
-            let (min, max) = (Vec3::from(min), Vec3::from(max));
-            let radius = ((max - min).length() * 0.5).max(1e-6);
-            objects.push(SceneObject {
-                label: built.label.clone(),
-                object,
-                centre: (min + max) * 0.5,
-                radius,
-            });
-        }
+        let object = SceneObject::new(device, &pipeline, library.load(args.morph)?)?;
         Ok(Scene {
-            objects,
+            library,
+            pipeline,
+            object,
             current: args.morph,
             view: View::new(args.strips),
             readout: Readout::new(device, queue, color_format),
             strip_colours: device
                 .features()
                 .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE),
-            adapter: format!("{} ({:?})", adapter.name, adapter.backend),
+            adapter: format!("{} ({:?}), {color_format:?}", adapter.name, adapter.backend),
             last: FrameStats::default(),
             show_keys: true,
             text_scale: 1.0,
@@ -233,9 +259,7 @@ impl Scene {
         status: &str,
     ) -> Result<(), DemoError> {
         let view = &self.view;
-        let Some(current) = self.objects.get_mut(self.current) else {
-            return Ok(());
-        };
+        let current = &mut self.object;
         let camera = orbit(
             current.centre,
             current.radius,
@@ -256,7 +280,7 @@ impl Scene {
         object.set_shade_mode(if view.strips {
             ShadeMode::StripColours
         } else {
-            ShadeMode::BaseColour
+            view.shade
         });
         let upload = object.prepare(queue);
         let cpu = start.elapsed();
@@ -273,18 +297,14 @@ impl Scene {
     /// Records the current object (one multi-draw) and the readout into `pass`, whose
     /// attachments have the formats the scene was made for.
     pub fn draw(&mut self, pass: &mut wgpu::RenderPass<'_>) -> Result<(), DemoError> {
-        if let Some(current) = self.objects.get(self.current) {
-            let mut counter = DrawCounter::new(pass);
-            current.object.render(&mut counter);
-            self.last.draw_calls = counter.draw_calls;
-        }
+        let mut counter = DrawCounter::new(pass);
+        self.object.object.render(&mut counter);
+        self.last.draw_calls = counter.draw_calls;
         self.readout.draw(pass)
     }
 
     fn readout_text(&self, status: &str, lod: Lod) -> String {
-        let Some(current) = self.objects.get(self.current) else {
-            return status.to_string();
-        };
+        let current = &self.object;
         let state = current.object.state();
         let model = current.object.model();
         let frame = state.frame();
@@ -300,10 +320,15 @@ impl Scene {
         let triangles = state.triangle_count();
         let indices = state.index_count();
         let upload = &self.last.upload;
-        let shading = match (self.view.strips, self.strip_colours) {
-            (false, _) => "base colour",
-            (true, true) => "one colour per strip",
-            (true, false) => "strips (this device lacks INDIRECT_FIRST_INSTANCE: one colour)",
+        let shading = match (current.object.object().shade_mode(), self.strip_colours) {
+            (ShadeMode::Textured, _) => "textured, smooth normals",
+            (ShadeMode::Smooth, _) => "smooth normals, one colour",
+            (ShadeMode::Faceted, _) if current.object.object().has_surface() => "faceted",
+            (ShadeMode::Faceted, _) => "faceted (the asset has no normals or UVs)",
+            (ShadeMode::StripColours, true) => "one colour per strip",
+            (ShadeMode::StripColours, false) => {
+                "strips (this device lacks INDIRECT_FIRST_INSTANCE: one colour)"
+            }
         };
         format!(
             "{status}\n\
@@ -311,10 +336,11 @@ impl Scene {
              t     {:.3} {}   sampled frame k = {} of {}\n\
              {lod_line}   -> {} of {} collapses\n\
              drawn {} triangles, {} indices ({:.2} per triangle), {} mesh draw call(s)\n\
-             upload {} B this frame (index+indirect {} B, uniforms {} B), set+prepare {:.3} ms\n\
+             upload {} B this frame (index+indirect {} B, uniforms {} B, offsets {} B, \
+             texture {} B), set+prepare {:.3} ms\n\
              shade {shading}   adapter {}{}",
             self.current + 1,
-            self.objects.len(),
+            self.library.len(),
             current.label,
             self.view.t,
             if self.view.playing {
@@ -333,14 +359,29 @@ impl Scene {
             upload.bytes(),
             upload.geometry_bytes(),
             upload.uniform_bytes,
+            upload.offset_bytes,
+            upload.texture_bytes,
             self.last.cpu.as_secs_f64() * 1e3,
             self.adapter,
             if self.show_keys { KEYS } else { "" },
         )
     }
 
-    pub fn next_morph(&mut self) {
-        self.current = (self.current + 1) % self.objects.len().max(1);
+    /// Shows the morph `step` places after the current one (negative: before), wrapping
+    /// around; its asset is loaded, or built when not cached (which takes a while the first
+    /// time). The new object replaces the old one, so at most two morphs' buffers and textures
+    /// are held, and only during the switch.
+    pub fn step_morph(&mut self, device: &wgpu::Device, step: isize) -> Result<(), DemoError> {
+        let count = self.library.len().max(1) as isize;
+        let next = (self.current as isize + step).rem_euclid(count) as usize;
+        if next == self.current {
+            return Ok(());
+        }
+        println!("showing {}", self.library.label(next));
+        let built = self.library.load(next)?;
+        self.object = SceneObject::new(device, &self.pipeline, built)?;
+        self.current = next;
+        Ok(())
     }
 }
 

@@ -12,7 +12,7 @@ use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
-use super::cache::BuiltMorph;
+use super::cache::Library;
 use super::scene::{Scene, View};
 use super::{CommonArgs, Demo, DemoError, CLEAR};
 
@@ -26,7 +26,7 @@ pub enum WindowOutcome {
 pub fn run_window(
     demo: &Demo,
     args: &CommonArgs,
-    morphs: &[BuiltMorph],
+    library: &Library,
 ) -> Result<WindowOutcome, DemoError> {
     // winit would say the same, prefixed with its source location; this reads better.
     if cfg!(all(
@@ -48,7 +48,7 @@ pub fn run_window(
     let mut app = App {
         demo,
         args,
-        morphs,
+        library,
         window: None,
         result: None,
     };
@@ -65,8 +65,8 @@ pub fn run_window(
 struct App<'a> {
     demo: &'a Demo,
     args: &'a CommonArgs,
-    morphs: &'a [BuiltMorph],
-    window: Option<WindowState>,
+    library: &'a Library,
+    window: Option<WindowState<'a>>,
     /// Set when the loop must end with something other than a normal close.
     result: Option<Result<WindowOutcome, DemoError>>,
 }
@@ -85,7 +85,7 @@ impl ApplicationHandler for App<'_> {
         if self.window.is_some() {
             return;
         }
-        match WindowState::new(event_loop, self.demo, self.args, self.morphs) {
+        match WindowState::new(event_loop, self.demo, self.args, self.library) {
             Ok(state) => {
                 state.window.request_redraw();
                 self.window = Some(state);
@@ -119,13 +119,14 @@ impl ApplicationHandler for App<'_> {
                         ..
                     },
                 ..
-            } => {
-                let action = state.key(&logical_key);
-                if action == KeyAction::Quit {
+            } => match state.key(&logical_key) {
+                KeyAction::Continue => {}
+                KeyAction::Quit => {
                     self.window = None;
                     event_loop.exit();
                 }
-            }
+                KeyAction::Fail(error) => self.fail(event_loop, Err(error)),
+            },
             WindowEvent::MouseInput {
                 state: pressed,
                 button: MouseButton::Left,
@@ -168,16 +169,17 @@ enum Setup {
     Failed(DemoError),
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
 enum KeyAction {
     Continue,
     Quit,
+    /// Switching morphs failed (the asset did not load or build).
+    Fail(DemoError),
 }
 
 /// Everything that lives as long as the window. Fields drop in declaration order: the surface
 /// before the window it draws into.
-struct WindowState {
-    scene: Scene,
+struct WindowState<'a> {
+    scene: Scene<'a>,
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
     depth: wgpu::TextureView,
@@ -194,13 +196,13 @@ struct WindowState {
     window: Arc<Window>,
 }
 
-impl WindowState {
+impl<'a> WindowState<'a> {
     fn new(
         event_loop: &ActiveEventLoop,
         demo: &Demo,
         args: &CommonArgs,
-        morphs: &[BuiltMorph],
-    ) -> Result<WindowState, Setup> {
+        library: &'a Library,
+    ) -> Result<WindowState<'a>, Setup> {
         let (width, height) = args.size;
         let attributes = Window::default_attributes()
             .with_title(format!("morphlod {}", demo.name))
@@ -249,7 +251,7 @@ impl WindowState {
             &queue,
             &adapter.get_info(),
             config.format,
-            morphs,
+            library,
             args,
         )
         .map_err(Setup::Failed)?;
@@ -302,11 +304,21 @@ impl WindowState {
             Key::Named(NamedKey::ArrowDown) => view.step_lod(true),
             Key::Character("l") => view.toggle_lod_control(),
             Key::Character("s") => view.strips = !view.strips,
+            Key::Character("m") => view.next_shade(),
             Key::Character("r") => {
                 let fresh = View::new(view.strips);
                 (view.yaw, view.pitch, view.zoom) = (fresh.yaw, fresh.pitch, fresh.zoom);
             }
-            Key::Character("n") => self.scene.next_morph(),
+            Key::Character("n") | Key::Character("]") => {
+                if let Err(error) = self.scene.step_morph(&self.device, 1) {
+                    return KeyAction::Fail(error);
+                }
+            }
+            Key::Character("[") => {
+                if let Err(error) = self.scene.step_morph(&self.device, -1) {
+                    return KeyAction::Fail(error);
+                }
+            }
             _ => {}
         }
         self.window.request_redraw();

@@ -35,34 +35,22 @@ impl LodObject {
     /// `model` must be made from `asset` ([`DeformingModel::new`]); a model whose strips name
     /// vertices past the asset's poses is rejected with [`GpuError::IndexOutOfRange`]. An
     /// asset with morph targets ([`Asset::blend`]) uploads them too, and [`set`](Self::set)
-    /// plays its weight animation on the GPU.
+    /// plays its weight animation on the GPU. An asset with a [`Asset::surface`] draws
+    /// textured and smooth by default (see [`Object::from_asset`] and its errors).
     pub fn new(
         device: &wgpu::Device,
         pipeline: &MorphPipeline,
         asset: &Asset,
         model: Arc<DeformingModel>,
     ) -> Result<LodObject, GpuError> {
-        let mut object = Object::new(
+        let object = Object::from_asset(
             device,
             pipeline,
             Topology::Strip,
-            &asset.v0,
-            &asset.v1,
+            asset,
             &s0_regions(&model),
         )?;
-        let track = match &asset.blend {
-            Some(blend) => {
-                if blend.track.targets() != blend.deltas.len() {
-                    return Err(GpuError::TrackMismatch {
-                        track: blend.track.targets(),
-                        targets: blend.deltas.len(),
-                    });
-                }
-                object.set_targets(device, pipeline, &blend.deltas)?;
-                Some(blend.track.clone())
-            }
-            None => None,
-        };
+        let track = asset.blend.as_ref().map(|blend| blend.track.clone());
         let state = DeformingState::new(&model);
         Ok(LodObject {
             model,
@@ -112,7 +100,7 @@ impl LodObject {
         self.object.set_model(model);
     }
 
-    /// Sets the base colour (linear rgb, alpha written as is).
+    /// Sets the object's colour (faceted and smooth modes, see [`Object::set_color`]).
     pub fn set_color(&mut self, color: [f32; 4]) {
         self.object.set_color(color);
     }
@@ -122,8 +110,8 @@ impl LodObject {
         self.object.set_light(towards_light, ambient)
     }
 
-    /// Chooses base colour or one colour per strip (strip colours draw one record per strip,
-    /// see [`Object::set_shade_mode`]).
+    /// Chooses the shade mode (see [`Object::set_shade_mode`]; strip colours draw one record
+    /// per strip, smooth and textured need a surface).
     pub fn set_shade_mode(&mut self, mode: ShadeMode) {
         self.object.set_shade_mode(mode);
     }

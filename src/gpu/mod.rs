@@ -12,6 +12,9 @@
 //!   ([`Draws`]). The CPU edits regions; [`Object::prepare`] uploads only the changed byte
 //!   ranges and [`Object::render`] draws every record with exactly one
 //!   `multi_draw_indexed_indirect`.
+//!   An object made from an asset with a [`crate::asset::Surface`] also carries per-vertex
+//!   normals, UVs and colours and the material's base-colour texture, and shades in any
+//!   [`ShadeMode`] (textured and smooth by default); one without draws faceted, as always.
 //! * [`LodObject`] — an [`Object`] driven by its CPU LOD runtime: `set(t, lod)`, `prepare`,
 //!   `render`; what applications use.
 //! * [`RenderTarget`] — an offscreen colour + depth target and its readback into an
@@ -57,6 +60,7 @@ mod pipeline;
 mod pose;
 mod records;
 mod render_target;
+mod surface;
 mod upload;
 
 pub use commands::{DrawCounter, RenderCommands};
@@ -177,6 +181,29 @@ pub enum GpuError {
         "a {width}x{height} target is not possible: each side must be between 1 and {max} pixels"
     )]
     RenderTargetSize { width: u32, height: u32, max: u32 },
+    /// A surface attribute that does not have one entry per vertex.
+    #[error("the surface's {attribute} has {len} entries but the object has {vertices} vertices; give one per vertex (rebuild the asset)")]
+    SurfaceLength {
+        attribute: &'static str,
+        len: usize,
+        vertices: usize,
+    },
+    /// A surface attribute that is NaN or infinite.
+    #[error("the surface's {attribute} of vertex {vertex} is not finite; fix the source mesh's attribute")]
+    NonFiniteAttribute {
+        attribute: &'static str,
+        vertex: usize,
+    },
+    /// The material's base-colour texture does not decode.
+    #[error("the base-colour texture ({mime_type}) does not decode: {source}; re-encode it as PNG or JPEG, or remove it from the material (`material.texture = None`) to draw untextured")]
+    TextureDecode {
+        mime_type: &'static str,
+        #[source]
+        source: image::ImageError,
+    },
+    /// A texture larger than the device allows.
+    #[error("the base-colour texture is {width}x{height} but the device allows at most {max} pixels a side; downscale it")]
+    TextureSize { width: u32, height: u32, max: u32 },
     /// The blend parameter `t` is NaN (values outside `[0, 1]` are clamped).
     #[error("t is NaN; pass a time in [0, 1]")]
     TimeNaN,

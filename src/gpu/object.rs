@@ -4,6 +4,10 @@
 //! * `V(0)` and `V(1)` live in two vertex buffers, uploaded once; the shader blends them with `t`.
 //!   An object may also carry morph targets ([`Object::set_targets`]) in a storage buffer,
 //!   added with per-frame weights: how a weight animation moves on the GPU.
+//! * An object made with a [`Surface`] ([`Object::with_surface`], [`Object::from_asset`]) has
+//!   a third vertex buffer (normals at `t = 0` and `t = 1`, UV, colour per vertex, uploaded
+//!   once), the material's texture, and normal offsets beside the position offsets; it draws
+//!   with the surface pipelines and any [`ShadeMode`].
 //! * The index buffer is cut into fixed regions, one per strip of `S0`, each as long as that
 //!   strip at full detail (its capacity). A region's live indices are packed at its start.
 //! * In a [`Topology::Strip`] object the rest of a region (its tail, live length..capacity)
@@ -21,9 +25,10 @@
 //!   spans; [`Object::prepare`] coalesces them into few `queue.write_buffer` calls, and
 //!   [`Object::render`] issues one `multi_draw_indexed_indirect` over all records.
 //!
-//! The object composes three parts, one file each: the draw records (`records.rs`), the
-//! index mirror and its upload diff (`upload.rs`) and the uniforms and morph targets
-//! (`pose.rs`); this file owns the buffers, the region layout and the edits.
+//! The object composes four parts, one file each: the draw records (`records.rs`), the
+//! index mirror and its upload diff (`upload.rs`), the uniforms and morph targets
+//! (`pose.rs`) and the surface (`surface.rs`); this file owns the buffers, the region layout
+//! and the edits.
 //!
 //! Why grouping draws exactly the strips' triangles, orientation included: a restart ends the
 //! strip being assembled and the next index starts a new one at even parity — the same state a
@@ -46,10 +51,12 @@ use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
 use super::pose::Pose;
 use super::records::{DrawRecords, ARGS_BYTES};
+use super::surface::GpuSurface;
 use super::upload::{clip, coalesce, IndexMirror};
 #[allow(unused_imports)] // named in the docs
 use super::MERGE_GAP_BYTES;
 use super::{Draws, GpuError, Upload, GROUP_INDICES, RESTART};
+use crate::asset::{Asset, Surface};
 use crate::lodstrips::Dirty;
 use crate::morph::WeightTrack;
 
@@ -103,6 +110,62 @@ impl Object {
         v0: &[[f32; 3]],
         v1: &[[f32; 3]],
         regions: &[Vec<u32>],
+    ) -> Result<Object, GpuError> {
+        Object::make(device, pipeline, topology, (v0, v1), regions, None)
+    }
+
+    /// As [`Object::new`], with `surface`'s normals, UVs, colours and material (one entry per
+    /// vertex of `v0`, finite: [`GpuError::SurfaceLength`], [`GpuError::NonFiniteAttribute`]
+    /// otherwise). The texture is decoded here ([`GpuError::TextureDecode`] when it does not
+    /// decode: clear `material.texture` to draw the surface untextured) and uploaded by the
+    /// first [`prepare`](Self::prepare). The object starts in [`ShadeMode::Textured`] when the
+    /// material has a texture, [`ShadeMode::Smooth`] otherwise. Normal deltas of morph targets
+    /// go with [`set_targets_with_normals`](Self::set_targets_with_normals).
+    pub fn with_surface(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        topology: Topology,
+        (v0, v1): (&[[f32; 3]], &[[f32; 3]]),
+        regions: &[Vec<u32>],
+        surface: &Surface,
+    ) -> Result<Object, GpuError> {
+        Object::make(device, pipeline, topology, (v0, v1), regions, Some(surface))
+    }
+
+    /// An object drawing `asset`'s poses over `regions`, with its surface and its morph targets
+    /// (position and normal deltas) when it has them: what [`super::LodObject`] and the
+    /// benchmark draw an asset with. Pose it with [`set_pose`](Self::set_pose) and the
+    /// asset's weight track.
+    pub fn from_asset(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        topology: Topology,
+        asset: &Asset,
+        regions: &[Vec<u32>],
+    ) -> Result<Object, GpuError> {
+        let poses = (asset.v0.as_slice(), asset.v1.as_slice());
+        let surface = asset.surface.as_ref();
+        let mut object = Object::make(device, pipeline, topology, poses, regions, surface)?;
+        if let Some(blend) = &asset.blend {
+            if blend.track.targets() != blend.deltas.len() {
+                return Err(GpuError::TrackMismatch {
+                    track: blend.track.targets(),
+                    targets: blend.deltas.len(),
+                });
+            }
+            let normals = surface.map_or(&[][..], |s| s.normal_deltas.as_slice());
+            object.set_targets_with_normals(device, pipeline, &blend.deltas, normals)?;
+        }
+        Ok(object)
+    }
+
+    fn make(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        topology: Topology,
+        (v0, v1): (&[[f32; 3]], &[[f32; 3]]),
+        regions: &[Vec<u32>],
+        surface: Option<&Surface>,
     ) -> Result<Object, GpuError> {
         if v0.len() != v1.len() {
             return Err(GpuError::PoseSizeMismatch {
@@ -190,11 +253,16 @@ impl Object {
                 | wgpu::BufferUsages::COPY_DST
                 | wgpu::BufferUsages::COPY_SRC,
         });
-        let pose = Pose::new(device, pipeline, vertex_count);
-        let render_pipeline = match topology {
-            Topology::Strip => pipeline.strip().clone(),
-            Topology::List => pipeline.list().clone(),
+        let surface = surface
+            .map(|surface| GpuSurface::new(device, surface, v0.len()))
+            .transpose()?;
+        let render_pipeline = match (topology, surface.is_some()) {
+            (Topology::Strip, false) => pipeline.strip().clone(),
+            (Topology::List, false) => pipeline.list().clone(),
+            (Topology::Strip, true) => pipeline.surface_strip().clone(),
+            (Topology::List, true) => pipeline.surface_list().clone(),
         };
+        let pose = Pose::new(device, pipeline, vertex_count, surface);
         Ok(Object {
             pipeline: render_pipeline,
             topology,
@@ -206,7 +274,7 @@ impl Object {
             region_starts,
             lengths,
             draws,
-            shade: ShadeMode::BaseColour,
+            shade: pose.default_mode(),
             mirror: IndexMirror::new(indices),
             records,
             pose,
@@ -293,7 +361,7 @@ impl Object {
     fn drawn_as(&self) -> Draws {
         match self.shade {
             ShadeMode::StripColours => Draws::PerRegion,
-            ShadeMode::BaseColour => self.draws,
+            ShadeMode::Faceted | ShadeMode::Smooth | ShadeMode::Textured => self.draws,
         }
     }
 
@@ -489,7 +557,21 @@ impl Object {
         pipeline: &MorphPipeline,
         targets: &[Vec<[f32; 3]>],
     ) -> Result<(), GpuError> {
-        self.pose.set_targets(device, pipeline, targets)
+        self.pose.set_targets(device, pipeline, targets, &[])
+    }
+
+    /// As [`set_targets`](Self::set_targets), with each target's normal deltas (`normals`
+    /// empty, or one array per target of one delta per vertex, on an object with a surface):
+    /// the smooth modes draw `normalize(n0 + Σ_k w_k dN_k)`, the offsets summed on the CPU
+    /// like the positions' (12 more bytes per vertex uploaded when the weights change).
+    pub fn set_targets_with_normals(
+        &mut self,
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        targets: &[Vec<[f32; 3]>],
+        normals: &[Vec<[f32; 3]>],
+    ) -> Result<(), GpuError> {
+        self.pose.set_targets(device, pipeline, targets, normals)
     }
 
     /// Sets the pose at animation time `t` (clamped to `[0, 1]`; NaN is
@@ -512,7 +594,8 @@ impl Object {
         self.pose.set_model(model);
     }
 
-    /// Sets the base colour (linear rgb, alpha written as is).
+    /// Sets the object's colour (rgb stored in the target as is, alpha written as is), used by
+    /// the faceted and smooth modes; the textured mode uses the material's base colour.
     pub fn set_color(&mut self, color: [f32; 4]) {
         self.pose.set_color(color);
     }
@@ -523,13 +606,26 @@ impl Object {
         self.pose.set_light(towards_light, ambient)
     }
 
-    /// Chooses base colour or one colour per strip. Strip colours read the record number, so
-    /// while they are on the object draws one record per region (the indirect records are
-    /// rewritten and uploaded once on each switch).
+    /// Chooses how the object is shaded. An object without a surface draws
+    /// [`ShadeMode::Smooth`] and [`ShadeMode::Textured`] as [`ShadeMode::Faceted`] (see
+    /// [`shade_mode`](Self::shade_mode)). Strip colours read the record number, so while they
+    /// are on the object draws one record per region (the indirect records are rewritten and
+    /// uploaded once on each switch).
     pub fn set_shade_mode(&mut self, mode: ShadeMode) {
+        let mode = mode.for_surface(self.has_surface());
         self.pose.set_mode(mode);
         self.shade = mode;
         self.relayout_records();
+    }
+
+    /// The mode the object draws in.
+    pub fn shade_mode(&self) -> ShadeMode {
+        self.shade
+    }
+
+    /// Whether the object was made with a surface (normals, UVs, material).
+    pub fn has_surface(&self) -> bool {
+        self.pose.surface().is_some()
     }
 
     /// Sets how far apart (in bytes of one buffer) two changed spans may lie and still be sent
@@ -563,7 +659,11 @@ impl Object {
             );
             upload.indirect_ranges.push(bytes);
         }
-        (upload.uniform_bytes, upload.offset_bytes) = self.pose.upload(queue);
+        let pose = self.pose.upload(queue);
+        upload.uniform_bytes = pose.uniform_bytes;
+        upload.offset_bytes = pose.offset_bytes;
+        upload.offset_writes = pose.offset_writes;
+        upload.texture_bytes = pose.texture_bytes;
         upload
     }
 
@@ -577,6 +677,9 @@ impl Object {
         pass.set_bind_group(0, self.pose.bind_group());
         pass.set_vertex_buffer(0, &self.v0);
         pass.set_vertex_buffer(1, &self.v1);
+        if let Some(surface) = self.pose.surface() {
+            pass.set_vertex_buffer(2, &surface.buffer);
+        }
         pass.set_index_buffer(&self.index_buffer, wgpu::IndexFormat::Uint32);
         pass.multi_draw_indexed_indirect(&self.indirect_buffer, 0, self.records.args.len() as u32);
     }

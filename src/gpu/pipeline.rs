@@ -9,54 +9,105 @@ use bytemuck::{Pod, Zeroable};
 /// The WGSL source of the morph shader (`shaders/morph.wgsl`).
 pub const MORPH_WGSL: &str = include_str!("../../shaders/morph.wgsl");
 
-/// How fragments are coloured.
+/// How fragments are coloured and lit.
+///
+/// An object without a surface (positions only) has no normals or UVs: it draws
+/// [`Smooth`](ShadeMode::Smooth) and [`Textured`](ShadeMode::Textured) as
+/// [`Faceted`](ShadeMode::Faceted) ([`ShadeMode::for_surface`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadeMode {
-    /// The object's base colour, lit.
-    BaseColour,
-    /// One colour per strip (region), lit; needs `INDIRECT_FIRST_INSTANCE` on the device,
+    /// The object's colour ([`super::Object::set_color`]), lit with the normal of each drawn
+    /// triangle (screen-space derivatives): flat, faceted shading, which shows the LOD's
+    /// triangles. The default without a surface.
+    Faceted,
+    /// One colour per strip (region), faceted; needs `INDIRECT_FIRST_INSTANCE` on the device,
     /// otherwise every strip gets the colour of strip 0.
     StripColours,
+    /// The object's colour, lit with the surface's normals blended with the pose:
+    /// `normalize(mix(n0, n1, t) + Σ c_k dN_k)`.
+    Smooth,
+    /// Smooth, coloured with the material: base colour factor × base-colour texture at the
+    /// vertex UVs × vertex colour (a missing texture or colour counts as white). The default
+    /// with a surface. The texture is sRGB (sampled as linear values) and the lit colour is
+    /// encoded to sRGB when the pipeline's colour format is linear, so the texture shows as
+    /// authored; the other modes store their colours as is (see [`MorphPipeline::new`]).
+    Textured,
 }
 
 impl ShadeMode {
     fn shader_value(self) -> u32 {
         match self {
-            ShadeMode::BaseColour => 0,
+            ShadeMode::Faceted => 0,
             ShadeMode::StripColours => 1,
+            ShadeMode::Smooth => 2,
+            ShadeMode::Textured => 3,
+        }
+    }
+
+    /// What an object draws when asked for `self`: itself with a surface, and
+    /// [`Faceted`](ShadeMode::Faceted) for the smooth modes without one.
+    pub fn for_surface(self, has_surface: bool) -> ShadeMode {
+        match self {
+            ShadeMode::Smooth | ShadeMode::Textured if !has_surface => ShadeMode::Faceted,
+            mode => mode,
         }
     }
 }
 
-/// The uniform block of `morph.wgsl`, byte for byte (WGSL uniform layout: two `mat4x4`, two
-/// `vec4`, two 32-bit scalars, padded to 16 bytes).
+/// The uniform block of `morph.wgsl`, byte for byte (WGSL uniform layout: three `mat4x4`,
+/// three `vec4`, three 32-bit scalars, padded to 16 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Uniforms {
     pub view_proj: [[f32; 4]; 4],
     pub model: [[f32; 4]; 4],
+    /// The inverse transpose of `model`'s upper 3x3 (in the xyz of the first three columns):
+    /// takes normals to world space.
+    pub normal_model: [[f32; 4]; 4],
+    /// The object's colour (faceted and smooth modes).
     pub color: [f32; 4],
+    /// The material's base colour factor, linear RGBA (textured mode).
+    pub base_color: [f32; 4],
     /// xyz: world-space direction towards the light; w: ambient term.
     pub light: [f32; 4],
     pub t: f32,
     pub mode: u32,
+    /// 1 when the textured mode encodes its colour to sRGB (a linear target format).
+    pub encode_srgb: u32,
     /// WGSL rounds the struct up to a multiple of 16 bytes.
-    pub _padding: [u32; 2],
+    pub _padding: [u32; 1],
 }
 
 impl Uniforms {
     /// Identity camera and model, t = 0, light from +z (towards a camera looking down -z),
-    /// ambient 0.2, a light grey base colour.
+    /// ambient 0.2, a light grey colour, a white base colour factor, faceted, encoding to sRGB.
     pub fn new() -> Uniforms {
         Uniforms {
             view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
             model: glam::Mat4::IDENTITY.to_cols_array_2d(),
+            normal_model: glam::Mat4::IDENTITY.to_cols_array_2d(),
             color: [0.8, 0.8, 0.8, 1.0],
+            base_color: [1.0; 4],
             light: [0.0, 0.0, 1.0, 0.2],
             t: 0.0,
-            mode: ShadeMode::BaseColour.shader_value(),
-            _padding: [0; 2],
+            mode: ShadeMode::Faceted.shader_value(),
+            encode_srgb: 1,
+            _padding: [0; 1],
         }
+    }
+
+    /// Sets `model` and the normal matrix that goes with it.
+    pub(crate) fn set_model(&mut self, model: glam::Mat4) {
+        self.model = model.to_cols_array_2d();
+        let linear = glam::Mat3::from_mat4(model);
+        // A singular model flattens the mesh and has no inverse: its own 3x3 keeps the normals
+        // finite (the shader renormalises them).
+        let normal = if linear.determinant().is_normal() {
+            linear.inverse().transpose()
+        } else {
+            linear
+        };
+        self.normal_model = glam::Mat4::from_mat3(normal).to_cols_array_2d();
     }
 
     pub(crate) fn set_mode(&mut self, mode: ShadeMode) {
@@ -70,11 +121,33 @@ impl Default for Uniforms {
     }
 }
 
-/// The morph render pipelines (strip and list) sharing one layout.
+/// Bytes per vertex of an object's surface buffer (slot 2): normal at `t = 0`, at `t = 1`
+/// (3 × f32 each), UV (2 × f32), colour (4 × f32).
+pub(crate) const SURFACE_STRIDE: u64 = 48;
+
+/// The morph render pipelines: for position-only objects and for objects with a surface, each
+/// for triangle strips and lists.
 pub struct MorphPipeline {
+    plain: Variant,
+    surface: Variant,
+    /// The colour format is not sRGB: the textured mode encodes its output itself.
+    encode_srgb: bool,
+}
+
+/// The pipelines of one vertex layout and their bind group layout.
+struct Variant {
     bind_group_layout: wgpu::BindGroupLayout,
     strip: wgpu::RenderPipeline,
     list: wgpu::RenderPipeline,
+}
+
+/// Which vertex layout (and entry points) a pipeline uses.
+#[derive(Clone, Copy)]
+enum Layout {
+    /// `V(0)`, `V(1)`: `vs_main`, `fs_main`, bindings 0 and 1.
+    Plain,
+    /// Also the surface buffer: `vs_surface`, `fs_surface`, bindings 0 to 4.
+    Surface,
 }
 
 impl MorphPipeline {
@@ -83,6 +156,9 @@ impl MorphPipeline {
     /// `color_format` and `depth_format` must match the attachments of every pass the objects
     /// are drawn in ([`super::RenderTarget::COLOR_FORMAT`] / [`super::RenderTarget::DEPTH_FORMAT`] for an
     /// offscreen [`super::RenderTarget`]); wgpu rejects a mismatch when the pass is recorded.
+    /// Colours are written as the shader computes them; with a linear (non-sRGB) format, the
+    /// [`ShadeMode::Textured`] mode encodes its linear result to sRGB itself, so a texture
+    /// looks as authored in either kind of format.
     pub fn new(
         device: &wgpu::Device,
         color_format: wgpu::TextureFormat,
@@ -103,69 +179,129 @@ impl MorphPipeline {
             label: Some("morph.wgsl"),
             source: wgpu::ShaderSource::Wgsl(MORPH_WGSL.into()),
         });
+        let formats = Formats {
+            color: color_format,
+            depth: depth_format,
+            cull_mode,
+        };
+        MorphPipeline {
+            plain: Variant::new(device, &shader, formats, Layout::Plain),
+            surface: Variant::new(device, &shader, formats, Layout::Surface),
+            encode_srgb: !color_format.is_srgb(),
+        }
+    }
+
+    /// The layout of the bind group of a position-only object (binding 0: [`Uniforms`],
+    /// binding 1: morph-target offsets).
+    pub fn bind_group_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.plain.bind_group_layout
+    }
+
+    /// The layout of the bind group of an object with a surface: as
+    /// [`bind_group_layout`](Self::bind_group_layout), plus binding 2: normal offsets,
+    /// 3: the base-colour texture, 4: its sampler.
+    pub fn surface_bind_group_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.surface.bind_group_layout
+    }
+
+    /// The triangle-strip pipeline (primitive restart at `0xFFFFFFFF`) of position-only objects.
+    pub fn strip(&self) -> &wgpu::RenderPipeline {
+        &self.plain.strip
+    }
+
+    /// The triangle-list pipeline of position-only objects, for reference renders and
+    /// list-vs-strip comparisons.
+    pub fn list(&self) -> &wgpu::RenderPipeline {
+        &self.plain.list
+    }
+
+    /// The triangle-strip pipeline of objects with a surface.
+    pub fn surface_strip(&self) -> &wgpu::RenderPipeline {
+        &self.surface.strip
+    }
+
+    /// The triangle-list pipeline of objects with a surface.
+    pub fn surface_list(&self) -> &wgpu::RenderPipeline {
+        &self.surface.list
+    }
+
+    /// Whether the textured mode encodes to sRGB (the colour format is linear).
+    pub(crate) fn encodes_srgb(&self) -> bool {
+        self.encode_srgb
+    }
+}
+
+/// The attachment formats and culling every pipeline of a [`MorphPipeline`] shares.
+#[derive(Clone, Copy)]
+struct Formats {
+    color: wgpu::TextureFormat,
+    depth: Option<wgpu::TextureFormat>,
+    cull_mode: Option<wgpu::Face>,
+}
+
+impl Variant {
+    fn new(
+        device: &wgpu::Device,
+        shader: &wgpu::ShaderModule,
+        formats: Formats,
+        layout: Layout,
+    ) -> Variant {
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("morph uniforms"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: wgpu::BufferSize::new(size_of::<Uniforms>() as u64),
-                    },
-                    count: None,
-                },
-                // The morph-target offset of every vertex (f32 x, y, z), read by vertex index;
-                // objects without targets bind a small zero buffer.
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::VERTEX,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: wgpu::BufferSize::new(4),
-                    },
-                    count: None,
-                },
-            ],
+            label: Some(match layout {
+                Layout::Plain => "morph uniforms",
+                Layout::Surface => "morph uniforms and surface",
+            }),
+            entries: &bind_group_entries(layout),
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("morph"),
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
+        let (vs, fs) = match layout {
+            Layout::Plain => ("vs_main", "fs_main"),
+            Layout::Surface => ("vs_surface", "fs_surface"),
+        };
+        // Two buffers, not one interleaved: V(0) and V(1) are uploaded once each and a
+        // pose-only update (a different morph target) rewrites one buffer. The surface
+        // attributes never change after upload, so they share one interleaved buffer.
+        let pose_buffer = |location| wgpu::VertexBufferLayout {
+            array_stride: 12,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: match location {
+                0 => &wgpu::vertex_attr_array![0 => Float32x3],
+                _ => &wgpu::vertex_attr_array![1 => Float32x3],
+            },
+        };
+        let surface_buffer = wgpu::VertexBufferLayout {
+            array_stride: SURFACE_STRIDE,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![
+                2 => Float32x3, 3 => Float32x3, 4 => Float32x2, 5 => Float32x4
+            ],
+        };
+        let mut buffers = vec![Some(pose_buffer(0)), Some(pose_buffer(1))];
+        if let Layout::Surface = layout {
+            buffers.push(Some(surface_buffer));
+        }
         let build = |label: &str, topology, strip_index_format| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
-                layout: Some(&layout),
+                layout: Some(&pipeline_layout),
                 vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some("vs_main"),
+                    module: shader,
+                    entry_point: Some(vs),
                     compilation_options: Default::default(),
-                    // Two buffers, not one interleaved: V(0) and V(1) are uploaded once each
-                    // and a pose-only update (a different morph target) rewrites one buffer.
-                    buffers: &[
-                        Some(wgpu::VertexBufferLayout {
-                            array_stride: 12,
-                            step_mode: wgpu::VertexStepMode::Vertex,
-                            attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-                        }),
-                        Some(wgpu::VertexBufferLayout {
-                            array_stride: 12,
-                            step_mode: wgpu::VertexStepMode::Vertex,
-                            attributes: &wgpu::vertex_attr_array![1 => Float32x3],
-                        }),
-                    ],
+                    buffers: &buffers,
                 },
                 primitive: wgpu::PrimitiveState {
                     topology,
                     strip_index_format,
                     front_face: wgpu::FrontFace::Ccw,
-                    cull_mode,
+                    cull_mode: formats.cull_mode,
                     ..Default::default()
                 },
-                depth_stencil: depth_format.map(|format| wgpu::DepthStencilState {
+                depth_stencil: formats.depth.map(|format| wgpu::DepthStencilState {
                     format,
                     depth_write_enabled: Some(true),
                     depth_compare: Some(wgpu::CompareFunction::Less),
@@ -174,11 +310,11 @@ impl MorphPipeline {
                 }),
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some("fs_main"),
+                    module: shader,
+                    entry_point: Some(fs),
                     compilation_options: Default::default(),
                     targets: &[Some(wgpu::ColorTargetState {
-                        format: color_format,
+                        format: formats.color,
                         blend: None,
                         write_mask: wgpu::ColorWrites::ALL,
                     })],
@@ -194,27 +330,65 @@ impl MorphPipeline {
             Some(wgpu::IndexFormat::Uint32),
         );
         let list = build("morph lists", wgpu::PrimitiveTopology::TriangleList, None);
-        MorphPipeline {
+        Variant {
             bind_group_layout,
             strip,
             list,
         }
     }
+}
 
-    /// The layout of the per-object bind group (binding 0: [`Uniforms`]).
-    pub fn bind_group_layout(&self) -> &wgpu::BindGroupLayout {
-        &self.bind_group_layout
+/// The bindings of one layout: uniforms and offsets for every object; normal offsets, texture
+/// and sampler for objects with a surface.
+fn bind_group_entries(layout: Layout) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let storage = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(4),
+        },
+        count: None,
+    };
+    let mut entries = vec![
+        wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(size_of::<Uniforms>() as u64),
+            },
+            count: None,
+        },
+        // The morph-target offset of every vertex (f32 x, y, z), read by vertex index;
+        // objects without targets bind a small zero buffer.
+        storage(1),
+    ];
+    if let Layout::Surface = layout {
+        entries.extend([
+            // The normal offsets, laid out and bound like the position offsets.
+            storage(2),
+            wgpu::BindGroupLayoutEntry {
+                binding: 3,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 4,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ]);
     }
-
-    /// The triangle-strip pipeline (primitive restart at `0xFFFFFFFF`).
-    pub fn strip(&self) -> &wgpu::RenderPipeline {
-        &self.strip
-    }
-
-    /// The triangle-list pipeline, for reference renders and list-vs-strip comparisons.
-    pub fn list(&self) -> &wgpu::RenderPipeline {
-        &self.list
-    }
+    entries
 }
 
 #[cfg(test)]
@@ -241,7 +415,10 @@ mod tests {
             .iter()
             .map(|e| e.name.as_str())
             .collect();
-        assert_eq!(entry_points, ["vs_main", "fs_main"]);
+        assert_eq!(
+            entry_points,
+            ["vs_main", "vs_surface", "fs_main", "fs_surface"]
+        );
     }
 
     /// The Rust uniform struct and the WGSL struct must have the same size, or the bind group
@@ -270,10 +447,13 @@ mod tests {
         let expected = [
             ("view_proj", std::mem::offset_of!(Uniforms, view_proj)),
             ("model", std::mem::offset_of!(Uniforms, model)),
+            ("normal_model", std::mem::offset_of!(Uniforms, normal_model)),
             ("color", std::mem::offset_of!(Uniforms, color)),
+            ("base_color", std::mem::offset_of!(Uniforms, base_color)),
             ("light", std::mem::offset_of!(Uniforms, light)),
             ("t", std::mem::offset_of!(Uniforms, t)),
             ("mode", std::mem::offset_of!(Uniforms, mode)),
+            ("encode_srgb", std::mem::offset_of!(Uniforms, encode_srgb)),
         ];
         let expected: Vec<(String, u32)> = expected
             .iter()

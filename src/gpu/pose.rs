@@ -1,11 +1,13 @@
 //! What an [`Object`](super::Object) draws its vertices with: the uniform block (blend
 //! parameter `t`, camera, model matrix, colour, light, shade mode), the morph targets with
-//! their weights (summed on the CPU into one offset per vertex, uploaded as a storage buffer),
-//! and the bind group over both.
+//! their weights (summed on the CPU into one position offset and, with a surface, one normal
+//! offset per vertex, uploaded as storage buffers), the surface (texture, sampler) and the
+//! bind group over all of them.
 
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::pipeline::{MorphPipeline, ShadeMode, Uniforms};
+use super::surface::GpuSurface;
 use super::GpuError;
 use crate::asset::MAX_TARGETS;
 use crate::morph::WeightTrack;
@@ -20,53 +22,119 @@ pub(super) struct Pose {
     /// The morph-target offset of every vertex, or a 16-byte zero buffer while the object has
     /// no targets (a binding cannot be empty).
     offset_buffer: wgpu::Buffer,
+    /// The same for the normal offsets (a zero buffer without a surface or normal deltas).
+    normal_offset_buffer: wgpu::Buffer,
     targets: Targets,
+    surface: Option<GpuSurface>,
     bind_group: wgpu::BindGroup,
 }
 
+/// Bytes [`Pose::upload`] wrote.
+pub(super) struct PoseUpload {
+    pub(super) uniform_bytes: u64,
+    /// Position and normal offsets.
+    pub(super) offset_bytes: u64,
+    pub(super) offset_writes: usize,
+    pub(super) texture_bytes: u64,
+}
+
 impl Pose {
-    /// Default uniforms, no morph targets.
-    pub(super) fn new(device: &wgpu::Device, pipeline: &MorphPipeline, vertex_count: u32) -> Self {
-        let uniforms = Uniforms::new();
+    /// Default uniforms, no morph targets; with a surface, the textured mode when it has a
+    /// texture and smooth otherwise, faceted without one.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        vertex_count: u32,
+        surface: Option<GpuSurface>,
+    ) -> Self {
+        let mut uniforms = Uniforms::new();
+        uniforms.encode_srgb = u32::from(pipeline.encodes_srgb());
+        if let Some(surface) = &surface {
+            uniforms.base_color = surface.base_color;
+        }
+        uniforms.set_mode(default_mode(surface.as_ref()));
         let uniform_buffer = device.create_buffer_init(&BufferInitDescriptor {
             label: Some("morphlod uniforms"),
             contents: bytemuck::bytes_of(&uniforms),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
         let offset_buffer = no_targets(device);
-        let bind_group = bind_group(device, pipeline, &uniform_buffer, &offset_buffer);
+        let normal_offset_buffer = no_targets(device);
         Pose {
             vertex_count,
             uniforms,
             dirty: false,
+            bind_group: bind_group(
+                device,
+                pipeline,
+                &uniform_buffer,
+                &offset_buffer,
+                &normal_offset_buffer,
+                surface.as_ref(),
+            ),
             uniform_buffer,
             offset_buffer,
+            normal_offset_buffer,
             targets: Targets::default(),
-            bind_group,
+            surface,
         }
+    }
+
+    /// The mode an object starts in.
+    pub(super) fn default_mode(&self) -> ShadeMode {
+        default_mode(self.surface.as_ref())
+    }
+
+    pub(super) fn surface(&self) -> Option<&GpuSurface> {
+        self.surface.as_ref()
+    }
+
+    fn rebind(&mut self, device: &wgpu::Device, pipeline: &MorphPipeline) {
+        self.bind_group = bind_group(
+            device,
+            pipeline,
+            &self.uniform_buffer,
+            &self.offset_buffer,
+            &self.normal_offset_buffer,
+            self.surface.as_ref(),
+        );
     }
 
     pub(super) fn bind_group(&self) -> &wgpu::BindGroup {
         &self.bind_group
     }
 
-    /// Writes the uniform block and the morph-target offsets when they changed; returns the
-    /// bytes written of each.
-    pub(super) fn upload(&mut self, queue: &wgpu::Queue) -> (u64, u64) {
+    /// Writes the uniform block, the morph-target offsets and the texture when they changed
+    /// (the texture only the first time).
+    pub(super) fn upload(&mut self, queue: &wgpu::Queue) -> PoseUpload {
         let mut uniform_bytes = 0;
         if self.dirty {
             queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&self.uniforms));
             self.dirty = false;
             uniform_bytes = size_of::<Uniforms>() as u64;
         }
-        let mut offset_bytes = 0;
+        let (mut offset_bytes, mut offset_writes) = (0, 0);
         if self.targets.dirty {
-            let offsets: &[u8] = bytemuck::cast_slice(&self.targets.offsets);
-            queue.write_buffer(&self.offset_buffer, 0, offsets);
-            offset_bytes = offsets.len() as u64;
+            for (buffer, offsets) in [
+                (&self.offset_buffer, &self.targets.offsets),
+                (&self.normal_offset_buffer, &self.targets.normal_offsets),
+            ] {
+                if !offsets.is_empty() {
+                    let bytes: &[u8] = bytemuck::cast_slice(offsets);
+                    queue.write_buffer(buffer, 0, bytes);
+                    offset_bytes += bytes.len() as u64;
+                    offset_writes += 1;
+                }
+            }
             self.targets.dirty = false;
         }
-        (uniform_bytes, offset_bytes)
+        let texture_bytes = self.surface.as_mut().map_or(0, |s| s.upload(queue));
+        PoseUpload {
+            uniform_bytes,
+            offset_bytes,
+            offset_writes,
+            texture_bytes,
+        }
     }
 
     /// `t` clamped to `[0, 1]`; NaN is refused and changes nothing.
@@ -86,6 +154,7 @@ impl Pose {
         device: &wgpu::Device,
         pipeline: &MorphPipeline,
         targets: &[Vec<[f32; 3]>],
+        normals: &[Vec<[f32; 3]>],
     ) -> Result<(), GpuError> {
         let vertices = self.vertex_count as usize;
         if targets.len() > MAX_TARGETS {
@@ -94,7 +163,25 @@ impl Pose {
                 max: MAX_TARGETS,
             });
         }
-        for (target, deltas) in targets.iter().enumerate() {
+        if !normals.is_empty() && (normals.len() != targets.len() || self.surface.is_none()) {
+            return Err(GpuError::InvalidParameter {
+                what: "normal deltas",
+                value: format!(
+                    "{} arrays for {} targets on an object {} a surface",
+                    normals.len(),
+                    targets.len(),
+                    if self.surface.is_some() {
+                        "with"
+                    } else {
+                        "without"
+                    }
+                ),
+                expected: "give none, or one per target on an object with a surface",
+            });
+        }
+        for (target, deltas) in targets.iter().chain(normals).enumerate() {
+            // Normal deltas are checked like the positions and named by their target.
+            let target = target % targets.len().max(1);
             if deltas.len() != vertices {
                 return Err(GpuError::TargetLength {
                     target,
@@ -120,22 +207,30 @@ impl Pose {
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
         super::object::check_size("morph-target", bytes, max)?;
-        self.offset_buffer = if targets.is_empty() {
-            no_targets(device)
-        } else {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("morphlod morph-target offsets"),
-                size: vertices as u64 * 12,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                // wgpu zero-initialises buffers: the offsets of all-zero weights.
-                mapped_at_creation: false,
-            })
+        let offsets = |present: bool| {
+            if present {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("morphlod morph-target offsets"),
+                    size: vertices as u64 * 12,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    // wgpu zero-initialises buffers: the offsets of all-zero weights.
+                    mapped_at_creation: false,
+                })
+            } else {
+                no_targets(device)
+            }
         };
-        self.bind_group = bind_group(device, pipeline, &self.uniform_buffer, &self.offset_buffer);
+        let has_normals = !targets.is_empty() && !normals.is_empty();
+        self.offset_buffer = offsets(!targets.is_empty());
+        self.normal_offset_buffer = offsets(has_normals);
+        self.rebind(device, pipeline);
+        let per_vertex = |present: bool| vec![[0.0; 3]; if present { vertices } else { 0 }];
         self.targets = Targets {
             deltas: targets.iter().flatten().copied().collect(),
+            normal_deltas: normals.iter().flatten().copied().collect(),
             weights: vec![0.0; targets.len()],
-            offsets: vec![[0.0; 3]; if targets.is_empty() { 0 } else { vertices }],
+            offsets: per_vertex(!targets.is_empty()),
+            normal_offsets: per_vertex(has_normals),
             dirty: false,
         };
         Ok(())
@@ -174,7 +269,7 @@ impl Pose {
     }
 
     pub(super) fn set_model(&mut self, model: glam::Mat4) {
-        self.uniforms.model = model.to_cols_array_2d();
+        self.uniforms.set_model(model);
         self.dirty = true;
     }
 
@@ -228,9 +323,13 @@ pub(super) fn clamp_t(t: f32) -> Result<f32, GpuError> {
 struct Targets {
     /// Target k's delta for vertex i at `deltas[k n + i]`.
     deltas: Vec<[f32; 3]>,
+    /// Target k's normal delta for vertex i at `normal_deltas[k n + i]` (empty without).
+    normal_deltas: Vec<[f32; 3]>,
     weights: Vec<f32>,
     /// `Σ_k weights[k] · deltas[k n + i]` for every vertex i (empty without targets).
     offsets: Vec<[f32; 3]>,
+    /// `Σ_k weights[k] · normal_deltas[k n + i]` (empty without normal deltas).
+    normal_offsets: Vec<[f32; 3]>,
     /// The offsets changed since the last upload.
     dirty: bool,
 }
@@ -243,23 +342,39 @@ impl Targets {
             return;
         }
         self.weights.copy_from_slice(weights);
-        let n = self.offsets.len();
-        self.offsets.fill([0.0; 3]);
-        for (k, &w) in weights.iter().enumerate() {
-            if w == 0.0 {
-                continue;
-            }
-            for (offset, delta) in self
-                .offsets
-                .iter_mut()
-                .zip(&self.deltas[k * n..(k + 1) * n])
-            {
-                for c in 0..3 {
-                    offset[c] += w * delta[c];
-                }
+        weighted_sum(&mut self.offsets, &self.deltas, weights);
+        weighted_sum(&mut self.normal_offsets, &self.normal_deltas, weights);
+        self.dirty = true;
+    }
+}
+
+/// `sums[i] = Σ_k weights[k] · deltas[k n + i]` with `n = sums.len()`; targets of weight 0 are
+/// skipped. Nothing to do for an empty `sums` (no such offsets).
+fn weighted_sum(sums: &mut [[f32; 3]], deltas: &[[f32; 3]], weights: &[f32]) {
+    let n = sums.len();
+    sums.fill([0.0; 3]);
+    if n == 0 {
+        return;
+    }
+    for (k, &w) in weights.iter().enumerate() {
+        if w == 0.0 {
+            continue;
+        }
+        for (sum, delta) in sums.iter_mut().zip(&deltas[k * n..(k + 1) * n]) {
+            for c in 0..3 {
+                sum[c] += w * delta[c];
             }
         }
-        self.dirty = true;
+    }
+}
+
+/// Textured when the surface has a texture, smooth with a surface without one, faceted
+/// without a surface.
+fn default_mode(surface: Option<&GpuSurface>) -> ShadeMode {
+    match surface {
+        Some(surface) if surface.textured => ShadeMode::Textured,
+        Some(_) => ShadeMode::Smooth,
+        None => ShadeMode::Faceted,
     }
 }
 
@@ -273,24 +388,48 @@ fn no_targets(device: &wgpu::Device) -> wgpu::Buffer {
     })
 }
 
+/// The bind group of the plain layout, or of the surface layout when there is a surface.
 fn bind_group(
     device: &wgpu::Device,
     pipeline: &MorphPipeline,
     uniforms: &wgpu::Buffer,
     targets: &wgpu::Buffer,
+    normal_targets: &wgpu::Buffer,
+    surface: Option<&GpuSurface>,
 ) -> wgpu::BindGroup {
+    let mut entries = vec![
+        wgpu::BindGroupEntry {
+            binding: 0,
+            resource: uniforms.as_entire_binding(),
+        },
+        wgpu::BindGroupEntry {
+            binding: 1,
+            resource: targets.as_entire_binding(),
+        },
+    ];
+    let layout = match surface {
+        None => pipeline.bind_group_layout(),
+        Some(surface) => {
+            entries.extend([
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: normal_targets.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(&surface.view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::Sampler(&surface.sampler),
+                },
+            ]);
+            pipeline.surface_bind_group_layout()
+        }
+    };
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("morphlod uniforms and targets"),
-        layout: pipeline.bind_group_layout(),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniforms.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: targets.as_entire_binding(),
-            },
-        ],
+        layout,
+        entries: &entries,
     })
 }

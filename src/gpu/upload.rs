@@ -23,14 +23,19 @@ pub struct Upload {
     pub indirect_ranges: Vec<Range<u64>>,
     /// Bytes of uniforms written (0 or the whole block).
     pub uniform_bytes: u64,
-    /// Bytes of morph-target offsets written (0, or 12 per vertex when the weights changed).
+    /// Bytes of morph-target offsets written (0, or when the weights changed 12 per vertex,
+    /// 24 with normal deltas).
     pub offset_bytes: u64,
+    /// `write_buffer` calls of the offsets: 0, 1 (positions), or 2 (and normals).
+    pub offset_writes: usize,
+    /// Bytes of texture written (the decoded base-colour texture, on the first prepare only).
+    pub texture_bytes: u64,
 }
 
 impl Upload {
     /// Total bytes written.
     pub fn bytes(&self) -> u64 {
-        self.geometry_bytes() + self.uniform_bytes + self.offset_bytes
+        self.geometry_bytes() + self.uniform_bytes + self.offset_bytes + self.texture_bytes
     }
 
     /// Bytes of index and indirect data written: what a LOD change cost, without the uniforms
@@ -40,12 +45,13 @@ impl Upload {
         sum(&self.index_ranges) + sum(&self.indirect_ranges)
     }
 
-    /// Number of `queue.write_buffer` calls.
+    /// Number of `queue.write_buffer` and `write_texture` calls.
     pub fn writes(&self) -> usize {
         self.index_ranges.len()
             + self.indirect_ranges.len()
             + usize::from(self.uniform_bytes > 0)
-            + usize::from(self.offset_bytes > 0)
+            + self.offset_writes
+            + usize::from(self.texture_bytes > 0)
     }
 }
 

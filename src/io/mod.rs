@@ -7,15 +7,30 @@
 //! Loaders return the mesh as the file indexes it (no welding, no dropping of
 //! degenerate triangles: that is [`crate::mesh::clean`], which reports what it
 //! changed), but always validated, so every later stage can index without checks.
+//!
+//! Vertex attributes (normals, texture coordinates, colours) and the material come with
+//! [`load_morph`] (glTF) and [`load_attributed`] (every format, as [`AttributedMesh`]:
+//! OBJ corners split into attribute vertices at seams); [`load_mesh`] stays position-only.
+//! UVs follow glTF's convention (`v` down), OBJ and PLY ones are flipped to it. A texture
+//! image is kept encoded; its header is checked at load time ([`image_size`]), so an image
+//! that is not a PNG or JPEG, or a missing external one, is a typed error
+//! ([`LoadError::GltfImage`], [`LoadError::GltfImageExternal`]) rather than a silent
+//! fallback to an untextured surface.
 
+mod attributed;
 pub mod gltf;
+mod image_header;
 pub mod obj;
 pub mod off;
 pub mod ply;
 mod polygon;
 mod text;
 
+pub use attributed::{
+    load_attributed, morph_from_pair, AttributeSummary, AttributedMesh, TextureSummary,
+};
 pub use gltf::{load_morph, MorphSource};
+pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;
 
 use crate::mesh::{IndexedMesh, MeshError};
@@ -144,6 +159,21 @@ pub enum LoadError {
     GltfExternal {
         path: PathBuf,
         buffer: usize,
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A texture image that is not a PNG or JPEG (by its bytes), or whose header is corrupt.
+    #[error("{path}: image {image} {message}")]
+    GltfImage {
+        path: PathBuf,
+        image: usize,
+        message: String,
+    },
+    #[error("{path}: image {image} refers to the external file {file}, which cannot be read ({source}); keep the texture images beside the .gltf, or embed them")]
+    GltfImageExternal {
+        path: PathBuf,
+        image: usize,
         file: PathBuf,
         #[source]
         source: std::io::Error,

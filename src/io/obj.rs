@@ -1,15 +1,23 @@
-//! Wavefront OBJ: the geometry subset, `v` positions and `f` polygons.
+//! Wavefront OBJ: `v` positions, `f` polygons, and the `vt` texture coordinates and `vn`
+//! normals their corners name.
 //!
-//! Texture coordinates, normals, groups, smoothing groups, materials, lines
-//! and points carry nothing a triangle mesh of positions needs, so their
-//! statements (and any unknown statement) are skipped; only the vertex part
-//! of each `v/vt/vn` face corner is used. Polygons are triangulated by
-//! `io::polygon`: the fan when convex, ear clipping when not.
+//! Groups, smoothing groups, materials, lines and points carry nothing a triangle mesh
+//! needs, so their statements (and any unknown statement) are skipped. Polygons are
+//! triangulated by `io::polygon`: the fan when convex, ear clipping when not.
+//!
+//! [`parse`] returns one vertex per `v` (the position mesh every loader returns).
+//! [`parse_attributed`] also returns the *attribute vertices*: a position is split wherever
+//! its corners' `(vt, vn)` pairs differ (a UV seam or a hard edge), and each split vertex
+//! carries its UV and normal. OBJ's UVs have `v` up; they are flipped to glTF's `v` down
+//! (`v' = 1 − v`), the convention [`Attributes::uvs`] states. A `vt` or `vn` used by only
+//! some corners is ignored (a corner without it has nothing to give its vertex).
 
+use super::attributed::{split_corners, AttributedMesh};
 use super::polygon::Polygons;
 use super::text::{self, coordinate, integer, tokens};
 use super::{read, validated, LoadError, Location};
 use crate::mesh::IndexedMesh;
+use crate::morph::Attributes;
 use std::path::Path;
 
 /// Reads and parses an OBJ file.
@@ -17,127 +25,339 @@ pub fn load(path: &Path) -> Result<IndexedMesh, LoadError> {
     parse(&read(path)?, path)
 }
 
+/// Reads and parses an OBJ file with its `vt`/`vn` attributes ([`parse_attributed`]).
+pub fn load_attributed(path: &Path) -> Result<AttributedMesh, LoadError> {
+    parse_attributed(&read(path)?, path)
+}
+
 /// Parses OBJ bytes; `path` only names the file in errors.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
-    let bytes = text::strip_bom(bytes);
-    let mut positions: Vec<[f32; 3]> = Vec::new();
-    let mut faces = Faces::default();
-    // Positive indices may legally point at vertices defined further down
-    // (some exporters write faces first), so they are range-checked once all
-    // vertices are known; the largest one and its line are enough for that.
-    let mut largest: Option<(u32, usize)> = None;
-    // A statement ending in `\` continues on the next line; its pieces are
-    // joined here and the statement reports the line it started on.
-    let mut joined: Vec<u8> = Vec::new();
-    let mut joined_from: Option<usize> = None;
+    Ok(ObjFile::parse(bytes, path)?.mesh)
+}
 
-    for (n, raw) in text::lines(bytes) {
-        let line = text::strip_comment(raw);
-        if let Some(head) = line.strip_suffix(b"\\") {
-            joined.extend_from_slice(head);
-            joined.push(b' ');
-            joined_from.get_or_insert(n);
-            continue;
-        }
-        let (line, n) = match joined_from.take() {
-            Some(first) => {
-                joined.extend_from_slice(line);
-                (&joined[..], first)
-            }
-            None => (line, n),
+/// Parses OBJ bytes into attribute vertices (see the module docs).
+pub fn parse_attributed(bytes: &[u8], path: &Path) -> Result<AttributedMesh, LoadError> {
+    ObjFile::parse(bytes, path)?.split(path)
+}
+
+/// What a file holds: the position mesh, the `vt` and `vn` values, and per face corner
+/// which of them it names.
+struct ObjFile {
+    mesh: IndexedMesh,
+    uvs: Vec<[f32; 2]>,
+    normals: Vec<[f32; 3]>,
+    faces: Faces,
+    /// The first `vt`/`vn` index that names nothing: an error for [`parse_attributed`]
+    /// only, since [`parse`] has never read them (and so keeps loading such files).
+    bad_attribute: Option<LoadError>,
+    largest: Largest,
+}
+
+/// The `(vt, vn)` a face corner names, 0-based.
+#[derive(Clone, Copy)]
+struct Corner {
+    vertex: u32,
+    uv: Option<u32>,
+    normal: Option<u32>,
+}
+
+/// The largest forward index seen and its line, per kind: range-checked once the whole
+/// file is read, since positive indices may point at statements further down.
+#[derive(Default)]
+struct Largest {
+    vertex: Option<(u32, usize)>,
+    uv: Option<(u32, usize)>,
+    normal: Option<(u32, usize)>,
+}
+
+impl ObjFile {
+    fn parse(bytes: &[u8], path: &Path) -> Result<ObjFile, LoadError> {
+        let bytes = text::strip_bom(bytes);
+        let mut file = ObjFile {
+            mesh: IndexedMesh::default(),
+            uvs: Vec::new(),
+            normals: Vec::new(),
+            faces: Faces::default(),
+            bad_attribute: None,
+            largest: Largest::default(),
         };
-        statement(line, n, path, &mut positions, &mut faces, &mut largest)?;
-        joined.clear();
-    }
-    // A `\` on the last line continues into nothing: parse what was joined.
-    if let Some(first) = joined_from {
-        statement(
-            &joined,
-            first,
-            path,
-            &mut positions,
-            &mut faces,
-            &mut largest,
-        )?;
-    }
-    if let Some((index, line)) = largest {
-        if index as usize >= positions.len() {
-            return Err(LoadError::IndexOutOfRange {
-                path: path.to_path_buf(),
-                at: Location::Line(line),
-                index: i64::from(index) + 1,
-                vertices: positions.len(),
-            });
+        // A statement ending in `\` continues on the next line; its pieces are
+        // joined here and the statement reports the line it started on.
+        let mut joined: Vec<u8> = Vec::new();
+        let mut joined_from: Option<usize> = None;
+
+        for (n, raw) in text::lines(bytes) {
+            let line = text::strip_comment(raw);
+            if let Some(head) = line.strip_suffix(b"\\") {
+                joined.extend_from_slice(head);
+                joined.push(b' ');
+                joined_from.get_or_insert(n);
+                continue;
+            }
+            let (line, n) = match joined_from.take() {
+                Some(first) => {
+                    joined.extend_from_slice(line);
+                    (&joined[..], first)
+                }
+                None => (line, n),
+            };
+            file.statement(line, n, path)?;
+            joined.clear();
         }
+        // A `\` on the last line continues into nothing: parse what was joined.
+        if let Some(first) = joined_from {
+            file.statement(&joined, first, path)?;
+        }
+        file.check_forward_vertices(path)?;
+        let positions = std::mem::take(&mut file.mesh.positions);
+        let mut triangles = std::mem::take(&mut file.faces.triangles);
+        file.faces
+            .polygons
+            .finish(&positions, &mut triangles, path, Location::Line)?;
+        file.mesh = validated(IndexedMesh::new(positions, triangles), path)?;
+        Ok(file)
     }
-    let Faces {
-        mut triangles,
-        polygons,
-        ..
-    } = faces;
-    polygons.finish(&positions, &mut triangles, path, Location::Line)?;
-    validated(IndexedMesh::new(positions, triangles), path)
+
+    /// Positive indices may legally point at vertices defined further down (some
+    /// exporters write faces first), so they are range-checked once all vertices are
+    /// known; the largest one and its line are enough for that.
+    fn check_forward_vertices(&self, path: &Path) -> Result<(), LoadError> {
+        if let Some((index, line)) = self.largest.vertex {
+            if index as usize >= self.mesh.positions.len() {
+                return Err(LoadError::IndexOutOfRange {
+                    path: path.to_path_buf(),
+                    at: Location::Line(line),
+                    index: i64::from(index) + 1,
+                    vertices: self.mesh.positions.len(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// [`ObjFile::check_forward_vertices`] for the `vt` and `vn` indices, and the first
+    /// index that named nothing when it was read.
+    fn check_attribute_indices(&mut self, path: &Path) -> Result<(), LoadError> {
+        if let Some(error) = self.bad_attribute.take() {
+            return Err(error);
+        }
+        for (largest, defined, kind) in [
+            (self.largest.uv, self.uvs.len(), "vt"),
+            (self.largest.normal, self.normals.len(), "vn"),
+        ] {
+            if let Some((index, line)) = largest {
+                if index as usize >= defined {
+                    return Err(attribute_out_of_range(
+                        path,
+                        &Location::Line(line),
+                        kind,
+                        i64::from(index) + 1,
+                        defined,
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The attribute vertices: one per distinct (position, vt, vn) among the triangles'
+    /// corners, with `vt` and `vn` used only when every corner names one.
+    fn split(mut self, path: &Path) -> Result<AttributedMesh, LoadError> {
+        self.check_attribute_indices(path)?;
+        let corners = &self.faces.corners;
+        let with_uvs = !corners.is_empty() && corners.iter().all(|c| c.uv.is_some());
+        let with_normals = !corners.is_empty() && corners.iter().all(|c| c.normal.is_some());
+        if !with_uvs && !with_normals {
+            return Ok(AttributedMesh::unsplit(self.mesh, Attributes::default()));
+        }
+        let mut keyed = Vec::with_capacity(3 * self.mesh.triangles.len());
+        for (t, triangle) in self.mesh.triangles.iter().enumerate() {
+            // Triangulation keeps each polygon's triangles in its slot and uses only its
+            // corners, so each triangle corner is a corner of its face.
+            let face = self.faces.triangle_face[t] as usize;
+            let start = self.faces.face_start[face] as usize;
+            let end = self
+                .faces
+                .face_start
+                .get(face + 1)
+                .map_or(corners.len(), |&e| e as usize);
+            for &v in triangle {
+                let corner = corners[start..end].iter().find(|c| c.vertex == v);
+                let key = corner.map_or((None, None), |c| {
+                    (c.uv.filter(|_| with_uvs), c.normal.filter(|_| with_normals))
+                });
+                keyed.push((v, key));
+            }
+        }
+        let (vertices, triangles) = split_corners(&keyed);
+        let uvs = with_uvs.then(|| {
+            vertices
+                .iter()
+                .map(|&(_, (uv, _))| {
+                    let [u, v] = uv.map_or([0.0; 2], |i| self.uvs[i as usize]);
+                    [u, 1.0 - v]
+                })
+                .collect()
+        });
+        let normals = with_normals.then(|| {
+            vertices
+                .iter()
+                .map(|&(_, (_, n))| n.map_or([0.0; 3], |i| self.normals[i as usize]))
+                .collect()
+        });
+        Ok(AttributedMesh {
+            positions: self.mesh,
+            position_of: vertices.iter().map(|&(p, _)| p).collect(),
+            triangles,
+            attributes: Attributes {
+                normals,
+                uvs,
+                ..Attributes::default()
+            },
+        })
+    }
 }
 
 /// The faces read so far, and the corner buffer reused for each.
 #[derive(Default)]
 struct Faces {
     triangles: Vec<[u32; 3]>,
-    corners: Vec<u32>,
     polygons: Polygons,
+    /// Every face's corners, in file order.
+    corners: Vec<Corner>,
+    /// Per face, the index of its first corner in `corners`.
+    face_start: Vec<u32>,
+    /// Per triangle, its face.
+    triangle_face: Vec<u32>,
+    /// The current face's vertices, for the triangulation.
+    vertices: Vec<u32>,
 }
 
-/// One logical line: a `v` or `f` statement is parsed, anything else skipped.
-fn statement(
-    line: &[u8],
-    n: usize,
-    path: &Path,
-    positions: &mut Vec<[f32; 3]>,
-    faces: &mut Faces,
-    largest: &mut Option<(u32, usize)>,
-) -> Result<(), LoadError> {
-    let at = Location::Line(n);
-    let mut words = tokens(line);
-    match words.next() {
-        Some(b"v") => {
-            // `v x y z [w]` or the common `v x y z r g b` colour extension:
-            // only x y z matter here.
-            let mut position = [0.0f32; 3];
-            for (axis, slot) in position.iter_mut().enumerate() {
-                let token = words.next().ok_or_else(|| LoadError::Syntax {
-                    path: path.to_path_buf(),
-                    at: at.clone(),
-                    message: format!("`v` has {axis} coordinates, it needs x y z"),
-                })?;
-                *slot = coordinate(token, path, &at)?;
+impl ObjFile {
+    /// One logical line: a `v`, `vt`, `vn` or `f` statement is parsed, anything else
+    /// skipped.
+    fn statement(&mut self, line: &[u8], n: usize, path: &Path) -> Result<(), LoadError> {
+        let at = Location::Line(n);
+        let mut words = tokens(line);
+        let keyword = words.next();
+        // `v x y z [w]` (or the common `v x y z r g b` colour extension), `vn x y z`,
+        // `vt u [v [w]]`: the leading coordinates are read, `v` of `vt` defaulting to 0.
+        let mut read = |needed: usize, out: &mut [f32]| -> Result<(), LoadError> {
+            let keyword = String::from_utf8_lossy(keyword.unwrap_or_default()).into_owned();
+            for (axis, slot) in out.iter_mut().enumerate() {
+                match words.next() {
+                    Some(token) => *slot = coordinate(token, path, &at)?,
+                    None if axis >= needed => break,
+                    None => {
+                        return Err(LoadError::Syntax {
+                            path: path.to_path_buf(),
+                            at: at.clone(),
+                            message: format!(
+                                "`{keyword}` has {axis} coordinates, it needs {needed}"
+                            ),
+                        })
+                    }
+                }
             }
-            positions.push(position);
+            Ok(())
+        };
+        match keyword {
+            Some(b"v") => {
+                let mut position = [0.0f32; 3];
+                read(3, &mut position)?;
+                self.mesh.positions.push(position);
+            }
+            Some(b"vt") => {
+                let mut uv = [0.0f32; 2];
+                read(1, &mut uv)?;
+                self.uvs.push(uv);
+            }
+            Some(b"vn") => {
+                let mut normal = [0.0f32; 3];
+                read(3, &mut normal)?;
+                self.normals.push(normal);
+            }
+            Some(b"f") => self.face(words, n, path)?,
+            _ => {}
         }
-        Some(b"f") => {
-            let Faces {
-                triangles,
-                corners,
-                polygons,
-            } = faces;
-            corners.clear();
-            for corner in words {
-                // `v`, `v/vt`, `v//vn`, `v/vt/vn`: the vertex is the first field.
-                let field = corner.split(|&b| b == b'/').next().unwrap_or_default();
-                let index = integer(field, "the vertex index", path, &at)?;
-                corners.push(resolve(index, positions.len(), path, &at, n, largest)?);
-            }
-            if corners.len() < 3 {
-                return Err(LoadError::FaceTooSmall {
-                    path: path.to_path_buf(),
-                    at,
-                    corners: corners.len(),
-                });
-            }
-            polygons.push(corners, triangles, n);
-        }
-        _ => {}
+        Ok(())
     }
-    Ok(())
+
+    /// An `f` statement: corners `v`, `v/vt`, `v//vn` or `v/vt/vn`.
+    fn face<'a>(
+        &mut self,
+        words: impl Iterator<Item = &'a [u8]>,
+        n: usize,
+        path: &Path,
+    ) -> Result<(), LoadError> {
+        let at = Location::Line(n);
+        let first_corner = self.faces.corners.len();
+        self.faces.vertices.clear();
+        for corner in words {
+            let mut fields = corner.split(|&b| b == b'/');
+            let field = fields.next().unwrap_or_default();
+            let index = integer(field, "the vertex index", path, &at)?;
+            let defined = self.mesh.positions.len();
+            let vertex = resolve(index, defined, path, &at, n, &mut self.largest.vertex)?;
+            let mut attribute = |kind: &'static str| -> Option<u32> {
+                let field = fields.next().filter(|f| !f.is_empty())?;
+                let (defined, largest) = match kind {
+                    "vt" => (self.uvs.len(), &mut self.largest.uv),
+                    _ => (self.normals.len(), &mut self.largest.normal),
+                };
+                let resolved =
+                    integer(field, &format!("the `{kind}` index"), path, &at).and_then(|index| {
+                        resolve(index, defined, path, &at, n, largest)
+                            .map_err(|_| attribute_out_of_range(path, &at, kind, index, defined))
+                    });
+                match resolved {
+                    Ok(i) => Some(i),
+                    Err(error) => {
+                        self.bad_attribute.get_or_insert(error);
+                        None
+                    }
+                }
+            };
+            let uv = attribute("vt");
+            let normal = attribute("vn");
+            self.faces.vertices.push(vertex);
+            self.faces.corners.push(Corner { vertex, uv, normal });
+        }
+        let faces = &mut self.faces;
+        if faces.vertices.len() < 3 {
+            return Err(LoadError::FaceTooSmall {
+                path: path.to_path_buf(),
+                at,
+                corners: faces.vertices.len(),
+            });
+        }
+        let face = faces.face_start.len() as u32;
+        faces.face_start.push(first_corner as u32);
+        faces
+            .triangle_face
+            .extend(std::iter::repeat_n(face, faces.vertices.len() - 2));
+        faces
+            .polygons
+            .push(&faces.vertices, &mut faces.triangles, n);
+        Ok(())
+    }
+}
+
+/// A `vt` or `vn` index that names nothing (0, or beyond the statements of its kind).
+fn attribute_out_of_range(
+    path: &Path,
+    at: &Location,
+    kind: &str,
+    index: i64,
+    defined: usize,
+) -> LoadError {
+    LoadError::Syntax {
+        path: path.to_path_buf(),
+        at: at.clone(),
+        message: format!(
+            "`{kind}` index {index} names no `{kind}` statement (the file has {defined}; indices start at 1, negative ones count back)"
+        ),
+    }
 }
 
 /// A 0-based vertex from an OBJ index: `i > 0` is 1-based, `i < 0` counts

@@ -1,17 +1,23 @@
 //! PLY (Stanford polygon format), ASCII and binary little-endian.
 //!
 //! The header declares elements, each a count and a record layout of scalar
-//! and list properties. Only `vertex` (its `x y z`, any scalar type) and
-//! `face` (its `vertex_indices` / `vertex_index` list) are kept; every other
-//! property and element (normals, colours, `edge`, `material`, ...) must still
+//! and list properties. Only `vertex` (its `x y z`, any scalar type, and where present
+//! its normal `nx ny nz` and texture coordinates `u v`, `s t`, `texture_u texture_v` or
+//! `texture_s texture_t`) and `face` (its `vertex_indices` / `vertex_index` list) are kept;
+//! every other property and element (colours, `edge`, `material`, ...) must still
 //! be stepped over exactly, because in a binary file its bytes sit between the
 //! ones we want. Big-endian files are rejected rather than byte-swapped: they
 //! are rare, and a wrong guess would load garbage silently.
+//!
+//! PLY texture coordinates have `v` up (as OBJ's); they are flipped to glTF's `v` down
+//! (`v' = 1 − v`), the convention [`crate::morph::Attributes::uvs`] states.
 
+use super::attributed::AttributedMesh;
 use super::polygon::Polygons;
 use super::text::{self, capacity, finite_f32};
 use super::{read, validated, LoadError, Location};
 use crate::mesh::IndexedMesh;
+use crate::morph::Attributes;
 use std::path::Path;
 
 /// Reads and parses a PLY file.
@@ -19,8 +25,19 @@ pub fn load(path: &Path) -> Result<IndexedMesh, LoadError> {
     parse(&read(path)?, path)
 }
 
+/// Reads and parses a PLY file with its vertex normals and texture coordinates.
+pub fn load_attributed(path: &Path) -> Result<AttributedMesh, LoadError> {
+    parse_attributed(&read(path)?, path)
+}
+
 /// Parses PLY bytes; `path` only names the file in errors.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
+    Ok(parse_attributed(bytes, path)?.positions)
+}
+
+/// Parses PLY bytes with the vertices' normals and texture coordinates where the header
+/// declares them (one per vertex: PLY vertices are attribute vertices).
+pub fn parse_attributed(bytes: &[u8], path: &Path) -> Result<AttributedMesh, LoadError> {
     let bytes = text::strip_bom(bytes);
     let header = Header::parse(bytes, path)?;
     let body = bytes.get(header.body_start..).unwrap_or_default();
@@ -39,6 +56,8 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
     let vertex_count = header.elements[layout.vertex].count;
 
     let mut positions: Vec<[f32; 3]> = Vec::new();
+    let mut normals: Vec<[f32; 3]> = Vec::new();
+    let mut uvs: Vec<[f32; 2]> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
     let mut polygons = Polygons::default();
@@ -64,16 +83,27 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
             };
             if e == layout.vertex {
                 let mut position = [0.0f32; 3];
+                let mut normal = [0.0f32; 3];
+                let mut uv = [0.0f32; 2];
                 for (p, property) in element.properties.iter().enumerate() {
-                    let axis = layout.xyz.iter().position(|&axis| axis == p);
-                    match (axis, property.kind) {
-                        (Some(axis), Kind::Scalar(ty)) => {
-                            position[axis] = reader.coordinate(ty, &record)?
+                    let slot = match (layout.slot(p), property.kind) {
+                        (Slot::Position(axis), Kind::Scalar(ty)) => (&mut position[axis], ty),
+                        (Slot::Normal(axis), Kind::Scalar(ty)) => (&mut normal[axis], ty),
+                        (Slot::Uv(axis), Kind::Scalar(ty)) => (&mut uv[axis], ty),
+                        _ => {
+                            reader.skip(property.kind, &record)?;
+                            continue;
                         }
-                        _ => reader.skip(property.kind, &record)?,
-                    }
+                    };
+                    *slot.0 = reader.coordinate(slot.1, &record)?;
                 }
                 positions.push(position);
+                if layout.normal.is_some() {
+                    normals.push(normal);
+                }
+                if layout.uv.is_some() {
+                    uvs.push([uv[0], 1.0 - uv[1]]);
+                }
             } else if e == layout.face {
                 for (p, property) in element.properties.iter().enumerate() {
                     let (count_type, item_type) = match property.kind {
@@ -122,7 +152,13 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
         index,
         line: None,
     })?;
-    validated(IndexedMesh::new(positions, triangles), path)
+    let mesh = validated(IndexedMesh::new(positions, triangles), path)?;
+    let attributes = Attributes {
+        normals: layout.normal.map(|_| normals),
+        uvs: layout.uv.map(|_| uvs),
+        ..Attributes::default()
+    };
+    Ok(AttributedMesh::unsplit(mesh, attributes))
 }
 
 /// A PLY scalar type, with its aliases (`float` = `float32`, ...).
@@ -224,10 +260,46 @@ struct MeshLayout {
     vertex: usize,
     /// The `x`, `y`, `z` property indices of the vertex element.
     xyz: [usize; 3],
+    /// The `nx`, `ny`, `nz` scalar properties, when all three are declared.
+    normal: Option<[usize; 3]>,
+    /// The texture coordinate pair of scalar properties, when declared.
+    uv: Option<[usize; 2]>,
     face: usize,
     /// The vertex-index list property of the face element.
     indices: usize,
 }
+
+/// What a vertex property holds.
+enum Slot {
+    Position(usize),
+    Normal(usize),
+    Uv(usize),
+    Other,
+}
+
+impl MeshLayout {
+    fn slot(&self, property: usize) -> Slot {
+        let find = |axes: &[usize]| axes.iter().position(|&a| a == property);
+        if let Some(axis) = find(&self.xyz) {
+            return Slot::Position(axis);
+        }
+        if let Some(axis) = self.normal.as_ref().and_then(|n| find(n)) {
+            return Slot::Normal(axis);
+        }
+        match self.uv.as_ref().and_then(|uv| find(uv)) {
+            Some(axis) => Slot::Uv(axis),
+            None => Slot::Other,
+        }
+    }
+}
+
+/// The names exporters give a vertex's texture coordinates.
+const UV_NAMES: [[&str; 2]; 4] = [
+    ["u", "v"],
+    ["s", "t"],
+    ["texture_u", "texture_v"],
+    ["texture_s", "texture_t"],
+];
 
 impl Header {
     fn parse(bytes: &[u8], path: &Path) -> Result<Header, LoadError> {
@@ -386,6 +458,21 @@ impl Header {
             }
             *slot = p;
         }
+        // Normals and UVs are optional: a name declared as a list is not one.
+        let scalar = |name: &str| {
+            vertices
+                .properties
+                .iter()
+                .position(|p| p.name == name && matches!(p.kind, Kind::Scalar(_)))
+        };
+        let normal = match ["nx", "ny", "nz"].map(scalar) {
+            [Some(x), Some(y), Some(z)] => Some([x, y, z]),
+            _ => None,
+        };
+        let uv = UV_NAMES.iter().find_map(|names| match names.map(scalar) {
+            [Some(u), Some(v)] => Some([u, v]),
+            _ => None,
+        });
         let faces = &self.elements[face];
         let indices = faces
             .properties
@@ -410,6 +497,8 @@ impl Header {
         Ok(MeshLayout {
             vertex,
             xyz,
+            normal,
+            uv,
             face,
             indices,
         })
@@ -688,5 +777,59 @@ mod tests {
         }
         assert_eq!(ply(ascii.as_bytes()).unwrap(), cow);
         assert_eq!(ply(&binary).unwrap(), cow);
+    }
+
+    #[test]
+    fn normals_and_texture_coordinates_are_read() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float nx\nproperty float y\nproperty float z\nproperty float ny\nproperty float nz\nproperty uchar red\nproperty float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                    0 0 0 0 0 1 255 0 0\n1 0 0 0 0 1 255 1 0.25\n0 0 1 0 1 0 255 0 1\n3 0 1 2\n";
+        let mesh = parse_attributed(text.as_bytes(), Path::new("n.ply")).unwrap();
+        assert_eq!(mesh.positions.positions[2], [0.0, 1.0, 0.0]);
+        assert_eq!(
+            mesh.attributes.normals.as_deref(),
+            Some(&[[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]][..])
+        );
+        // `t` flipped to glTF's convention.
+        assert_eq!(
+            mesh.attributes.uvs.as_deref(),
+            Some(&[[0.0, 1.0], [1.0, 0.75], [0.0, 0.0]][..])
+        );
+        assert_eq!(mesh.position_of, vec![0, 1, 2]);
+        // Only `nx ny` (no `nz`) is not a normal; `u` without `v` is not a UV.
+        let partial = PLY_PARTIAL;
+        let mesh = parse_attributed(partial.as_bytes(), Path::new("p.ply")).unwrap();
+        assert!(!mesh.attributes.has_vertex_attributes());
+        assert_eq!(mesh.positions.positions[1], [1.0, 0.0, 0.0]);
+    }
+
+    const PLY_PARTIAL: &str = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float u\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n3 0 1 2\n";
+
+    #[test]
+    fn binary_normals_and_uvs() {
+        let mut bytes = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty double nx\nproperty double ny\nproperty double nz\nproperty float texture_u\nproperty float texture_v\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
+        for (p, uv) in [
+            ([0.0f32, 0.0, 0.0], [0.0f32, 0.0]),
+            ([1.0, 0.0, 0.0], [1.0, 0.0]),
+            ([0.0, 1.0, 0.0], [0.0, 1.0]),
+        ] {
+            p.iter().for_each(|c| bytes.extend(c.to_le_bytes()));
+            [0.0f64, 0.0, -1.0]
+                .iter()
+                .for_each(|c| bytes.extend(c.to_le_bytes()));
+            uv.iter().for_each(|c| bytes.extend(c.to_le_bytes()));
+        }
+        bytes.push(3);
+        [0i32, 1, 2]
+            .iter()
+            .for_each(|i| bytes.extend(i.to_le_bytes()));
+        let mesh = parse_attributed(&bytes, Path::new("b.ply")).unwrap();
+        assert_eq!(
+            mesh.attributes.normals.as_deref(),
+            Some(&[[0.0, 0.0, -1.0]; 3][..])
+        );
+        assert_eq!(
+            mesh.attributes.uvs.as_deref(),
+            Some(&[[0.0, 1.0], [1.0, 1.0], [0.0, 0.0]][..])
+        );
     }
 }

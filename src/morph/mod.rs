@@ -320,13 +320,35 @@ impl Morph {
     }
 
     /// Cleans the morph ([`crate::mesh::clean`]) once on `V(0)` and applies the
-    /// result to every pose through [`Morph::select`], so all poses keep one
+    /// result to every pose and attribute through [`Morph::select`], so all poses keep one
     /// connectivity. Welding (asked for, or of a triangle soup) merges only
     /// vertices that coincide in `V(0)` and in every target's offsets, that is
-    /// in every pose: a copy that moves apart in some pose is kept apart.
+    /// in every pose (a copy that moves apart in some pose is kept apart), and that
+    /// have equal attributes (normals, normal deltas, UVs, colours): the copies of a
+    /// position on either side of a seam stay apart.
     pub fn clean(&self, options: &CleanOptions) -> Result<(Morph, CleanReport), MorphError> {
         let base = IndexedMesh::new(self.v0(), self.triangles.clone());
-        let also: Vec<&[[f32; 3]]> = self.targets.iter().map(|t| &t.deltas[..]).collect();
+        // Welding compares per-vertex triples bit for bit: a UV (u, v) is compared as
+        // (u, v, 0) and a colour (r, g, b, a) as (r, g, b) and (a, 0, 0).
+        let a = &self.attributes;
+        let uvs = a
+            .uvs
+            .as_ref()
+            .map(|uvs| uvs.iter().map(|&[u, v]| [u, v, 0.0]).collect::<Vec<_>>());
+        let colors = a.colors.as_ref().map(|colors| {
+            let rgb: Vec<[f32; 3]> = colors.iter().map(|&[r, g, b, _]| [r, g, b]).collect();
+            let alpha: Vec<[f32; 3]> = colors.iter().map(|&[.., a]| [a, 0.0, 0.0]).collect();
+            [rgb, alpha]
+        });
+        let also: Vec<&[[f32; 3]]> = self
+            .targets
+            .iter()
+            .flat_map(|t| std::iter::once(&t.deltas).chain(&t.normal_deltas))
+            .chain(&a.normals)
+            .chain(&uvs)
+            .chain(colors.iter().flatten())
+            .map(Vec::as_slice)
+            .collect();
         let cleaned = clean_poses(&base, &also, options)?;
         let morph = self.select(&cleaned.vertex_map, cleaned.mesh.triangles)?;
         Ok((morph, cleaned.report))

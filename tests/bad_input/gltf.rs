@@ -60,7 +60,7 @@ fn json_with_buffer(buffer: &str) -> String {
 }
 
 /// A GLB container (header, padded JSON chunk, BIN chunk).
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+pub(crate) fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut json = json.as_bytes().to_vec();
     while !json.len().is_multiple_of(4) {
         json.push(b' ');
@@ -90,7 +90,7 @@ fn scratch(test: &str) -> PathBuf {
     dir
 }
 
-fn write(test: &str, name: &str, bytes: &[u8]) -> PathBuf {
+pub(crate) fn write(test: &str, name: &str, bytes: &[u8]) -> PathBuf {
     let path = scratch(test).join(name);
     std::fs::write(&path, bytes).unwrap();
     path

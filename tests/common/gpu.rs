@@ -10,11 +10,20 @@
 //! * [`Gpu::render_recorded`]: renders through a [`Recorder`] that forwards every command to
 //!   the real pass and keeps it, so [`assert_one_multi_draw_each`] sees the draw calls really
 //!   issued and their arguments (not a counter the object keeps about itself).
+//! * [`reference_lists`], [`differences`], [`fail_with_images`]: the image oracle's comparison
+//!   of strips with the reference list (tests/image_oracle.rs, tests/textured.rs).
 
 use std::io::Write;
 use std::sync::mpsc;
 
 use morphlod::gpu::{Context, GpuError, MorphPipeline, Object, RenderCommands, RenderTarget};
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use morphlod::collapse::canonical;
+use morphlod::gpu;
+use morphlod::lodstrips::StripsState;
 
 use super::strip_draw;
 
@@ -323,5 +332,81 @@ pub fn assert_one_multi_draw_each(calls: &[Call], objects: &[&Object]) {
             )),
             "the object's index buffer is bound when it draws"
         );
+    }
+}
+
+/// Pixels where the images differ, as (x, y, a, b).
+pub fn differences(
+    a: &image::RgbaImage,
+    b: &image::RgbaImage,
+) -> Vec<(u32, u32, [u8; 4], [u8; 4])> {
+    a.enumerate_pixels()
+        .zip(b.pixels())
+        .filter(|((_, _, pa), pb)| pa != pb)
+        .map(|((x, y, pa), pb)| (x, y, pa.0, pb.0))
+        .collect()
+}
+
+/// Saves both images beside the test binary's scratch directory and fails with the first
+/// differences, so a failure can be looked at.
+pub fn fail_with_images(what: &str, a: &image::RgbaImage, b: &image::RgbaImage) -> ! {
+    let diffs = differences(a, b);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let stem: String = what
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let (pa, pb) = (
+        dir.join(format!("{stem}_a.png")),
+        dir.join(format!("{stem}_b.png")),
+    );
+    let saved = gpu::save_png(a, &pa).and(gpu::save_png(b, &pb));
+    panic!(
+        "{what}: {} pixels differ (first: {:?}); images {} and {} ({saved:?})",
+        diffs.len(),
+        &diffs[..diffs.len().min(8)],
+        pa.display(),
+        pb.display()
+    );
+}
+
+/// The reference list drawn two ways, the same multiset of oriented triangles in the same
+/// order: `raw` as `reference_mesh` gives it, and `rotated` with each triangle starting at the
+/// vertex the strip draw starts it at (a reference triangle the strips lack keeps its own
+/// rotation, so any disagreement still shows in the image).
+///
+/// Why rotation matters: the rasterizer interpolates every vertex output (world position,
+/// normal, UV) from the triangle's first vertex, so `(a, b, c)` and `(b, c, a)` interpolate
+/// with different rounding; the shader's derivative normal `cross(dpdy(p), dpdx(p))` amplifies
+/// that into a ±1 step of an 8-bit channel on rare pixels. The test prints, per asset, how many pixels differ from the
+/// strips with `raw` (a few, all ±1) and asserts none differ with `rotated`: rotation is the
+/// whole difference; draw order (a tie in depth) is not needed to explain any pixel.
+pub struct ReferenceLists {
+    pub raw: Vec<u32>,
+    pub rotated: Vec<u32>,
+}
+
+pub fn reference_lists(
+    reference: &[[u32; 3]],
+    state: &StripsState,
+    strips: usize,
+) -> ReferenceLists {
+    // The triangles in the vertex order the GPU rasterizes them (`common::strip_draw`).
+    let drawn: Vec<[u32; 3]> = (0..strips)
+        .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
+        .collect();
+    // Canonical form -> the strip triangles of that form.
+    let mut by_form: HashMap<[u32; 3], Vec<[u32; 3]>> = HashMap::new();
+    for &t in &drawn {
+        by_form.entry(canonical(t)).or_default().push(t);
+    }
+    let mut rotated = Vec::with_capacity(reference.len() * 3);
+    for &t in reference {
+        let as_drawn = by_form.get_mut(&canonical(t)).and_then(Vec::pop);
+        rotated.extend(as_drawn.unwrap_or(t));
+    }
+    ReferenceLists {
+        raw: reference.iter().flatten().copied().collect(),
+        rotated,
     }
 }

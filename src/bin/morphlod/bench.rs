@@ -16,6 +16,10 @@
 //! (which resolves every vertex's survivor and maps every original triangle) and drawing the
 //! identical triangle multiset (the oracle tests check strips against the reference mesh).
 //!
+//! Every object is shaded in [`BenchOptions::shade`] (textured by default, which an asset
+//! without a surface draws faceted); each frame the strips are also drawn faceted, so the run
+//! shows what smooth shading and the texture cost against the flat shading on the same frames.
+//!
 //! GPU frame time is the wall time of `queue.submit` plus `device.poll(wait)` for one pass that
 //! draws one object into an offscreen target, the fastest of [`BenchOptions::repeats`] such
 //! passes per object and frame: the first also flushes the frame's staged `write_buffer`
@@ -32,7 +36,7 @@ use morphlod::deform::{DeformingModel, Lod};
 use morphlod::gpu::camera::frame_both_poses;
 use morphlod::gpu::{
     s0_regions, Context, DrawCounter, Draws, GpuError, LodObject, MorphPipeline, Object,
-    RenderTarget, Topology,
+    RenderTarget, ShadeMode, Topology,
 };
 use morphlod::strip::strip_triangles;
 use morphlod::Error;
@@ -78,6 +82,9 @@ pub struct BenchOptions {
     /// Draws of each object per frame; its GPU time is the fastest (at least 1). One sample a
     /// frame on a shared machine is mostly scheduling noise; the minimum of a few is the cost.
     pub repeats: usize,
+    /// How every object is shaded (an asset without a surface draws faceted whatever this
+    /// says).
+    pub shade: ShadeMode,
 }
 
 impl Default for BenchOptions {
@@ -86,6 +93,7 @@ impl Default for BenchOptions {
             frames: 240,
             size: 512,
             repeats: 3,
+            shade: ShadeMode::Textured,
         }
     }
 }
@@ -116,6 +124,9 @@ pub struct FrameRow {
     /// Indirect draw records in the strips object's one multi-draw.
     pub records: usize,
     pub strips_ms: f64,
+    /// The same strips in the same frame, drawn faceted (equal to `strips_ms` up to noise when
+    /// the shade mode is faceted).
+    pub faceted_ms: f64,
     /// Triangles of the list and the CPU time to decode it, microseconds.
     pub list_triangles: usize,
     pub list_build_us: f64,
@@ -167,39 +178,22 @@ pub fn run_bench(
         .flatten()
         .collect();
     let full_triangles = full_list.len() / 3;
+    // Every object carries the asset's surface and targets, so all draw the same pose and
+    // shading.
     let list_object = |live: &[u32]| {
-        Object::new(
-            device,
-            &pipeline,
-            Topology::List,
-            &asset.v0,
-            &asset.v1,
-            &[live.to_vec()],
-        )
+        Object::from_asset(device, &pipeline, Topology::List, asset, &[live.to_vec()])
     };
-    let full_s0 = || {
-        Object::new(
-            device,
-            &pipeline,
-            Topology::Strip,
-            &asset.v0,
-            &asset.v1,
-            &regions,
-        )
-    };
+    let full_s0 = || Object::from_asset(device, &pipeline, Topology::Strip, asset, &regions);
     let mut full_strips = full_s0()?;
     let mut full_per_strip = full_s0()?;
     full_per_strip.set_draws(Draws::PerRegion)?;
     let mut full = list_object(&full_list)?;
     // The per-frame list starts as the full list too: its region has room for every triangle.
     let mut list = list_object(&full_list)?;
-    // An animated asset's targets go to every object, so all of them draw the same pose.
     let track = asset.blend.as_ref().map(|blend| &blend.track);
     for object in [&mut full_strips, &mut full_per_strip, &mut full, &mut list] {
         object.set_view_proj(camera);
-        if let Some(blend) = &asset.blend {
-            object.set_targets(device, &pipeline, &blend.deltas)?;
-        }
+        object.set_shade_mode(options.shade);
     }
 
     let repeats = options.repeats.max(1);
@@ -213,6 +207,7 @@ pub fn run_bench(
     for sweep in [Sweep::Linear, Sweep::Exponential] {
         let mut strips = LodObject::new(device, &pipeline, asset, Arc::clone(model))?;
         strips.set_view_proj(camera);
+        strips.set_shade_mode(options.shade);
         // Warm-up: first draws create pipelines' backing state and fill caches.
         strips.prepare(queue);
         gpu_frame(device, queue, &target, strips.object())?;
@@ -228,6 +223,13 @@ pub fn run_bench(
             let prepare_us = micros(start);
             let (first_ms, draws) = gpu_frame(device, queue, &target, strips.object())?;
             let strips_ms = first_ms.min(fastest(&target, strips.object(), repeats - 1)?);
+            // The same state faceted; the switch uploads the uniforms, which the first of the
+            // repeated draws carries (so at least two draws).
+            strips.set_shade_mode(ShadeMode::Faceted);
+            strips.prepare(queue);
+            let faceted_ms = fastest(&target, strips.object(), repeats.max(2))?;
+            strips.set_shade_mode(options.shade);
+            strips.prepare(queue);
 
             let start = Instant::now();
             let live: Vec<u32> = (0..strips.object().region_count())
@@ -268,6 +270,7 @@ pub fn run_bench(
                 draws,
                 records: strips.object().indirect_args().len(),
                 strips_ms,
+                faceted_ms,
                 list_triangles: live.len() / 3,
                 list_build_us,
                 list_upload_bytes: list_upload.geometry_bytes(),
@@ -375,7 +378,7 @@ impl BenchReport {
             "sweep", "measure", "mean", "median"
         );
         type Column = (&'static str, fn(&FrameRow) -> f64);
-        let columns: [Column; 14] = [
+        let columns: [Column; 16] = [
             ("triangles", |r| r.triangles as f64),
             ("set us", |r| r.set_us),
             ("prepare us", |r| r.prepare_us),
@@ -384,6 +387,8 @@ impl BenchReport {
             ("list build us", |r| r.list_build_us),
             ("upload B (list)", |r| r.list_upload_bytes as f64),
             ("GPU ms strips", |r| r.strips_ms),
+            ("GPU ms faceted", |r| r.faceted_ms),
+            ("strips/faceted", |r| r.strips_ms / r.faceted_ms.max(1e-9)),
             ("GPU ms list", |r| r.list_ms),
             ("GPU ms full strips", |r| r.full_strips_ms),
             ("GPU ms full list", |r| r.full_list_ms),
@@ -489,7 +494,7 @@ impl BenchReport {
         for (i, r) in self.rows.iter().enumerate() {
             let _ = write!(
                 out,
-                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"upload_writes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
+                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"upload_writes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"faceted_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
                 if i == 0 { "" } else { "," },
                 r.sweep.name(),
                 r.frame,
@@ -506,6 +511,7 @@ impl BenchReport {
                 r.draws,
                 r.records,
                 r.strips_ms,
+                r.faceted_ms,
                 r.list_triangles,
                 r.list_build_us,
                 r.list_upload_bytes,
@@ -595,6 +601,7 @@ mod tests {
                 frames,
                 size: 48,
                 repeats: 2,
+                shade: ShadeMode::Textured,
             },
         )?;
         let original: Vec<[u32; 3]> = (0..asset.s0.len())

@@ -11,11 +11,13 @@ use morphlod::build::{BuildReport, Builder, Progress, DEFAULT_FRAMES};
 use morphlod::deform::{DeformingModel, Lod};
 use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::MorphSource;
-use morphlod::io::{load_mesh, Format, LoadOptions};
+use morphlod::io::{
+    load_attributed, load_mesh, morph_from_pair, AttributeSummary, Format, LoadError, LoadOptions,
+};
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::morph::{Morph, MorphError};
 use morphlod::topology::analyze;
-use morphlod::Asset;
+use morphlod::{Asset, IndexedMesh};
 use std::io::{IsTerminal, Read};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -120,8 +122,10 @@ struct RenderArgs {
         allow_negative_numbers = true
     )]
     lod: Vec<f32>,
-    /// `base` shades the surface, `strips` gives every strip its own colour.
-    #[arg(long, value_enum, default_value_t = Colour::Base)]
+    /// `textured`: the asset's material and smooth normals (faceted for an asset without a
+    /// surface); `smooth`: smooth normals, one colour; `faceted` (or `base`): the drawn
+    /// triangles' own normals, one colour; `strips`: every strip its own colour, faceted.
+    #[arg(long, value_enum, default_value_t = Colour::Textured)]
     color: Colour,
     /// Cell size in pixels.
     #[arg(long, default_value_t = 384)]
@@ -148,6 +152,10 @@ struct BenchArgs {
     /// Draws of each object per frame; the fastest counts (the first also carries the uploads).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u16).range(1..))]
     repeats: u16,
+    /// How every object is shaded (as `render --color`); the strips are also timed faceted
+    /// each frame, for the cost of the shading.
+    #[arg(long, value_enum, default_value_t = Colour::Textured)]
+    shade: Colour,
     /// Also write every frame's measurements to this JSON file.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -169,14 +177,19 @@ struct DemoArgs {
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Colour {
-    Base,
+    Textured,
+    Smooth,
+    #[value(alias = "base")]
+    Faceted,
     Strips,
 }
 
 impl Colour {
     fn shade(self) -> ShadeMode {
         match self {
-            Colour::Base => ShadeMode::BaseColour,
+            Colour::Textured => ShadeMode::Textured,
+            Colour::Smooth => ShadeMode::Smooth,
+            Colour::Faceted => ShadeMode::Faceted,
             Colour::Strips => ShadeMode::StripColours,
         }
     }
@@ -286,11 +299,46 @@ fn info_one(
     out += &format!("cleaning ({})\n", weld_mode(clean_options));
     out += &format!("{}\n", cleaned.report);
     out += &format!("topology (after cleaning)\n{topology}\n");
+    let start = Instant::now();
+    let surface = load_surface(path, options)?;
+    let load = start.elapsed();
+    out += &format!(
+        "attributes (loaded with them in {})\n{}",
+        ms(load),
+        AttributeSummary::of(&surface)
+    );
+    let topology = surface.topology();
+    if !topology.is_identity() {
+        // The report above counts attribute vertices, split at seams; the simplifier sees
+        // the surface with those copies joined.
+        let mut positions = vec![[0.0; 3]; topology.topology_count];
+        for (v, &t) in topology.of_vertex.iter().enumerate() {
+            positions[t as usize] = surface.base()[v];
+        }
+        let welded = IndexedMesh::new(positions, topology.triangles(surface.triangles()));
+        let report = analyze(&welded).map_err(|e| format!("{}: {e}", path.display()))?;
+        out += &format!("topology of the welded surface (seam copies joined)\n{report}\n");
+    }
     if Format::from_path(path) == Some(Format::Gltf) {
         let summary = morphlod::io::gltf::inspect(path).map_err(|e| e.to_string())?;
         out += &format!("glTF contents\n{summary}");
     }
     Ok(out)
+}
+
+/// The file as the pipeline sees it: a glTF mesh with its targets (at their default
+/// weights) and attributes, or any mesh with its attributes and no targets.
+fn load_surface(path: &Path, options: &LoadOptions) -> Result<Morph, String> {
+    if Format::from_path(path) == Some(Format::Gltf) {
+        match morphlod::io::load_morph(path, options, &MorphSource::DefaultWeights) {
+            Err(LoadError::NoTargets { .. }) => {}
+            other => return other.map_err(|e| e.to_string()),
+        }
+    }
+    load_attributed(path, options)
+        .map_err(|e| e.to_string())?
+        .to_static_morph()
+        .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// A `.mlod` file by extension, or any file starting with the `.mlod` magic.
@@ -465,9 +513,9 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                 return Err("--target and --animation choose a glTF morph; with two input meshes the morph runs from the first to the second".into());
             }
             let (a_path, b_path) = (a, b);
-            let a = load_mesh(a_path, options).map_err(|e| e.to_string())?;
-            let b = load_mesh(b_path, options).map_err(|e| e.to_string())?;
-            match Morph::from_meshes(&a, &b) {
+            let a = load_attributed(a_path, options).map_err(|e| e.to_string())?;
+            let b = load_attributed(b_path, options).map_err(|e| e.to_string())?;
+            match morph_from_pair(&a, &b) {
                 Ok(morph) => {
                     if args.landmarks.is_some() {
                         eprintln!("note: the meshes have the same connectivity: no supermesh is built and --landmarks is not used");
@@ -480,7 +528,8 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     | MorphError::TriangleMismatch { .. },
                 ) => {
                     let landmarks = read_landmarks(args.landmarks.as_deref())?;
-                    let (supermesh, report) = build_supermesh(&a, &b, landmarks)?;
+                    let (supermesh, report) =
+                        build_supermesh(&a.positions, &b.positions, landmarks)?;
                     println!(
                         "{} and {} have different connectivity: built a supermesh ({} vertices, {} triangles, {} crossings)\n{report}",
                         a_path.display(),
@@ -666,6 +715,7 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         frames: args.frames,
         size: args.size,
         repeats: usize::from(args.repeats),
+        shade: args.shade.shade(),
     };
     let report = run_bench(&context, &asset, &model, &options).map_err(|e| e.to_string())?;
     print!("{}", report.summary());
@@ -680,8 +730,9 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// The default asset, compiled in so `cargo run` works from any directory of the checkout.
-const DEMO_INPUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_head.glb");
+/// The default asset, compiled in so `cargo run` works from any directory of the checkout: the
+/// textured face, so the picture shows normals, UVs and seams surviving the LOD.
+const DEMO_INPUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_face.glb");
 const DEMO_TARGET: &str = "jawOpen";
 const DEMO_FRAMES: usize = 16;
 
@@ -702,14 +753,9 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
     println!("asset written to {}", path.display());
 
     let ts = [0.0, 0.25, 0.5, 0.75, 1.0];
-    let lods = [
-        Lod::Fraction(0.0),
-        Lod::Fraction(0.75),
-        Lod::Fraction(0.9),
-        Lod::Fraction(0.97),
-    ];
+    let lods = [Lod::Fraction(0.0), Lod::Fraction(0.75), Lod::Fraction(0.95)];
     for (shade, name) in [
-        (ShadeMode::BaseColour, "demo.png"),
+        (ShadeMode::Textured, "demo.png"),
         (ShadeMode::StripColours, "demo_strips.png"),
     ] {
         let options = SheetOptions {

@@ -187,6 +187,7 @@ mod tests {
             list_ms: 2.5 - 0.2 * x,
             full_strips_ms: 3.0,
             full_per_strip_ms: 3.4,
+            faceted_ms: 1.0,
             full_list_ms: 2.8,
             records: 1,
             upload_writes: 2,

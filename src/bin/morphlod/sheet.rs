@@ -21,7 +21,8 @@ use morphlod::Error;
 pub struct SheetOptions {
     /// Width and height of one cell, in pixels.
     pub cell: u32,
-    /// Base colour or one colour per strip.
+    /// How the object is shaded (smooth and textured need a surface; without one they draw
+    /// faceted).
     pub shade: ShadeMode,
     /// The direction the camera looks along (the object is framed whole for every pose).
     pub direction: Vec3,
@@ -31,7 +32,7 @@ impl Default for SheetOptions {
     fn default() -> Self {
         SheetOptions {
             cell: 256,
-            shade: ShadeMode::BaseColour,
+            shade: ShadeMode::Textured,
             direction: Vec3::new(-0.35, -0.15, -1.0),
         }
     }

@@ -3,6 +3,7 @@
 //! weights, weight tracks, node transforms). Accessor data is read in `accessor.rs`.
 
 use super::accessor::triangulate;
+use super::attributes::{MeshAttributes, VertexAttributes};
 use super::{display_name, interpolation, list_names, pick};
 use crate::io::LoadError;
 use crate::mesh::IndexedMesh;
@@ -18,12 +19,14 @@ use std::path::{Path, PathBuf};
 /// 22-million-vertex sparse morph target.
 pub(super) const MAX_VIEWLESS_BYTES: usize = 1 << 28;
 
-/// Triangle primitives of one mesh, concatenated: positions, triangles and, when
-/// asked, per-target POSITION deltas concatenated the same way.
+/// Triangle primitives of one mesh, concatenated: positions, triangles and, for a morph,
+/// per-target POSITION deltas and the vertex attributes concatenated the same way.
 pub(super) struct Geometry {
     pub(super) positions: Vec<[f32; 3]>,
     pub(super) triangles: Vec<[u32; 3]>,
     pub(super) targets: Vec<Vec<[f32; 3]>>,
+    /// Empty unless read for a morph.
+    pub(super) attributes: VertexAttributes,
 }
 
 /// A validated glTF document with its buffers loaded and length-checked.
@@ -52,7 +55,8 @@ impl Document {
         let root: gltf::json::Root =
             gltf::json::deserialize::from_slice(json).map_err(|e| json_error(e.to_string()))?;
         precheck(&root).map_err(json_error)?;
-        let document = gltf::Document::from_json(root).map_err(|e| json_error(e.to_string()))?;
+        validate(&root).map_err(json_error)?;
+        let document = gltf::Document::from_json_without_validation(root);
         let buffers = document
             .buffers()
             .map(|buffer| load_buffer(path, &buffer, bin))
@@ -96,16 +100,18 @@ impl Document {
             })
     }
 
-    pub(super) fn geometry(
-        &self,
-        mesh: &gltf::Mesh,
-        with_targets: bool,
-    ) -> Result<Geometry, LoadError> {
+    /// The mesh's triangle primitives concatenated; with `morph`, also their morph targets'
+    /// POSITION deltas and the vertex attributes. A primitive without POSITION is skipped
+    /// (glTF: clients "SHOULD skip primitive's rendering").
+    pub(super) fn geometry(&self, mesh: &gltf::Mesh, morph: bool) -> Result<Geometry, LoadError> {
         let mut out = Geometry {
             positions: Vec::new(),
             triangles: Vec::new(),
             targets: Vec::new(),
+            attributes: VertexAttributes::default(),
         };
+        let mut attributes = MeshAttributes::default();
+        let mut first = true;
         let mesh_name = display_name(mesh.name(), mesh.index());
         for primitive in mesh.primitives() {
             let element = format!("mesh {mesh_name} primitive {}", primitive.index());
@@ -120,7 +126,7 @@ impl Document {
                 ));
             }
             let Some(position) = primitive.get(&gltf::Semantic::Positions) else {
-                return Err(self.data_error(&element, "has no POSITION attribute".to_string()));
+                continue;
             };
             let positions = self.read_vec3(&position, &format!("{element} POSITION"))?;
             // u32 indices with 0xFFFFFFFF reserved as the strip restart downstream.
@@ -156,31 +162,44 @@ impl Document {
                     .iter()
                     .map(|t| [t[0] + offset, t[1] + offset, t[2] + offset]),
             );
-            if with_targets {
-                self.append_targets(&primitive, &element, positions.len(), &mut out.targets)?;
+            if morph {
+                self.append_targets(
+                    &primitive,
+                    &element,
+                    positions.len(),
+                    first,
+                    &mut out.targets,
+                )?;
+                self.append_attributes(&primitive, &element, positions.len(), &mut attributes)?;
             }
+            first = false;
             out.positions.extend(positions);
+        }
+        if morph {
+            out.attributes = attributes.finish();
         }
         Ok(out)
     }
 
-    /// Appends one primitive's POSITION deltas to the per-target arrays. Every
-    /// primitive of a mesh must have the same number of targets (glTF §3.7.2.2).
+    /// Appends one primitive's POSITION deltas to the per-target arrays (`first`: the
+    /// first primitive read, which sets the target count). Every primitive of a mesh must
+    /// have the same number of targets (glTF §3.7.2.2).
     pub(super) fn append_targets(
         &self,
         primitive: &gltf::Primitive,
         element: &str,
         vertices: usize,
+        first: bool,
         targets: &mut Vec<Vec<[f32; 3]>>,
     ) -> Result<(), LoadError> {
         let count = primitive.morph_targets().len();
-        if primitive.index() == 0 {
+        if first {
             targets.resize(count, Vec::new());
         } else if count != targets.len() {
             return Err(self.data_error(
                 element,
                 format!(
-                    "has {count} morph targets but primitive 0 has {}; all primitives of a mesh need the same targets",
+                    "has {count} morph targets but the first primitive has {}; all primitives of a mesh need the same targets",
                     targets.len()
                 ),
             ));
@@ -311,6 +330,64 @@ impl Document {
             return Err(self.data_error(
                 &element,
                 "makes a position non-finite (overflow or NaN in the matrix)".to_string(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Applies the transform [`Document::transform`] applied to the positions to the
+    /// normals and target normal deltas: the inverse transpose of the world matrix's linear
+    /// part, then per vertex the factor that makes the base normal unit length again (applied
+    /// to the vertex's deltas too, so `normalize(base + Σ w D)` turns exactly as the surface
+    /// does). Without base normals the deltas are scaled by the matrix's mean scale instead.
+    pub(super) fn transform_normals(
+        &self,
+        mesh: &gltf::Mesh,
+        normals: Option<&mut Vec<[f32; 3]>>,
+        deltas: &mut [Option<Vec<[f32; 3]>>],
+    ) -> Result<(), LoadError> {
+        let Some(node) = self
+            .document
+            .nodes()
+            .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
+        else {
+            return Ok(());
+        };
+        let linear = glam::Mat3::from_mat4(self.world_matrix(node.index()));
+        let normal_matrix = linear.inverse().transpose();
+        let apply =
+            |v: [f32; 3], scale: f32| (normal_matrix * glam::Vec3::from(v) * scale).to_array();
+        let vertices = deltas
+            .iter()
+            .flatten()
+            .map(Vec::len)
+            .chain(normals.as_ref().map(|n| n.len()))
+            .max()
+            .unwrap_or(0);
+        let finite = |values: &[[f32; 3]]| values.iter().flatten().all(|c| c.is_finite());
+        let scales: Vec<f32> = match normals {
+            Some(normals) => normals
+                .iter_mut()
+                .map(|n| {
+                    let length = (normal_matrix * glam::Vec3::from(*n)).length();
+                    let scale = if length > 0.0 { 1.0 / length } else { 1.0 };
+                    *n = apply(*n, scale);
+                    scale
+                })
+                .collect(),
+            None => vec![normal_matrix.determinant().abs().cbrt().recip(); vertices],
+        };
+        let mut all_finite = scales.iter().all(|s| s.is_finite());
+        for target in deltas.iter_mut().flatten() {
+            for (d, &scale) in target.iter_mut().zip(&scales) {
+                *d = apply(*d, scale);
+            }
+            all_finite &= finite(target);
+        }
+        if !all_finite || !normal_matrix.is_finite() {
+            return Err(self.data_error(
+                &format!("node {} transform", display_name(node.name(), node.index())),
+                "makes a normal non-finite (a singular matrix, or overflow)".to_string(),
             ));
         }
         Ok(())
@@ -464,6 +541,57 @@ fn precheck(root: &gltf::json::Root) -> Result<(), String> {
     check_hierarchy(root)
 }
 
+/// The `gltf` crate's validation (what `gltf::Document::from_json` runs), minus its reports
+/// about things the glTF 2.0 specification allows (gltf-rs/gltf#346), which every reader here
+/// handles:
+/// * an accessor with neither `bufferView` nor `sparse` ("When undefined, the accessor MUST be
+///   initialized with zeros"): read as zeros (`Document::gather`);
+/// * a texture without `source` ("an extension or other mechanism SHOULD supply an alternate
+///   texture source"): no image morphlod can use, so the material is drawn untextured;
+/// * a primitive without POSITION ("client implementations SHOULD skip primitive's
+///   rendering"): skipped (`Document::geometry`).
+///
+/// Everything else the crate reports is kept: its accessors index and unwrap what it checked.
+fn validate(root: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::validation::{Error, Validate};
+    let allowed = |path: &str, error: Error| {
+        if error != Error::Missing {
+            return false;
+        }
+        let index_of = |prefix: &str, suffix: &str| -> Option<usize> {
+            path.strip_prefix(prefix)?
+                .strip_suffix(suffix)?
+                .parse()
+                .ok()
+        };
+        if let Some(a) = index_of("accessors[", "].bufferView") {
+            return root
+                .accessors
+                .get(a)
+                .is_some_and(|a| a.buffer_view.is_none());
+        }
+        if let Some(t) = index_of("textures[", "].source") {
+            return root
+                .textures
+                .get(t)
+                .is_some_and(|t| t.source.value() == u32::MAX as usize);
+        }
+        // `meshes[m].primitives[p].attributes["POSITION"]`, reported only when it is absent.
+        path.starts_with("meshes[") && path.ends_with(".attributes[\"POSITION\"]")
+    };
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        let path = path().0;
+        if !allowed(&path, error) {
+            errors.push(format!("{path}: {error}"));
+        }
+    });
+    match errors.is_empty() {
+        true => Ok(()),
+        false => Err(errors.join("; ")),
+    }
+}
+
 /// The node hierarchy must be a set of disjoint strict trees (glTF 2.0, "Nodes and
 /// Hierarchy"): no node has two parents and none is its own ancestor. A file that breaks this
 /// is invalid, so it is refused with the node named rather than placed by some partial walk.
@@ -534,42 +662,20 @@ fn load_buffer(
                 data_error("refers to the GLB binary chunk, but the file has none".to_string())
             })?
             .to_vec(),
-        gltf::buffer::Source::Uri(uri) => {
-            if let Some(rest) = uri.strip_prefix("data:") {
-                let Some((header, payload)) = rest.split_once(',') else {
-                    return Err(data_error(
-                        "data URI has no ',' before its data".to_string(),
-                    ));
-                };
-                if !header.ends_with(";base64") {
-                    return Err(LoadError::GltfUnsupported {
-                        path: path.to_path_buf(),
-                        element,
-                        what: format!("a data URI that is not base64 (data:{header})"),
-                    });
-                }
-                base64::engine::general_purpose::STANDARD
-                    .decode(payload)
-                    .map_err(|e| data_error(format!("data URI is not valid base64: {e}")))?
-            } else if uri.contains("://") {
-                return Err(LoadError::GltfUnsupported {
-                    path: path.to_path_buf(),
-                    element,
-                    what: format!("the non-local URI '{uri}'"),
-                });
-            } else {
-                let file = path
-                    .parent()
-                    .unwrap_or(Path::new(""))
-                    .join(percent_decode(uri));
-                std::fs::read(&file).map_err(|source| LoadError::GltfExternal {
-                    path: path.to_path_buf(),
-                    buffer: buffer.index(),
-                    file,
-                    source,
-                })?
-            }
-        }
+        gltf::buffer::Source::Uri(uri) => read_uri(path, uri).map_err(|e| match e {
+            UriError::External { file, source } => LoadError::GltfExternal {
+                path: path.to_path_buf(),
+                buffer: buffer.index(),
+                file,
+                source,
+            },
+            UriError::Unsupported(what) => LoadError::GltfUnsupported {
+                path: path.to_path_buf(),
+                element: element.clone(),
+                what,
+            },
+            UriError::Data(message) => data_error(message),
+        })?,
     };
     if data.len() < buffer.length() {
         return Err(data_error(format!(
@@ -581,6 +687,47 @@ fn load_buffer(
     let mut data = data;
     data.truncate(buffer.length());
     Ok(data)
+}
+
+/// Why a URI's bytes could not be had.
+pub(super) enum UriError {
+    /// A file relative to the glTF file that cannot be read.
+    External {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    /// A scheme or encoding morphlod does not read.
+    Unsupported(String),
+    /// A malformed data URI.
+    Data(String),
+}
+
+/// The bytes a glTF URI names: a base64 data URI, or a percent-encoded path relative to
+/// the glTF file at `path` (remote URIs are not fetched).
+pub(super) fn read_uri(path: &Path, uri: &str) -> Result<Vec<u8>, UriError> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let Some((header, payload)) = rest.split_once(',') else {
+            return Err(UriError::Data(
+                "data URI has no ',' before its data".to_string(),
+            ));
+        };
+        if !header.ends_with(";base64") {
+            return Err(UriError::Unsupported(format!(
+                "a data URI that is not base64 (data:{header})"
+            )));
+        }
+        return base64::engine::general_purpose::STANDARD
+            .decode(payload)
+            .map_err(|e| UriError::Data(format!("data URI is not valid base64: {e}")));
+    }
+    if uri.contains("://") {
+        return Err(UriError::Unsupported(format!("the non-local URI '{uri}'")));
+    }
+    let file = path
+        .parent()
+        .unwrap_or(Path::new(""))
+        .join(percent_decode(uri));
+    std::fs::read(&file).map_err(|source| UriError::External { file, source })
 }
 
 /// URIs in glTF are percent-encoded (`my%20mesh.bin`).

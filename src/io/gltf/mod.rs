@@ -11,6 +11,7 @@
 //! and strides and panics when they point past the data.
 
 mod accessor;
+mod attributes;
 mod document;
 #[cfg(test)]
 mod morph_tests;
@@ -19,9 +20,10 @@ pub mod write;
 
 pub use summary::{inspect, AnimationSummary, GltfSummary, MeshSummary, WeightChannelSummary};
 
-use crate::io::{LoadError, LoadOptions};
+use crate::io::{AttributedMesh, LoadError, LoadOptions};
 use crate::mesh::IndexedMesh;
-use crate::morph::{Interpolation, Morph, MorphTarget, WeightTrack, Weights};
+use crate::morph::{Attributes, Interpolation, Morph, MorphTarget, WeightTrack, Weights};
+use attributes::VertexAttributes;
 use document::Document;
 use std::path::Path;
 
@@ -56,14 +58,26 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
     super::validated(mesh_out, path)
 }
 
+/// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
+/// chosen and placed by `options` as [`load_mesh`] does; its targets are not kept.
+pub fn load_attributed(path: &Path, options: &LoadOptions) -> Result<AttributedMesh, LoadError> {
+    let data = read_morph(path, options)?;
+    Ok(AttributedMesh::unsplit(
+        super::validated(data.mesh, path)?,
+        data.attributes,
+    ))
+}
+
 /// What [`load_morph`] needs from a file: the selected mesh
 /// (transformed as [`load_mesh`] does), its targets with deltas transformed by the
-/// same matrix, its default weights, and every animation of the file with the
-/// weight track that animates this mesh (`None` when it does not).
+/// same matrix, its vertex attributes and material, its default weights, and every
+/// animation of the file with the weight track that animates this mesh (`None` when it
+/// does not).
 struct GltfMorph {
     mesh: IndexedMesh,
     mesh_name: String,
     targets: Vec<MorphTarget>,
+    attributes: Attributes,
     default_weights: Vec<f32>,
     animations: Vec<AnimationWeights>,
 }
@@ -80,8 +94,16 @@ fn read_morph(path: &Path, options: &LoadOptions) -> Result<GltfMorph, LoadError
     let names = target_names(&mesh, geometry.targets.len());
     let mut mesh_out = IndexedMesh::new(geometry.positions, geometry.triangles);
     let mut deltas = geometry.targets;
+    let VertexAttributes {
+        mut normals,
+        uvs,
+        colors,
+        mut target_normals,
+        material,
+    } = geometry.attributes;
     if options.apply_transforms {
         doc.transform(&mesh, &mut mesh_out, &mut deltas)?;
+        doc.transform_normals(&mesh, normals.as_mut(), &mut target_normals)?;
     }
     let default_weights = doc.default_weights(&mesh, deltas.len())?;
     let animations = doc
@@ -97,16 +119,24 @@ fn read_morph(path: &Path, options: &LoadOptions) -> Result<GltfMorph, LoadError
     let targets = names
         .into_iter()
         .zip(deltas)
-        .map(|(name, deltas)| MorphTarget {
+        .zip(target_normals)
+        .map(|((name, deltas), normal_deltas)| MorphTarget {
             name,
             deltas,
-            normal_deltas: None,
+            normal_deltas,
         })
         .collect();
+    let attributes = Attributes {
+        normals,
+        uvs,
+        colors,
+        material: doc.material(material)?,
+    };
     Ok(GltfMorph {
         mesh: mesh_out,
         mesh_name: display_name(mesh.name(), mesh.index()),
         targets,
+        attributes,
         default_weights,
         animations,
     })
@@ -171,12 +201,10 @@ pub fn load_morph(
             }
         }
     };
-    Ok(Morph::from_parts(
-        data.mesh.triangles,
-        data.mesh.positions,
-        targets,
-        weights,
-    )?)
+    Ok(
+        Morph::from_parts(data.mesh.triangles, data.mesh.positions, targets, weights)?
+            .with_attributes(data.attributes)?,
+    )
 }
 
 pub(super) fn quoted(name: &Option<String>) -> String {

@@ -2,7 +2,7 @@
 //! node transforms, and the GPU target blend an animated morph carries.
 
 use super::*;
-use crate::morph::TargetBlend;
+use crate::morph::{ImageFormat, Sampler, TargetBlend};
 use std::path::PathBuf;
 
 fn asset(name: &str) -> PathBuf {
@@ -282,4 +282,78 @@ fn transformed_morph_moves_deltas_with_the_node() {
         .unwrap();
     assert!(length(&plain, v) > 0.01);
     assert!((length(&moved, v) / length(&plain, v) - 100.0).abs() < 1e-2);
+}
+
+/// The MakeHuman face (assets/README.md), the asset `morphlod info` used to refuse: its last
+/// target (`tongueOut`) has POSITION and NORMAL accessors with neither `bufferView` nor
+/// `sparse`, which glTF defines as zeros. Values are checked against the file's bytes as
+/// decoded independently (Python `struct` over the GLB's BIN chunk).
+#[test]
+fn face_loads_with_its_attributes() {
+    let path = asset("makehuman_face.glb");
+    let morph = load_morph(
+        &path,
+        &LoadOptions::default(),
+        &MorphSource::Animation("expressions".to_string()),
+    )
+    .unwrap();
+    assert_eq!(
+        (morph.vertex_count(), morph.triangle_count()),
+        (4_632, 8_818)
+    );
+    let targets = morph.targets();
+    assert_eq!(targets.len(), 52);
+    assert_eq!(
+        (targets[0].name.as_str(), targets[51].name.as_str()),
+        ("browDownLeft", "tongueOut")
+    );
+    assert!(targets.iter().all(|t| t.normal_deltas.is_some()));
+    // Target 0's NORMAL is sparse (661 entries): entry 0 replaces vertex 118.
+    let first = targets[0].normal_deltas.as_ref().unwrap();
+    assert_eq!(
+        first[118],
+        [-0.003_942_847_3, 0.004_565_629, -0.001_068_156_3]
+    );
+    assert_eq!(first.iter().filter(|d| **d != [0.0; 3]).count(), 661);
+    // The zero-initialised target reads as zeros.
+    let last = &targets[51];
+    assert!(last.deltas.iter().all(|d| *d == [0.0; 3]));
+    assert!(last
+        .normal_deltas
+        .as_ref()
+        .unwrap()
+        .iter()
+        .all(|d| *d == [0.0; 3]));
+
+    let a = morph.attributes();
+    let normals = a.normals.as_ref().unwrap();
+    assert_eq!(normals.len(), 4_632);
+    assert_eq!(normals[0], [-0.163_085_4, 0.036_696_64, 0.985_929_25]);
+    let uvs = a.uvs.as_ref().unwrap();
+    assert_eq!(uvs[0], [0.833_218, 0.551_853]);
+    assert!(a.colors.is_none());
+    assert_eq!(a.material.name.as_deref(), Some("skin"));
+    assert_eq!(a.material.base_color, [1.0; 4]);
+    let texture = a.material.texture.as_ref().unwrap();
+    assert_eq!(texture.format, ImageFormat::Jpeg);
+    assert_eq!(texture.bytes.len(), 31_373);
+    assert_eq!(
+        texture.sampler,
+        Sampler {
+            mag_filter: Some(9729),
+            min_filter: Some(9987),
+            wrap_s: 33071,
+            wrap_t: 33071
+        }
+    );
+    // `file(1)` says: baseline JPEG, 1024x1024, 3 components.
+    assert_eq!(
+        crate::io::image_size(&texture.bytes).unwrap(),
+        (ImageFormat::Jpeg, 1024, 1024)
+    );
+
+    // 4,632 attribute vertices on 4,437 positions: 191 positions carry a seam.
+    let topology = morph.topology();
+    assert_eq!(topology.topology_count, 4_437);
+    assert_eq!(topology.seam_vertices(), 191);
 }

@@ -59,6 +59,11 @@ use crate::morph::{Morph, MorphError};
 use overlay::{Node, OverlayError};
 use sphere::SphereMesh;
 
+/// The supermesh algorithm's version: raised whenever the same inputs and options give a
+/// different supermesh (2: the embedding rework with umbrella weight 1.0). Caches of built
+/// supermesh morphs put it in their key.
+pub const ALGORITHM_VERSION: u32 = 2;
+
 /// How many random rotations the overlay tries before giving up on input
 /// that stays degenerate.
 pub const OVERLAY_ATTEMPTS: usize = 8;

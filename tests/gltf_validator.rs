@@ -1,0 +1,105 @@
+//! glTF that morphlod writes, checked by the Khronos glTF validator (the `gltf-validator` npm
+//! package, pinned in `.ci/gltf-validator`, run under node): 0 errors. `.ci/run` installs node
+//! and the package (`npm ci`); where they are missing the tests say so and pass, except under
+//! `CI=true`, where a missing validator fails.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// `node` and the validator script with its package installed, or `None` (outside CI).
+fn validator() -> Option<(PathBuf, PathBuf)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci/gltf-validator");
+    let script = dir.join("validate.mjs");
+    let installed = dir.join("node_modules/gltf-validator").is_dir();
+    let node = Command::new("node").arg("--version").output().is_ok();
+    if installed && node {
+        return Some((PathBuf::from("node"), script));
+    }
+    let why = format!(
+        "the glTF validator is not installed (node found: {node}; package installed: {installed}); \
+         run `npm ci` in {}",
+        dir.display()
+    );
+    assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
+    eprintln!("skipped: {why}");
+    None
+}
+
+/// Runs the validator on `files`: (exit code 0, the JSON lines it printed).
+fn validate(files: &[&Path]) -> Option<(bool, String)> {
+    let (node, script) = validator()?;
+    let out = Command::new(node)
+        .arg(script)
+        .args(files)
+        .output()
+        .expect("node runs");
+    let report = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some((out.status.success(), report))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("gltf_validator_{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `morphlod supermesh bunny.obj cow.off -o S.glb` (a supermesh of two real meshes of
+/// different connectivity, one morph target and an animation) passes with 0 errors and 0
+/// warnings.
+#[test]
+fn supermesh_glb_passes_the_khronos_validator() {
+    let dir = temp_dir("supermesh");
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    let glb = dir.join("bunny_cow.glb");
+    let out = Command::new(env!("CARGO_BIN_EXE_morphlod"))
+        .arg("supermesh")
+        .arg(assets.join("bunny.obj"))
+        .arg(assets.join("cow.off"))
+        .arg("-o")
+        .arg(&glb)
+        .output()
+        .expect("the morphlod binary runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let Some((ok, report)) = validate(&[&glb]) else {
+        return;
+    };
+    assert!(ok, "{report}");
+    assert!(report.contains("\"errors\":0,\"warnings\":0"), "{report}");
+}
+
+/// The harness can fail: a GLB whose JSON chunk names a buffer view past the end of its
+/// binary chunk is reported with an error and a nonzero exit.
+#[test]
+fn the_validator_reports_a_broken_file() {
+    let json = br#"{"asset":{"version":"2.0"},"buffers":[{"byteLength":4}],"bufferViews":[{"buffer":0,"byteLength":400}]}  "#;
+    let bin = [0u8; 4];
+    let mut glb = Vec::new();
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(json);
+    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"BIN\0");
+    glb.extend_from_slice(&bin);
+    assert_eq!(json.len() % 4, 0, "chunks are 4-byte aligned");
+    let dir = temp_dir("broken");
+    let file = dir.join("broken.glb");
+    std::fs::write(&file, glb).unwrap();
+    let Some((ok, report)) = validate(&[&file]) else {
+        return;
+    };
+    assert!(!ok, "{report}");
+    assert!(!report.contains("\"errors\":0"), "{report}");
+}
