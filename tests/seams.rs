@@ -333,8 +333,79 @@ fn cut_in_two(mesh: &morphlod::IndexedMesh) -> (Morph, Morph) {
     (seamed, welded)
 }
 
-/// The cost of seams (BENCHMARKS.md, "Seams"): a real mesh cut into two UV islands, built with
-/// its attributes, against the same morph welded without them.
+/// `morph` welded into its topology vertices, without attributes: what a position-only
+/// source of the same shape would be.
+fn welded(morph: &Morph) -> Morph {
+    let map = morph.topology();
+    let weld = |values: &[[f32; 3]]| {
+        let mut out = vec![[0.0f32; 3]; map.topology_count];
+        for (v, &t) in map.of_vertex.iter().enumerate() {
+            out[t as usize] = values[v];
+        }
+        out
+    };
+    let targets = morph
+        .targets()
+        .iter()
+        .map(|t| morphlod::morph::MorphTarget {
+            name: t.name.clone(),
+            deltas: weld(&t.deltas),
+            normal_deltas: None,
+        })
+        .collect();
+    Morph::from_parts(
+        map.triangles(morph.triangles()),
+        weld(morph.base()),
+        targets,
+        morph.weights().clone(),
+    )
+    .unwrap()
+}
+
+/// Builds `morph` with `frames` frames and prints what it costs (see `measure_seam_cost`).
+fn measure(what: &str, morph: &Morph, frames: usize) {
+    let start = std::time::Instant::now();
+    let (asset, report) = Builder::new(morph).frames(frames).build().unwrap();
+    let wall = start.elapsed();
+    let bytes = asset.to_bytes();
+    let info = morphlod::asset::inspect(&bytes).unwrap().1;
+    let section = |tag: &str| {
+        info.sections
+            .iter()
+            .find(|s| s.tag.trim_end() == tag)
+            .map_or(0, |s| s.bytes)
+    };
+    let model = DeformingModel::new(&asset).unwrap();
+    let changes: usize = model.frame_bytes().iter().sum();
+    let attribute: usize = asset.frames.iter().map(|f| f.len()).sum();
+    let topology: usize = match &asset.surface {
+        Some(s) => asset
+            .frames
+            .iter()
+            .map(|f| boundaries(f, &s.topology).len() - 1)
+            .sum(),
+        None => attribute,
+    };
+    println!(
+        "  {what}: {} vertices ({} seam); build {:.0} ms (frames {:.0} ms cpu); {topology} topology collapses, {attribute} attribute collapses ({:.3} per topology collapse); FRMS {} B = {:.2} B per topology collapse; SURF {} B; TEXR {} B; change lists + tables {} B = {:.1} B per topology collapse; file {} B",
+        report.vertices,
+        report.seam_vertices,
+        wall.as_secs_f64() * 1e3,
+        report.frames_cpu().as_secs_f64() * 1e3,
+        attribute as f64 / topology as f64,
+        section("FRMS"),
+        section("FRMS") as f64 / topology as f64,
+        section("SURF"),
+        section("TEXR"),
+        changes,
+        changes as f64 / topology as f64,
+        bytes.len(),
+    );
+}
+
+/// The cost of seams (BENCHMARKS.md, "Seams"): real meshes cut into two UV islands, and the
+/// MakeHuman face (its own UV seams, 52 targets, the `expressions` animation), built with
+/// their attributes against the same morphs welded without them.
 /// `cargo test --release --test seams -- --ignored --nocapture`
 #[test]
 #[ignore]
@@ -343,50 +414,20 @@ fn measure_seam_cost() {
     for file in ["cow.off", "bunny.obj", "man.off"] {
         let mesh = morphlod::io::load_mesh(&dir.join(file), &Default::default()).unwrap();
         let (seamed, welded) = cut_in_two(&mesh);
-        println!(
-            "{file}: {} vertices, {} after the cut, {} seam vertices",
-            welded.vertex_count(),
-            seamed.vertex_count(),
-            seamed.topology().seam_vertices()
-        );
-        for (what, morph) in [
-            ("welded, no attributes", &welded),
-            ("cut, with UVs", &seamed),
-        ] {
-            let start = std::time::Instant::now();
-            let (asset, report) = Builder::new(morph).frames(8).build().unwrap();
-            let wall = start.elapsed();
-            let bytes = asset.to_bytes();
-            let info = morphlod::asset::inspect(&bytes).unwrap().1;
-            let section = |tag: &str| {
-                info.sections
-                    .iter()
-                    .find(|s| s.tag.trim_end() == tag)
-                    .map_or(0, |s| s.bytes)
-            };
-            let model = DeformingModel::new(&asset).unwrap();
-            let changes: usize = model.frame_bytes().iter().sum();
-            let attribute: usize = asset.frames.iter().map(|f| f.len()).sum();
-            let topology: usize = match &asset.surface {
-                Some(s) => asset
-                    .frames
-                    .iter()
-                    .map(|f| boundaries(f, &s.topology).len() - 1)
-                    .sum(),
-                None => attribute,
-            };
-            println!(
-                "  {what}: build {:.0} ms (frames {:.0} ms cpu); {topology} topology collapses, {attribute} attribute collapses ({:.3} per topology collapse); FRMS {} B = {:.2} B per topology collapse; SURF {} B; change lists + tables {} B = {:.1} B per topology collapse; file {} B",
-                wall.as_secs_f64() * 1e3,
-                report.frames_cpu().as_secs_f64() * 1e3,
-                attribute as f64 / topology as f64,
-                section("FRMS"),
-                section("FRMS") as f64 / topology as f64,
-                section("SURF"),
-                changes,
-                changes as f64 / topology as f64,
-                bytes.len(),
-            );
-        }
+        println!("{file}, 8 frames:");
+        measure("welded, no attributes", &welded, 8);
+        measure("cut, with UVs", &seamed, 8);
     }
+    let face = morphlod::io::load_morph(
+        &dir.join("makehuman_face.glb"),
+        &Default::default(),
+        &morphlod::io::MorphSource::Animation("expressions".into()),
+    )
+    .unwrap();
+    println!(
+        "makehuman_face.glb, {} targets, 32 frames:",
+        face.targets().len()
+    );
+    measure("welded, no attributes", &welded(&face), 32);
+    measure("with its attributes", &face, 32);
 }
