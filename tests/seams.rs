@@ -1,5 +1,5 @@
 //! Seams through the pipeline, on generated morphs split at UV seams (tests/common:
-//! `seamed_sphere`, `cut_grid`): the builder's attribute-level sequences move whole topology
+//! `seamed_sphere`, `cut_grid`) and on `makehuman_face.glb`: the builder's attribute-level sequences move whole topology
 //! vertices, no boundary LOD opens a crack or folds a UV triangle, the runtime shows only
 //! step boundaries, and random walks draw the attribute-level reference mesh.
 
@@ -15,10 +15,19 @@ use morphlod::{Asset, Builder, DeformingModel, DeformingState, Lod};
 
 const FRAMES: usize = 5;
 
+/// The generated morphs, and the MakeHuman face (its own UV seams, 52 targets, the
+/// `expressions` animation: normal deltas for the GPU-blended targets).
 fn morphs() -> Vec<(&'static str, Morph)> {
+    let face = morphlod::io::load_morph(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_face.glb"),
+        &Default::default(),
+        &morphlod::io::MorphSource::Animation("expressions".into()),
+    )
+    .unwrap();
     vec![
         ("sphere", seamed_sphere(12, 16)),
         ("cut grid", cut_grid(12)),
+        ("makehuman_face", face),
     ]
 }
 
@@ -205,11 +214,12 @@ fn random_walks_draw_the_reference_at_boundaries() {
                 }
                 2 => {
                     let budget = rng.below(tris.len() + 1);
-                    // The finest boundary drawing at most `budget` triangles (else the last).
-                    let l = boundaries(seq, topology)
-                        .into_iter()
-                        .find(|&l| seq.reference_mesh(tris, l).len() <= budget)
-                        .unwrap_or(max);
+                    // The finest boundary drawing at most `budget` triangles (else the last);
+                    // counts never grow along a sequence, so a binary search finds it.
+                    let b = boundaries(seq, topology);
+                    let l = b[b
+                        .partition_point(|&l| seq.reference_mesh(tris, l).len() > budget)
+                        .min(b.len() - 1)];
                     (Lod::Triangles(budget), l)
                 }
                 _ => {
