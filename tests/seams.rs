@@ -70,7 +70,7 @@ fn every_frame_moves_whole_topology_vertices() {
             .expect("a morph with UVs gets a surface");
         let map = morph.topology();
         assert_eq!(surface.topology, map.of_vertex);
-        let wedges = Wedges::new(&map.of_vertex, map.topology_count);
+        let wedges = Wedges::new(&map.of_vertex);
         for (k, seq) in asset.frames.iter().enumerate() {
             seq.validate().unwrap();
             check_steps(seq, &wedges, &map.of_vertex)
