@@ -441,3 +441,43 @@ fn measure_seam_cost() {
     measure("welded, no attributes", &welded(&face), 32);
     measure("with its attributes", &face, 32);
 }
+
+/// The rule on a small cut grid (side 4: the cut runs up column 2 from the bottom border to row
+/// 2, so (2, 0) and (2, 1) have a left and a right copy and the cut ends at (2, 2)): interior
+/// vertices move freely, seam vertices only along the seam, nothing across it.
+#[test]
+fn the_rule_frees_interiors_and_holds_seams() {
+    let morph = cut_grid(4);
+    let map = morph.topology();
+    let rule = SeamRule::new(&map, morph.attributes().uvs.as_deref());
+    let base = morph.base();
+    let at = |x: f32, y: f32| {
+        let v = base.iter().position(|p| p[0] == x && p[1] == y).unwrap();
+        map.of_vertex[v]
+    };
+    assert_eq!(Wedges::new(&map.of_vertex).of(at(2.0, 1.0)).len(), 2);
+    assert_eq!(Wedges::new(&map.of_vertex).of(at(2.0, 2.0)).len(), 1);
+    let one = |u: u32, w: u32| {
+        let seq = CollapseSequence::from_pairs(map.topology_count as u32, &[(u, w)]);
+        expand(&seq, morph.triangles(), &rule)
+    };
+    // Interior, off the seam: one copy onto one copy.
+    assert_eq!(one(at(1.0, 1.0), at(0.0, 1.0)).unwrap().len(), 1);
+    // Along the seam onto its end: both copies onto the end's single copy.
+    let zip = one(at(2.0, 1.0), at(2.0, 2.0)).unwrap();
+    assert_eq!(zip.len(), 2);
+    assert!(zip
+        .collapses
+        .iter()
+        .all(|c| map.of_vertex[c.w as usize] == at(2.0, 2.0)));
+    // Across the seam, or the end down onto a seam vertex: a tear.
+    for (u, w) in [(at(2.0, 1.0), at(1.0, 1.0)), (at(2.0, 2.0), at(2.0, 1.0))] {
+        assert!(matches!(
+            one(u, w),
+            Err(SeamError::Refused {
+                refusal: morphlod::seams::Refusal::Tear,
+                ..
+            })
+        ));
+    }
+}
