@@ -69,11 +69,10 @@ fn report_sizes(asset: &Asset, model: &DeformingModel) {
             .collect::<Vec<_>>(),
     );
     println!(
-        "  of which: collapse targets {:.1} KB, triangle + error tables {:.1} KB, rebuild lifetimes {:.1} KB ({} S0 slots x 4 B + {copies:.0} copies x 16 B)",
-        collapses * 8.0 / 1000.0,
-        collapses * 8.0 / 1000.0,
-        (asset.s0.indices.len() as f64 * 4.0 + copies * 16.0) / 1000.0,
+        "  of which: collapse pairs, lifetimes of {} S0 slots and {copies:.0} copies, samples and error table {:.1} KB ({:.1} B/vertex)",
         asset.s0.indices.len(),
+        (mean(&all) - mean(&stream)) / 1000.0,
+        (mean(&all) - mean(&stream)) / n as f64,
     );
 }
 

@@ -19,7 +19,10 @@ use crate::asset::{quantize_error, Asset, Surface};
 use crate::collapse::CollapseSequence;
 use crate::morph::{Morph, TopologyMap, Weights};
 use crate::seams::{expand, SeamError, SeamRule};
-use crate::simplify::{simplify, simplify_with_seams, SimplifyOptions};
+use crate::simplify::{
+    simplify, simplify_poses, simplify_poses_with_seams, simplify_with_seams, PoseError,
+    SimplifyOptions,
+};
 use crate::strip::stripify;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -54,6 +57,19 @@ pub enum BuildError {
     TooManyTargets { targets: usize },
     #[error("frame {frame}: the simplifier made a collapse the seam rule refuses ({source}); this is a bug in morphlod, please report it with the input")]
     Seams { frame: usize, source: SeamError },
+}
+
+/// Which collapse sequences an asset gets.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Sequences {
+    /// One sequence per sampled frame, each simplifying its own pose (the per-frame LOD model:
+    /// coarse levels follow the shape at that moment; the runtime switches frames).
+    #[default]
+    PerFrame,
+    /// One sequence for the whole morph, simplified over all sampled poses at once
+    /// ([`simplify_poses`]): the asset has one frame, so the runtime never switches frames
+    /// and keeps one change list, and every LOD is one connectivity valid at every `t`.
+    Shared(PoseError),
 }
 
 /// How far a build is: sent after each finished frame, from worker threads.
@@ -101,6 +117,7 @@ impl BuildReport {
 pub struct Builder<'a> {
     morph: &'a Morph,
     frames: usize,
+    sequences: Sequences,
     simplify: SimplifyOptions,
     progress: Option<&'a (dyn Fn(Progress) + Sync)>,
 }
@@ -110,6 +127,7 @@ impl<'a> Builder<'a> {
         Self {
             morph,
             frames: DEFAULT_FRAMES,
+            sequences: Sequences::PerFrame,
             simplify: SimplifyOptions::default(),
             progress: None,
         }
@@ -119,6 +137,13 @@ impl<'a> Builder<'a> {
     /// samples `t = 0` only, which the runtime then uses for every `t`.
     pub fn frames(mut self, frames: usize) -> Self {
         self.frames = frames;
+        self
+    }
+
+    /// Per-frame sequences (the default) or one shared sequence over all `frames` sampled
+    /// poses ([`Sequences::Shared`]; the asset then has one frame).
+    pub fn sequences(mut self, sequences: Sequences) -> Self {
+        self.sequences = sequences;
         self
     }
 
@@ -202,18 +227,7 @@ impl<'a> Builder<'a> {
             let built = if same {
                 Built::SameAs(j)
             } else {
-                if let Some((vertex, &value)) = pose
-                    .iter()
-                    .enumerate()
-                    .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
-                {
-                    return Err(BuildError::NonFinitePose {
-                        frame: k,
-                        t,
-                        vertex,
-                        value,
-                    });
-                }
+                check_finite_pose(k, t, &pose)?;
                 let mut sequence = match &rule {
                     None => simplify(&pose, triangles, &self.simplify),
                     Some(rule) => {
@@ -237,6 +251,37 @@ impl<'a> Builder<'a> {
             }
             Ok((built, elapsed))
         };
+        // The shared sequence: every sampled pose at once, one frame.
+        let shared = |combine: PoseError| -> Result<Vec<(Built, Duration)>, BuildError> {
+            let begin = Instant::now();
+            let poses: Vec<Vec<[f32; 3]>> = (0..frames)
+                .into_par_iter()
+                .map(|k| morph.positions_at(time_of(k)))
+                .collect();
+            for (k, pose) in poses.iter().enumerate() {
+                check_finite_pose(k, time_of(k), pose)?;
+            }
+            let views: Vec<&[[f32; 3]]> = poses.iter().map(Vec::as_slice).collect();
+            let mut sequence = match &rule {
+                None => simplify_poses(&views, triangles, &self.simplify, combine),
+                Some(rule) => {
+                    let welded =
+                        simplify_poses_with_seams(&views, triangles, rule, &self.simplify, combine);
+                    expand(&welded, triangles, rule)
+                        .map_err(|source| BuildError::Seams { frame: 0, source })?
+                }
+            };
+            for c in &mut sequence.collapses {
+                c.error = quantize_error(c.error);
+            }
+            if let Some(report) = self.progress {
+                report(Progress {
+                    frames_done: 1,
+                    frames: 1,
+                });
+            }
+            Ok(vec![(Built::Sequence(Arc::new(sequence)), begin.elapsed())])
+        };
         let ((s0, strip_time), (built, frames_wall)) = rayon::join(
             || {
                 let begin = Instant::now();
@@ -244,8 +289,10 @@ impl<'a> Builder<'a> {
             },
             || {
                 let begin = Instant::now();
-                let built: Result<Vec<_>, BuildError> =
-                    (0..frames).into_par_iter().map(frame).collect();
+                let built: Result<Vec<_>, BuildError> = match self.sequences {
+                    Sequences::PerFrame => (0..frames).into_par_iter().map(frame).collect(),
+                    Sequences::Shared(combine) => shared(combine),
+                };
                 (built, begin.elapsed())
             },
         );
@@ -328,6 +375,22 @@ enum Built {
     Sequence(Arc<CollapseSequence>),
     /// The pose equals this earlier frame's, bit for bit: share its sequence.
     SameAs(usize),
+}
+
+fn check_finite_pose(frame: usize, t: f32, pose: &[[f32; 3]]) -> Result<(), BuildError> {
+    match pose
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
+    {
+        Some((vertex, &value)) => Err(BuildError::NonFinitePose {
+            frame,
+            t,
+            vertex,
+            value,
+        }),
+        None => Ok(()),
+    }
 }
 
 fn pose_hash(pose: &[[f32; 3]]) -> u64 {

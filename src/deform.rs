@@ -28,6 +28,7 @@ use thiserror::Error;
 
 use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
+use crate::lodstrips::packed::Narrow;
 use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState};
 use crate::seams::{check_steps, SeamError, StepBoundaries, Wedges};
 
@@ -137,13 +138,60 @@ type FrameKey = (usize, Option<(u32, u32)>);
 #[derive(Clone, Debug)]
 struct Frame {
     changes: FrameChanges,
-    /// `errors[l]`: the largest collapse error among the first `l`, as a
-    /// distance (square root of the recorded mean squared distance); never
-    /// decreasing, `errors[0] = 0`.
-    errors: Vec<f32>,
+    /// `errors[l]`, the largest collapse error among the first `l` as a
+    /// distance (square root of the recorded mean squared distance), never
+    /// decreases and `errors[0] = 0`; it is kept only where it grows: from LOD
+    /// `error_steps[i]` on (up to the next entry) it is the square root of the
+    /// recorded error whose `f32` bits are `error_keys[i] << error_shift`.
+    /// The recorded errors are positive there, so the keys grow with the
+    /// errors; built assets round errors to bfloat16 (`quantize_error`), whose
+    /// low 16 bits are zero, and then store the top 16 bits only
+    /// (`error_shift = 16`); other errors keep all 32 (`error_shift = 0`).
+    error_steps: Narrow,
+    error_keys: Narrow,
+    error_shift: u32,
     /// For an asset with a surface: the LODs that fall between two topology collapses,
     /// the only ones shown ([`crate::seams`]); `None`: every LOD.
     boundaries: Option<StepBoundaries>,
+}
+
+impl Frame {
+    /// `errors[error_steps[i]]` (see the field docs).
+    fn error_value(&self, i: usize) -> f32 {
+        f32::from_bits(self.error_keys.get(i) << self.error_shift).sqrt()
+    }
+
+    /// The coarsest LOD whose collapse errors, as distances, are all `≤ e`
+    /// (full detail when `e < 0`): the LOD before the first growth past `e`.
+    fn coarsest_within(&self, e: f32) -> usize {
+        if e.is_nan() || e < 0.0 {
+            return 0;
+        }
+        let (mut lo, mut hi) = (0, self.error_keys.len());
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.error_value(mid) <= e {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        if lo < self.error_steps.len() {
+            self.error_steps.get(lo) as usize - 1
+        } else {
+            self.changes.max_lod()
+        }
+    }
+
+    fn byte_size(&self) -> usize {
+        self.changes.byte_size()
+            + self.error_steps.byte_size()
+            + self.error_keys.byte_size()
+            + self
+                .boundaries
+                .as_ref()
+                .map_or(0, StepBoundaries::byte_size)
+    }
 }
 
 /// Every frame's LOD model over one shared `S0`.
@@ -301,13 +349,9 @@ impl DeformingModel {
             Lod::Steps(l) => l.min(max),
             Lod::Fraction(f) if f.is_nan() => return Err(SetError::LodNaN(lod)),
             Lod::Fraction(f) => ((f.clamp(0.0, 1.0) * max as f32).round() as usize).min(max),
-            Lod::Triangles(budget) => {
-                let budget = u32::try_from(budget).unwrap_or(u32::MAX);
-                let tris = frame.changes.triangle_counts();
-                tris.partition_point(|&t| t > budget).min(max)
-            }
+            Lod::Triangles(budget) => frame.changes.finest_within(budget),
             Lod::MaxError(e) if e.is_nan() => return Err(SetError::LodNaN(lod)),
-            Lod::MaxError(e) => frame.errors.partition_point(|&x| x <= e).saturating_sub(1),
+            Lod::MaxError(e) => frame.coarsest_within(e),
         };
         Ok(match (&frame.boundaries, lod) {
             (None, _) => l,
@@ -318,14 +362,7 @@ impl DeformingModel {
 
     /// Bytes of the per-frame data in RAM (change lists, tables), per frame.
     pub fn frame_bytes(&self) -> Vec<usize> {
-        self.frames
-            .iter()
-            .map(|f| {
-                f.changes.byte_size()
-                    + f.errors.len() * 4
-                    + f.boundaries.as_ref().map_or(0, StepBoundaries::byte_size)
-            })
-            .collect()
+        self.frames.iter().map(|f| f.byte_size()).collect()
     }
 }
 
@@ -367,7 +404,6 @@ fn build_frame(
         .map_err(|source| DeformError::Sequence { frame, source })?;
     let changes =
         FrameChanges::build(layout, seq).map_err(|source| DeformError::Frame { frame, source })?;
-    let errors = seq.errors().iter().map(|&e| e.max(0.0).sqrt()).collect();
     let boundaries = match topology {
         Some((of_vertex, wedges)) => {
             check_steps(seq, wedges, of_vertex)
@@ -376,9 +412,30 @@ fn build_frame(
         }
         None => None,
     };
+    // The LODs where the running maximum grows (as a distance) and its recorded value there.
+    let (mut steps, mut keys) = (Vec::new(), Vec::new());
+    let mut distance = 0.0f32;
+    for (l, e) in seq.errors().into_iter().enumerate().skip(1) {
+        let d = e.max(0.0).sqrt();
+        if d > distance {
+            distance = d;
+            steps.push(l as u32);
+            keys.push(e.to_bits());
+        }
+    }
+    let error_shift = if keys.iter().all(|k| k & 0xFFFF == 0) {
+        16
+    } else {
+        0
+    };
     Ok(Frame {
         changes,
-        errors,
+        error_steps: Narrow::new(seq.len() as u32, steps),
+        error_keys: Narrow::new(
+            keys.last().map_or(0, |k| k >> error_shift),
+            keys.iter().map(|k| k >> error_shift),
+        ),
+        error_shift,
         boundaries,
     })
 }

@@ -72,6 +72,19 @@ impl Default for SimplifyOptions {
     }
 }
 
+/// How [`simplify_poses`] combines a collapse's error over the poses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PoseError {
+    /// The mean over the poses of each pose's quadric error (the sum of Mohr and Gleicher's
+    /// "deformation sensitive decimation", divided by the pose count so errors stay squared
+    /// distances).
+    Mean,
+    /// The largest of the poses' quadric errors: a collapse is as cheap as its worst pose, so
+    /// no pose is given up for the others (lower error at the worst `t`; BENCHMARKS.md).
+    #[default]
+    Max,
+}
+
 /// Simplifies the mesh to the end and returns every collapse in order.
 ///
 /// `positions` should be finite and `triangles` in range (see
@@ -85,7 +98,33 @@ pub fn simplify(
     triangles: &[[u32; 3]],
     options: &SimplifyOptions,
 ) -> CollapseSequence {
-    let n = positions.len();
+    simplify_poses(&[positions], triangles, options, PoseError::Mean)
+}
+
+/// One collapse sequence for several poses of one triangulation (pose-aware simplification):
+/// every vertex keeps one quadric per pose, a collapse `u → w` costs the [`PoseError`]
+/// combination of each pose's error at `w`'s position in that pose, and is valid only if no
+/// triangle flips or degenerates in any pose. With one pose this is [`simplify`].
+///
+/// Every pose must have the vertex count of the first; no pose at all gives an empty
+/// sequence. The reported errors are squared distances in object units, like [`simplify`]'s.
+///
+/// # Panics
+/// If the poses differ in length.
+pub fn simplify_poses(
+    poses: &[&[[f32; 3]]],
+    triangles: &[[u32; 3]],
+    options: &SimplifyOptions,
+    combine: PoseError,
+) -> CollapseSequence {
+    let Some(first) = poses.first() else {
+        return CollapseSequence::default();
+    };
+    let n = first.len();
+    assert!(
+        poses.iter().all(|p| p.len() == n),
+        "every pose needs one position per vertex"
+    );
     let tris: Vec<[u32; 3]> = triangles
         .iter()
         .copied()
@@ -93,7 +132,7 @@ pub fn simplify(
             t.iter().all(|&v| (v as usize) < n) && t[0] != t[1] && t[1] != t[2] && t[0] != t[2]
         })
         .collect();
-    let mut state = State::new(positions, tris, options, None);
+    let mut state = State::new(poses, tris, options, combine, None);
     state.run();
     CollapseSequence {
         vertex_count: n as u32,
@@ -118,12 +157,41 @@ pub fn simplify_with_seams(
     rule: &SeamRule,
     options: &SimplifyOptions,
 ) -> CollapseSequence {
-    let n = positions.len().min(rule.vertex_count());
+    simplify_poses_with_seams(&[positions], triangles, rule, options, PoseError::Max)
+}
+
+/// [`simplify_with_seams`] over several poses, as [`simplify_poses`] does for meshes without
+/// seams: one topology sequence valid in every pose.
+///
+/// # Panics
+/// If the poses differ in length.
+pub fn simplify_poses_with_seams(
+    poses: &[&[[f32; 3]]],
+    triangles: &[[u32; 3]],
+    rule: &SeamRule,
+    options: &SimplifyOptions,
+    combine: PoseError,
+) -> CollapseSequence {
+    let Some(first) = poses.first() else {
+        return CollapseSequence::default();
+    };
+    assert!(
+        poses.iter().all(|p| p.len() == first.len()),
+        "every pose needs one position per vertex"
+    );
+    let n = first.len().min(rule.vertex_count());
     let tn = rule.topology_count();
-    let mut welded = vec![[0.0f32; 3]; tn];
-    for v in (0..n as u32).rev() {
-        welded[rule.topology_of(v) as usize] = positions[v as usize];
-    }
+    let welded: Vec<Vec<[f32; 3]>> = poses
+        .iter()
+        .map(|positions| {
+            let mut welded = vec![[0.0f32; 3]; tn];
+            for v in (0..n as u32).rev() {
+                welded[rule.topology_of(v) as usize] = positions[v as usize];
+            }
+            welded
+        })
+        .collect();
+    let welded: Vec<&[[f32; 3]]> = welded.iter().map(Vec::as_slice).collect();
     let mut tris = Vec::with_capacity(triangles.len());
     let mut corners = Vec::with_capacity(triangles.len());
     let mut pinned = Vec::new();
@@ -144,7 +212,7 @@ pub fn simplify_with_seams(
         corners,
         pairs: Vec::new(),
     };
-    let mut state = State::new(&welded, tris, options, Some(seams));
+    let mut state = State::new(&welded, tris, options, combine, Some(seams));
     for v in pinned {
         state.kind[v as usize] = Kind::Locked;
     }
@@ -459,11 +527,13 @@ struct State<'o, 'r, 'm> {
     options: &'o SimplifyOptions,
     /// `Some` when simplifying the welded surface of a mesh with seams.
     seams: Option<Seams<'r, 'm>>,
-    /// The caller's positions, read as `f64` on use: half the cache
+    /// The caller's poses, read as `f64` on use: half the cache
     /// footprint of a `DVec3` copy, and the collapse loop is memory bound.
-    pos: &'o [[f32; 3]],
+    poses: &'o [&'o [[f32; 3]]],
+    combine: PoseError,
     tris: Vec<[u32; 3]>,
     kind: Vec<Kind>,
+    /// One quadric per vertex and pose, vertex-major (`v * poses.len() + pose`).
     quadric: Vec<Quadric>,
     /// Per-vertex list of its live triangles, at `span[v]` in `pool`. A list
     /// that outgrows its room moves to the end of the pool with double the
@@ -483,15 +553,26 @@ struct State<'o, 'r, 'm> {
 
 impl<'o, 'r, 'm> State<'o, 'r, 'm> {
     fn new(
-        pos: &'o [[f32; 3]],
+        poses: &'o [&'o [[f32; 3]]],
         tris: Vec<[u32; 3]>,
         options: &'o SimplifyOptions,
+        combine: PoseError,
         seams: Option<Seams<'r, 'm>>,
     ) -> Self {
-        let n = pos.len();
+        let n = poses[0].len();
         let vt = VertexTriangles::new(&tris, n);
         let (kind, boundary_edges) = classify(&tris, &vt);
-        let quadric = quadrics(pos, &tris, &boundary_edges, options);
+        let quadric = if poses.len() == 1 {
+            quadrics(poses[0], &tris, &boundary_edges, options)
+        } else {
+            let per_pose: Vec<Vec<Quadric>> = poses
+                .iter()
+                .map(|pos| quadrics(pos, &tris, &boundary_edges, options))
+                .collect();
+            (0..n)
+                .flat_map(|v| per_pose.iter().map(move |q| q[v]))
+                .collect()
+        };
 
         let mut span = Vec::with_capacity(n);
         let mut pool = Vec::with_capacity(tris.len() * 3 * 3);
@@ -507,7 +588,8 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         Self {
             options,
             seams,
-            pos,
+            poses,
+            combine,
             tris,
             kind,
             quadric,
@@ -524,8 +606,30 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         }
     }
 
-    fn p(&self, v: u32) -> DVec3 {
-        dvec(self.pos[v as usize])
+    fn vertex_count(&self) -> usize {
+        self.poses[0].len()
+    }
+
+    /// The position of `v` in pose `pose`.
+    fn p(&self, pose: usize, v: u32) -> DVec3 {
+        dvec(self.poses[pose][v as usize])
+    }
+
+    /// The cost of moving `u` onto `w`: each pose's quadric error of `u` at `w`'s position
+    /// in that pose, combined over the poses.
+    fn cost(&self, u: u32, w: u32) -> f64 {
+        let count = self.poses.len();
+        let quadrics = &self.quadric[u as usize * count..(u as usize + 1) * count];
+        let mut errors = quadrics
+            .iter()
+            .enumerate()
+            .map(|(pose, q)| q.error(self.p(pose, w)));
+        let first = errors.next().unwrap_or(0.0);
+        match self.combine {
+            PoseError::Mean if count == 1 => first,
+            PoseError::Mean => errors.fold(first, |a, e| a + e) / count as f64,
+            PoseError::Max => errors.fold(first, f64::max),
+        }
     }
 
     fn list(&self, v: u32) -> &[u32] {
@@ -544,7 +648,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
     }
 
     fn run(&mut self) {
-        for v in 0..self.pos.len() as u32 {
+        for v in 0..self.vertex_count() as u32 {
             self.rerank(v);
         }
         loop {
@@ -569,7 +673,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             // its 2-ring can unblock it: sweep once more so the sequence really
             // runs to the end.
             let mut progress = false;
-            for v in 0..self.pos.len() as u32 {
+            for v in 0..self.vertex_count() as u32 {
                 if !matches!(self.kind[v as usize], Kind::Interior | Kind::Border) {
                     continue;
                 }
@@ -604,7 +708,6 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         if !matches!(kind, Kind::Interior | Kind::Border) {
             return best;
         }
-        let q = self.quadric[u as usize];
         let Span { start: s, len, .. } = self.span[u as usize];
         let l = len as usize;
         if kind == Kind::Interior {
@@ -612,7 +715,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             // exactly one triangle, so no marks are needed to visit it once.
             for i in s..s + l {
                 let v = after_before(self.tris[self.pool[i] as usize], u)[0];
-                let cost = q.error(self.p(v));
+                let cost = self.cost(u, v);
                 if collect {
                     self.candidates.push((cost, v));
                 }
@@ -640,7 +743,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
                 }
                 self.mark[v as usize] = done;
                 if self.count[v as usize] == 1 && self.kind[v as usize] == Kind::Border {
-                    let cost = q.error(self.p(v));
+                    let cost = self.cost(u, v);
                     if collect {
                         self.candidates.push((cost, v));
                     }
@@ -733,8 +836,6 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             return false;
         }
 
-        let pu = self.p(u);
-        let pw = self.p(w);
         let min_cos = self.options.min_normal_cos as f64;
         for i in su..su + lu {
             let tri = self.tris[self.pool[i] as usize];
@@ -748,13 +849,16 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             if both_apex && self.has_triangle(w, a, b) {
                 return false;
             }
-            let (pa, pb) = (self.p(a), self.p(b));
-            let before = (pa - pu).cross(pb - pu);
-            let after = (pa - pw).cross(pb - pw);
-            let limit = min_cos * (before.length_squared() * after.length_squared()).sqrt();
-            // Anything but "greater" rejects, NaN (non-finite input) included.
-            if before.dot(after).partial_cmp(&limit) != Some(std::cmp::Ordering::Greater) {
-                return false;
+            for pose in 0..self.poses.len() {
+                let (pu, pw) = (self.p(pose, u), self.p(pose, w));
+                let (pa, pb) = (self.p(pose, a), self.p(pose, b));
+                let before = (pa - pu).cross(pb - pu);
+                let after = (pa - pw).cross(pb - pw);
+                let limit = min_cos * (before.length_squared() * after.length_squared()).sqrt();
+                // Anything but "greater" rejects, NaN (non-finite input) included.
+                if before.dot(after).partial_cmp(&limit) != Some(std::cmp::Ordering::Greater) {
+                    return false;
+                }
             }
         }
         match &mut self.seams {
@@ -790,8 +894,11 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         let ku = self.kind[u as usize];
         self.kind[u as usize] = Kind::Collapsed;
         self.queue.remove(u);
-        let qu = self.quadric[u as usize];
-        self.quadric[w as usize].add(&qu);
+        let count = self.poses.len();
+        for pose in 0..count {
+            let qu = self.quadric[u as usize * count + pose];
+            self.quadric[w as usize * count + pose].add(&qu);
+        }
 
         let mut moved = std::mem::take(&mut self.scratch);
         moved.clear();
@@ -836,7 +943,6 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         self.scratch = moved;
 
         self.rerank(w);
-        let pw = self.p(w);
         for &x in &around {
             // An interior neighbour whose queued target was not u keeps its other
             // costs: only the new edge x→w can lower its best. Anything else
@@ -846,7 +952,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             let target = self.queue.target[xi];
             match self.queue.cost(x) {
                 Some(old) if self.kind[xi] == Kind::Interior && target != u => {
-                    let c = self.quadric[xi].error(pw);
+                    let c = self.cost(x, w);
                     if c.total_cmp(&old).then(w.cmp(&target)).is_lt() {
                         self.queue.set(x, c, w);
                     }

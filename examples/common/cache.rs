@@ -78,8 +78,11 @@ impl Library {
             .out
             .join(cache_name(&named.label, self.source_hash, self.frames, key));
         let number = (index + 1, self.morphs.len());
-        let asset = load_or_build(named, &path, self.frames, number)?;
+        let mut asset = load_or_build(named, &path, self.frames, number)?;
         let model = Arc::new(DeformingModel::new(&asset).map_err(DemoError::lib)?);
+        // The model holds what the runtime needs of the sequences; the demo draws from the
+        // poses and targets.
+        asset.release_frames();
         Ok(BuiltMorph {
             label: named.label.clone(),
             asset,

@@ -446,6 +446,18 @@ impl Asset {
         seen.len()
     }
 
+    /// Drops the decoded collapse sequences ([`frames`](Asset::frames)) and keeps the
+    /// poses, the strips and the targets. A [`DeformingModel`](crate::DeformingModel) built
+    /// from the asset holds everything the runtime needs from the sequences, and
+    /// [`LodObject::new`](crate::gpu::LodObject) (and the contact sheets and the bench) read
+    /// only the poses, strips and targets, so a renderer that keeps the asset for its GPU
+    /// objects need not keep the sequences twice: 12 bytes per collapse of every distinct
+    /// frame. Afterwards the asset has no frames: building a model from it fails with
+    /// `DeformError::NoFrames` and it must not be saved.
+    pub fn release_frames(&mut self) {
+        self.frames = Vec::new();
+    }
+
     /// Bytes the asset holds on the heap: poses, strips, each distinct frame once, the
     /// frame table and the targets' deltas (capacities and the small weight track are not
     /// counted).

@@ -31,10 +31,11 @@
 use crate::varint;
 use thiserror::Error;
 
+use super::packed::Narrow;
 use super::runtime::cut;
 use super::{
-    kind_len, push_footer, push_group, push_header, zigzag, CopyEntry, FrameChanges, StripLayout,
-    CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
+    kind_len, push_footer, push_group, push_header, push_resize, FrameChanges, ResizeRun,
+    StripLayout, CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
 };
 use crate::collapse::{CollapseSequence, SequenceError, NEVER};
 use crate::strip::Strips;
@@ -371,22 +372,47 @@ impl<'a> Replay<'a> {
         self.triangles.push(self.triangles[step] - removed);
     }
 
+    /// Narrows the tables: collapse pairs and copy values to the vertex index
+    /// width, LODs (deaths and births, `NEVER` as `max_lod + 1`) to the LOD
+    /// width, copy anchors to the `S0` slot width; keeps the triangle counts
+    /// only at the cursor samples.
     fn finish(mut self, seq: &CollapseSequence) -> FrameChanges {
         self.cursors.push(self.stream.len() as u32);
         let total = self.buf.len();
+        let max = seq.len();
+        let never = max as u32 + 1;
+        let lod = |d: u32| if d == NEVER { never } else { d };
+        let last_vertex = seq.vertex_count.saturating_sub(1);
+        let copies = flatten_copies(self.region_offsets, &self.tokens);
+        let triangle_samples = (0..self.cursors.len())
+            .map(|j| self.triangles[(j * CURSOR_STRIDE).min(max)])
+            .collect();
+        self.stream.shrink_to_fit();
+        self.cursors.shrink_to_fit();
         FrameChanges {
-            collapses: seq.collapses.iter().map(|c| [c.u, c.w]).collect(),
-            copies: flatten_copies(self.region_offsets, &self.tokens),
+            collapses: Narrow::new(last_vertex, seq.collapses.iter().flat_map(|c| [c.u, c.w])),
             stream: self.stream,
             cursors: self.cursors,
-            triangles: self.triangles,
-            death: {
-                let mut death = self.tokens.death;
-                death.truncate(total);
-                death
-            },
+            triangle_samples,
+            death: Narrow::new(never, self.tokens.death[..total].iter().map(|&d| lod(d))),
+            copy_after: Narrow::new(
+                total.saturating_sub(1) as u32,
+                copies.iter().map(|c| c.after),
+            ),
+            copy_value: Narrow::new(last_vertex, copies.iter().map(|c| c.value)),
+            copy_birth: Narrow::new(never, copies.iter().map(|c| c.birth)),
+            copy_death: Narrow::new(never, copies.iter().map(|c| lod(c.death))),
         }
     }
+}
+
+/// A copy of a neighbour written by a resize, as [`FrameChanges`] stores it
+/// (one column per field there).
+struct CopyEntry {
+    after: u32,
+    value: u32,
+    birth: u32,
+    death: u32,
 }
 
 /// The copies in the order of their strips' token lists, each placed after
@@ -500,14 +526,22 @@ fn reduce(
             junction(&region.values[..current], i, j).map(|kind| (i, j - i, kind))
         };
         if let Some((at, len, kind)) = cut_at {
-            varint::put_u32(out, group);
-            varint::put_u32(out, at as u32);
-            varint::put_u32(out, ((len as u32) << 3) | u32::from(kind));
-            let mut previous = if at > 0 { region.values[at - 1] } else { 0 };
-            for &v in &region.values[at..at + len] {
-                varint::put_u32(out, zigzag(v, previous));
-                previous = v;
-            }
+            let values = &region.values[..current];
+            push_resize(
+                out,
+                group,
+                at as u32,
+                kind,
+                ResizeRun {
+                    values: &values[at..at + len],
+                    previous: if at > 0 { values[at - 1] } else { 0 },
+                    before: [
+                        at.checked_sub(2).map(|k| values[k]),
+                        at.checked_sub(1).map(|k| values[k]),
+                    ],
+                    right: values.get(at + len).copied(),
+                },
+            );
             current = region.cut(current, at, len, kind);
             count += 1;
         }

@@ -5,9 +5,10 @@
 //!
 //! The data is split so that a deforming object shares everything it can:
 //! [`StripLayout`] (`S0` and the region table) exists once per object, and
-//! each sampled frame owns only a [`FrameChanges`] (its collapse targets,
-//! change stream, triangle table and the entry lifetimes of one-pass
-//! rebuilds). [`LodStrips`] pairs one layout with one frame for a static mesh.
+//! each sampled frame owns only a [`FrameChanges`] (its collapse pairs,
+//! change stream, sampled triangle counts and the entry lifetimes of one-pass
+//! rebuilds, in `u16` where the mesh allows). [`LodStrips`] pairs one layout
+//! with one frame for a static mesh.
 //!
 //! Each LOD step `l` (collapse `u → w`) is recorded as
 //! * rewrites: the positions in the strips that hold `u` at LOD `l`
@@ -21,13 +22,16 @@
 //! parity, hence its orientation), and every window created at the junction is
 //! degenerate. Leading runs are removed in even lengths, trailing runs whole.
 //!
-//! The change stream is a flat `Vec<u8>` of LEB128 numbers: rewrite positions
-//! delta-coded per strip, removed indices as zigzag differences to their left
-//! neighbour. Each step ends with its own length, readable backward, so the
-//! runtime walks the stream in both directions from a cursor without an
-//! offset table.
+//! The change stream is a flat `Vec<u8>`, mostly LEB128 numbers: rewrite
+//! positions delta-coded per strip; per cut a one-byte head (group, kind,
+//! length) and its position, the removed indices as 2-bit symbols (repeat the
+//! index before, the right neighbour, the index two before, or an escape to a
+//! zigzag difference; see `push_resize`). Each step ends with its own length,
+//! readable backward, so the runtime walks the stream in both directions from
+//! a cursor without an offset table.
 
 mod build;
+pub(crate) mod packed;
 mod runtime;
 
 pub use build::ChangeListError;
@@ -36,6 +40,7 @@ pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
 use crate::collapse::CollapseSequence;
 use crate::strip::Strips;
 use crate::varint;
+use packed::Narrow;
 
 /// Replacement kinds of a resize: the run `s[i..i+len]` is replaced by copies
 /// of its neighbours `B = s[i-1]` and `C = s[i+len]`.
@@ -107,20 +112,6 @@ impl StripLayout {
     }
 }
 
-/// A strip entry that is not an `S0` slot: a copy of a neighbour written by a
-/// resize (replacement kinds `B`, `C`, `BC`, `BCC`). It lives in the strip for
-/// LODs `birth..death` and sits, in the strip's order of all entries ever
-/// alive, right after the `S0` slot `after` (and after earlier copies there).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct CopyEntry {
-    after: u32,
-    /// The neighbour's value when copied; at LOD `l ≥ birth` the entry holds
-    /// `anc_l(value)` because every later rewrite maps it along.
-    value: u32,
-    birth: u32,
-    death: u32,
-}
-
 /// One collapse sequence's change lists over a [`StripLayout`]: what a frame
 /// of a deforming object owns.
 ///
@@ -130,20 +121,36 @@ struct CopyEntry {
 /// neighbour's value, and resizes only remove contiguous runs and put copies in
 /// their place, so the buffer at LOD `l` is exactly the entries alive at `l`,
 /// in a fixed order, mapped through `anc_l`.
+///
+/// Every table is stored in the narrowest of `u16` and `u32` that holds its
+/// largest value (a vertex index, a LOD or an `S0` slot). The triangle count
+/// per LOD is not kept: it is sampled beside the stream cursors and the steps
+/// between two samples are read from the step headers, which hold the
+/// triangles each step removes.
 #[derive(Clone, Debug, Default)]
 pub struct FrameChanges {
-    /// `(u, w)` of each step.
-    collapses: Vec<[u32; 2]>,
+    /// `u` of step `j` at `2j`, `w` at `2j + 1`.
+    collapses: Narrow,
     /// The change stream, see the module docs.
     stream: Vec<u8>,
-    /// Stream position where step `j · CURSOR_STRIDE` starts.
+    /// Stream position where step `min(j · CURSOR_STRIDE, max_lod)` starts.
     cursors: Vec<u32>,
-    /// Triangles drawn at each LOD `0..=max_lod`.
-    triangles: Vec<u32>,
-    /// Per `S0` slot: the first LOD at which it is cut out (`NEVER` if never).
-    death: Vec<u32>,
-    /// Copies, sorted by `after` (then by order within the strip).
-    copies: Vec<CopyEntry>,
+    /// Triangles drawn at step `min(j · CURSOR_STRIDE, max_lod)`, beside `cursors`.
+    triangle_samples: Vec<u32>,
+    /// Per `S0` slot: the first LOD at which it is cut out (`max_lod + 1` if never).
+    death: Narrow,
+    /// A copy of a neighbour written by a resize (replacement kinds `B`, `C`,
+    /// `BC`, `BCC`), one column each, sorted by `after` (then by order within
+    /// the strip). Copy `i` lives in its strip for LODs
+    /// `copy_birth[i]..copy_death[i]` and sits, in the strip's order of all
+    /// entries ever alive, right after the `S0` slot `copy_after[i]` (and
+    /// after earlier copies there). `copy_value[i]` is the neighbour's value
+    /// when copied; at LOD `l ≥ birth` the entry holds `anc_l(value)` because
+    /// every later rewrite maps it along.
+    copy_after: Narrow,
+    copy_value: Narrow,
+    copy_birth: Narrow,
+    copy_death: Narrow,
 }
 
 /// Every this many steps the stream position is kept, so a rebuilt state
@@ -161,12 +168,64 @@ impl FrameChanges {
 
     /// The highest LOD (number of collapses).
     pub fn max_lod(&self) -> usize {
-        self.collapses.len()
+        self.collapses.len() / 2
     }
 
-    /// Triangles drawn at each LOD `0..=max_lod()`; never increasing.
-    pub fn triangle_counts(&self) -> &[u32] {
-        &self.triangles
+    /// `(u, w)` of step `step` (`step < max_lod()`).
+    #[inline]
+    pub(crate) fn collapse(&self, step: usize) -> (u32, u32) {
+        (
+            self.collapses.get(2 * step),
+            self.collapses.get(2 * step + 1),
+        )
+    }
+
+    /// Triangles drawn at LOD `lod` (clamped to `max_lod()`).
+    pub fn triangles_at(&self, lod: usize) -> usize {
+        self.seek(lod).1 as usize
+    }
+
+    /// Triangles drawn at each LOD `0..=max_lod()`; never increasing. Computed
+    /// by one walk over the stream (the frame keeps only samples).
+    pub fn triangle_counts(&self) -> Vec<u32> {
+        let max = self.max_lod();
+        let mut out = vec![0u32; max + 1];
+        let mut at = self.stream.len();
+        let mut tris = *self.triangle_samples.last().unwrap_or(&0);
+        out[max] = tris;
+        for step in (0..max).rev() {
+            at = step_start_before(&self.stream, at);
+            tris += step_removed(&self.stream, at);
+            out[step] = tris;
+        }
+        out
+    }
+
+    /// The finest LOD that draws at most `budget` triangles (the coarsest LOD
+    /// if even that draws more): a binary search over the samples, then a walk
+    /// over at most `CURSOR_STRIDE` step headers.
+    pub fn finest_within(&self, budget: usize) -> usize {
+        let budget = u32::try_from(budget).unwrap_or(u32::MAX);
+        let max = self.max_lod();
+        let j = self.triangle_samples.partition_point(|&t| t > budget);
+        if j == 0 {
+            return 0;
+        }
+        if j == self.triangle_samples.len() {
+            return max;
+        }
+        let mut step = (j * CURSOR_STRIDE).min(max);
+        let mut at = self.cursors[j] as usize;
+        let mut tris = self.triangle_samples[j];
+        while step > (j - 1) * CURSOR_STRIDE {
+            let start = step_start_before(&self.stream, at);
+            let before = tris + step_removed(&self.stream, start);
+            if before > budget {
+                break;
+            }
+            (step, at, tris) = (step - 1, start, before);
+        }
+        step
     }
 
     /// Bytes of the change stream alone.
@@ -176,40 +235,53 @@ impl FrameChanges {
 
     /// Number of copy entries (see the type docs), for size reports.
     pub fn copy_count(&self) -> usize {
-        self.copies.len()
+        self.copy_after.len()
     }
 
-    /// Bytes this frame holds in RAM: collapse targets, change stream, cursor
-    /// samples, the triangle table and the entry lifetimes used by rebuilds.
+    /// Bytes this frame holds in RAM: collapse pairs, change stream, cursor
+    /// and triangle samples and the entry lifetimes used by rebuilds.
     pub fn byte_size(&self) -> usize {
-        self.collapses.len() * 8
+        self.collapses.byte_size()
             + self.stream.len()
-            + (self.cursors.len() + self.triangles.len() + self.death.len()) * 4
-            + self.copies.len() * std::mem::size_of::<CopyEntry>()
+            + (self.cursors.len() + self.triangle_samples.len()) * 4
+            + self.death.byte_size()
+            + self.copy_after.byte_size()
+            + self.copy_value.byte_size()
+            + self.copy_birth.byte_size()
+            + self.copy_death.byte_size()
     }
 
-    /// Stream position where step `lod` starts: from the next kept cursor,
-    /// walk back over step footers (at most `CURSOR_STRIDE - 1` of them).
-    fn cursor_at(&self, lod: usize) -> usize {
+    /// Stream position where step `lod` starts and the triangles drawn there:
+    /// from the next kept sample, walk back over step footers (at most
+    /// `CURSOR_STRIDE - 1` of them), adding the triangles each step removed.
+    fn seek(&self, lod: usize) -> (usize, u32) {
         let lod = lod.min(self.max_lod());
         let sample = lod.div_ceil(CURSOR_STRIDE);
-        let (mut step, mut at) = match self.cursors.get(sample) {
-            Some(&at) if sample * CURSOR_STRIDE <= self.max_lod() => {
-                (sample * CURSOR_STRIDE, at as usize)
-            }
-            _ => (self.max_lod(), self.stream.len()),
+        let (mut step, mut at, mut tris) = if sample * CURSOR_STRIDE <= self.max_lod() {
+            (
+                sample * CURSOR_STRIDE,
+                self.cursors[sample] as usize,
+                self.triangle_samples[sample],
+            )
+        } else {
+            (
+                self.max_lod(),
+                self.stream.len(),
+                *self.triangle_samples.last().unwrap_or(&0),
+            )
         };
         while step > lod {
             at = step_start_before(&self.stream, at);
+            tris += step_removed(&self.stream, at);
             step -= 1;
         }
-        at
+        (at, tris)
     }
 
     /// Work units of a one-pass rebuild at `lod` (entries to visit plus
     /// survivors to resolve), for choosing between a rebuild and stepping.
     pub fn rebuild_work(&self, layout: &StripLayout, lod: usize) -> usize {
-        self.death.len() + self.copies.len() + layout.vertex_count() + lod.min(self.max_lod())
+        self.death.len() + self.copy_count() + layout.vertex_count() + lod.min(self.max_lod())
     }
 }
 
@@ -282,6 +354,12 @@ fn push_header(out: &mut Vec<u8>, groups: u32, resizes: u32, removed: u32) {
     }
 }
 
+/// Triangles removed by the step whose header starts at `at`.
+fn step_removed(stream: &[u8], at: usize) -> u32 {
+    let mut at = at;
+    read_header(stream, &mut at).2
+}
+
 fn read_header(stream: &[u8], at: &mut usize) -> (u32, u32, u32) {
     let h = stream[*at];
     *at += 1;
@@ -315,6 +393,121 @@ fn read_group(stream: &[u8], at: &mut usize) -> (u32, u32) {
         c + 1
     };
     (v >> 2, count)
+}
+
+/// Appends a resize record: its head, then the removed indices `values` (the
+/// run `strip[at..at + len]` before the cut, `previous` the index before it or
+/// 0, `right` the index after it unless the run ends the strip).
+///
+/// The head is one byte in the common case: the rewrite group in 2 bits, the
+/// replacement kind in 3 and `len - 1` in 3, with 3 (group) and 7 (length)
+/// escaping to a LEB128 number after the byte; then the position `at`.
+///
+/// Each removed index is a 2-bit symbol, four to a byte: 0 repeats the index
+/// before it, 1 is the run's right neighbour, 2 repeats the index two before
+/// it (degenerate runs are mostly `a a a` and `a b a b`), 3 escapes to a
+/// zigzag difference to the index before it, stored after the symbols.
+fn push_resize(out: &mut Vec<u8>, group: u32, at: u32, kind: u16, run: ResizeRun) {
+    let len = run.values.len() as u32;
+    let g = group.min(3);
+    let l = (len - 1).min(7);
+    out.push((g | u32::from(kind) << 2 | l << 5) as u8);
+    if g == 3 {
+        varint::put_u32(out, group - 3);
+    }
+    if l == 7 {
+        varint::put_u32(out, len - 1 - 7);
+    }
+    varint::put_u32(out, at);
+    let mut previous = run.previous;
+    let mut symbols = 0u8;
+    let escapes = out.len() + run.values.len().div_ceil(4);
+    let mut escaped = Vec::new();
+    for (k, &v) in run.values.iter().enumerate() {
+        let two_back = match k {
+            0 => run.before[0],
+            1 => run.before[1],
+            _ => Some(run.values[k - 2]),
+        };
+        let symbol = if v == previous {
+            0
+        } else if Some(v) == run.right {
+            1
+        } else if Some(v) == two_back {
+            2
+        } else {
+            varint::put_u32(&mut escaped, zigzag(v, previous));
+            3
+        };
+        symbols |= symbol << (2 * (k % 4));
+        if k % 4 == 3 || k + 1 == run.values.len() {
+            out.push(symbols);
+            symbols = 0;
+        }
+        previous = v;
+    }
+    debug_assert_eq!(out.len(), escapes);
+    out.extend_from_slice(&escaped);
+}
+
+/// The context [`push_resize`] codes a run's removed indices in.
+struct ResizeRun<'a> {
+    values: &'a [u32],
+    /// The index before the run, or 0 at the strip's start.
+    previous: u32,
+    /// The indices two and one before the first removed one, where the strip has them.
+    before: [Option<u32>; 2],
+    /// The index after the run, unless the run ends the strip.
+    right: Option<u32>,
+}
+
+/// Reads a resize head: `(group, at, len, kind)`.
+fn read_resize_head(stream: &[u8], at: &mut usize) -> (u32, usize, usize, u16) {
+    let b = u32::from(stream[*at]);
+    *at += 1;
+    let mut group = b & 3;
+    let kind = ((b >> 2) & 7) as u16;
+    let mut len = (b >> 5) + 1;
+    if group == 3 {
+        group += varint::read_u32(stream, at);
+    }
+    if len == 8 {
+        len += varint::read_u32(stream, at);
+    }
+    let i = varint::read_u32(stream, at) as usize;
+    (group, i, len as usize, kind)
+}
+
+/// Skips the removed indices of a `len`-index resize record.
+fn skip_removed(stream: &[u8], at: &mut usize, len: usize) {
+    let bytes = len.div_ceil(4);
+    let mut escapes = 0;
+    for k in 0..len {
+        escapes += usize::from((stream[*at + k / 4] >> (2 * (k % 4))) & 3 == 3);
+    }
+    *at += bytes;
+    for _ in 0..escapes {
+        varint::read_u32(stream, at);
+    }
+}
+
+/// Restores the removed indices of a resize record into `region[i..i + len]`:
+/// the strip's indices from the region's start, with the run's right neighbour
+/// already moved to `region[i + len]` (if the run did not end the strip).
+fn restore_removed(stream: &[u8], at: &mut usize, region: &mut [u32], i: usize, len: usize) {
+    let symbols = *at;
+    *at += len.div_ceil(4);
+    let mut previous = if i > 0 { region[i - 1] } else { 0 };
+    for k in 0..len {
+        let v = match (stream[symbols + k / 4] >> (2 * (k % 4))) & 3 {
+            0 => previous,
+            1 => region[i + len],
+            2 => region[i + k - 2],
+            _ => unzigzag(varint::read_u32(stream, at), previous),
+        };
+        region[i + k] = v;
+        previous = v;
+    }
 }
 
 /// A removed index stored as the zigzag difference to the index before it:
@@ -351,5 +544,60 @@ fn step_start_before(stream: &[u8], end: usize) -> usize {
         }
         shift += 7;
         at -= 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Resize records round-trip through the one-byte head (group and length escapes
+    /// included) and the removed-index symbols (every symbol, escapes, runs at the strip's
+    /// start and end), and `skip_removed` lands where `restore_removed` does.
+    #[test]
+    fn resize_records_round_trip() {
+        let mut seed = 12345u32;
+        let mut next = |m: u32| {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) % m
+        };
+        for case in 0..2000 {
+            let live = 1 + next(40) as usize;
+            let strip: Vec<u32> = (0..live)
+                .map(|_| if next(3) == 0 { next(1 << 20) } else { next(4) })
+                .collect();
+            let at = next(live as u32) as usize;
+            let len = 1 + next((live - at) as u32) as usize;
+            let kind = next(5) as u16;
+            let group = next(if case % 2 == 0 { 5 } else { 300 });
+            let mut out = vec![0xAB];
+            push_resize(
+                &mut out,
+                group,
+                at as u32,
+                kind,
+                ResizeRun {
+                    values: &strip[at..at + len],
+                    previous: if at > 0 { strip[at - 1] } else { 0 },
+                    before: [
+                        at.checked_sub(2).map(|k| strip[k]),
+                        at.checked_sub(1).map(|k| strip[k]),
+                    ],
+                    right: strip.get(at + len).copied(),
+                },
+            );
+            out.push(0xCD);
+            let mut p = 1;
+            assert_eq!(read_resize_head(&out, &mut p), (group, at, len, kind));
+            let mut skipped = p;
+            skip_removed(&out, &mut skipped, len);
+            assert_eq!(out[skipped], 0xCD, "case {case}");
+            // The strip as refining finds it: the run cut out, its right part moved back.
+            let mut region = strip.clone();
+            region[at..at + len].fill(u32::MAX);
+            restore_removed(&out, &mut p, &mut region, at, len);
+            assert_eq!(p, skipped, "case {case}");
+            assert_eq!(region, strip, "case {case}");
+        }
     }
 }

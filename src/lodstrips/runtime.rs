@@ -8,8 +8,8 @@
 //! allocated per change; the scratch vectors are reused.
 
 use super::{
-    kind_len, read_group, read_header, step_start_before, unzigzag, FrameChanges, LodStrips,
-    StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
+    kind_len, read_group, read_header, read_resize_head, restore_removed, skip_removed,
+    step_start_before, FrameChanges, LodStrips, StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
 };
 use crate::varint;
 
@@ -170,12 +170,22 @@ impl StripsState {
         let lod = lod.min(frame.max_lod());
         self.anc.clear();
         self.anc.extend(0..layout.vertex_count);
-        for &[u, w] in frame.collapses[..lod].iter().rev() {
+        for step in (0..lod).rev() {
+            let (u, w) = frame.collapse(step);
             self.anc[u as usize] = self.anc[w as usize];
         }
         let l = lod as u32;
-        let copies = &frame.copies;
+        let copies = frame.copy_count();
+        // The anchor of copy `ci` (past the last copy: beyond every slot).
+        let anchor = |ci: usize| {
+            if ci < copies {
+                frame.copy_after.get(ci) as usize
+            } else {
+                usize::MAX
+            }
+        };
         let mut ci = 0;
+        let mut next_after = anchor(0);
         for s in 0..layout.strip_count() {
             let start = layout.region_offsets[s] as usize;
             let end = layout.region_offsets[s + 1] as usize;
@@ -183,23 +193,25 @@ impl StripsState {
             let mut p = start;
             while p < end {
                 // `S0` slots up to the next copy anchor, then its copies.
-                let stop = match copies.get(ci) {
-                    Some(c) if (c.after as usize) < end => c.after as usize + 1,
-                    _ => end,
+                let stop = if next_after < end {
+                    next_after + 1
+                } else {
+                    end
                 };
-                for (&v, &death) in layout.s0[p..stop].iter().zip(&frame.death[p..stop]) {
-                    if death > l {
-                        self.indices[q] = self.anc[v as usize];
+                for slot in p..stop {
+                    if frame.death.get(slot) > l {
+                        self.indices[q] = self.anc[layout.s0[slot] as usize];
                         q += 1;
                     }
                 }
                 p = stop;
-                while let Some(c) = copies.get(ci).filter(|c| c.after as usize + 1 == stop) {
-                    if c.birth <= l && l < c.death {
-                        self.indices[q] = self.anc[c.value as usize];
+                while next_after == stop - 1 {
+                    if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
+                        self.indices[q] = self.anc[frame.copy_value.get(ci) as usize];
                         q += 1;
                     }
                     ci += 1;
+                    next_after = anchor(ci);
                 }
             }
             let live = (q - start) as u32;
@@ -210,8 +222,7 @@ impl StripsState {
             self.mark(s, 0, live);
         }
         self.lod = lod;
-        self.triangles = frame.triangles[lod];
-        self.cursor = frame.cursor_at(lod);
+        (self.cursor, self.triangles) = frame.seek(lod);
     }
 
     /// Hands the dirty log to the uploader and clears it.
@@ -258,18 +269,14 @@ impl StripsState {
     /// Applies step `self.lod`: rewrites `u → w`, then the resizes in order.
     fn coarsen(&mut self, model: &FrameChanges) {
         let s = &model.stream;
-        let [_, w] = model.collapses[self.lod];
+        let (_, w) = model.collapse(self.lod);
         let mut at = self.cursor;
         let (groups, resizes, removed) = read_header(s, &mut at);
         at = self.rewrite(model, at, groups, w);
         for _ in 0..resizes {
-            let strip = self.group_strips[varint::read_u32(s, &mut at) as usize] as usize;
-            let i = varint::read_u32(s, &mut at) as usize;
-            let lk = varint::read_u32(s, &mut at);
-            let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
-            for _ in 0..len {
-                varint::read_u32(s, &mut at);
-            }
+            let (group, i, len, kind) = read_resize_head(s, &mut at);
+            let strip = self.group_strips[group as usize] as usize;
+            skip_removed(s, &mut at, len);
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
             let region = &mut self.indices[base..base + live];
@@ -290,7 +297,7 @@ impl StripsState {
     fn refine(&mut self, model: &FrameChanges) {
         let s = &model.stream;
         let start = step_start_before(s, self.cursor);
-        let [u, _] = model.collapses[self.lod - 1];
+        let (u, _) = model.collapse(self.lod - 1);
         let mut at = start;
         let (groups, resizes, removed) = read_header(s, &mut at);
         let rewrites = at;
@@ -308,29 +315,19 @@ impl StripsState {
         self.scratch.clear();
         for _ in 0..resizes {
             self.scratch.push(at);
-            varint::read_u32(s, &mut at);
-            varint::read_u32(s, &mut at);
-            let len = varint::read_u32(s, &mut at) >> 3;
-            for _ in 0..len {
-                varint::read_u32(s, &mut at);
-            }
+            let (_, _, len, _) = read_resize_head(s, &mut at);
+            skip_removed(s, &mut at, len);
         }
         for k in (0..self.scratch.len()).rev() {
             let mut at = self.scratch[k];
-            let strip = self.group_strips[varint::read_u32(s, &mut at) as usize] as usize;
-            let i = varint::read_u32(s, &mut at) as usize;
-            let lk = varint::read_u32(s, &mut at);
-            let (len, kind) = ((lk >> 3) as usize, (lk & 7) as u16);
+            let (group, i, len, kind) = read_resize_head(s, &mut at);
+            let strip = self.group_strips[group as usize] as usize;
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
             let new_live = live + len - kind_len(kind);
             let region = &mut self.indices[base..base + new_live];
             region.copy_within(i + kind_len(kind)..live, i + len);
-            let mut previous = if i > 0 { region[i - 1] } else { 0 };
-            for slot in &mut region[i..i + len] {
-                previous = unzigzag(varint::read_u32(s, &mut at), previous);
-                *slot = previous;
-            }
+            restore_removed(s, &mut at, region, i, len);
             self.lens[strip] = new_live as u32;
             self.mark(strip, i as u32, new_live as u32);
             self.mark_len(strip);

@@ -57,6 +57,9 @@ pub struct Morph {
     targets: Vec<MorphTarget>,
     weights: Weights,
     attributes: Attributes,
+    /// For a morph made from two poses ([`Morph::from_poses`]): `V(1)` as given, which
+    /// `base + (v1 − v0)` need not reproduce bit for bit; `positions_at(1)` returns it.
+    end_pose: Option<Vec<[f32; 3]>>,
 }
 
 /// Why a morph could not be built.
@@ -193,6 +196,7 @@ impl Morph {
             targets,
             weights,
             attributes: Attributes::default(),
+            end_pose: None,
         })
     }
 
@@ -204,7 +208,9 @@ impl Morph {
     }
 
     /// `V(t) = (1 − t) v0 + t v1` over one triangulation. Stored as base `v0`
-    /// plus one target `v1 − v0`, so `v1()` equals `v1` up to one rounding.
+    /// plus one target `v1 − v0`, and `v1` itself: `v0()` and `v1()` return the two poses
+    /// bit for bit (a supermesh keeps every input vertex exactly); in between, `V(t)` is
+    /// `v0 + t (v1 − v0)`.
     pub fn from_poses(
         triangles: Vec<[u32; 3]>,
         v0: Vec<[f32; 3]>,
@@ -217,7 +223,7 @@ impl Morph {
             });
         }
         check_finite("pose V(1)", &v1)?;
-        let deltas = v0
+        let deltas: Vec<[f32; 3]> = v0
             .iter()
             .zip(&v1)
             .map(|(a, b)| [b[0] - a[0], b[1] - a[1], b[2] - a[2]])
@@ -231,7 +237,9 @@ impl Morph {
             w0: vec![0.0],
             w1: vec![1.0],
         };
-        Morph::from_parts(triangles, v0, vec![target], weights)
+        let mut morph = Morph::from_parts(triangles, v0, vec![target], weights)?;
+        morph.end_pose = Some(v1);
+        Ok(morph)
     }
 
     /// A two-pose morph from two meshes with the same connectivity: same vertex
@@ -310,13 +318,15 @@ impl Morph {
             colors: a.colors.as_ref().map(|v| gather(v, vertex_map)),
             material: a.material.clone(),
         };
-        Morph::from_parts(
+        let mut morph = Morph::from_parts(
             triangles,
             gather(&self.base, vertex_map),
             targets,
             self.weights.clone(),
         )?
-        .with_attributes(attributes)
+        .with_attributes(attributes)?;
+        morph.end_pose = self.end_pose.as_ref().map(|v| gather(v, vertex_map));
+        Ok(morph)
     }
 
     /// Cleans the morph ([`crate::mesh::clean`]) once on `V(0)` and applies the
@@ -417,6 +427,11 @@ impl Morph {
     /// The positions `V(t)` into `out` (resized to the vertex count), so frame
     /// loops reuse one allocation.
     pub fn positions_at_into(&self, t: f32, out: &mut Vec<[f32; 3]>) {
+        if let (Some(end), true) = (&self.end_pose, t >= 1.0) {
+            out.clear();
+            out.extend_from_slice(end);
+            return;
+        }
         let mut weights = Vec::with_capacity(self.targets.len());
         self.weights_at_into(t, &mut weights);
         out.clear();
@@ -569,6 +584,22 @@ mod tests {
             Morph::from_meshes(&quad(0.0), &rotated),
             Err(MorphError::TriangleMismatch { index: 1, .. })
         ));
+    }
+
+    /// `from_poses` keeps both poses bit for bit, also where `v0 + (v1 − v0)` rounds away
+    /// from `v1` (here 1e8 + (0.1 − 1e8) = 0 in f32), and `select` carries the end pose along.
+    #[test]
+    fn from_poses_keeps_v1_bit_for_bit() {
+        let v0 = vec![[1e8, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let v1 = vec![[0.1, 0.0, 0.0], [0.0, 1.0, 0.5], [0.0, 0.25, 1.0]];
+        let d = v1[0][0] - v0[0][0];
+        assert_ne!(v0[0][0] + d, v1[0][0], "the case rounding loses");
+        let morph = Morph::from_poses(vec![[0, 1, 2]], v0.clone(), v1.clone()).unwrap();
+        assert_eq!(morph.v0(), v0);
+        assert_eq!(morph.v1(), v1);
+        assert_eq!(morph.positions_at(2.0), v1, "t is clamped to 1");
+        let kept = morph.select(&[2, 0, 1], vec![[1, 2, 0]]).unwrap();
+        assert_eq!(kept.v1(), vec![v1[2], v1[0], v1[1]]);
     }
 
     #[test]

@@ -283,17 +283,21 @@ impl Mirror {
 /// `meshopt::simplify` to `target` triangles. The error limit is the whole extent, so only
 /// the triangle count stops it.
 pub fn meshopt_simplify(positions: &[[f32; 3]], tris: &[[u32; 3]], target: usize) -> Vec<[u32; 3]> {
+    meshopt_simplify_with(positions, tris, target, meshopt::SimplifyOptions::None)
+}
+
+/// [`meshopt_simplify`] with meshoptimizer's option flags (e.g. `Regularize`, what gltfpack
+/// uses for meshes with morph targets).
+pub fn meshopt_simplify_with(
+    positions: &[[f32; 3]],
+    tris: &[[u32; 3]],
+    target: usize,
+    options: meshopt::SimplifyOptions,
+) -> Vec<[u32; 3]> {
     let indices: Vec<u32> = tris.iter().flatten().copied().collect();
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(positions), 12, 0)
         .expect("tightly packed positions");
-    let out = meshopt::simplify(
-        &indices,
-        &adapter,
-        target * 3,
-        1.0,
-        meshopt::SimplifyOptions::None,
-        None,
-    );
+    let out = meshopt::simplify(&indices, &adapter, target * 3, 1.0, options, None);
     out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
 }
 

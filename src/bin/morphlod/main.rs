@@ -7,7 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use morphlod::asset::{
     inspect, inspect_with, save_bytes, AssetLoadOptions, DEFAULT_MAX_BYTES, MAGIC,
 };
-use morphlod::build::{BuildReport, Builder, Progress, DEFAULT_FRAMES};
+use morphlod::build::{BuildReport, Builder, Progress, Sequences, DEFAULT_FRAMES};
 use morphlod::deform::{DeformingModel, Lod};
 use morphlod::gpu::{save_png, Context, ShadeMode};
 use morphlod::io::MorphSource;
@@ -16,6 +16,7 @@ use morphlod::io::{
 };
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::morph::{Morph, MorphError};
+use morphlod::simplify::PoseError;
 use morphlod::topology::analyze;
 use morphlod::{Asset, IndexedMesh};
 use std::io::{IsTerminal, Read};
@@ -81,9 +82,19 @@ struct BuildArgs {
     /// glTF: the mesh to load, by name or index (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     mesh: Option<String>,
-    /// Sampled animation frames |r| (1 samples t = 0 only).
+    /// Sampled animation frames |r| (1 samples t = 0 only). With `--sequence shared`, the
+    /// poses the one sequence is simplified over.
     #[arg(long, default_value_t = DEFAULT_FRAMES)]
     frames: usize,
+    /// `per-frame`: one collapse sequence per sampled frame (coarse levels follow the shape at
+    /// each moment). `shared`: one sequence simplified over all sampled poses at once (one
+    /// connectivity per LOD for every t: no frame switches, one change list).
+    #[arg(long, value_enum, default_value_t = SequenceArg::PerFrame)]
+    sequence: SequenceArg,
+    /// With `--sequence shared`: a collapse costs the maximum or the mean over the poses of
+    /// its quadric error.
+    #[arg(long, value_enum, default_value_t = PoseErrorArg::Max)]
+    pose_error: PoseErrorArg,
     /// Two meshes of different connectivity: landmark pairs for the supermesh, one
     /// `vertex_in_a vertex_in_b` a line.
     #[arg(long, value_name = "PAIRS.txt")]
@@ -173,6 +184,18 @@ struct DemoArgs {
     /// Where to write the contact sheets (PNG).
     #[arg(short, long, value_name = "DIR", default_value = "out")]
     output: PathBuf,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum SequenceArg {
+    PerFrame,
+    Shared,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum PoseErrorArg {
+    Mean,
+    Max,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -406,7 +429,12 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     let clean_time = clean_start.elapsed();
 
     let bar = std::io::stderr().is_terminal().then(|| {
-        let bar = ProgressBar::new(args.frames as u64);
+        // A shared sequence is one job, however many poses it samples.
+        let jobs = match args.sequence {
+            SequenceArg::PerFrame => args.frames,
+            SequenceArg::Shared => 1,
+        };
+        let bar = ProgressBar::new(jobs as u64);
         if let Ok(style) =
             ProgressStyle::with_template("frames {bar:40} {pos}/{len} [{elapsed_precise}]")
         {
@@ -418,8 +446,14 @@ fn build(args: &BuildArgs) -> Result<(), String> {
         Some(bar) => bar.set_position(p.frames_done as u64),
         None => eprintln!("frame {}/{} done", p.frames_done, p.frames),
     };
+    let sequences = match (args.sequence, args.pose_error) {
+        (SequenceArg::PerFrame, _) => Sequences::PerFrame,
+        (SequenceArg::Shared, PoseErrorArg::Mean) => Sequences::Shared(PoseError::Mean),
+        (SequenceArg::Shared, PoseErrorArg::Max) => Sequences::Shared(PoseError::Max),
+    };
     let built = Builder::new(&morph)
         .frames(args.frames)
+        .sequences(sequences)
         .progress(&progress)
         .build();
     if let Some(bar) = &bar {
@@ -621,13 +655,14 @@ fn render(args: &RenderArgs) -> Result<(), String> {
     let bytes = read_asset(&args.asset, &budget)?;
     let asset = Asset::from_bytes_with(&bytes, &budget)
         .map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    drop(bytes);
     let options = SheetOptions {
         cell: args.size,
         shade: args.color.shade(),
         ..SheetOptions::default()
     };
     let lods: Vec<Lod> = fractions.iter().map(|&f| Lod::Fraction(f)).collect();
-    render_to_png(&asset, &ts, &lods, &options, &args.output, budget.max_bytes)
+    render_to_png(asset, &ts, &lods, &options, &args.output, budget.max_bytes)
 }
 
 /// One rule for `--t` and `--lod`, the library's: values outside [0, 1] are clamped (the
@@ -701,10 +736,13 @@ fn read_asset(path: &Path, options: &AssetLoadOptions) -> Result<Vec<u8>, String
 fn bench(args: &BenchArgs) -> Result<(), String> {
     let budget = budget(args.memory_budget);
     let bytes = read_asset(&args.asset, &budget)?;
-    let asset = Asset::from_bytes_with(&bytes, &budget)
+    let mut asset = Asset::from_bytes_with(&bytes, &budget)
         .map_err(|e| format!("{}: {e}", args.asset.display()))?;
+    drop(bytes);
     let model =
         Arc::new(DeformingModel::with_budget(&asset, budget.max_bytes).map_err(|e| e.to_string())?);
+    // The model holds what the runtime needs of the sequences; the bench reads the poses only.
+    asset.release_frames();
     let context = Context::headless().map_err(|e| e.to_string())?;
     let info = context.adapter_info();
     println!(
@@ -763,7 +801,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
             ..SheetOptions::default()
         };
         render_to_png(
-            &asset,
+            asset.clone(),
             &ts,
             &lods,
             &options,
@@ -777,14 +815,18 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
 /// Renders headless (no window is opened: this works on machines without a display) and
 /// says where the image went.
 fn render_to_png(
-    asset: &Asset,
+    mut asset: Asset,
     ts: &[f32],
     lods: &[Lod],
     options: &SheetOptions,
     output: &Path,
     max_bytes: u64,
 ) -> Result<(), String> {
-    let model = Arc::new(DeformingModel::with_budget(asset, max_bytes).map_err(|e| e.to_string())?);
+    let model =
+        Arc::new(DeformingModel::with_budget(&asset, max_bytes).map_err(|e| e.to_string())?);
+    // The model holds what the runtime needs of the sequences; the sheet reads the poses only.
+    asset.release_frames();
+    let asset = &asset;
     let context = Context::headless().map_err(|e| e.to_string())?;
     let adapter = context.adapter_info();
     let (sheet, cells) =

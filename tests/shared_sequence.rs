@@ -1,0 +1,310 @@
+//! One collapse sequence for every pose (`Sequences::Shared`, `simplify_poses`): what it is
+//! for and that it holds.
+//!
+//! Error over the animation at equal triangle counts (10%, 5%, 2%): the maximum and the mean
+//! over 64 evenly spaced `t` of the symmetric Hausdorff distance and RMS (Metro-style
+//! sampling, `morphlod::metrics`) between a LOD at `t` and the full mesh `V(t)`, in % of the
+//! diagonal of `V(t)`, for
+//! * (s) the shared pose-aware sequence over 32 sampled poses, error = maximum over poses
+//!   (the default, `PoseError::Max`);
+//! * (x) the same with error = mean over poses (Mohr and Gleicher's sum);
+//! * (b) one sequence of the rest pose `V(0)`;
+//! * (m) `meshopt::simplify` of the base pose with `Regularize` (what gltfpack does for meshes
+//!   with morph targets), drawn at every `t`;
+//! * (a) the per-frame sequences (frame `round(31 t)` at `t`).
+//!
+//! `cargo test --release --test shared_sequence -- --ignored --nocapture`
+
+use std::path::Path;
+
+use morphlod::build::Sequences;
+use morphlod::io::{load_morph, LoadOptions, MorphSource};
+use morphlod::mesh::clean::{clean, CleanOptions};
+use morphlod::metrics::{directed_error, sample_surface, symmetric, SurfaceIndex};
+use morphlod::morph::Morph;
+use morphlod::simplify::{simplify, simplify_poses, PoseError, SimplifyOptions};
+use morphlod::{Builder, DeformingModel, DeformingState, IndexedMesh, Lod};
+use rayon::prelude::*;
+
+mod common;
+use common::{lod_for, meshopt_simplify_with};
+
+const FRAMES: usize = 32;
+
+fn load(name: &str, source: MorphSource) -> Morph {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
+    let morph = load_morph(&path, &LoadOptions::default(), &source)
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let base = IndexedMesh {
+        positions: morph.v0(),
+        triangles: morph.triangles().to_vec(),
+    };
+    let cleaned = clean(&base, &CleanOptions::default()).expect("a valid glTF mesh");
+    morph
+        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
+        .expect("clean's vertex map is in range")
+}
+
+/// Symmetric Hausdorff and RMS of `lod` against the full mesh at `t`, in % of the diagonal.
+fn error_at(morph: &Morph, t: f32, lod: &[[u32; 3]], samples: usize) -> (f64, f64) {
+    let tris = morph.triangles();
+    let pos = morph.positions_at(t);
+    let mesh = IndexedMesh {
+        positions: pos.clone(),
+        triangles: tris.to_vec(),
+    };
+    let (lo, hi) = mesh.bounds().expect("a non-empty mesh");
+    let diagonal = (0..3)
+        .map(|a| ((hi[a] - lo[a]) as f64).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
+    let full_samples = sample_surface(&pos, tris, samples, 1).expect("indices in range");
+    let index = SurfaceIndex::new(&pos, lod).expect("indices in range");
+    let lod_samples = sample_surface(&pos, lod, samples, 2).expect("indices in range");
+    let e = symmetric(
+        directed_error(&lod_samples, &full),
+        directed_error(&full_samples, &index),
+    );
+    (100.0 * e.hausdorff / diagonal, 100.0 * e.rms / diagonal)
+}
+
+const METHODS: [&str; 5] = [
+    "(s) shared max",
+    "(x) shared mean",
+    "(b) rest pose",
+    "(m) meshopt",
+    "(a) per-frame",
+];
+
+/// Per method and percent: (max H, mean H, max RMS, mean RMS, mean triangles) over `times`.
+fn table(
+    name: &str,
+    morph: &Morph,
+    percents: &[usize],
+    times: usize,
+    samples: usize,
+) -> Vec<Vec<[f64; 5]>> {
+    let tris = morph.triangles();
+    let build = |sequences| {
+        Builder::new(morph)
+            .frames(FRAMES)
+            .sequences(sequences)
+            .build()
+            .expect("the morph builds")
+            .0
+    };
+    let shared_max = build(Sequences::Shared(PoseError::Max));
+    let shared_mean = build(Sequences::Shared(PoseError::Mean));
+    let per_frame = build(Sequences::PerFrame);
+    let v0 = morph.v0();
+    let lods: Vec<Vec<Vec<Vec<[u32; 3]>>>> = percents
+        .iter()
+        .map(|p| {
+            let target = tris.len() * p / 100;
+            let reference = |seq: &morphlod::CollapseSequence| {
+                seq.reference_mesh(tris, lod_for(seq, tris, target))
+            };
+            vec![
+                vec![reference(&shared_max.frames[0])],
+                vec![reference(&shared_mean.frames[0])],
+                vec![reference(&per_frame.frames[0])],
+                vec![meshopt_simplify_with(
+                    &v0,
+                    tris,
+                    target,
+                    meshopt::SimplifyOptions::Regularize,
+                )],
+                per_frame.frames.par_iter().map(|s| reference(s)).collect(),
+            ]
+        })
+        .collect();
+    // rows[i][p][m] = (H, RMS, triangles) at time i.
+    let rows: Vec<Vec<Vec<(f64, f64, usize)>>> = (0..times)
+        .into_par_iter()
+        .map(|i| {
+            let t = i as f32 / (times - 1) as f32;
+            let k = (t * (FRAMES - 1) as f32).round() as usize;
+            lods.iter()
+                .map(|methods| {
+                    methods
+                        .iter()
+                        .map(|lods| {
+                            let lod = &lods[if lods.len() == 1 { 0 } else { k }];
+                            let (h, rms) = error_at(morph, t, lod, samples);
+                            (h, rms, lod.len())
+                        })
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
+    println!(
+        "\n{name}: {} triangles, {FRAMES} poses/frames, {times} t, % of the V(t) diagonal",
+        tris.len()
+    );
+    println!(
+        "{:>4} | {:<16} | {:>8} {:>8} | {:>8} {:>8} | {:>6}",
+        "keep", "method", "max H", "mean H", "max RMS", "mean RMS", "tris"
+    );
+    let mut out = Vec::new();
+    for (p, percent) in percents.iter().enumerate() {
+        let mut per_method = Vec::new();
+        for (m, method) in METHODS.iter().enumerate() {
+            let column: Vec<(f64, f64, usize)> = rows.iter().map(|r| r[p][m]).collect();
+            let n = column.len() as f64;
+            let stats = [
+                column.iter().map(|c| c.0).fold(0.0, f64::max),
+                column.iter().map(|c| c.0).sum::<f64>() / n,
+                column.iter().map(|c| c.1).fold(0.0, f64::max),
+                column.iter().map(|c| c.1).sum::<f64>() / n,
+                column.iter().map(|c| c.2 as f64).sum::<f64>() / n,
+            ];
+            println!(
+                "{percent:>3}% | {method:<16} | {:>7.3}% {:>7.3}% | {:>7.4}% {:>7.4}% | {:>6.0}",
+                stats[0], stats[1], stats[2], stats[3], stats[4]
+            );
+            per_method.push(stats);
+        }
+        let [s, x, _, m, a] = [0, 1, 2, 3, 4].map(|i| per_method[i][0]);
+        println!(
+            "{percent:>3}% | max-over-t H: (s)/(m) {:.3} (goal <= 0.7), (x)/(m) {:.3}, (s)/(a) {:.3} (goal <= 1.25), (x)/(a) {:.3}",
+            s / m,
+            x / m,
+            s / a,
+            x / a
+        );
+        out.push(per_method);
+    }
+    out
+}
+
+#[test]
+#[ignore = "prints the pose-aware quality table; run in release"]
+fn pose_aware_quality_over_the_animation() {
+    let body = load("makehuman_body.glb", MorphSource::Animation("morph".into()));
+    table(
+        "makehuman_body (animation over its 4 morphs)",
+        &body,
+        &[10, 5, 2],
+        64,
+        50_000,
+    );
+    let head = load("makehuman_head.glb", MorphSource::Animation("morph".into()));
+    table(
+        "makehuman_head (expression animation)",
+        &head,
+        &[10, 5, 2],
+        64,
+        50_000,
+    );
+}
+
+/// Issue 12's goal, asserted: on the body's animation at 10% of the triangles, the
+/// max-over-t Hausdorff error of the shared pose-aware sequence (maximum over poses, the
+/// default) is at most 0.7× that of meshoptimizer on the base pose. Fewer times and samples
+/// than the table to fit the test profile. (With the mean over poses it is not: 0.78×.)
+#[test]
+fn shared_sequence_beats_base_pose_simplification_on_the_body() {
+    let body = load("makehuman_body.glb", MorphSource::Animation("morph".into()));
+    let rows = table("makehuman_body, 10%", &body, &[10], 16, 20_000);
+    let [s, _, _, m, _] = [0, 1, 2, 3, 4].map(|i| rows[0][i][0]);
+    assert!(
+        s <= 0.7 * m,
+        "shared sequence (max over poses) {s:.3}% vs meshopt on the base pose {m:.3}%: goal <= 0.7x"
+    );
+}
+
+/// A flat grid (`V(0)`) and the same grid twisted about its centre (`V(1)`: each point turned
+/// by `π/2 (1 − r/R)` inside the radius `R`). The twist preserves area and orientation, so every
+/// full-detail triangle faces +z in both poses, but a large triangle whose corners turn by
+/// different angles can flip in the twisted pose.
+fn grid_poses(side: u32) -> TwoPoses {
+    let morph = common::grid_morph(side, |_, _| 0.0);
+    let c = (side - 1) as f32 / 2.0;
+    let twisted = morph
+        .v0()
+        .iter()
+        .map(|&[x, y, _]| {
+            let (dx, dy) = (x - c, y - c);
+            let angle =
+                0.5 * std::f32::consts::PI * (1.0 - (dx * dx + dy * dy).sqrt() / c).max(0.0);
+            let (sin, cos) = angle.sin_cos();
+            [c + cos * dx - sin * dy, c + sin * dx + cos * dy, 0.0]
+        })
+        .collect();
+    TwoPoses(morph.v0(), twisted, morph.triangles().to_vec())
+}
+
+/// `V(0)`, `V(1)` and the triangles.
+struct TwoPoses(Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[u32; 3]>);
+
+/// Triangles of the reference meshes at every LOD of `seq` that face -z or degenerate in
+/// `pose`.
+fn flipped(seq: &morphlod::CollapseSequence, tris: &[[u32; 3]], pose: &[[f32; 3]]) -> usize {
+    (0..=seq.len())
+        .flat_map(|lod| seq.reference_mesh(tris, lod))
+        .filter(|t| {
+            let [a, b, c] = t.map(|v| glam::Vec3::from(pose[v as usize]));
+            (b - a).cross(c - a).z <= 0.0
+        })
+        .count()
+}
+
+/// Equal poses change nothing: the shared sequence of `[p, p]` (mean or max) is `p`'s own
+/// sequence, collapse for collapse, error for error.
+#[test]
+fn repeated_poses_give_the_single_pose_sequence() {
+    let TwoPoses(v0, v1, tris) = grid_poses(12);
+    for pose in [&v0, &v1] {
+        let one = simplify(pose, &tris, &SimplifyOptions::default());
+        for combine in [PoseError::Mean, PoseError::Max] {
+            let two = simplify_poses(&[pose, pose], &tris, &SimplifyOptions::default(), combine);
+            assert_eq!(one, two, "{combine:?}");
+        }
+    }
+}
+
+/// The shared sequence refuses every collapse that flips a triangle in any pose: no triangle
+/// of any LOD faces -z in either pose of the twisted grid. The rest pose's own sequence does
+/// flip triangles of the twisted pose (so the check can fail).
+#[test]
+fn no_pose_flips_a_triangle() {
+    let TwoPoses(v0, v1, tris) = grid_poses(16);
+    for combine in [PoseError::Mean, PoseError::Max] {
+        let seq = simplify_poses(&[&v0, &v1], &tris, &SimplifyOptions::default(), combine);
+        seq.validate().expect("a valid sequence");
+        assert_eq!(flipped(&seq, &tris, &v0), 0, "{combine:?}, pose 0");
+        assert_eq!(flipped(&seq, &tris, &v1), 0, "{combine:?}, pose 1");
+    }
+    let rest = simplify(&v0, &tris, &SimplifyOptions::default());
+    assert!(
+        flipped(&rest, &tris, &v1) > 0,
+        "the rest-pose sequence flips none"
+    );
+}
+
+/// The runtime takes a shared asset as it is: one frame, no frame switches, every `t` shows
+/// the same connectivity, and LOD requests resolve against the one frame.
+#[test]
+fn a_shared_asset_has_one_frame_for_every_t() {
+    let TwoPoses(v0, v1, tris) = grid_poses(10);
+    let morph = Morph::from_poses(tris, v0, v1).expect("a morph");
+    let (asset, report) = Builder::new(&morph)
+        .frames(8)
+        .sequences(Sequences::Shared(PoseError::Mean))
+        .build()
+        .expect("it builds");
+    assert_eq!(asset.frames.len(), 1);
+    assert_eq!(report.collapses.len(), 1);
+    let model = DeformingModel::new(&asset).expect("a model");
+    let mut state = DeformingState::new(&model);
+    for (t, fraction) in [(0.0, 0.5), (0.3, 0.5), (1.0, 0.9), (0.6, 0.1)] {
+        state
+            .set(&model, t, Lod::Fraction(fraction))
+            .expect("a valid request");
+        assert_eq!(state.frame(), 0);
+    }
+}
