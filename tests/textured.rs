@@ -14,12 +14,11 @@
 //!   decode; the default and fallback shade modes.
 //! * `no_background_inside_the_silhouette`: a seamed, textured, closed mesh built with the
 //!   `Builder` shows no background pixel enclosed by the surface at several LODs (a crack at a
-//!   seam would). Ignored until the seam-aware simplifier (branch `attr-core`) is merged: the
-//!   position-only simplifier collapses the two sides of a seam independently and tears it.
+//!   seam would). Before the seam-aware simplifier it failed (the position-only simplifier
+//!   collapsed the two sides of a seam independently: 23 enclosed pixels at LOD 0.8).
 //! * `no_background_inside_the_face_at_any_lod`: the same on makehuman_face.glb (neutral to
-//!   jawOpen) from four sides at five (t, LOD) states. Checked on a local merge of attr-io and
-//!   attr-core: it passes, and fails (3 enclosed pixels at full detail) when the second copy of
-//!   every seam vertex is moved by 3%. Ignored until both branches are merged.
+//!   jawOpen) from four sides at five (t, LOD) states; it fails (3 enclosed pixels at full
+//!   detail) when the second copy of every seam vertex is moved by 3%.
 
 mod common;
 
@@ -673,7 +672,6 @@ fn enclosed_background(image: &image::RgbaImage) -> usize {
 }
 
 #[test]
-#[ignore = "needs the seam-aware simplifier of branch attr-core (issue 11); enable after merging it"]
 fn no_background_inside_the_silhouette() -> Result<(), GpuError> {
     let Some(gpu) = Gpu::new() else {
         return Ok(());
@@ -730,7 +728,6 @@ fn no_background_inside_the_silhouette() -> Result<(), GpuError> {
 }
 
 #[test]
-#[ignore = "needs branches attr-io (makehuman_face.glb loads) and attr-core (seam-aware simplifier); enable after merging them"]
 fn no_background_inside_the_face_at_any_lod() -> Result<(), GpuError> {
     let Some(gpu) = Gpu::new() else {
         return Ok(());
