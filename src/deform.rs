@@ -384,9 +384,7 @@ fn seam_topology(of_vertex: &[u32], n: usize) -> Result<(&[u32], Wedges), Deform
             vertices: n,
         });
     }
-    // Numbered densely by construction; a sparse map only leaves empty wedges.
-    let count = of_vertex.iter().max().map_or(0, |&t| t as usize + 1);
-    Ok((of_vertex, Wedges::new(of_vertex, count)))
+    Ok((of_vertex, Wedges::new(of_vertex)))
 }
 
 fn build_frame(

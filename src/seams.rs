@@ -112,8 +112,10 @@ pub struct Wedges {
 }
 
 impl Wedges {
-    /// Groups `of_vertex` (every entry below `topology_count`; see [`check_topology`]).
-    pub fn new(of_vertex: &[u32], topology_count: usize) -> Wedges {
+    /// Groups `of_vertex` into topology vertices `0..=max` of its entries (a number no
+    /// vertex names gets no copies; [`TopologyMap`] numbers densely).
+    pub fn new(of_vertex: &[u32]) -> Wedges {
+        let topology_count = of_vertex.iter().max().map_or(0, |&t| t as usize + 1);
         let mut start = vec![0u32; topology_count + 1];
         for &t in of_vertex {
             start[t as usize + 1] += 1;
@@ -140,17 +142,6 @@ impl Wedges {
     }
 }
 
-/// Checks that every entry of `of_vertex` is below `topology_count`.
-pub fn check_topology(of_vertex: &[u32], topology_count: usize) -> Result<(), SeamError> {
-    match of_vertex.iter().find(|&&t| t as usize >= topology_count) {
-        Some(&vertex) => Err(SeamError::TopologyIndex {
-            vertex,
-            topology_count,
-        }),
-        None => Ok(()),
-    }
-}
-
 /// The seam rule of the module docs over one mesh's attribute vertices.
 #[derive(Clone, Debug)]
 pub struct SeamRule<'a> {
@@ -165,7 +156,7 @@ impl<'a> SeamRule<'a> {
     pub fn new(topology: &'a TopologyMap, uvs: Option<&'a [[f32; 2]]>) -> SeamRule<'a> {
         SeamRule {
             of_vertex: &topology.of_vertex,
-            wedges: Wedges::new(&topology.of_vertex, topology.topology_count),
+            wedges: Wedges::new(&topology.of_vertex),
             uvs,
         }
     }
@@ -330,7 +321,7 @@ pub fn expand(
 /// [`CollapseSequence::validate`]) moves whole topology vertices: every maximal run of
 /// consecutive collapses whose `u` share a topology vertex moves all of that vertex's
 /// copies, onto copies of one other topology vertex. What a loader checks of every frame
-/// of an asset with a surface.
+/// of an asset with a surface. `wedges` must be `Wedges::new(of_vertex)`.
 pub fn check_steps(
     seq: &CollapseSequence,
     wedges: &Wedges,
@@ -491,7 +482,7 @@ mod tests {
     #[test]
     fn check_steps_finds_split_and_incomplete_steps() {
         let of_vertex = [0, 0, 1, 1, 2];
-        let wedges = Wedges::new(&of_vertex, 3);
+        let wedges = Wedges::new(&of_vertex);
         check_steps(&seq(5, &[(0, 2), (1, 3)]), &wedges, &of_vertex).unwrap();
         assert!(matches!(
             check_steps(&seq(5, &[(0, 2), (1, 4)]), &wedges, &of_vertex),

@@ -1,5 +1,5 @@
 //! Seams through the pipeline, on generated morphs split at UV seams (tests/common:
-//! `seamed_sphere`, `cut_grid`): the builder's attribute-level sequences move whole topology
+//! `seamed_sphere`, `cut_grid`) and on `makehuman_face.glb`: the builder's attribute-level sequences move whole topology
 //! vertices, no boundary LOD opens a crack or folds a UV triangle, the runtime shows only
 //! step boundaries, and random walks draw the attribute-level reference mesh.
 
@@ -15,10 +15,19 @@ use morphlod::{Asset, Builder, DeformingModel, DeformingState, Lod};
 
 const FRAMES: usize = 5;
 
+/// The generated morphs, and the MakeHuman face (its own UV seams, 52 targets, the
+/// `expressions` animation: normal deltas for the GPU-blended targets).
 fn morphs() -> Vec<(&'static str, Morph)> {
+    let face = morphlod::io::load_morph(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_face.glb"),
+        &Default::default(),
+        &morphlod::io::MorphSource::Animation("expressions".into()),
+    )
+    .unwrap();
     vec![
         ("sphere", seamed_sphere(12, 16)),
         ("cut grid", cut_grid(12)),
+        ("makehuman_face", face),
     ]
 }
 
@@ -61,7 +70,7 @@ fn every_frame_moves_whole_topology_vertices() {
             .expect("a morph with UVs gets a surface");
         let map = morph.topology();
         assert_eq!(surface.topology, map.of_vertex);
-        let wedges = Wedges::new(&map.of_vertex, map.topology_count);
+        let wedges = Wedges::new(&map.of_vertex);
         for (k, seq) in asset.frames.iter().enumerate() {
             seq.validate().unwrap();
             check_steps(seq, &wedges, &map.of_vertex)
@@ -205,11 +214,12 @@ fn random_walks_draw_the_reference_at_boundaries() {
                 }
                 2 => {
                     let budget = rng.below(tris.len() + 1);
-                    // The finest boundary drawing at most `budget` triangles (else the last).
-                    let l = boundaries(seq, topology)
-                        .into_iter()
-                        .find(|&l| seq.reference_mesh(tris, l).len() <= budget)
-                        .unwrap_or(max);
+                    // The finest boundary drawing at most `budget` triangles (else the last);
+                    // counts never grow along a sequence, so a binary search finds it.
+                    let b = boundaries(seq, topology);
+                    let l = b[b
+                        .partition_point(|&l| seq.reference_mesh(tris, l).len() > budget)
+                        .min(b.len() - 1)];
                     (Lod::Triangles(budget), l)
                 }
                 _ => {
@@ -333,8 +343,79 @@ fn cut_in_two(mesh: &morphlod::IndexedMesh) -> (Morph, Morph) {
     (seamed, welded)
 }
 
-/// The cost of seams (BENCHMARKS.md, "Seams"): a real mesh cut into two UV islands, built with
-/// its attributes, against the same morph welded without them.
+/// `morph` welded into its topology vertices, without attributes: what a position-only
+/// source of the same shape would be.
+fn welded(morph: &Morph) -> Morph {
+    let map = morph.topology();
+    let weld = |values: &[[f32; 3]]| {
+        let mut out = vec![[0.0f32; 3]; map.topology_count];
+        for (v, &t) in map.of_vertex.iter().enumerate() {
+            out[t as usize] = values[v];
+        }
+        out
+    };
+    let targets = morph
+        .targets()
+        .iter()
+        .map(|t| morphlod::morph::MorphTarget {
+            name: t.name.clone(),
+            deltas: weld(&t.deltas),
+            normal_deltas: None,
+        })
+        .collect();
+    Morph::from_parts(
+        map.triangles(morph.triangles()),
+        weld(morph.base()),
+        targets,
+        morph.weights().clone(),
+    )
+    .unwrap()
+}
+
+/// Builds `morph` with `frames` frames and prints what it costs (see `measure_seam_cost`).
+fn measure(what: &str, morph: &Morph, frames: usize) {
+    let start = std::time::Instant::now();
+    let (asset, report) = Builder::new(morph).frames(frames).build().unwrap();
+    let wall = start.elapsed();
+    let bytes = asset.to_bytes();
+    let info = morphlod::asset::inspect(&bytes).unwrap().1;
+    let section = |tag: &str| {
+        info.sections
+            .iter()
+            .find(|s| s.tag.trim_end() == tag)
+            .map_or(0, |s| s.bytes)
+    };
+    let model = DeformingModel::new(&asset).unwrap();
+    let changes: usize = model.frame_bytes().iter().sum();
+    let attribute: usize = asset.frames.iter().map(|f| f.len()).sum();
+    let topology: usize = match &asset.surface {
+        Some(s) => asset
+            .frames
+            .iter()
+            .map(|f| boundaries(f, &s.topology).len() - 1)
+            .sum(),
+        None => attribute,
+    };
+    println!(
+        "  {what}: {} vertices ({} seam); build {:.0} ms (frames {:.0} ms cpu); {topology} topology collapses, {attribute} attribute collapses ({:.3} per topology collapse); FRMS {} B = {:.2} B per topology collapse; SURF {} B; TEXR {} B; change lists + tables {} B = {:.1} B per topology collapse; file {} B",
+        report.vertices,
+        report.seam_vertices,
+        wall.as_secs_f64() * 1e3,
+        report.frames_cpu().as_secs_f64() * 1e3,
+        attribute as f64 / topology as f64,
+        section("FRMS"),
+        section("FRMS") as f64 / topology as f64,
+        section("SURF"),
+        section("TEXR"),
+        changes,
+        changes as f64 / topology as f64,
+        bytes.len(),
+    );
+}
+
+/// The cost of seams (BENCHMARKS.md, "Seams"): real meshes cut into two UV islands, and the
+/// MakeHuman face (its own UV seams, 52 targets, the `expressions` animation), built with
+/// their attributes against the same morphs welded without them.
 /// `cargo test --release --test seams -- --ignored --nocapture`
 #[test]
 #[ignore]
@@ -343,50 +424,60 @@ fn measure_seam_cost() {
     for file in ["cow.off", "bunny.obj", "man.off"] {
         let mesh = morphlod::io::load_mesh(&dir.join(file), &Default::default()).unwrap();
         let (seamed, welded) = cut_in_two(&mesh);
-        println!(
-            "{file}: {} vertices, {} after the cut, {} seam vertices",
-            welded.vertex_count(),
-            seamed.vertex_count(),
-            seamed.topology().seam_vertices()
-        );
-        for (what, morph) in [
-            ("welded, no attributes", &welded),
-            ("cut, with UVs", &seamed),
-        ] {
-            let start = std::time::Instant::now();
-            let (asset, report) = Builder::new(morph).frames(8).build().unwrap();
-            let wall = start.elapsed();
-            let bytes = asset.to_bytes();
-            let info = morphlod::asset::inspect(&bytes).unwrap().1;
-            let section = |tag: &str| {
-                info.sections
-                    .iter()
-                    .find(|s| s.tag.trim_end() == tag)
-                    .map_or(0, |s| s.bytes)
-            };
-            let model = DeformingModel::new(&asset).unwrap();
-            let changes: usize = model.frame_bytes().iter().sum();
-            let attribute: usize = asset.frames.iter().map(|f| f.len()).sum();
-            let topology: usize = match &asset.surface {
-                Some(s) => asset
-                    .frames
-                    .iter()
-                    .map(|f| boundaries(f, &s.topology).len() - 1)
-                    .sum(),
-                None => attribute,
-            };
-            println!(
-                "  {what}: build {:.0} ms (frames {:.0} ms cpu); {topology} topology collapses, {attribute} attribute collapses ({:.3} per topology collapse); FRMS {} B = {:.2} B per topology collapse; SURF {} B; change lists + tables {} B = {:.1} B per topology collapse; file {} B",
-                wall.as_secs_f64() * 1e3,
-                report.frames_cpu().as_secs_f64() * 1e3,
-                attribute as f64 / topology as f64,
-                section("FRMS"),
-                section("FRMS") as f64 / topology as f64,
-                section("SURF"),
-                changes,
-                changes as f64 / topology as f64,
-                bytes.len(),
-            );
-        }
+        println!("{file}, 8 frames:");
+        measure("welded, no attributes", &welded, 8);
+        measure("cut, with UVs", &seamed, 8);
+    }
+    let face = morphlod::io::load_morph(
+        &dir.join("makehuman_face.glb"),
+        &Default::default(),
+        &morphlod::io::MorphSource::Animation("expressions".into()),
+    )
+    .unwrap();
+    println!(
+        "makehuman_face.glb, {} targets, 32 frames:",
+        face.targets().len()
+    );
+    measure("welded, no attributes", &welded(&face), 32);
+    measure("with its attributes", &face, 32);
+}
+
+/// The rule on a small cut grid (side 4: the cut runs up column 2 from the bottom border to row
+/// 2, so (2, 0) and (2, 1) have a left and a right copy and the cut ends at (2, 2)): interior
+/// vertices move freely, seam vertices only along the seam, nothing across it.
+#[test]
+fn the_rule_frees_interiors_and_holds_seams() {
+    let morph = cut_grid(4);
+    let map = morph.topology();
+    let rule = SeamRule::new(&map, morph.attributes().uvs.as_deref());
+    let base = morph.base();
+    let at = |x: f32, y: f32| {
+        let v = base.iter().position(|p| p[0] == x && p[1] == y).unwrap();
+        map.of_vertex[v]
+    };
+    assert_eq!(Wedges::new(&map.of_vertex).of(at(2.0, 1.0)).len(), 2);
+    assert_eq!(Wedges::new(&map.of_vertex).of(at(2.0, 2.0)).len(), 1);
+    let one = |u: u32, w: u32| {
+        let seq = CollapseSequence::from_pairs(map.topology_count as u32, &[(u, w)]);
+        expand(&seq, morph.triangles(), &rule)
+    };
+    // Interior, off the seam: one copy onto one copy.
+    assert_eq!(one(at(1.0, 1.0), at(0.0, 1.0)).unwrap().len(), 1);
+    // Along the seam onto its end: both copies onto the end's single copy.
+    let zip = one(at(2.0, 1.0), at(2.0, 2.0)).unwrap();
+    assert_eq!(zip.len(), 2);
+    assert!(zip
+        .collapses
+        .iter()
+        .all(|c| map.of_vertex[c.w as usize] == at(2.0, 2.0)));
+    // Across the seam, or the end down onto a seam vertex: a tear.
+    for (u, w) in [(at(2.0, 1.0), at(1.0, 1.0)), (at(2.0, 2.0), at(2.0, 1.0))] {
+        assert!(matches!(
+            one(u, w),
+            Err(SeamError::Refused {
+                refusal: morphlod::seams::Refusal::Tear,
+                ..
+            })
+        ));
     }
 }

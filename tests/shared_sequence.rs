@@ -192,6 +192,17 @@ fn pose_aware_quality_over_the_animation() {
         64,
         50_000,
     );
+    let face = load(
+        "makehuman_face.glb",
+        MorphSource::Animation("expressions".into()),
+    );
+    table(
+        "makehuman_face (expressions animation, seams)",
+        &face,
+        &[10, 5, 2],
+        64,
+        50_000,
+    );
     let head = load("makehuman_head.glb", MorphSource::Animation("morph".into()));
     table(
         "makehuman_head (expression animation)",

@@ -288,7 +288,7 @@ pub(super) fn check_surface(asset: &Asset, surface: &Surface) -> Result<(), Asse
             });
         }
     }
-    let wedges = Wedges::new(&surface.topology, count);
+    let wedges = Wedges::new(&surface.topology);
     let mut checked: HashSet<*const CollapseSequence> = HashSet::new();
     for (frame, seq) in asset.frames.iter().enumerate() {
         if !checked.insert(Arc::as_ptr(seq)) {
