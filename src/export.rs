@@ -229,6 +229,48 @@ fn vec3_accessor(bin: &mut Bin, json: &mut Json, data: &[[f32; 3]], with_bounds:
     )
 }
 
+/// A morph target's deltas: sparse (only the entries that are not `+0.0` in every
+/// component, the rest read as zeros) when that is smaller, as the sources usually store
+/// them (a target moves part of the mesh). A `-0.0` is stored explicitly, so every value
+/// reads back bit for bit.
+fn delta_accessor(bin: &mut Bin, json: &mut Json, data: &[[f32; 3]], with_bounds: bool) -> usize {
+    let mut moved: Vec<u32> = (0..data.len() as u32)
+        .filter(|&v| data[v as usize].iter().any(|x| x.to_bits() != 0))
+        .collect();
+    // Sparse costs 4 index bytes + 12 value bytes per moved vertex, dense 12 per vertex.
+    if moved.len() * 16 >= data.len() * 12 {
+        return vec3_accessor(bin, json, data, with_bounds);
+    }
+    let bounds = with_bounds
+        .then(|| bounds(data))
+        .map_or(String::new(), |(lo, hi)| {
+            let list = |v: Vec<f32>| v.into_iter().map(number).collect::<Vec<_>>().join(",");
+            format!(r#","min":[{}],"max":[{}]"#, list(lo), list(hi))
+        });
+    // No bufferView: the accessor starts as zeros (glTF 2.0, 3.6.2.3), then the moved
+    // vertices are substituted. A target that moves nothing still lists vertex 0: readers
+    // such as the `gltf` crate refuse an accessor with neither a bufferView nor a sparse part.
+    if moved.is_empty() {
+        moved.push(0);
+    }
+    let indices = bin.push(moved.iter().flat_map(|i| i.to_le_bytes()).collect());
+    let indices = json.view(indices, None);
+    let values = moved
+        .iter()
+        .flat_map(|&v| data[v as usize])
+        .collect::<Vec<f32>>();
+    let values = json.view(bin.push(f32_bytes(values.iter())), None);
+    let sparse = format!(
+        r#","sparse":{{"count":{},"indices":{{"bufferView":{indices},"componentType":{UNSIGNED_INT}}},"values":{{"bufferView":{values}}}}}"#,
+        moved.len()
+    );
+    json.accessors.push(format!(
+        r#"{{"componentType":{FLOAT},"count":{},"type":"VEC3"{bounds}{sparse}}}"#,
+        data.len()
+    ));
+    json.accessors.len() - 1
+}
+
 fn flat_accessor(
     bin: &mut Bin,
     json: &mut Json,
@@ -277,10 +319,10 @@ fn mesh_json(
         .targets()
         .iter()
         .map(|t| {
-            let pos = vec3_accessor(bin, json, &gather(&t.deltas, lod), true);
+            let pos = delta_accessor(bin, json, &gather(&t.deltas, lod), true);
             match t.normal_deltas.as_ref().filter(|_| normal_deltas) {
                 Some(nd) => {
-                    let n = vec3_accessor(bin, json, &gather(nd, lod), false);
+                    let n = delta_accessor(bin, json, &gather(nd, lod), false);
                     format!(r#"{{"POSITION":{pos},"NORMAL":{n}}}"#)
                 }
                 None => format!(r#"{{"POSITION":{pos}}}"#),
@@ -434,4 +476,89 @@ fn write_glb(morph: &Morph, lods: &[Lod], default_weights: &[f32], name: &str) -
         accessors = json.accessors.join(","),
     );
     glb(text.into_bytes(), bin.bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::morph::MorphTarget;
+
+    /// A 5 × 5 grid with a target that moves two vertices (one by `-0.0` only) and one that
+    /// moves nothing: both are written sparse and read back bit for bit at every LOD.
+    #[test]
+    fn sparse_deltas_read_back_bit_for_bit() {
+        let n = 5u32;
+        let base: Vec<[f32; 3]> = (0..n * n)
+            .map(|v| [(v % n) as f32, (v / n) as f32, ((v * 7) % 3) as f32 * 0.1])
+            .collect();
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let v = y * n + x;
+                triangles.push([v, v + 1, v + n]);
+                triangles.push([v + 1, v + n + 1, v + n]);
+            }
+        }
+        let mut moving = vec![[0.0f32; 3]; base.len()];
+        moving[3] = [-0.0, 0.0, 0.0];
+        moving[12] = [0.0, 0.0, 1.5];
+        let targets = vec![
+            MorphTarget {
+                name: "moving".into(),
+                deltas: moving,
+                normal_deltas: None,
+            },
+            MorphTarget {
+                name: "still".into(),
+                deltas: vec![[0.0; 3]; base.len()],
+                normal_deltas: None,
+            },
+        ];
+        let weights = Weights::TwoPose {
+            w0: vec![0.0, 0.0],
+            w1: vec![1.0, 0.0],
+        };
+        let morph = Morph::from_parts(triangles, base, targets, weights).unwrap();
+        let export = export_glb(
+            &morph,
+            &ExportOptions {
+                lods: vec![0.5],
+                ..ExportOptions::default()
+            },
+        )
+        .unwrap();
+        let gltf = gltf::Gltf::from_slice(&export.glb).unwrap();
+        let blob = gltf.blob.clone().unwrap();
+        for (mesh, lod) in gltf.meshes().zip(&export.lods) {
+            let primitive = mesh.primitives().next().unwrap();
+            for accessor in primitive.morph_targets().filter_map(|t| t.positions()) {
+                assert!(accessor.sparse().is_some() && accessor.view().is_none());
+            }
+            let reader = primitive.reader(|_| Some(&blob[..]));
+            for (read, source) in reader.read_morph_targets().zip(morph.targets()) {
+                let read: Vec<[u32; 3]> = read.0.unwrap().map(|d| d.map(f32::to_bits)).collect();
+                let expected: Vec<[u32; 3]> = lod
+                    .source_vertex
+                    .iter()
+                    .map(|&v| source.deltas[v as usize].map(f32::to_bits))
+                    .collect();
+                assert_eq!(read, expected, "{}", source.name);
+            }
+        }
+    }
+
+    #[test]
+    fn fractions_must_lie_in_0_1_and_decrease() {
+        for bad in [
+            vec![],
+            vec![0.0],
+            vec![1.5],
+            vec![0.5, 0.5],
+            vec![0.2, 0.4],
+            vec![f32::NAN],
+        ] {
+            assert!(check_fractions(&bad).is_err(), "{bad:?}");
+        }
+        assert!(check_fractions(&[1.0, 0.5, 0.01]).is_ok());
+    }
 }
