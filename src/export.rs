@@ -14,8 +14,12 @@
 //! each with its mesh) that tools can still list and pick. Indices are reordered for the
 //! vertex cache with meshoptimizer, and vertices numbered in the order the indices first use
 //! them (vertex-fetch locality).
+//!
+//! The meshes are written in the morph's own coordinates and the nodes carry no transform:
+//! load the source without `apply_transforms` to keep a glTF mesh where it was, or with it
+//! to bake its node's placement in.
 
-use crate::build::{BuildError, Builder, Sequences};
+use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
 use crate::collapse::CollapseSequence;
 use crate::io::gltf::write::{
     bounds, f32_bytes, glb, number, quote, Bin, Json, ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT,
@@ -61,6 +65,8 @@ impl Default for ExportOptions {
 pub enum ExportError {
     #[error("--lods {lods:?}: give triangle fractions in (0, 1], strictly decreasing (e.g. 0.5,0.25,0.1)")]
     Fractions { lods: Vec<f32> },
+    #[error("--poses {poses}: sample 1 to {max} poses (1 simplifies the rest pose only)", max = MAX_FRAMES)]
+    Poses { poses: usize },
     #[error("{given} default weights for {targets} morph targets: give one per target")]
     DefaultWeights { given: usize, targets: usize },
     #[error("LOD fraction {fraction} leaves no triangle of {triangles}: choose a larger fraction")]
@@ -96,6 +102,11 @@ pub struct Export {
 /// two seconds (the weights of `t = 0`, `t = 1`, `t = 0`), so a viewer plays it.
 pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, ExportError> {
     check_fractions(&options.lods)?;
+    if options.poses == 0 || options.poses > MAX_FRAMES {
+        return Err(ExportError::Poses {
+            poses: options.poses,
+        });
+    }
     let targets = morph.targets().len();
     let default_weights = match &options.default_weights {
         Some(w) if w.len() != targets => {

@@ -313,7 +313,7 @@ fn bad_input_is_refused_with_exit_code_1() {
         ),
         (
             vec![face.as_os_str(), "--poses".as_ref(), "0".as_ref()],
-            "frames",
+            "--poses 0",
         ),
     ];
     for (args, expected) in cases {
