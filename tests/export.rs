@@ -8,6 +8,7 @@ mod common;
 
 use common::validator::validate;
 use gltf::json::Value;
+use morphlod::collapse::canonical_multiset;
 use morphlod::export::{export_glb, Export, ExportOptions};
 use morphlod::io::{load_morph, LoadOptions, MorphSource};
 use morphlod::morph::Morph;
@@ -179,6 +180,16 @@ fn face_lods_keep_targets_and_attributes_bit_for_bit() {
         let goal = lod.fraction * morph.triangle_count() as f32;
         assert!(lod.triangles.len() as f32 <= goal, "{lod:?}");
     }
+    // LOD0 is the original: the same triangles, over the same vertices.
+    let lod0 = &export.lods[0];
+    let back = lod0
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| lod0.source_vertex[v as usize]));
+    assert_eq!(
+        canonical_multiset(back),
+        canonical_multiset(morph.triangles().iter().copied())
+    );
     check_against_source(&morph, &export);
     check_structure(&export.glb, "face", 4, true);
     let gltf = gltf::Gltf::from_slice(&export.glb).unwrap();
