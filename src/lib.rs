@@ -46,6 +46,8 @@ pub mod build;
 pub mod collapse;
 pub mod deform;
 pub mod error;
+#[cfg(feature = "export")]
+pub mod export;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod io;

@@ -16,6 +16,7 @@
 
 #[cfg(feature = "gpu")]
 pub mod gpu;
+pub mod validator;
 
 use morphlod::asset::HEADER_LEN;
 use morphlod::collapse::{canonical, Collapse, CollapseSequence};

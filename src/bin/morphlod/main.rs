@@ -26,11 +26,13 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod bench;
+mod export;
 mod plot;
 mod sheet;
 mod supermesh;
 
 use bench::{run_bench, BenchOptions};
+use export::ExportArgs;
 use sheet::{render_sheet, SheetOptions};
 use supermesh::{build_supermesh, read_landmarks, SupermeshArgs};
 
@@ -56,6 +58,10 @@ enum Command {
     /// The supermesh of two closed genus-0 meshes of different connectivity, written as
     /// glTF binary (base = A, one morph target to B, an animation 0 → 1 → 0), with its report.
     Supermesh(SupermeshArgs),
+    /// The original and its LODs (one collapse sequence simplified over sampled poses) as one
+    /// glTF binary: every LOD keeps all morph targets, attributes, the material and the weight
+    /// animation; the chain is declared with MSFT_lod.
+    Export(ExportArgs),
     /// Render a .mlod asset headless to a PNG: one cell per (t, lod), columns t, rows LOD.
     Render(RenderArgs),
     /// Frame-rate benchmark of a .mlod asset headless: linear and exponential LOD sweeps over
@@ -245,6 +251,7 @@ fn main() -> ExitCode {
         Some(Command::Info(args)) => return info(&args),
         Some(Command::Build(args)) => build(&args),
         Some(Command::Supermesh(args)) => supermesh::supermesh(&args),
+        Some(Command::Export(args)) => export::export(&args),
         Some(Command::Render(args)) => render(&args),
         Some(Command::Bench(args)) => bench(&args),
         Some(Command::Demo(args)) => demo(&args),
@@ -493,6 +500,21 @@ fn build(args: &BuildArgs) -> Result<(), String> {
 /// Refuses a `build` output that is not `.mlod` or that is one of the inputs
 /// (the build would overwrite its own source).
 fn check_output(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
+    check_not_input(output, inputs)?;
+    if !output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mlod"))
+    {
+        return Err(format!(
+            "{}: the output must be a .mlod file (morphlod writes its own asset format)",
+            output.display()
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses an output that is one of the inputs (writing would overwrite a source).
+fn check_not_input(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
     let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
         (Ok(a), Ok(b)) => a == b,
         _ => a == b,
@@ -502,15 +524,6 @@ fn check_output(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
             "{}: the output is one of the inputs ({}); choose another output file",
             output.display(),
             input.display()
-        ));
-    }
-    if !output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mlod"))
-    {
-        return Err(format!(
-            "{}: the output must be a .mlod file (morphlod writes its own asset format)",
-            output.display()
         ));
     }
     Ok(())
@@ -546,37 +559,7 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
             if args.target.is_some() || args.animation.is_some() {
                 return Err("--target and --animation choose a glTF morph; with two input meshes the morph runs from the first to the second".into());
             }
-            let (a_path, b_path) = (a, b);
-            let a = load_attributed(a_path, options).map_err(|e| e.to_string())?;
-            let b = load_attributed(b_path, options).map_err(|e| e.to_string())?;
-            match morph_from_pair(&a, &b) {
-                Ok(morph) => {
-                    if args.landmarks.is_some() {
-                        eprintln!("note: the meshes have the same connectivity: no supermesh is built and --landmarks is not used");
-                    }
-                    Ok(morph)
-                }
-                Err(
-                    MorphError::PoseSizeMismatch { .. }
-                    | MorphError::TriangleCountMismatch { .. }
-                    | MorphError::TriangleMismatch { .. },
-                ) => {
-                    let landmarks = read_landmarks(args.landmarks.as_deref())?;
-                    let (supermesh, report) =
-                        build_supermesh(&a.positions, &b.positions, landmarks)?;
-                    println!(
-                        "{} and {} have different connectivity: built a supermesh ({} vertices, {} triangles, {} crossings)\n{report}",
-                        a_path.display(),
-                        b_path.display(),
-                        report.vertices,
-                        report.triangles,
-                        report.crossings
-                    );
-                    warn_fold_overs(&report);
-                    supermesh.to_morph().map_err(|e| e.to_string())
-                }
-                Err(e) => Err(e.to_string()),
-            }
+            load_pair(a, b, args.landmarks.as_deref(), options)
         }
         [path] => {
             if Format::from_path(path) != Some(Format::Gltf) {
@@ -603,6 +586,45 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
             morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())
         }
         _ => Err("give one glTF file or two meshes".into()),
+    }
+}
+
+/// Two meshes as a morph from the first to the second: directly when they share their
+/// connectivity, else over their supermesh (with the optional landmark pairs).
+pub(crate) fn load_pair(
+    a_path: &Path,
+    b_path: &Path,
+    landmarks: Option<&Path>,
+    options: &LoadOptions,
+) -> Result<Morph, String> {
+    let a = load_attributed(a_path, options).map_err(|e| e.to_string())?;
+    let b = load_attributed(b_path, options).map_err(|e| e.to_string())?;
+    match morph_from_pair(&a, &b) {
+        Ok(morph) => {
+            if landmarks.is_some() {
+                eprintln!("note: the meshes have the same connectivity: no supermesh is built and --landmarks is not used");
+            }
+            Ok(morph)
+        }
+        Err(
+            MorphError::PoseSizeMismatch { .. }
+            | MorphError::TriangleCountMismatch { .. }
+            | MorphError::TriangleMismatch { .. },
+        ) => {
+            let landmarks = read_landmarks(landmarks)?;
+            let (supermesh, report) = build_supermesh(&a.positions, &b.positions, landmarks)?;
+            println!(
+                "{} and {} have different connectivity: built a supermesh ({} vertices, {} triangles, {} crossings)\n{report}",
+                a_path.display(),
+                b_path.display(),
+                report.vertices,
+                report.triangles,
+                report.crossings
+            );
+            warn_fold_overs(&report);
+            supermesh.to_morph().map_err(|e| e.to_string())
+        }
+        Err(e) => Err(e.to_string()),
     }
 }
 

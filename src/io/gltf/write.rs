@@ -267,19 +267,19 @@ fn next_toward(x: f32, direction: f32) -> f32 {
     f32::from_bits(if away_from_zero { bits + 1 } else { bits - 1 })
 }
 
-const ARRAY_BUFFER: u32 = 34962;
-const ELEMENT_ARRAY_BUFFER: u32 = 34963;
-const FLOAT: u32 = 5126;
-const UNSIGNED_INT: u32 = 5125;
+pub(crate) const ARRAY_BUFFER: u32 = 34962;
+pub(crate) const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+pub(crate) const FLOAT: u32 = 5126;
+pub(crate) const UNSIGNED_INT: u32 = 5125;
 
 /// The binary chunk being filled: each push starts at a multiple of 4.
 #[derive(Default)]
-struct Bin {
-    bytes: Vec<u8>,
+pub(crate) struct Bin {
+    pub(crate) bytes: Vec<u8>,
 }
 
 impl Bin {
-    fn push(&mut self, data: Vec<u8>) -> (usize, usize) {
+    pub(crate) fn push(&mut self, data: Vec<u8>) -> (usize, usize) {
         pad(&mut self.bytes, 0);
         let offset = self.bytes.len();
         self.bytes.extend_from_slice(&data);
@@ -288,13 +288,13 @@ impl Bin {
 }
 
 #[derive(Default)]
-struct Json {
-    views: Vec<String>,
-    accessors: Vec<String>,
+pub(crate) struct Json {
+    pub(crate) views: Vec<String>,
+    pub(crate) accessors: Vec<String>,
 }
 
 impl Json {
-    fn view(&mut self, (offset, length): (usize, usize), target: Option<u32>) -> usize {
+    pub(crate) fn view(&mut self, (offset, length): (usize, usize), target: Option<u32>) -> usize {
         let target = target.map_or(String::new(), |t| format!(r#","target":{t}"#));
         self.views.push(format!(
             r#"{{"buffer":0,"byteOffset":{offset},"byteLength":{length}{target}}}"#
@@ -302,7 +302,7 @@ impl Json {
         self.views.len() - 1
     }
 
-    fn accessor(
+    pub(crate) fn accessor(
         &mut self,
         view: usize,
         component: u32,
@@ -321,7 +321,7 @@ impl Json {
     }
 }
 
-fn bounds(points: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
+pub(crate) fn bounds(points: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for p in points {
@@ -333,13 +333,13 @@ fn bounds(points: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
     (lo.to_vec(), hi.to_vec())
 }
 
-fn f32_bytes<'a>(values: impl Iterator<Item = &'a f32>) -> Vec<u8> {
+pub(crate) fn f32_bytes<'a>(values: impl Iterator<Item = &'a f32>) -> Vec<u8> {
     values.flat_map(|v| v.to_le_bytes()).collect()
 }
 
 /// A finite `f32` as JSON: Rust's shortest representation that reads back to the same
 /// `f32` (so `min`/`max` equal the data exactly), `-0` written as `0`.
-fn number(x: f32) -> String {
+pub(crate) fn number(x: f32) -> String {
     if x == 0.0 {
         "0".into()
     } else {
@@ -348,7 +348,7 @@ fn number(x: f32) -> String {
 }
 
 /// A JSON string literal.
-fn quote(s: &str) -> String {
+pub(crate) fn quote(s: &str) -> String {
     let mut out = String::with_capacity(s.len() + 2);
     out.push('"');
     for c in s.chars() {
@@ -372,7 +372,7 @@ fn pad(bytes: &mut Vec<u8>, with: u8) {
 }
 
 /// The GLB container: header, JSON chunk (space-padded), BIN chunk (zero-padded).
-fn glb(mut json: Vec<u8>, mut bin: Vec<u8>) -> Vec<u8> {
+pub(crate) fn glb(mut json: Vec<u8>, mut bin: Vec<u8>) -> Vec<u8> {
     pad(&mut json, b' ');
     pad(&mut bin, 0);
     let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };

@@ -1,0 +1,135 @@
+//! `morphlod export`: the original and its LODs as one glTF binary ([`morphlod::export`]).
+
+use crate::{load_pair, load_surface};
+use clap::Args;
+use morphlod::export::{export_glb, ExportOptions, DEFAULT_POSES};
+use morphlod::io::{Format, LoadError, LoadOptions, MorphSource};
+use morphlod::morph::{Morph, Weights};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Args)]
+pub(crate) struct ExportArgs {
+    /// A glTF file (all its morph targets, driven by its first weight animation, or by its
+    /// default weights without one), or two meshes V(0) and V(1) (OBJ/OFF/PLY/glTF; of
+    /// different connectivity: morphed over their supermesh).
+    #[arg(required = true, num_args = 1..=2, value_name = "INPUT")]
+    inputs: Vec<PathBuf>,
+    /// Triangle fractions of the LODs below the original, in (0, 1], strictly decreasing.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.5,0.25,0.1",
+        allow_negative_numbers = true
+    )]
+    lods: Vec<f32>,
+    /// Poses sampled over the animation for the one collapse sequence all LODs come from.
+    #[arg(long, default_value_t = DEFAULT_POSES)]
+    poses: usize,
+    /// glTF: the weight animation to follow (name or index; default: the first).
+    #[arg(long, value_name = "NAME|INDEX")]
+    animation: Option<String>,
+    /// glTF: the mesh to export, by name or index (default: the first).
+    #[arg(long, value_name = "NAME|INDEX")]
+    mesh: Option<String>,
+    /// Two meshes of different connectivity: landmark pairs for the supermesh.
+    #[arg(long, value_name = "PAIRS.txt")]
+    landmarks: Option<PathBuf>,
+    /// The .glb file to write.
+    #[arg(short, long, value_name = "OUT.glb")]
+    output: PathBuf,
+}
+
+pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
+    check_output(&args.output, &args.inputs)?;
+    let options = LoadOptions {
+        gltf_mesh: args.mesh.clone(),
+        ..LoadOptions::default()
+    };
+    let start = Instant::now();
+    let (morph, default_weights) = match args.inputs.as_slice() {
+        [a, b] => (load_pair(a, b, args.landmarks.as_deref(), &options)?, None),
+        [path] => load_gltf(path, args.animation.as_deref(), &options)?,
+        _ => return Err("give one glTF file or two meshes".into()),
+    };
+    let name = args.inputs[0]
+        .file_stem()
+        .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+    let export = export_glb(
+        &morph,
+        &ExportOptions {
+            lods: args.lods.clone(),
+            poses: args.poses,
+            default_weights,
+            name,
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    std::fs::write(&args.output, &export.glb)
+        .map_err(|e| format!("{}: cannot write: {e}", args.output.display()))?;
+    println!("LOD  fraction  triangles  vertices  collapses");
+    for (i, lod) in export.lods.iter().enumerate() {
+        println!(
+            "{i:>3}  {:>8}  {:>9}  {:>8}  {:>9}",
+            lod.fraction,
+            lod.triangles.len(),
+            lod.source_vertex.len(),
+            lod.step
+        );
+    }
+    println!(
+        "wrote {} ({} bytes, {} morph targets) in {:.2} s",
+        args.output.display(),
+        export.glb.len(),
+        morph.targets().len(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// A glTF mesh with all its targets, driven by the chosen (or first) weight animation, and
+/// the mesh's default weights. Without an animation (and none asked for) the morph runs from
+/// the base to the default weights; without targets it is the static mesh.
+fn load_gltf(
+    path: &Path,
+    animation: Option<&str>,
+    options: &LoadOptions,
+) -> Result<(Morph, Option<Vec<f32>>), String> {
+    if Format::from_path(path) != Some(Format::Gltf) {
+        return Err(format!(
+            "{}: a single input must be a glTF file (.gltf, .glb); to export a {} mesh, \
+             give two meshes V(0) V(1)",
+            path.display(),
+            Format::from_path(path).map_or("mesh", Format::name)
+        ));
+    }
+    let by_default = load_surface(path, options)?;
+    let default_weights = match by_default.weights() {
+        Weights::TwoPose { w1, .. } if !by_default.targets().is_empty() => Some(w1.clone()),
+        _ => return Ok((by_default, None)),
+    };
+    let source = MorphSource::Animation(animation.unwrap_or("0").to_string());
+    match morphlod::io::load_morph(path, options, &source) {
+        Ok(morph) => Ok((morph, default_weights)),
+        Err(LoadError::NoSuchAnimation { .. } | LoadError::NoWeightChannel { .. })
+            if animation.is_none() =>
+        {
+            Ok((by_default, default_weights))
+        }
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// Refuses an output that is not `.glb` or that is one of the inputs.
+fn check_output(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
+    if !output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb"))
+    {
+        return Err(format!(
+            "{}: the output must be a .glb file (binary glTF)",
+            output.display()
+        ));
+    }
+    crate::check_not_input(output, inputs)
+}

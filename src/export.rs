@@ -1,0 +1,575 @@
+//! Discrete LODs of a morph as one glTF 2.0 binary (GLB) file that any engine loads: the
+//! original and each LOD as its own mesh and node (`<name>_LOD0`, `_LOD1`, ...), every one
+//! keeping all morph targets, the vertex attributes and the material, and driven by the same
+//! weight animation; the chain declared with `MSFT_lod` on the LOD0 node.
+//!
+//! All LODs are reference meshes of ONE collapse sequence simplified over sampled poses
+//! ([`crate::build::Sequences::Shared`] with [`PoseError::Max`]), so each LOD's connectivity
+//! serves every pose of the animation. Collapses make no new vertices: a LOD keeps a subset
+//! of the source vertices, and every value written for a kept vertex (position, normal, UV,
+//! colour, each target's POSITION and NORMAL delta) is the source's `f32`, copied bit for bit.
+//!
+//! `MSFT_lod` says that a client without the extension loads the highest LOD and ignores the
+//! others, so only the LOD0 node is in the scene; the lower LODs are top-level nodes (named,
+//! each with its mesh) that tools can still list and pick. Indices are reordered for the
+//! vertex cache with meshoptimizer, and vertices numbered in the order the indices first use
+//! them (vertex-fetch locality).
+//!
+//! The meshes are written in the morph's own coordinates and the nodes carry no transform:
+//! load the source without `apply_transforms` to keep a glTF mesh where it was, or with it
+//! to bake its node's placement in.
+
+use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
+use crate::collapse::CollapseSequence;
+use crate::io::gltf::write::{
+    bounds, f32_bytes, glb, number, quote, Bin, Json, ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT,
+    UNSIGNED_INT,
+};
+use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
+use crate::seams::StepBoundaries;
+use crate::simplify::PoseError;
+use std::fmt::Write as _;
+use thiserror::Error;
+
+/// Poses the shared sequence is simplified over when the caller gives no count.
+pub const DEFAULT_POSES: usize = 32;
+
+/// What to export.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExportOptions {
+    /// Triangle fractions of the LODs below the original, each in (0, 1], strictly
+    /// decreasing (`[0.5, 0.25, 0.1]`).
+    pub lods: Vec<f32>,
+    /// Poses sampled over `t ∈ [0, 1]` for the shared sequence (1 to the builder's maximum).
+    pub poses: usize,
+    /// The meshes' default weights (`mesh.weights`), one per target; `None`: the weights at
+    /// `t = 0`.
+    pub default_weights: Option<Vec<f32>>,
+    /// Mesh and node names are `<name>_LOD<i>`.
+    pub name: String,
+}
+
+impl Default for ExportOptions {
+    fn default() -> Self {
+        ExportOptions {
+            lods: vec![0.5, 0.25, 0.1],
+            poses: DEFAULT_POSES,
+            default_weights: None,
+            name: "mesh".into(),
+        }
+    }
+}
+
+/// Why an export failed.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ExportError {
+    #[error("--lods {lods:?}: give triangle fractions in (0, 1], strictly decreasing (e.g. 0.5,0.25,0.1)")]
+    Fractions { lods: Vec<f32> },
+    #[error("--poses {poses}: sample 1 to {max} poses (1 simplifies the rest pose only)", max = MAX_FRAMES)]
+    Poses { poses: usize },
+    #[error("{given} default weights for {targets} morph targets: give one per target")]
+    DefaultWeights { given: usize, targets: usize },
+    #[error("LOD fraction {fraction} leaves no triangle of {triangles}: choose a larger fraction")]
+    Empty { fraction: f32, triangles: usize },
+    #[error("simplifying over the poses: {0}")]
+    Build(#[from] BuildError),
+}
+
+/// One exported level: which source vertices it keeps and its triangles over them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lod {
+    /// The fraction asked for (1 for LOD0).
+    pub fraction: f32,
+    /// Collapses of the shared sequence applied (0 for LOD0).
+    pub step: usize,
+    /// `source_vertex[i]`: the source vertex written as the LOD's vertex `i`.
+    pub source_vertex: Vec<u32>,
+    /// Triangles over the LOD's vertices, in vertex-cache order.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// An exported file and what it holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Export {
+    /// The GLB file's bytes.
+    pub glb: Vec<u8>,
+    /// LOD0 (the original) first, then one per fraction.
+    pub lods: Vec<Lod>,
+}
+
+/// Exports `morph` and its LODs (module docs). The animation written is the morph's weight
+/// track ([`Weights::Animated`]); a two-pose morph gets a LINEAR 0 → 1 → 0 animation over
+/// two seconds (the weights of `t = 0`, `t = 1`, `t = 0`), so a viewer plays it.
+pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, ExportError> {
+    check_fractions(&options.lods)?;
+    if options.poses == 0 || options.poses > MAX_FRAMES {
+        return Err(ExportError::Poses {
+            poses: options.poses,
+        });
+    }
+    let targets = morph.targets().len();
+    let default_weights = match &options.default_weights {
+        Some(w) if w.len() != targets => {
+            return Err(ExportError::DefaultWeights {
+                given: w.len(),
+                targets,
+            })
+        }
+        Some(w) => w.clone(),
+        None => morph.weights_at(0.0),
+    };
+    let (asset, _) = Builder::new(morph)
+        .frames(options.poses)
+        .sequences(Sequences::Shared(PoseError::Max))
+        .build()?;
+    let sequence = &asset.frames[0];
+    let boundaries = StepBoundaries::new(sequence, &morph.topology().of_vertex);
+    let triangles = morph.triangles();
+
+    let mut lods = vec![compact(triangles.to_vec(), 1.0, 0)];
+    for &fraction in &options.lods {
+        let step = step_for(sequence, &boundaries, triangles, fraction)?;
+        let mesh = sequence.reference_mesh(triangles, step);
+        lods.push(compact(mesh, fraction, step));
+    }
+    let glb = write_glb(morph, &lods, &default_weights, &options.name);
+    Ok(Export { glb, lods })
+}
+
+fn check_fractions(lods: &[f32]) -> Result<(), ExportError> {
+    let in_range = lods.iter().all(|&f| f > 0.0 && f <= 1.0);
+    let decreasing = lods.windows(2).all(|w| w[0] > w[1]);
+    if lods.is_empty() || !in_range || !decreasing {
+        return Err(ExportError::Fractions {
+            lods: lods.to_vec(),
+        });
+    }
+    Ok(())
+}
+
+/// The first step boundary whose reference mesh has at most `fraction` of the triangles:
+/// the fewest collapses that reach the count (binary search, the count never grows with the
+/// step), moved up to a boundary so no seam is torn.
+fn step_for(
+    sequence: &CollapseSequence,
+    boundaries: &StepBoundaries,
+    triangles: &[[u32; 3]],
+    fraction: f32,
+) -> Result<usize, ExportError> {
+    let goal = (fraction as f64 * triangles.len() as f64).floor() as usize;
+    let count = |l: usize| sequence.reference_mesh(triangles, l).len();
+    let (mut lo, mut hi) = (0, sequence.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if count(mid) <= goal {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    let step = boundaries.ceil(lo);
+    if count(step) == 0 {
+        return Err(ExportError::Empty {
+            fraction,
+            triangles: triangles.len(),
+        });
+    }
+    Ok(step)
+}
+
+/// The LOD of `mesh` (over source vertices): indices in vertex-cache order, then only the
+/// vertices used, numbered by first use.
+fn compact(mesh: Vec<[u32; 3]>, fraction: f32, step: usize) -> Lod {
+    let flat: Vec<u32> = mesh.into_iter().flatten().collect();
+    let vertex_bound = flat.iter().max().map_or(0, |&v| v as usize + 1);
+    let ordered = meshopt::optimize_vertex_cache(&flat, vertex_bound);
+    let mut new_of = vec![u32::MAX; vertex_bound];
+    let mut source_vertex = Vec::new();
+    let reindexed: Vec<u32> = ordered
+        .iter()
+        .map(|&v| {
+            let slot = &mut new_of[v as usize];
+            if *slot == u32::MAX {
+                *slot = source_vertex.len() as u32;
+                source_vertex.push(v);
+            }
+            *slot
+        })
+        .collect();
+    Lod {
+        fraction,
+        step,
+        source_vertex,
+        triangles: reindexed
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect(),
+    }
+}
+
+/// The weight animation to write: the morph's own track, or 0 → 1 → 0 for two poses.
+fn animation(morph: &Morph) -> Option<WeightTrack> {
+    match morph.weights() {
+        Weights::Animated(track) => Some(track.clone()),
+        Weights::TwoPose { w0, w1 } => {
+            let values = [w0.as_slice(), w1, w0].concat();
+            WeightTrack::new(Interpolation::Linear, vec![0.0, 1.0, 2.0], values, w0.len()).ok()
+        }
+    }
+}
+
+/// The values of `source` at the LOD's vertices.
+fn gather<T: Copy>(source: &[T], lod: &Lod) -> Vec<T> {
+    lod.source_vertex
+        .iter()
+        .map(|&v| source[v as usize])
+        .collect()
+}
+
+fn vec3_accessor(bin: &mut Bin, json: &mut Json, data: &[[f32; 3]], with_bounds: bool) -> usize {
+    let view = json.view(
+        bin.push(f32_bytes(data.iter().flatten())),
+        Some(ARRAY_BUFFER),
+    );
+    json.accessor(
+        view,
+        FLOAT,
+        data.len(),
+        "VEC3",
+        with_bounds.then(|| bounds(data)),
+    )
+}
+
+/// A morph target's deltas: sparse (only the entries that are not `+0.0` in every
+/// component, the rest read as zeros) when that is smaller, as the sources usually store
+/// them (a target moves part of the mesh). A `-0.0` is stored explicitly, so every value
+/// reads back bit for bit.
+fn delta_accessor(bin: &mut Bin, json: &mut Json, data: &[[f32; 3]], with_bounds: bool) -> usize {
+    let mut moved: Vec<u32> = (0..data.len() as u32)
+        .filter(|&v| data[v as usize].iter().any(|x| x.to_bits() != 0))
+        .collect();
+    // Sparse costs 4 index bytes + 12 value bytes per moved vertex, dense 12 per vertex.
+    if moved.len() * 16 >= data.len() * 12 {
+        return vec3_accessor(bin, json, data, with_bounds);
+    }
+    let bounds = with_bounds
+        .then(|| bounds(data))
+        .map_or(String::new(), |(lo, hi)| {
+            let list = |v: Vec<f32>| v.into_iter().map(number).collect::<Vec<_>>().join(",");
+            format!(r#","min":[{}],"max":[{}]"#, list(lo), list(hi))
+        });
+    // No bufferView: the accessor starts as zeros (glTF 2.0, 3.6.2.3), then the moved
+    // vertices are substituted. A target that moves nothing still lists vertex 0: readers
+    // such as the `gltf` crate refuse an accessor with neither a bufferView nor a sparse part.
+    if moved.is_empty() {
+        moved.push(0);
+    }
+    let indices = bin.push(moved.iter().flat_map(|i| i.to_le_bytes()).collect());
+    let indices = json.view(indices, None);
+    let values = moved
+        .iter()
+        .flat_map(|&v| data[v as usize])
+        .collect::<Vec<f32>>();
+    let values = json.view(bin.push(f32_bytes(values.iter())), None);
+    let sparse = format!(
+        r#","sparse":{{"count":{},"indices":{{"bufferView":{indices},"componentType":{UNSIGNED_INT}}},"values":{{"bufferView":{values}}}}}"#,
+        moved.len()
+    );
+    json.accessors.push(format!(
+        r#"{{"componentType":{FLOAT},"count":{},"type":"VEC3"{bounds}{sparse}}}"#,
+        data.len()
+    ));
+    json.accessors.len() - 1
+}
+
+fn flat_accessor(
+    bin: &mut Bin,
+    json: &mut Json,
+    data: &[f32],
+    width: usize,
+    kind: &str,
+    target: Option<u32>,
+) -> usize {
+    let view = json.view(bin.push(f32_bytes(data.iter())), target);
+    json.accessor(view, FLOAT, data.len() / width, kind, None)
+}
+
+/// One mesh's JSON for `lod`, its data pushed into `bin`.
+fn mesh_json(
+    morph: &Morph,
+    lod: &Lod,
+    name: &str,
+    default_weights: &[f32],
+    bin: &mut Bin,
+    json: &mut Json,
+) -> String {
+    let attributes = morph.attributes();
+    let mut fields = vec![format!(
+        r#""POSITION":{}"#,
+        vec3_accessor(bin, json, &gather(morph.base(), lod), true)
+    )];
+    if let Some(normals) = &attributes.normals {
+        let acc = vec3_accessor(bin, json, &gather(normals, lod), false);
+        fields.push(format!(r#""NORMAL":{acc}"#));
+    }
+    if let Some(uvs) = &attributes.uvs {
+        let data: Vec<f32> = gather(uvs, lod).into_iter().flatten().collect();
+        let acc = flat_accessor(bin, json, &data, 2, "VEC2", Some(ARRAY_BUFFER));
+        fields.push(format!(r#""TEXCOORD_0":{acc}"#));
+    }
+    if let Some(colors) = &attributes.colors {
+        let data: Vec<f32> = gather(colors, lod).into_iter().flatten().collect();
+        let acc = flat_accessor(bin, json, &data, 4, "VEC4", Some(ARRAY_BUFFER));
+        fields.push(format!(r#""COLOR_0":{acc}"#));
+    }
+    // Target NORMAL deltas only where the base has normals and every target gives them:
+    // a target attribute needs its base attribute.
+    let normal_deltas =
+        attributes.normals.is_some() && morph.targets().iter().all(|t| t.normal_deltas.is_some());
+    let targets: Vec<String> = morph
+        .targets()
+        .iter()
+        .map(|t| {
+            let pos = delta_accessor(bin, json, &gather(&t.deltas, lod), true);
+            match t.normal_deltas.as_ref().filter(|_| normal_deltas) {
+                Some(nd) => {
+                    let n = delta_accessor(bin, json, &gather(nd, lod), false);
+                    format!(r#"{{"POSITION":{pos},"NORMAL":{n}}}"#)
+                }
+                None => format!(r#"{{"POSITION":{pos}}}"#),
+            }
+        })
+        .collect();
+    let indices: Vec<u8> = lod
+        .triangles
+        .iter()
+        .flatten()
+        .flat_map(|i| i.to_le_bytes())
+        .collect();
+    let index_view = json.view(bin.push(indices), Some(ELEMENT_ARRAY_BUFFER));
+    let index_acc = json.accessor(
+        index_view,
+        UNSIGNED_INT,
+        lod.triangles.len() * 3,
+        "SCALAR",
+        None,
+    );
+    let primitive_targets = if targets.is_empty() {
+        String::new()
+    } else {
+        format!(r#","targets":[{}]"#, targets.join(","))
+    };
+    let mesh_weights = if targets.is_empty() {
+        String::new()
+    } else {
+        let names: Vec<String> = morph.targets().iter().map(|t| quote(&t.name)).collect();
+        let weights: Vec<String> = default_weights.iter().map(|&w| number(w)).collect();
+        format!(
+            r#","weights":[{}],"extras":{{"targetNames":[{}]}}"#,
+            weights.join(","),
+            names.join(",")
+        )
+    };
+    format!(
+        r#"{{"name":{},"primitives":[{{"attributes":{{{}}},"indices":{index_acc},"material":0,"mode":4{primitive_targets}}}]{mesh_weights}}}"#,
+        quote(name),
+        fields.join(",")
+    )
+}
+
+/// The material (and its texture, image and sampler) as top-level JSON members.
+fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
+    let material = &morph.attributes().material;
+    let name = material
+        .name
+        .as_ref()
+        .map_or(String::new(), |n| format!(r#""name":{},"#, quote(n)));
+    let factor: Vec<String> = material.base_color.iter().map(|&c| number(c)).collect();
+    let Some(texture) = &material.texture else {
+        return format!(
+            r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}]}}}}]"#,
+            factor.join(",")
+        );
+    };
+    let view = json.view(bin.push(texture.bytes.clone()), None);
+    let s = &texture.sampler;
+    let mut sampler = format!(r#""wrapS":{},"wrapT":{}"#, s.wrap_s, s.wrap_t);
+    if let Some(f) = s.mag_filter {
+        let _ = write!(sampler, r#","magFilter":{f}"#);
+    }
+    if let Some(f) = s.min_filter {
+        let _ = write!(sampler, r#","minFilter":{f}"#);
+    }
+    format!(
+        r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}],"baseColorTexture":{{"index":0}}}}}}],"textures":[{{"sampler":0,"source":0}}],"samplers":[{{{sampler}}}],"images":[{{"bufferView":{view},"mimeType":"{}"}}]"#,
+        factor.join(","),
+        texture.format.mime_type()
+    )
+}
+
+/// The animation JSON member: one sampler, one `weights` channel per LOD node.
+fn animation_json(track: &WeightTrack, lods: usize, bin: &mut Bin, json: &mut Json) -> String {
+    let times = track.times();
+    let times_view = json.view(bin.push(f32_bytes(times.iter())), None);
+    let (t0, t1) = (times[0], times[times.len() - 1]);
+    let input = json.accessor(
+        times_view,
+        FLOAT,
+        times.len(),
+        "SCALAR",
+        Some((vec![t0], vec![t1])),
+    );
+    let values = track.values();
+    let output = flat_accessor(bin, json, values, 1, "SCALAR", None);
+    let channels: Vec<String> = (0..lods)
+        .map(|node| format!(r#"{{"sampler":0,"target":{{"node":{node},"path":"weights"}}}}"#))
+        .collect();
+    format!(
+        r#","animations":[{{"name":"weights","samplers":[{{"input":{input},"output":{output},"interpolation":"{}"}}],"channels":[{}]}}]"#,
+        track.interpolation().name(),
+        channels.join(",")
+    )
+}
+
+/// Screen coverage below which each LOD gives way to the next, for `MSFT_screencoverage`:
+/// keeping triangles per covered pixel constant, LOD `i + 1` (a fraction `f` of the
+/// triangles) suffices below `f / 2` of the screen when the full mesh is meant for half the
+/// screen and more; the last LOD stays down to 0 (never culled).
+fn screen_coverage(lods: &[Lod]) -> Vec<f32> {
+    let mut coverage: Vec<f32> = lods[1..].iter().map(|l| 0.5 * l.fraction).collect();
+    coverage.push(0.0);
+    coverage
+}
+
+fn write_glb(morph: &Morph, lods: &[Lod], default_weights: &[f32], name: &str) -> Vec<u8> {
+    let mut bin = Bin::default();
+    let mut json = Json::default();
+    let names: Vec<String> = (0..lods.len()).map(|i| format!("{name}_LOD{i}")).collect();
+    let meshes: Vec<String> = lods
+        .iter()
+        .zip(&names)
+        .map(|(lod, n)| mesh_json(morph, lod, n, default_weights, &mut bin, &mut json))
+        .collect();
+    let material = material_json(morph, &mut bin, &mut json);
+    let animation = if morph.targets().is_empty() {
+        String::new()
+    } else {
+        animation(morph).map_or(String::new(), |track| {
+            animation_json(&track, lods.len(), &mut bin, &mut json)
+        })
+    };
+    let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
+    let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
+    let nodes: Vec<String> = names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let lod = if i == 0 {
+                format!(
+                    r#","extensions":{{"MSFT_lod":{{"ids":[{}]}}}},"extras":{{"MSFT_screencoverage":[{}]}}"#,
+                    ids.join(","),
+                    coverage.join(",")
+                )
+            } else {
+                String::new()
+            };
+            format!(r#"{{"name":{},"mesh":{i}{lod}}}"#, quote(n))
+        })
+        .collect();
+    let mut text = String::new();
+    let _ = write!(
+        text,
+        r#"{{"asset":{{"version":"2.0","generator":"morphlod export"}},"extensionsUsed":["MSFT_lod"],"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{nodes}],"meshes":[{meshes}],{material}{animation},"buffers":[{{"byteLength":{len}}}],"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        nodes = nodes.join(","),
+        meshes = meshes.join(","),
+        len = bin.bytes.len(),
+        views = json.views.join(","),
+        accessors = json.accessors.join(","),
+    );
+    glb(text.into_bytes(), bin.bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::morph::MorphTarget;
+
+    /// A 5 × 5 grid with a target that moves two vertices (one by `-0.0` only) and one that
+    /// moves nothing: both are written sparse and read back bit for bit at every LOD.
+    #[test]
+    fn sparse_deltas_read_back_bit_for_bit() {
+        let n = 5u32;
+        let base: Vec<[f32; 3]> = (0..n * n)
+            .map(|v| [(v % n) as f32, (v / n) as f32, ((v * 7) % 3) as f32 * 0.1])
+            .collect();
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let v = y * n + x;
+                triangles.push([v, v + 1, v + n]);
+                triangles.push([v + 1, v + n + 1, v + n]);
+            }
+        }
+        let mut moving = vec![[0.0f32; 3]; base.len()];
+        moving[3] = [-0.0, 0.0, 0.0];
+        moving[12] = [0.0, 0.0, 1.5];
+        let targets = vec![
+            MorphTarget {
+                name: "moving".into(),
+                deltas: moving,
+                normal_deltas: None,
+            },
+            MorphTarget {
+                name: "still".into(),
+                deltas: vec![[0.0; 3]; base.len()],
+                normal_deltas: None,
+            },
+        ];
+        let weights = Weights::TwoPose {
+            w0: vec![0.0, 0.0],
+            w1: vec![1.0, 0.0],
+        };
+        let morph = Morph::from_parts(triangles, base, targets, weights).unwrap();
+        let export = export_glb(
+            &morph,
+            &ExportOptions {
+                lods: vec![0.5],
+                ..ExportOptions::default()
+            },
+        )
+        .unwrap();
+        let gltf = gltf::Gltf::from_slice(&export.glb).unwrap();
+        let blob = gltf.blob.clone().unwrap();
+        for (mesh, lod) in gltf.meshes().zip(&export.lods) {
+            let primitive = mesh.primitives().next().unwrap();
+            for accessor in primitive.morph_targets().filter_map(|t| t.positions()) {
+                assert!(accessor.sparse().is_some() && accessor.view().is_none());
+            }
+            let reader = primitive.reader(|_| Some(&blob[..]));
+            for (read, source) in reader.read_morph_targets().zip(morph.targets()) {
+                let read: Vec<[u32; 3]> = read.0.unwrap().map(|d| d.map(f32::to_bits)).collect();
+                let expected: Vec<[u32; 3]> = lod
+                    .source_vertex
+                    .iter()
+                    .map(|&v| source.deltas[v as usize].map(f32::to_bits))
+                    .collect();
+                assert_eq!(read, expected, "{}", source.name);
+            }
+        }
+    }
+
+    #[test]
+    fn fractions_must_lie_in_0_1_and_decrease() {
+        for bad in [
+            vec![],
+            vec![0.0],
+            vec![1.5],
+            vec![0.5, 0.5],
+            vec![0.2, 0.4],
+            vec![f32::NAN],
+        ] {
+            assert!(check_fractions(&bad).is_err(), "{bad:?}");
+        }
+        assert!(check_fractions(&[1.0, 0.5, 0.01]).is_ok());
+    }
+}

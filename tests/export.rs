@@ -1,0 +1,344 @@
+//! `morphlod export` and `morphlod::export::export_glb`: the file read back with the `gltf`
+//! crate (one mesh and node per LOD, triangle counts falling, every kept vertex's position,
+//! attributes and target deltas equal to the source's bit for bit, one animation channel per
+//! LOD node, the MSFT_lod chain), checked by the Khronos validator, and bad input refused with
+//! a message and exit code 1.
+
+mod common;
+
+use common::validator::validate;
+use gltf::json::Value;
+use morphlod::collapse::canonical_multiset;
+use morphlod::export::{export_glb, Export, ExportOptions};
+use morphlod::io::{load_morph, LoadOptions, MorphSource};
+use morphlod::morph::Morph;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn asset(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name)
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("export_{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn morphlod(args: &[&std::ffi::OsStr]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_morphlod"))
+        .arg("export")
+        .args(args)
+        .output()
+        .expect("the morphlod binary runs")
+}
+
+fn bits<const N: usize>(v: [f32; N]) -> [u32; N] {
+    v.map(f32::to_bits)
+}
+
+/// Every LOD of `export` as read back from its bytes equals the source at the kept vertices,
+/// bit for bit: positions, normals, UVs, colours, each target's POSITION and NORMAL deltas;
+/// indices are the LOD's; triangle counts fall from LOD to LOD.
+fn check_against_source(morph: &Morph, export: &Export) {
+    let gltf = gltf::Gltf::from_slice(&export.glb).expect("the GLB parses");
+    let blob = gltf.blob.clone().expect("a BIN chunk");
+    let meshes: Vec<gltf::Mesh> = gltf.meshes().collect();
+    assert_eq!(meshes.len(), export.lods.len(), "one mesh per LOD");
+    let attributes = morph.attributes();
+    let mut previous = usize::MAX;
+    for (mesh, lod) in meshes.iter().zip(&export.lods) {
+        let primitives: Vec<_> = mesh.primitives().collect();
+        assert_eq!(primitives.len(), 1);
+        let reader = primitives[0].reader(|_| Some(&blob[..]));
+        let kept = |v: usize| lod.source_vertex[v] as usize;
+
+        let indices: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
+        let flat: Vec<u32> = lod.triangles.iter().flatten().copied().collect();
+        assert_eq!(indices, flat);
+        assert!(lod.triangles.len() < previous, "triangle counts fall");
+        previous = lod.triangles.len();
+
+        let positions: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
+        assert_eq!(positions.len(), lod.source_vertex.len());
+        for (v, p) in positions.iter().enumerate() {
+            assert_eq!(bits(*p), bits(morph.base()[kept(v)]));
+        }
+        if let Some(normals) = &attributes.normals {
+            for (v, n) in reader.read_normals().unwrap().enumerate() {
+                assert_eq!(bits(n), bits(normals[kept(v)]));
+            }
+        }
+        if let Some(uvs) = &attributes.uvs {
+            let read = reader.read_tex_coords(0).unwrap().into_f32();
+            for (v, uv) in read.enumerate() {
+                assert_eq!(bits(uv), bits(uvs[kept(v)]));
+            }
+        }
+        if let Some(colors) = &attributes.colors {
+            let read = reader.read_colors(0).unwrap().into_rgba_f32();
+            for (v, c) in read.enumerate() {
+                assert_eq!(bits(c), bits(colors[kept(v)]));
+            }
+        }
+        let targets: Vec<_> = reader.read_morph_targets().collect();
+        assert_eq!(targets.len(), morph.targets().len(), "every target kept");
+        for ((deltas, normal_deltas, _), source) in targets.into_iter().zip(morph.targets()) {
+            for (v, d) in deltas.unwrap().enumerate() {
+                assert_eq!(bits(d), bits(source.deltas[kept(v)]), "{}", source.name);
+            }
+            match (normal_deltas, &source.normal_deltas) {
+                (Some(read), Some(nd)) => {
+                    for (v, d) in read.enumerate() {
+                        assert_eq!(bits(d), bits(nd[kept(v)]), "{}", source.name);
+                    }
+                }
+                (None, None) => {}
+                _ => panic!("target {}: NORMAL deltas lost or invented", source.name),
+            }
+        }
+    }
+}
+
+/// The JSON chunk of a GLB.
+fn json(glb: &[u8]) -> Value {
+    let glb = gltf::Glb::from_slice(glb).unwrap();
+    gltf::json::deserialize::from_slice(&glb.json).unwrap()
+}
+
+/// One node per LOD named `<name>_LOD<i>`, LOD0 in the scene declaring the others with
+/// MSFT_lod and one screen coverage per LOD, one animation channel per LOD node.
+fn check_structure(glb: &[u8], name: &str, lods: usize, animated: bool) {
+    let json = json(glb);
+    assert_eq!(json["extensionsUsed"][0], "MSFT_lod");
+    let nodes = json["nodes"].as_array().unwrap();
+    assert_eq!(nodes.len(), lods);
+    for (i, node) in nodes.iter().enumerate() {
+        assert_eq!(node["name"], format!("{name}_LOD{i}").as_str());
+        assert_eq!(node["mesh"], i);
+    }
+    let ids: Vec<u64> = nodes[0]["extensions"]["MSFT_lod"]["ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    assert_eq!(ids, (1..lods as u64).collect::<Vec<_>>());
+    let coverage = nodes[0]["extras"]["MSFT_screencoverage"]
+        .as_array()
+        .unwrap();
+    assert_eq!(coverage.len(), lods);
+    assert_eq!(json["scenes"][0]["nodes"].as_array().unwrap().len(), 1);
+    if animated {
+        let channels = json["animations"][0]["channels"].as_array().unwrap();
+        let driven: Vec<u64> = channels
+            .iter()
+            .map(|c| {
+                assert_eq!(c["target"]["path"], "weights");
+                assert_eq!(c["sampler"], 0);
+                c["target"]["node"].as_u64().unwrap()
+            })
+            .collect();
+        assert_eq!(driven, (0..lods as u64).collect::<Vec<_>>());
+    }
+}
+
+fn validate_clean(file: &Path) {
+    let Some((ok, report)) = validate(&[file]) else {
+        return;
+    };
+    assert!(ok, "{report}");
+    assert!(report.contains("\"errors\":0,\"warnings\":0"), "{report}");
+}
+
+/// makehuman_face.glb (52 targets with NORMAL deltas, normals, UVs, a JPEG texture, seams and
+/// a weight animation): every LOD keeps every target and attribute bit for bit.
+#[test]
+fn face_lods_keep_targets_and_attributes_bit_for_bit() {
+    let path = asset("makehuman_face.glb");
+    let morph = load_morph(
+        &path,
+        &LoadOptions::default(),
+        &MorphSource::Animation("0".into()),
+    )
+    .unwrap();
+    assert!(morph.attributes().material.texture.is_some());
+    assert!(morph.targets().iter().all(|t| t.normal_deltas.is_some()));
+    let export = export_glb(
+        &morph,
+        &ExportOptions {
+            name: "face".into(),
+            ..ExportOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(export.lods.len(), 4);
+    for lod in &export.lods[1..] {
+        let goal = lod.fraction * morph.triangle_count() as f32;
+        assert!(lod.triangles.len() as f32 <= goal, "{lod:?}");
+    }
+    // LOD0 is the original: the same triangles, over the same vertices.
+    let lod0 = &export.lods[0];
+    let back = lod0
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| lod0.source_vertex[v as usize]));
+    assert_eq!(
+        canonical_multiset(back),
+        canonical_multiset(morph.triangles().iter().copied())
+    );
+    check_against_source(&morph, &export);
+    check_structure(&export.glb, "face", 4, true);
+    let gltf = gltf::Gltf::from_slice(&export.glb).unwrap();
+    assert_eq!(gltf.textures().count(), 1);
+    assert_eq!(gltf.animations().count(), 1);
+}
+
+/// The CLI on the face, on the AnimatedMorphCube sample (.gltf with an external buffer) and on
+/// a supermesh pair (bunny.obj, cow.off): the Khronos validator reports 0 errors and 0
+/// warnings, the structure is as declared.
+#[test]
+fn exported_files_pass_the_khronos_validator() {
+    let dir = temp_dir("validator");
+    let cases = [
+        (
+            vec![asset("makehuman_face.glb")],
+            "makehuman_face",
+            "0.5,0.25,0.1",
+        ),
+        (
+            vec![asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf")],
+            "AnimatedMorphCube",
+            "0.6,0.3",
+        ),
+        (
+            vec![asset("bunny.obj"), asset("cow.off")],
+            "bunny",
+            "0.5,0.1",
+        ),
+    ];
+    for (inputs, name, lods) in cases {
+        let out = dir.join(format!("{name}.glb"));
+        let mut args: Vec<&std::ffi::OsStr> = inputs.iter().map(|p| p.as_os_str()).collect();
+        args.extend([
+            "--lods".as_ref(),
+            lods.as_ref(),
+            "-o".as_ref(),
+            out.as_os_str(),
+        ]);
+        let output = morphlod(&args);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let glb = std::fs::read(&out).unwrap();
+        check_structure(&glb, name, lods.split(',').count() + 1, true);
+        validate_clean(&out);
+    }
+}
+
+/// Two OFF meshes with the same connectivity (a bumpy grid and a shifted copy): one target,
+/// the 0 → 1 → 0 animation, LODs that keep the target's deltas.
+#[test]
+fn an_off_pair_exports_with_its_one_target() {
+    let dir = temp_dir("off_pair");
+    let n = 12;
+    let write = |file: &str, lift: f32| {
+        let mut text = format!("OFF\n{} {} 0\n", n * n, 2 * (n - 1) * (n - 1));
+        for y in 0..n {
+            for x in 0..n {
+                let z = ((x * 7 + y * 3) % 5) as f32 * 0.1 + lift * x as f32 * 0.2;
+                text += &format!("{x} {y} {z}\n");
+            }
+        }
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let v = y * n + x;
+                text += &format!(
+                    "3 {} {} {}\n3 {} {} {}\n",
+                    v,
+                    v + 1,
+                    v + n,
+                    v + 1,
+                    v + n + 1,
+                    v + n
+                );
+            }
+        }
+        let path = dir.join(file);
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let (a, b) = (write("a.off", 0.0), write("b.off", 1.0));
+    let out = dir.join("pair.glb");
+    let output = morphlod(&[a.as_os_str(), b.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let glb = std::fs::read(&out).unwrap();
+    check_structure(&glb, "a", 4, true);
+    let gltf = gltf::Gltf::from_slice(&glb).unwrap();
+    let counts: Vec<usize> = gltf
+        .meshes()
+        .map(|m| {
+            let p = m.primitives().next().unwrap();
+            assert_eq!(p.morph_targets().count(), 1);
+            p.indices().unwrap().count() / 3
+        })
+        .collect();
+    assert!(counts.windows(2).all(|w| w[0] > w[1]), "{counts:?}");
+    validate_clean(&out);
+}
+
+/// Bad input: a message on stderr and exit code 1, no panic.
+#[test]
+fn bad_input_is_refused_with_exit_code_1() {
+    let dir = temp_dir("bad");
+    let face = asset("makehuman_face.glb");
+    let out = dir.join("out.glb");
+    let not_gltf = dir.join("not.glb");
+    std::fs::write(&not_gltf, "this is not glTF").unwrap();
+    let off = asset("cow.off");
+    let missing = dir.join("missing.glb");
+    let cases: Vec<(Vec<&std::ffi::OsStr>, &str)> = vec![
+        (vec![missing.as_os_str()], "missing"),
+        (vec![not_gltf.as_os_str()], "not.glb"),
+        (vec![off.as_os_str()], "two meshes"),
+        (
+            vec![face.as_os_str(), "--lods".as_ref(), "1.5".as_ref()],
+            "--lods",
+        ),
+        (
+            vec![face.as_os_str(), "--lods".as_ref(), "0".as_ref()],
+            "--lods",
+        ),
+        (
+            vec![face.as_os_str(), "--lods".as_ref(), "0.25,0.5".as_ref()],
+            "decreasing",
+        ),
+        (
+            vec![face.as_os_str(), "--poses".as_ref(), "0".as_ref()],
+            "--poses 0",
+        ),
+    ];
+    for (args, expected) in cases {
+        let mut args = args;
+        args.extend(["-o".as_ref(), out.as_os_str()]);
+        let output = morphlod(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains("error:"), "{args:?}: {stderr}");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+    let wrong_extension = dir.join("out.mlod");
+    let output = morphlod(&[face.as_os_str(), "-o".as_ref(), wrong_extension.as_os_str()]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&output.stderr).contains(".glb"));
+}
