@@ -647,6 +647,13 @@ fn surfaces_round_trip_and_old_files_have_none() {
     assert!(!sections_of(&grid().1)
         .iter()
         .any(|(t, _)| t == b"SURF" || t == b"TEXR"));
+    // A surface makes the file version 2, which a version-1 reader refuses (it would show
+    // the attribute-level LODs between step boundaries, seams torn open); without one the
+    // file stays version 1, readable by every earlier build.
+    let version = |b: &[u8]| u16::from_le_bytes([b[8], b[9]]);
+    assert_eq!(version(bytes), 2);
+    assert_eq!(version(&grid().1), 1);
+    assert_eq!(inspect(bytes).unwrap().1.version, 2);
 }
 
 #[test]

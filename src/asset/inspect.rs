@@ -1,9 +1,7 @@
 //! The report of a `.mlod` file (`morphlod info`): its sections, frames and sizes, and
 //! how they compare with the plain indexed mesh.
 
-use super::{
-    decode, tag_name, Asset, AssetError, AssetLoadOptions, HEADER_LEN, SECTION_ENTRY_LEN, VERSION,
-};
+use super::{decode, tag_name, Asset, AssetError, AssetLoadOptions, HEADER_LEN, SECTION_ENTRY_LEN};
 use crate::strip::strip_triangles;
 use std::fmt;
 
@@ -128,7 +126,7 @@ pub fn inspect_with(
     let (asset, table, frame_infos) = decode(bytes, options)?;
     let (n, s0, blend) = (asset.v0.len(), &asset.s0, &asset.blend);
     let info = AssetInfo {
-        version: VERSION,
+        version: u16::from_le_bytes([bytes[8], bytes[9]]),
         file_bytes: bytes.len(),
         header_bytes: HEADER_LEN,
         table_bytes: table.len() * SECTION_ENTRY_LEN,

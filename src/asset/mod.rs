@@ -158,8 +158,13 @@ pub const MAX_TARGETS: usize = 64;
 
 /// The first 8 bytes of every `.mlod` file.
 pub const MAGIC: [u8; 8] = *b"\x89MLD\r\n\x1a\n";
-/// The format version this build writes and the newest it reads.
-pub const VERSION: u16 = 1;
+/// The newest format version this build reads and writes. Version 2 marks files with a
+/// surface (`SURF`): their frames are attribute-level sequences whose LODs must snap to step
+/// boundaries, which a version-1 reader would not do (it would show seams torn open), so such
+/// a reader must refuse them. Files without a surface are still written as version 1.
+pub const VERSION: u16 = 2;
+/// The version of files without a surface (what every earlier build wrote).
+pub const VERSION_PLAIN: u16 = 1;
 /// Most frames a file may hold: far more than any animation needs. It does not bound
 /// memory by itself (a repeated frame costs two bytes in the file); what does is that
 /// equal frames share one sequence and the [`AssetLoadOptions::max_bytes`] budget.
@@ -375,6 +380,16 @@ pub enum AssetError {
 }
 
 impl Asset {
+    /// The format version [`Asset::to_bytes`] writes for this asset: [`VERSION`] with a
+    /// surface, [`VERSION_PLAIN`] without (so such files stay readable by older builds).
+    pub fn format_version(&self) -> u16 {
+        if self.surface.is_some() {
+            VERSION
+        } else {
+            VERSION_PLAIN
+        }
+    }
+
     /// The file bytes. Never fails: an asset that breaks the format's rules
     /// (a collapse out of range, decreasing strip offsets, ...) is written as
     /// is and refused by [`Asset::from_bytes`] with the matching error. Errors
@@ -414,7 +429,7 @@ impl Asset {
         }
         let mut out = Vec::with_capacity(HEADER_LEN + body.len());
         out.extend_from_slice(&MAGIC);
-        out.extend_from_slice(&VERSION.to_le_bytes());
+        out.extend_from_slice(&self.format_version().to_le_bytes());
         out.extend_from_slice(&0u16.to_le_bytes());
         out.extend_from_slice(&(sections.len() as u32).to_le_bytes());
         out.extend_from_slice(&(body.len() as u64).to_le_bytes());
