@@ -22,15 +22,12 @@
 use std::path::Path;
 
 use morphlod::io::LoadOptions;
-use morphlod::io::{load_morph, MorphSource};
-use morphlod::mesh::clean::{clean, CleanOptions};
+use morphlod::io::MorphSource;
 use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
-use morphlod::morph::Morph;
 use morphlod::Builder;
 
 mod common;
 use common::lod_for;
-use morphlod::IndexedMesh;
 use rayon::prelude::*;
 
 /// Sampled frames of the per-frame builder (the CLI's default).
@@ -40,26 +37,6 @@ const TIMES: usize = 64;
 /// Samples per surface and comparison (plus every vertex of the surface).
 const SAMPLES: usize = 50_000;
 const PERCENTS: [usize; 2] = [10, 5];
-
-/// The morph over cleaned connectivity (no repeated-vertex or duplicate
-/// triangle, no unused vertex), as the asset builder simplifies it.
-fn load(name: &str, source: MorphSource) -> Morph {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets")
-        .join(name);
-    let morph = match load_morph(&path, &LoadOptions::default(), &source) {
-        Ok(m) => m,
-        Err(e) => panic!("{name}: {e}"),
-    };
-    let base = IndexedMesh {
-        positions: morph.v0(),
-        triangles: morph.triangles().to_vec(),
-    };
-    let cleaned = clean(&base, &CleanOptions::default()).expect("a valid glTF mesh");
-    morph
-        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
-        .expect("clean's vertex map is in range")
-}
 
 /// Error of the LOD triangles `lod` against the full surface, both over `positions`.
 fn error(
@@ -82,7 +59,7 @@ type Row = Vec<[(f64, f64, usize); 3]>;
 
 fn table(file: &str, source: MorphSource) -> Vec<[(f64, f64); 3]> {
     let name = format!("{file} ({source:?})");
-    let morph = load(file, source);
+    let morph = common::load_asset_morph(file, source);
     let tris = morph.triangles();
     let (asset, _) = Builder::new(&morph)
         .frames(FRAMES)
@@ -111,15 +88,7 @@ fn table(file: &str, source: MorphSource) -> Vec<[(f64, f64); 3]> {
             let t = i as f32 / (TIMES - 1) as f32;
             let k = (t * (FRAMES - 1) as f32).round() as usize;
             let pos = morph.positions_at(t);
-            let mesh = IndexedMesh {
-                positions: pos.clone(),
-                triangles: tris.to_vec(),
-            };
-            let (lo, hi) = mesh.bounds().expect("a non-empty mesh");
-            let diagonal = (0..3)
-                .map(|a| ((hi[a] - lo[a]) as f64).powi(2))
-                .sum::<f64>()
-                .sqrt();
+            let diagonal = common::diagonal(&pos);
             let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
             let full_samples = sample_surface(&pos, tris, SAMPLES, 1).expect("indices in range");
             targets
@@ -235,7 +204,7 @@ fn quality_over_the_animation() {
 fn body_baby_per_frame_at_most_0_7_of_rest_pose() {
     const TIMES: usize = 16;
     const FEW: usize = 20_000;
-    let morph = load(
+    let morph = common::load_asset_morph(
         "makehuman_body.glb",
         MorphSource::Target("caucasian-male-baby".into()),
     );
@@ -326,15 +295,7 @@ fn man_to_camel_supermesh_quality_over_t() {
             let seq = &asset.frames[k];
             let lod = seq.reference_mesh(tris, lod_for(seq, tris, target));
             let pos = morph.positions_at(t);
-            let mesh = IndexedMesh {
-                positions: pos.clone(),
-                triangles: tris.to_vec(),
-            };
-            let (lo, hi) = mesh.bounds().expect("a non-empty mesh");
-            let diagonal = (0..3)
-                .map(|a| ((hi[a] - lo[a]) as f64).powi(2))
-                .sum::<f64>()
-                .sqrt();
+            let diagonal = common::diagonal(&pos);
             let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
             let full_samples = sample_surface(&pos, tris, SAMPLES, 1).expect("indices in range");
             let e = error(&pos, &full, &full_samples, &lod, 2);

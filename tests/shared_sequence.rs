@@ -15,15 +15,12 @@
 //!
 //! `cargo test --release --test shared_sequence -- --ignored --nocapture`
 
-use std::path::Path;
-
 use morphlod::build::Sequences;
-use morphlod::io::{load_morph, LoadOptions, MorphSource};
-use morphlod::mesh::clean::{clean, CleanOptions};
+use morphlod::io::MorphSource;
 use morphlod::metrics::{directed_error, sample_surface, symmetric, SurfaceIndex};
 use morphlod::morph::Morph;
 use morphlod::simplify::{simplify, simplify_poses, PoseError, SimplifyOptions};
-use morphlod::{Builder, DeformingModel, DeformingState, IndexedMesh, Lod};
+use morphlod::{Builder, DeformingModel, DeformingState, Lod};
 use rayon::prelude::*;
 
 mod common;
@@ -31,35 +28,11 @@ use common::{lod_for, meshopt_simplify_with};
 
 const FRAMES: usize = 32;
 
-fn load(name: &str, source: MorphSource) -> Morph {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets")
-        .join(name);
-    let morph = load_morph(&path, &LoadOptions::default(), &source)
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
-    let base = IndexedMesh {
-        positions: morph.v0(),
-        triangles: morph.triangles().to_vec(),
-    };
-    let cleaned = clean(&base, &CleanOptions::default()).expect("a valid glTF mesh");
-    morph
-        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
-        .expect("clean's vertex map is in range")
-}
-
 /// Symmetric Hausdorff and RMS of `lod` against the full mesh at `t`, in % of the diagonal.
 fn error_at(morph: &Morph, t: f32, lod: &[[u32; 3]], samples: usize) -> (f64, f64) {
     let tris = morph.triangles();
     let pos = morph.positions_at(t);
-    let mesh = IndexedMesh {
-        positions: pos.clone(),
-        triangles: tris.to_vec(),
-    };
-    let (lo, hi) = mesh.bounds().expect("a non-empty mesh");
-    let diagonal = (0..3)
-        .map(|a| ((hi[a] - lo[a]) as f64).powi(2))
-        .sum::<f64>()
-        .sqrt();
+    let diagonal = common::diagonal(&pos);
     let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
     let full_samples = sample_surface(&pos, tris, samples, 1).expect("indices in range");
     let index = SurfaceIndex::new(&pos, lod).expect("indices in range");
@@ -184,7 +157,8 @@ fn table(
 #[test]
 #[ignore = "prints the pose-aware quality table; run in release"]
 fn pose_aware_quality_over_the_animation() {
-    let body = load("makehuman_body.glb", MorphSource::Animation("morph".into()));
+    let body =
+        common::load_asset_morph("makehuman_body.glb", MorphSource::Animation("morph".into()));
     table(
         "makehuman_body (animation over its 4 morphs)",
         &body,
@@ -192,7 +166,7 @@ fn pose_aware_quality_over_the_animation() {
         64,
         50_000,
     );
-    let face = load(
+    let face = common::load_asset_morph(
         "makehuman_face.glb",
         MorphSource::Animation("expressions".into()),
     );
@@ -203,7 +177,8 @@ fn pose_aware_quality_over_the_animation() {
         64,
         50_000,
     );
-    let head = load("makehuman_head.glb", MorphSource::Animation("morph".into()));
+    let head =
+        common::load_asset_morph("makehuman_head.glb", MorphSource::Animation("morph".into()));
     table(
         "makehuman_head (expression animation)",
         &head,
@@ -219,7 +194,8 @@ fn pose_aware_quality_over_the_animation() {
 /// than the table to fit the test profile. (With the mean over poses it is not: 0.78×.)
 #[test]
 fn shared_sequence_beats_base_pose_simplification_on_the_body() {
-    let body = load("makehuman_body.glb", MorphSource::Animation("morph".into()));
+    let body =
+        common::load_asset_morph("makehuman_body.glb", MorphSource::Animation("morph".into()));
     let rows = table("makehuman_body, 10%", &body, &[10], 16, 20_000);
     let [s, _, _, m, _] = [0, 1, 2, 3, 4].map(|i| rows[0][i][0]);
     assert!(

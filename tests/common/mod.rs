@@ -302,6 +302,34 @@ pub fn meshopt_simplify_with(
     out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
 }
 
+/// The morph of `assets/<name>` over cleaned connectivity (no repeated-vertex or duplicate
+/// triangle, no unused vertex), as the asset builder simplifies it.
+pub fn load_asset_morph(name: &str, source: morphlod::io::MorphSource) -> Morph {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
+    let morph = morphlod::io::load_morph(&path, &morphlod::io::LoadOptions::default(), &source)
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let base = morphlod::IndexedMesh {
+        positions: morph.v0(),
+        triangles: morph.triangles().to_vec(),
+    };
+    let cleaned = morphlod::mesh::clean::clean(&base, &Default::default()).expect("a valid mesh");
+    morph
+        .select(&cleaned.vertex_map, cleaned.mesh.triangles)
+        .expect("clean's vertex map is in range")
+}
+
+/// The length of the bounding-box diagonal of `positions` (the unit the quality tests report
+/// errors in), in `f64`.
+pub fn diagonal(positions: &[[f32; 3]]) -> f64 {
+    let (lo, hi) = morphlod::mesh::bounds(positions).expect("a non-empty mesh");
+    (0..3)
+        .map(|a| ((hi[a] - lo[a]) as f64).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
 /// The first LOD with at most `target` triangles (every collapse removes at
 /// least one, so counts strictly fall along a sequence).
 pub fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usize {
