@@ -98,7 +98,7 @@ pub fn simplify(
     triangles: &[[u32; 3]],
     options: &SimplifyOptions,
 ) -> CollapseSequence {
-    simplify_poses(&[positions], triangles, options, PoseError::Mean)
+    simplify_poses(&[positions], triangles, options, PoseError::default())
 }
 
 /// One collapse sequence for several poses of one triangulation (pose-aware simplification):
@@ -157,7 +157,7 @@ pub fn simplify_with_seams(
     rule: &SeamRule,
     options: &SimplifyOptions,
 ) -> CollapseSequence {
-    simplify_poses_with_seams(&[positions], triangles, rule, options, PoseError::Max)
+    simplify_poses_with_seams(&[positions], triangles, rule, options, PoseError::default())
 }
 
 /// [`simplify_with_seams`] over several poses, as [`simplify_poses`] does for meshes without
@@ -562,17 +562,13 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         let n = poses[0].len();
         let vt = VertexTriangles::new(&tris, n);
         let (kind, boundary_edges) = classify(&tris, &vt);
-        let quadric = if poses.len() == 1 {
-            quadrics(poses[0], &tris, &boundary_edges, options)
-        } else {
-            let per_pose: Vec<Vec<Quadric>> = poses
-                .iter()
-                .map(|pos| quadrics(pos, &tris, &boundary_edges, options))
-                .collect();
-            (0..n)
-                .flat_map(|v| per_pose.iter().map(move |q| q[v]))
-                .collect()
-        };
+        let per_pose: Vec<Vec<Quadric>> = poses
+            .iter()
+            .map(|pos| quadrics(pos, &tris, &boundary_edges, options))
+            .collect();
+        let quadric = (0..n)
+            .flat_map(|v| per_pose.iter().map(move |q| q[v]))
+            .collect();
 
         let mut span = Vec::with_capacity(n);
         let mut pool = Vec::with_capacity(tris.len() * 3 * 3);
@@ -626,7 +622,6 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             .map(|(pose, q)| q.error(self.p(pose, w)));
         let first = errors.next().unwrap_or(0.0);
         match self.combine {
-            PoseError::Mean if count == 1 => first,
             PoseError::Mean => errors.fold(first, |a, e| a + e) / count as f64,
             PoseError::Max => errors.fold(first, f64::max),
         }
