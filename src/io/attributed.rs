@@ -80,6 +80,17 @@ pub fn load_attributed(path: &Path, options: &LoadOptions) -> Result<AttributedM
     }
 }
 
+/// The linear value of an sRGB-encoded colour channel in `[0, 1]` (the sRGB transfer
+/// function, IEC 61966-2-1): OBJ and PLY vertex colours are display values, glTF's COLOR_0
+/// and [`Attributes::colors`] are linear.
+pub(super) fn srgb_to_linear(encoded: f32) -> f32 {
+    if encoded <= 0.04045 {
+        encoded / 12.92
+    } else {
+        ((encoded + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// The two-pose morph from `a` to `b` for meshes of one connectivity (checked on their
 /// positions as [`Morph::from_meshes`] does; its errors say when they differ). The morph
 /// has `a`'s attribute vertices and attributes, each vertex moving to its position in `b`;

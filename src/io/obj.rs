@@ -11,8 +11,12 @@
 //! carries its UV and normal. OBJ's UVs have `v` up; they are flipped to glTF's `v` down
 //! (`v' = 1 − v`), the convention [`Attributes::uvs`] states. A `vt` or `vn` used by only
 //! some corners is ignored (a corner without it has nothing to give its vertex).
+//!
+//! Vertex colours come from the common `v x y z r g b` extension (MeshLab, ZBrush,
+//! three.js's OBJLoader): display values in `[0, 1]`, decoded from sRGB to the linear values
+//! [`Attributes::colors`] holds, alpha 1. They are used when every `v` has them.
 
-use super::attributed::{split_corners, AttributedMesh};
+use super::attributed::{split_corners, srgb_to_linear, AttributedMesh};
 use super::polygon::Polygons;
 use super::text::{self, coordinate, integer, tokens};
 use super::{read, validated, LoadError, Location};
@@ -46,6 +50,9 @@ struct ObjFile {
     mesh: IndexedMesh,
     uvs: Vec<[f32; 2]>,
     normals: Vec<[f32; 3]>,
+    /// The `r g b` of each `v` that has them, in file order: the file's colours when every
+    /// `v` does (then there are as many as positions).
+    colors: Vec<[f32; 3]>,
     faces: Faces,
     /// The first `vt`/`vn` index that names nothing: an error for [`parse_attributed`]
     /// only, since [`parse`] has never read them (and so keeps loading such files).
@@ -77,6 +84,7 @@ impl ObjFile {
             mesh: IndexedMesh::default(),
             uvs: Vec::new(),
             normals: Vec::new(),
+            colors: Vec::new(),
             faces: Faces::default(),
             bad_attribute: None,
             largest: Largest::default(),
@@ -167,8 +175,22 @@ impl ObjFile {
         let corners = &self.faces.corners;
         let with_uvs = !corners.is_empty() && corners.iter().all(|c| c.uv.is_some());
         let with_normals = !corners.is_empty() && corners.iter().all(|c| c.normal.is_some());
+        // Colours belong to positions, so they never split a vertex.
+        let colors = (self.colors.len() == self.mesh.vertex_count()).then(|| {
+            self.colors
+                .iter()
+                .map(|&[r, g, b]| {
+                    let [r, g, b] = [r, g, b].map(|c| srgb_to_linear(c.clamp(0.0, 1.0)));
+                    [r, g, b, 1.0]
+                })
+                .collect::<Vec<_>>()
+        });
         if !with_uvs && !with_normals {
-            return Ok(AttributedMesh::unsplit(self.mesh, Attributes::default()));
+            let attributes = Attributes {
+                colors,
+                ..Attributes::default()
+            };
+            return Ok(AttributedMesh::unsplit(self.mesh, attributes));
         }
         let mut keyed = Vec::with_capacity(3 * self.mesh.triangles.len());
         for (t, triangle) in self.mesh.triangles.iter().enumerate() {
@@ -205,6 +227,8 @@ impl ObjFile {
                 .map(|&(_, (_, n))| n.map_or([0.0; 3], |i| self.normals[i as usize]))
                 .collect()
         });
+        let colors =
+            colors.map(|colors| vertices.iter().map(|&(p, _)| colors[p as usize]).collect());
         Ok(AttributedMesh {
             positions: self.mesh,
             position_of: vertices.iter().map(|&(p, _)| p).collect(),
@@ -212,6 +236,7 @@ impl ObjFile {
             attributes: Attributes {
                 normals,
                 uvs,
+                colors,
                 ..Attributes::default()
             },
         })
@@ -263,9 +288,16 @@ impl ObjFile {
         };
         match keyword {
             Some(b"v") => {
-                let mut position = [0.0f32; 3];
-                read(3, &mut position)?;
-                self.mesh.positions.push(position);
+                // `x y z`, then `w` or the colour extension's `r g b`: exactly six numbers
+                // are a position and a colour.
+                let colored = tokens(line).count() == 7;
+                let mut values = [0.0f32; 6];
+                read(3, &mut values[..if colored { 6 } else { 3 }])?;
+                let [x, y, z, r, g, b] = values;
+                if colored {
+                    self.colors.push([r, g, b]);
+                }
+                self.mesh.positions.push([x, y, z]);
             }
             Some(b"vt") => {
                 let mut uv = [0.0f32; 2];
@@ -429,6 +461,46 @@ mod tests {
     fn continuation_crlf_and_forward_reference() {
         let mesh = obj("f 1 2 \\\r\n 3\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\n").unwrap();
         assert_eq!(mesh.triangles, vec![[0, 1, 2]]);
+    }
+
+    #[test]
+    fn vertex_colours_follow_their_positions_across_uv_seams() {
+        // Vertex 1 is split by two UVs; both copies keep its colour.
+        let text = "v 0 0 0 1 0 0\nv 1 0 0 0 0.5 1\nv 0 1 0 0 0 0\nv 1 1 0 1 1 1\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nf 2/1 4/2 3/3\n";
+        let mesh = parse_attributed(text.as_bytes(), Path::new("c.obj")).unwrap();
+        let colors = mesh
+            .attributes
+            .colors
+            .as_ref()
+            .expect("every `v` has r g b");
+        assert_eq!(colors.len(), mesh.position_of.len());
+        assert_eq!(mesh.position_of.len(), 5, "vertex 1 split at the seam");
+        for (vertex, &p) in mesh.position_of.iter().enumerate() {
+            let expected = match p {
+                0 => [1.0, 0.0, 0.0, 1.0],
+                // sRGB 0.5 is linear 0.2140...
+                1 => [0.0, srgb_to_linear(0.5), 1.0, 1.0],
+                2 => [0.0, 0.0, 0.0, 1.0],
+                _ => [1.0; 4],
+            };
+            assert_eq!(colors[vertex], expected, "vertex {vertex} at position {p}");
+        }
+        assert!((srgb_to_linear(0.5) - 0.21404).abs() < 1e-4);
+        // Without UVs or normals the colours still come through, one per position.
+        let plain = parse_attributed(
+            b"v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0 1 0 0\nf 1 2 3\n",
+            Path::new("p.obj"),
+        )
+        .unwrap();
+        assert_eq!(plain.attributes.colors.map(|c| c.len()), Some(3));
+        // `w` (four numbers) is not a colour, and colours on only some `v` are not used.
+        for text in [
+            "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n",
+            "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        ] {
+            let mesh = parse_attributed(text.as_bytes(), Path::new("w.obj")).unwrap();
+            assert!(mesh.attributes.colors.is_none(), "{text}");
+        }
     }
 
     #[test]

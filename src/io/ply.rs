@@ -2,17 +2,22 @@
 //!
 //! The header declares elements, each a count and a record layout of scalar
 //! and list properties. Only `vertex` (its `x y z`, any scalar type, and where present
-//! its normal `nx ny nz` and texture coordinates `u v`, `s t`, `texture_u texture_v` or
-//! `texture_s texture_t`) and `face` (its `vertex_indices` / `vertex_index` list) are kept;
-//! every other property and element (colours, `edge`, `material`, ...) must still
+//! its normal `nx ny nz`, texture coordinates `u v`, `s t`, `texture_u texture_v` or
+//! `texture_s texture_t`, and colour `red green blue [alpha]`) and `face` (its
+//! `vertex_indices` / `vertex_index` list) are kept;
+//! every other property and element (`edge`, `material`, ...) must still
 //! be stepped over exactly, because in a binary file its bytes sit between the
 //! ones we want. Big-endian files are rejected rather than byte-swapped: they
 //! are rare, and a wrong guess would load garbage silently.
 //!
 //! PLY texture coordinates have `v` up (as OBJ's); they are flipped to glTF's `v` down
 //! (`v' = 1 − v`), the convention [`crate::morph::Attributes::uvs`] states.
+//!
+//! PLY colours are display (sRGB-encoded) values, integers scaled by their type's maximum
+//! (`uchar` by 255, as scanners and MeshLab write them) or floats in `[0, 1]`; they are
+//! decoded to the linear values [`crate::morph::Attributes::colors`] holds, alpha as is.
 
-use super::attributed::AttributedMesh;
+use super::attributed::{srgb_to_linear, AttributedMesh};
 use super::polygon::Polygons;
 use super::text::{self, capacity, finite_f32};
 use super::{read, validated, LoadError, Location};
@@ -35,7 +40,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<IndexedMesh, LoadError> {
     Ok(parse_attributed(bytes, path)?.positions)
 }
 
-/// Parses PLY bytes with the vertices' normals and texture coordinates where the header
+/// Parses PLY bytes with the vertices' normals, texture coordinates and colours where the header
 /// declares them (one per vertex: PLY vertices are attribute vertices).
 pub fn parse_attributed(bytes: &[u8], path: &Path) -> Result<AttributedMesh, LoadError> {
     let bytes = text::strip_bom(bytes);
@@ -58,6 +63,7 @@ pub fn parse_attributed(bytes: &[u8], path: &Path) -> Result<AttributedMesh, Loa
     let mut positions: Vec<[f32; 3]> = Vec::new();
     let mut normals: Vec<[f32; 3]> = Vec::new();
     let mut uvs: Vec<[f32; 2]> = Vec::new();
+    let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corners: Vec<u32> = Vec::new();
     let mut polygons = Polygons::default();
@@ -85,11 +91,18 @@ pub fn parse_attributed(bytes: &[u8], path: &Path) -> Result<AttributedMesh, Loa
                 let mut position = [0.0f32; 3];
                 let mut normal = [0.0f32; 3];
                 let mut uv = [0.0f32; 2];
+                // Opaque unless an `alpha` property says otherwise.
+                let mut color = [1.0f32; 4];
                 for (p, property) in element.properties.iter().enumerate() {
                     let slot = match (layout.slot(p), property.kind) {
                         (Slot::Position(axis), Kind::Scalar(ty)) => (&mut position[axis], ty),
                         (Slot::Normal(axis), Kind::Scalar(ty)) => (&mut normal[axis], ty),
                         (Slot::Uv(axis), Kind::Scalar(ty)) => (&mut uv[axis], ty),
+                        (Slot::Color(channel), Kind::Scalar(ty)) => {
+                            let value = reader.coordinate(ty, &record)?;
+                            color[channel] = channel_value(value, ty, channel);
+                            continue;
+                        }
                         _ => {
                             reader.skip(property.kind, &record)?;
                             continue;
@@ -103,6 +116,9 @@ pub fn parse_attributed(bytes: &[u8], path: &Path) -> Result<AttributedMesh, Loa
                 }
                 if layout.uv.is_some() {
                     uvs.push([uv[0], 1.0 - uv[1]]);
+                }
+                if layout.color.is_some() {
+                    colors.push(color);
                 }
             } else if e == layout.face {
                 for (p, property) in element.properties.iter().enumerate() {
@@ -156,9 +172,30 @@ pub fn parse_attributed(bytes: &[u8], path: &Path) -> Result<AttributedMesh, Loa
     let attributes = Attributes {
         normals: layout.normal.map(|_| normals),
         uvs: layout.uv.map(|_| uvs),
+        colors: layout.color.map(|_| colors),
         ..Attributes::default()
     };
     Ok(AttributedMesh::unsplit(mesh, attributes))
+}
+
+/// A colour channel in `[0, 1]`, linear: integers scaled by their type's maximum, the RGB
+/// channels decoded from sRGB (channel 3 is alpha, stored linear in every format).
+fn channel_value(value: f32, ty: Scalar, channel: usize) -> f32 {
+    let max = match ty {
+        Scalar::I8 => f32::from(i8::MAX),
+        Scalar::U8 => f32::from(u8::MAX),
+        Scalar::I16 => f32::from(i16::MAX),
+        Scalar::U16 => f32::from(u16::MAX),
+        Scalar::I32 => i32::MAX as f32,
+        Scalar::U32 => u32::MAX as f32,
+        Scalar::F32 | Scalar::F64 => 1.0,
+    };
+    let encoded = (value / max).clamp(0.0, 1.0);
+    if channel == 3 {
+        encoded
+    } else {
+        srgb_to_linear(encoded)
+    }
 }
 
 /// A PLY scalar type, with its aliases (`float` = `float32`, ...).
@@ -264,6 +301,9 @@ struct MeshLayout {
     normal: Option<[usize; 3]>,
     /// The texture coordinate pair of scalar properties, when declared.
     uv: Option<[usize; 2]>,
+    /// The `red`, `green`, `blue` scalar properties when all three are declared, and
+    /// `alpha` when it is too.
+    color: Option<([usize; 3], Option<usize>)>,
     face: usize,
     /// The vertex-index list property of the face element.
     indices: usize,
@@ -274,6 +314,8 @@ enum Slot {
     Position(usize),
     Normal(usize),
     Uv(usize),
+    /// Red, green, blue, alpha: 0 to 3.
+    Color(usize),
     Other,
 }
 
@@ -286,8 +328,12 @@ impl MeshLayout {
         if let Some(axis) = self.normal.as_ref().and_then(|n| find(n)) {
             return Slot::Normal(axis);
         }
-        match self.uv.as_ref().and_then(|uv| find(uv)) {
-            Some(axis) => Slot::Uv(axis),
+        if let Some(axis) = self.uv.as_ref().and_then(|uv| find(uv)) {
+            return Slot::Uv(axis);
+        }
+        match self.color {
+            Some((_, Some(alpha))) if alpha == property => Slot::Color(3),
+            Some((rgb, _)) => find(&rgb).map_or(Slot::Other, Slot::Color),
             None => Slot::Other,
         }
     }
@@ -473,6 +519,10 @@ impl Header {
             [Some(u), Some(v)] => Some([u, v]),
             _ => None,
         });
+        let color = match ["red", "green", "blue"].map(scalar) {
+            [Some(r), Some(g), Some(b)] => Some(([r, g, b], scalar("alpha"))),
+            _ => None,
+        };
         let faces = &self.elements[face];
         let indices = faces
             .properties
@@ -499,6 +549,7 @@ impl Header {
             xyz,
             normal,
             uv,
+            color,
             face,
             indices,
         })
@@ -800,6 +851,39 @@ mod tests {
         let mesh = parse_attributed(partial.as_bytes(), Path::new("p.ply")).unwrap();
         assert!(!mesh.attributes.has_vertex_attributes());
         assert_eq!(mesh.positions.positions[1], [1.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn colours_are_read_and_decoded_from_srgb() {
+        // `uchar` channels with alpha, as MeshLab writes them; properties in any order.
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty uchar alpha\nproperty float x\nproperty uchar blue\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                    255 0 0 0 0 255 0\n128 1 255 0 0 0 255\n0 0 10 1 0 255 255\n3 0 1 2\n";
+        let mesh = parse_attributed(text.as_bytes(), Path::new("c.ply")).unwrap();
+        let colors = mesh
+            .attributes
+            .colors
+            .expect("red, green and blue are declared");
+        assert_eq!(colors[0], [1.0, 0.0, 0.0, 1.0]);
+        assert_eq!(colors[1], [0.0, 1.0, 1.0, 128.0 / 255.0]);
+        // sRGB 10/255 lies on the transfer function's linear segment: 10/255/12.92.
+        assert!(
+            (colors[2][2] - 10.0 / 255.0 / 12.92).abs() < 1e-7,
+            "{colors:?}"
+        );
+        assert_eq!(colors[2][3], 0.0);
+        // Float channels are in [0, 1]; no `alpha` means opaque; mid-grey decodes to ~0.214.
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float red\nproperty float green\nproperty float blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                    0 0 0 0.5 0.5 0.5\n1 0 0 1 1 1\n0 1 0 0 0 0\n3 0 1 2\n";
+        let mesh = parse_attributed(text.as_bytes(), Path::new("f.ply")).unwrap();
+        let colors = mesh.attributes.colors.unwrap();
+        assert!((colors[0][0] - 0.21404).abs() < 1e-4, "{colors:?}");
+        assert_eq!(colors[1], [1.0; 4]);
+        // `red` alone is not a colour.
+        let mesh = parse_attributed(
+            PLY_PARTIAL.replace("float u", "uchar red").as_bytes(),
+            Path::new("r.ply"),
+        );
+        assert!(mesh.unwrap().attributes.colors.is_none());
     }
 
     const PLY_PARTIAL: &str = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float u\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n3 0 1 2\n";
