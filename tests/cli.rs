@@ -468,3 +468,100 @@ fn info_reports_attributes_and_seams() {
         "{stdout}"
     );
 }
+
+/// A tetrahedron with UVs in `dir/name.gltf` whose base-colour texture is the external file
+/// `dir/name.png` holding `png`.
+fn textured_tetrahedron(dir: &Scratch, name: &str, png: &[u8]) -> PathBuf {
+    let positions: [[f32; 3]; 4] = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let uvs: [[f32; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+    let indices: [u16; 12] = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3];
+    let mut bin = Vec::new();
+    positions
+        .iter()
+        .flatten()
+        .for_each(|c| bin.extend(c.to_le_bytes()));
+    uvs.iter()
+        .flatten()
+        .for_each(|c| bin.extend(c.to_le_bytes()));
+    indices.iter().for_each(|i| bin.extend(i.to_le_bytes()));
+    std::fs::write(dir.path(&format!("{name}.bin")), &bin).unwrap();
+    std::fs::write(dir.path(&format!("{name}.png")), png).unwrap();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},
+        "buffers":[{{"uri":"{name}.bin","byteLength":{}}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":32}},{{"buffer":0,"byteOffset":80,"byteLength":24}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,1]}},
+                     {{"bufferView":1,"componentType":5126,"count":4,"type":"VEC2"}},
+                     {{"bufferView":2,"componentType":5123,"count":12,"type":"SCALAR"}}],
+        "images":[{{"uri":"{name}.png"}}],"textures":[{{"source":0}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1}},"indices":2,"material":0}}]}}],
+        "nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0}}"#,
+        bin.len()
+    );
+    let path = dir.path(&format!("{name}.gltf"));
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+/// A texture whose header is a PNG's but whose data does not decode is refused by `info`,
+/// `build` and `export` when loading, before anything is written (loading alone checks only
+/// the header), while the same file with a real PNG goes through.
+#[test]
+fn a_texture_that_does_not_decode_is_refused_before_writing() {
+    let dir = Scratch::new("texture");
+    let mut good = Vec::new();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255]))
+        .write_to(
+            &mut std::io::Cursor::new(&mut good),
+            image::ImageFormat::Png,
+        )
+        .unwrap();
+    // The signature and the IHDR chunk of a 2 x 2 RGBA image, then no image data.
+    let mut broken = b"\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x00\x02\x00\x00\x00\x02\x08\x06\x00\x00\x00".to_vec();
+    broken.extend_from_slice(b"\x00\x00\x00\x00 not a PNG any more");
+    let good = textured_tetrahedron(&dir, "good", &good);
+    let broken = textured_tetrahedron(&dir, "broken", &broken);
+    for (input, decodes) in [(&good, true), (&broken, false)] {
+        let input = input.to_str().unwrap();
+        let mlod = dir.path("out.mlod");
+        let glb = dir.path("out.glb");
+        let _ = std::fs::remove_file(&mlod);
+        let _ = std::fs::remove_file(&glb);
+        let runs = [
+            morphlod(&["info", input]),
+            morphlod(&[
+                "build",
+                input,
+                input,
+                "--frames",
+                "2",
+                "-o",
+                mlod.to_str().unwrap(),
+            ]),
+            morphlod(&[
+                "export",
+                input,
+                "-o",
+                glb.to_str().unwrap(),
+                "--lods",
+                "0.5",
+            ]),
+        ];
+        for out in &runs {
+            let stderr = text(&out.stderr);
+            assert_eq!(out.status.success(), decodes, "{input}: {stderr}");
+            if !decodes {
+                assert!(stderr.contains("broken.gltf"), "{stderr}");
+                assert!(stderr.contains("(image/png) does not decode"), "{stderr}");
+            }
+        }
+        assert_eq!(mlod.exists(), decodes, "{input}");
+        assert_eq!(glb.exists(), decodes, "{input}");
+    }
+}

@@ -70,6 +70,7 @@ pub use object::{Object, Topology};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
 pub use records::{Draws, GROUP_INDICES};
 pub use render_target::{save_png, RenderTarget};
+pub use surface::decode_texture;
 pub use upload::{Upload, MERGE_GAP_BYTES};
 
 use std::path::PathBuf;

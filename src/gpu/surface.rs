@@ -70,7 +70,7 @@ impl GpuSurface {
         });
 
         let (texels, sampler) = match &surface.material.texture {
-            Some(texture) => (decode(texture)?, texture.sampler),
+            Some(texture) => (decode_texture(texture)?, texture.sampler),
             None => (
                 image::RgbaImage::from_pixel(1, 1, image::Rgba([255; 4])),
                 Sampler::default(),
@@ -171,8 +171,10 @@ fn interleave(surface: &Surface, vertex_count: usize) -> Vec<f32> {
     data
 }
 
-/// The texture's texels as RGBA8 (grey, RGB and 16-bit sources converted).
-fn decode(texture: &Texture) -> Result<image::RgbaImage, GpuError> {
+/// The texture's texels as RGBA8 (grey, RGB and 16-bit sources converted), as the renderer
+/// uploads them. Asset pipelines call it to refuse a texture that does not decode before
+/// they write anything ([`GpuError::TextureDecode`]).
+pub fn decode_texture(texture: &Texture) -> Result<image::RgbaImage, GpuError> {
     let format = match texture.format {
         ImageFormat::Png => image::ImageFormat::Png,
         ImageFormat::Jpeg => image::ImageFormat::Jpeg,
@@ -261,7 +263,7 @@ mod tests {
             bytes: b"\xff\xd8 not really a jpeg".to_vec(),
             sampler: Sampler::default(),
         };
-        let error = decode(&texture).expect_err("garbage does not decode");
+        let error = decode_texture(&texture).expect_err("garbage does not decode");
         assert!(matches!(
             error,
             GpuError::TextureDecode {

@@ -15,7 +15,7 @@ use morphlod::io::{
     load_attributed, load_mesh, morph_from_pair, AttributeSummary, Format, LoadError, LoadOptions,
 };
 use morphlod::mesh::clean::{clean, CleanOptions};
-use morphlod::morph::{Morph, MorphError};
+use morphlod::morph::{Attributes, Morph, MorphError};
 use morphlod::simplify::PoseError;
 use morphlod::topology::analyze;
 use morphlod::{Asset, IndexedMesh};
@@ -365,10 +365,24 @@ fn load_surface(path: &Path, options: &LoadOptions) -> Result<Morph, String> {
             other => return other.map_err(|e| e.to_string()),
         }
     }
-    load_attributed(path, options)
+    let morph = load_attributed(path, options)
         .map_err(|e| e.to_string())?
         .to_static_morph()
-        .map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    check_texture(morph.attributes(), path)?;
+    Ok(morph)
+}
+
+/// Refuses a base-colour texture that does not decode. Loading checks only the image's header
+/// (the core does not link an image decoder), so without this a broken image would be built or
+/// exported and fail only when drawn.
+fn check_texture(attributes: &Attributes, path: &Path) -> Result<(), String> {
+    match &attributes.material.texture {
+        Some(texture) => morphlod::gpu::decode_texture(texture)
+            .map(drop)
+            .map_err(|e| format!("{}: {e}", path.display())),
+        None => Ok(()),
+    }
 }
 
 /// A `.mlod` file by extension, or any file starting with the `.mlod` magic.
@@ -583,7 +597,10 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     ))
                 }
             };
-            morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())
+            let morph =
+                morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())?;
+            check_texture(morph.attributes(), path)?;
+            Ok(morph)
         }
         _ => Err("give one glTF file or two meshes".into()),
     }
@@ -599,6 +616,8 @@ pub(crate) fn load_pair(
 ) -> Result<Morph, String> {
     let a = load_attributed(a_path, options).map_err(|e| e.to_string())?;
     let b = load_attributed(b_path, options).map_err(|e| e.to_string())?;
+    // The morph takes the first mesh's material.
+    check_texture(&a.attributes, a_path)?;
     match morph_from_pair(&a, &b) {
         Ok(morph) => {
             if landmarks.is_some() {
