@@ -33,13 +33,16 @@ pub fn run_headless(
         library,
         args,
     )?;
+    for &command in &args.keys {
+        scene.apply(device, command)?;
+    }
     scene.view.playing = false;
     scene.show_keys = false;
     let frames = args.frames;
     println!(
         "{}: rendering {frames} frames of '{}' headless on {} ({:?}), {width}x{height}",
         demo.name,
-        library.label(args.morph),
+        library.label(scene.current),
         info.name,
         info.backend
     );

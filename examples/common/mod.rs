@@ -29,6 +29,7 @@ use thiserror::Error;
 
 use cache::Library;
 use headless::run_headless;
+use scene::Command;
 use window::{run_window, WindowOutcome};
 
 /// Background: the contact sheets' dark grey, which no lit surface colour matches.
@@ -104,6 +105,21 @@ pub struct CommonArgs {
     /// the first tenth of the frames (warm-up) and the last frame (Linux only)
     #[arg(long)]
     pub max_growth_mb: Option<f64>,
+    /// Headless: keys pressed before the first frame, by the names the window knows them by,
+    /// comma-separated (`],m`: the next morph, smooth shading); t and the LOD still follow the
+    /// sweep
+    #[arg(long, value_delimiter = ',', value_parser = parse_key)]
+    pub keys: Vec<Command>,
+}
+
+fn parse_key(name: &str) -> Result<Command, String> {
+    match Command::for_key(name) {
+        Some(Command::Quit) | None => Err(format!(
+            "'{name}' is not a key the demo acts on headless: give a character key (], [, n, m, s, l, r) \
+             or ArrowLeft, ArrowRight, ArrowUp, ArrowDown, Space"
+        )),
+        Some(command) => Ok(command),
+    }
 }
 
 fn parse_size(text: &str) -> Result<(u32, u32), String> {

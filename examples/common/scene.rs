@@ -113,11 +113,72 @@ impl View {
         };
     }
 
+    /// Carries out what `command` changes in the view. [`Command::StepMorph`] is the scene's:
+    /// its step is returned; [`Command::Quit`] is the caller's and changes nothing.
+    pub fn apply(&mut self, command: Command) -> Option<isize> {
+        match command {
+            Command::Quit => {}
+            Command::PlayPause => self.playing = !self.playing,
+            Command::StepT(delta) => self.step_t(delta),
+            Command::StepLod(coarser) => self.step_lod(coarser),
+            Command::ToggleLodControl => self.toggle_lod_control(),
+            Command::ToggleStrips => self.strips = !self.strips,
+            Command::NextShade => self.next_shade(),
+            Command::ResetView => {
+                let fresh = View::new(self.strips);
+                (self.yaw, self.pitch, self.zoom) = (fresh.yaw, fresh.pitch, fresh.zoom);
+            }
+            Command::StepMorph(step) => return Some(step),
+        }
+        None
+    }
+
     pub fn toggle_lod_control(&mut self) {
         self.lod = match self.lod {
             LodControl::Fraction(_) => LodControl::Pixels(1.0),
             LodControl::Pixels(_) => LodControl::Fraction(0.0),
         };
+    }
+}
+
+/// What a key does. The window maps each pressed key to one by its name ([`Command::for_key`]);
+/// the headless sequence replays `--keys` through the same table, so both mean the same.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Command {
+    Quit,
+    PlayPause,
+    /// Moves t by this much (and pauses).
+    StepT(f32),
+    /// One LOD step coarser (`true`) or finer.
+    StepLod(bool),
+    ToggleLodControl,
+    ToggleStrips,
+    NextShade,
+    ResetView,
+    /// Shows the morph this many places on (negative: back), wrapping around.
+    StepMorph(isize),
+}
+
+impl Command {
+    /// The command of a key by its name: winit's name of a named key (`Escape`, `Space`,
+    /// `ArrowLeft`, ...) or the character a key types (`q`, `]`, ...). `None`: the key does
+    /// nothing.
+    pub fn for_key(name: &str) -> Option<Command> {
+        Some(match name {
+            "Escape" | "q" => Command::Quit,
+            "Space" | " " => Command::PlayPause,
+            "ArrowRight" => Command::StepT(0.05),
+            "ArrowLeft" => Command::StepT(-0.05),
+            "ArrowUp" => Command::StepLod(false),
+            "ArrowDown" => Command::StepLod(true),
+            "l" => Command::ToggleLodControl,
+            "s" => Command::ToggleStrips,
+            "m" => Command::NextShade,
+            "r" => Command::ResetView,
+            "n" | "]" => Command::StepMorph(1),
+            "[" => Command::StepMorph(-1),
+            _ => return None,
+        })
     }
 }
 
@@ -367,6 +428,14 @@ impl<'a> Scene<'a> {
         )
     }
 
+    /// Carries out `command` (all but [`Command::Quit`], which ends the caller's loop).
+    pub fn apply(&mut self, device: &wgpu::Device, command: Command) -> Result<(), DemoError> {
+        match self.view.apply(command) {
+            Some(step) => self.step_morph(device, step),
+            None => Ok(()),
+        }
+    }
+
     /// Shows the morph `step` places after the current one (negative: before), wrapping
     /// around; its asset is loaded, or built when not cached (which takes a while the first
     /// time). The new object replaces the old one, so at most two morphs' buffers and textures
@@ -494,5 +563,87 @@ impl Readout {
             .map_err(|e| DemoError::Text(e.to_string()))?;
         self.atlas.trim();
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every key the readout lists does what it says, through the one table the window and
+    /// `--keys` share.
+    #[test]
+    fn keys_do_what_the_readout_says() {
+        let press = |view: &mut View, key: &str| {
+            let command = Command::for_key(key).unwrap_or_else(|| panic!("{key:?} is a key"));
+            view.apply(command)
+        };
+        let mut view = View::new(false);
+        assert_eq!(Command::for_key("Escape"), Some(Command::Quit));
+        assert_eq!(Command::for_key("q"), Some(Command::Quit));
+        assert_eq!(Command::for_key("x"), None);
+        assert_eq!(Command::for_key("F1"), None);
+
+        press(&mut view, "Space");
+        assert!(!view.playing, "space pauses");
+        press(&mut view, " ");
+        assert!(view.playing, "and plays again");
+        press(&mut view, "ArrowRight");
+        press(&mut view, "ArrowRight");
+        assert!(!view.playing && (view.t - 0.1).abs() < 1e-6, "t {}", view.t);
+        press(&mut view, "ArrowLeft");
+        assert!((view.t - 0.05).abs() < 1e-6, "t {}", view.t);
+        for _ in 0..3 {
+            press(&mut view, "ArrowLeft");
+        }
+        assert_eq!(view.t, 0.0, "t stops at 0");
+
+        press(&mut view, "ArrowDown");
+        assert_eq!(view.lod, LodControl::Fraction(0.05), "down is coarser");
+        press(&mut view, "ArrowUp");
+        press(&mut view, "ArrowUp");
+        assert_eq!(
+            view.lod,
+            LodControl::Fraction(0.0),
+            "up is finer, down to full detail"
+        );
+        press(&mut view, "l");
+        assert_eq!(view.lod, LodControl::Pixels(1.0));
+        press(&mut view, "ArrowDown");
+        assert_eq!(
+            view.lod,
+            LodControl::Pixels(1.5),
+            "pixels grow by 1.5 when coarser"
+        );
+        press(&mut view, "l");
+        assert_eq!(view.lod, LodControl::Fraction(0.0));
+
+        assert_eq!(view.shade, ShadeMode::Textured);
+        let shades: Vec<ShadeMode> = (0..3)
+            .map(|_| {
+                press(&mut view, "m");
+                view.shade
+            })
+            .collect();
+        assert_eq!(
+            shades,
+            [ShadeMode::Smooth, ShadeMode::Faceted, ShadeMode::Textured]
+        );
+        press(&mut view, "s");
+        assert!(view.strips);
+
+        (view.yaw, view.pitch, view.zoom) = (1.0, 0.5, 3.0);
+        press(&mut view, "r");
+        let fresh = View::new(true);
+        assert_eq!(
+            (view.yaw, view.pitch, view.zoom),
+            (fresh.yaw, fresh.pitch, fresh.zoom)
+        );
+        assert!(view.strips, "reset keeps the strip colours");
+
+        assert_eq!(press(&mut view, "]"), Some(1));
+        assert_eq!(press(&mut view, "n"), Some(1));
+        assert_eq!(press(&mut view, "["), Some(-1));
+        assert_eq!(press(&mut view, "q"), None);
     }
 }

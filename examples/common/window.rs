@@ -9,11 +9,11 @@ use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
-use winit::keyboard::{Key, NamedKey};
+use winit::keyboard::Key;
 use winit::window::{Window, WindowId};
 
 use super::cache::Library;
-use super::scene::{Scene, View};
+use super::scene::{Command, Scene};
 use super::{CommonArgs, Demo, DemoError, CLEAR};
 
 pub enum WindowOutcome {
@@ -294,32 +294,23 @@ impl<'a> WindowState<'a> {
     }
 
     fn key(&mut self, key: &Key) -> KeyAction {
-        let view = &mut self.scene.view;
-        match key.as_ref() {
-            Key::Named(NamedKey::Escape) | Key::Character("q") => return KeyAction::Quit,
-            Key::Named(NamedKey::Space) => view.playing = !view.playing,
-            Key::Named(NamedKey::ArrowRight) => view.step_t(0.05),
-            Key::Named(NamedKey::ArrowLeft) => view.step_t(-0.05),
-            Key::Named(NamedKey::ArrowUp) => view.step_lod(false),
-            Key::Named(NamedKey::ArrowDown) => view.step_lod(true),
-            Key::Character("l") => view.toggle_lod_control(),
-            Key::Character("s") => view.strips = !view.strips,
-            Key::Character("m") => view.next_shade(),
-            Key::Character("r") => {
-                let fresh = View::new(view.strips);
-                (view.yaw, view.pitch, view.zoom) = (fresh.yaw, fresh.pitch, fresh.zoom);
+        let named;
+        let name = match key.as_ref() {
+            Key::Named(key) => {
+                named = format!("{key:?}");
+                named.as_str()
             }
-            Key::Character("n") | Key::Character("]") => {
-                if let Err(error) = self.scene.step_morph(&self.device, 1) {
+            Key::Character(character) => character,
+            _ => return KeyAction::Continue,
+        };
+        match Command::for_key(name) {
+            Some(Command::Quit) => return KeyAction::Quit,
+            Some(command) => {
+                if let Err(error) = self.scene.apply(&self.device, command) {
                     return KeyAction::Fail(error);
                 }
             }
-            Key::Character("[") => {
-                if let Err(error) = self.scene.step_morph(&self.device, -1) {
-                    return KeyAction::Fail(error);
-                }
-            }
-            _ => {}
+            None => {}
         }
         self.window.request_redraw();
         KeyAction::Continue
