@@ -23,11 +23,10 @@ use std::path::Path;
 
 use morphlod::io::LoadOptions;
 use morphlod::io::MorphSource;
-use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
 use morphlod::Builder;
 
 mod common;
-use common::lod_for;
+use common::{lod_for, FullSurface};
 use rayon::prelude::*;
 
 /// Sampled frames of the per-frame builder (the CLI's default).
@@ -37,22 +36,6 @@ const TIMES: usize = 64;
 /// Samples per surface and comparison (plus every vertex of the surface).
 const SAMPLES: usize = 50_000;
 const PERCENTS: [usize; 2] = [10, 5];
-
-/// Error of the LOD triangles `lod` against the full surface, both over `positions`.
-fn error(
-    positions: &[[f32; 3]],
-    full: &SurfaceIndex,
-    full_samples: &[glam::DVec3],
-    lod: &[[u32; 3]],
-    seed: u64,
-) -> ErrorStats {
-    let index = SurfaceIndex::new(positions, lod).expect("indices in range");
-    let samples = sample_surface(positions, lod, SAMPLES, seed).expect("indices in range");
-    symmetric(
-        directed_error(&samples, full),
-        directed_error(full_samples, &index),
-    )
-}
 
 /// Per time: for each percent, (a), (b), (c) as (Hausdorff %, RMS %, triangles).
 type Row = Vec<[(f64, f64, usize); 3]>;
@@ -89,8 +72,7 @@ fn table(file: &str, source: MorphSource) -> Vec<[(f64, f64); 3]> {
             let k = (t * (FRAMES - 1) as f32).round() as usize;
             let pos = morph.positions_at(t);
             let diagonal = common::diagonal(&pos);
-            let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
-            let full_samples = sample_surface(&pos, tris, SAMPLES, 1).expect("indices in range");
+            let full = FullSurface::new(&pos, tris, SAMPLES);
             targets
                 .iter()
                 .enumerate()
@@ -103,7 +85,7 @@ fn table(file: &str, source: MorphSource) -> Vec<[(f64, f64); 3]> {
                             "{name} t={t}: {} triangles for a target of {target}",
                             lod.len()
                         );
-                        let e = error(&pos, &full, &full_samples, lod, 2);
+                        let e = full.error(lod);
                         assert!(e.hausdorff.is_finite() && e.rms.is_finite());
                         (
                             100.0 * e.hausdorff / diagonal,
@@ -225,18 +207,11 @@ fn body_baby_per_frame_at_most_0_7_of_rest_pose() {
             let t = i as f32 / (TIMES - 1) as f32;
             let k = (t * (FRAMES - 1) as f32).round() as usize;
             let pos = morph.positions_at(t);
-            let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
-            let full_samples = sample_surface(&pos, tris, FEW, 1).expect("indices in range");
-            let h = |lod: &[[u32; 3]]| {
-                let index = SurfaceIndex::new(&pos, lod).expect("indices in range");
-                let samples = sample_surface(&pos, lod, FEW, 2).expect("indices in range");
-                symmetric(
-                    directed_error(&samples, &full),
-                    directed_error(&full_samples, &index),
-                )
-                .hausdorff
-            };
-            (h(&lods[k]), h(&lods[0]))
+            let full = FullSurface::new(&pos, tris, FEW);
+            (
+                full.error(&lods[k]).hausdorff,
+                full.error(&lods[0]).hausdorff,
+            )
         })
         .collect();
     let (a, b) = errors
@@ -296,9 +271,7 @@ fn man_to_camel_supermesh_quality_over_t() {
             let lod = seq.reference_mesh(tris, lod_for(seq, tris, target));
             let pos = morph.positions_at(t);
             let diagonal = common::diagonal(&pos);
-            let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
-            let full_samples = sample_surface(&pos, tris, SAMPLES, 1).expect("indices in range");
-            let e = error(&pos, &full, &full_samples, &lod, 2);
+            let e = FullSurface::new(&pos, tris, SAMPLES).error(&lod);
             let (h, rms) = (100.0 * e.hausdorff / diagonal, 100.0 * e.rms / diagonal);
             if percent == 10 {
                 worst_10 = worst_10.max(h);

@@ -17,14 +17,13 @@
 
 use morphlod::build::Sequences;
 use morphlod::io::MorphSource;
-use morphlod::metrics::{directed_error, sample_surface, symmetric, SurfaceIndex};
 use morphlod::morph::Morph;
 use morphlod::simplify::{simplify, simplify_poses, PoseError, SimplifyOptions};
 use morphlod::{Builder, DeformingModel, DeformingState, Lod};
 use rayon::prelude::*;
 
 mod common;
-use common::{lod_for, meshopt_simplify_with};
+use common::{lod_for, meshopt_simplify_with, FullSurface};
 
 const FRAMES: usize = 32;
 
@@ -33,14 +32,7 @@ fn error_at(morph: &Morph, t: f32, lod: &[[u32; 3]], samples: usize) -> (f64, f6
     let tris = morph.triangles();
     let pos = morph.positions_at(t);
     let diagonal = common::diagonal(&pos);
-    let full = SurfaceIndex::new(&pos, tris).expect("indices in range");
-    let full_samples = sample_surface(&pos, tris, samples, 1).expect("indices in range");
-    let index = SurfaceIndex::new(&pos, lod).expect("indices in range");
-    let lod_samples = sample_surface(&pos, lod, samples, 2).expect("indices in range");
-    let e = symmetric(
-        directed_error(&lod_samples, &full),
-        directed_error(&full_samples, &index),
-    );
+    let e = FullSurface::new(&pos, tris, samples).error(lod);
     (100.0 * e.hausdorff / diagonal, 100.0 * e.rms / diagonal)
 }
 

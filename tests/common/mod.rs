@@ -21,6 +21,7 @@ pub mod validator;
 use morphlod::asset::HEADER_LEN;
 use morphlod::collapse::{canonical, Collapse, CollapseSequence};
 use morphlod::lodstrips::Dirty;
+use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
 use morphlod::morph::Morph;
 
 /// SplitMix64: small, seedable, good enough to drive random walks.
@@ -343,6 +344,39 @@ pub fn lod_for(seq: &CollapseSequence, tris: &[[u32; 3]], target: usize) -> usiz
         }
     }
     lo
+}
+
+/// The full mesh at one pose, indexed and sampled once, for measuring many LODs against it.
+pub struct FullSurface<'a> {
+    positions: &'a [[f32; 3]],
+    index: SurfaceIndex,
+    samples: Vec<glam::DVec3>,
+    /// The sample count asked for (`sample_surface` adds the surface's vertices to it).
+    count: usize,
+}
+
+impl<'a> FullSurface<'a> {
+    /// `samples` points on `triangles` over `positions` (seed 1).
+    pub fn new(positions: &'a [[f32; 3]], triangles: &[[u32; 3]], samples: usize) -> Self {
+        FullSurface {
+            positions,
+            index: SurfaceIndex::new(positions, triangles).expect("indices in range"),
+            samples: sample_surface(positions, triangles, samples, 1).expect("indices in range"),
+            count: samples,
+        }
+    }
+
+    /// Symmetric Hausdorff and RMS distance between `lod` (over the same positions) and the
+    /// full mesh: as many samples on the LOD (seed 2) as on the full mesh, each set measured
+    /// against the other surface.
+    pub fn error(&self, lod: &[[u32; 3]]) -> ErrorStats {
+        let index = SurfaceIndex::new(self.positions, lod).expect("indices in range");
+        let samples = sample_surface(self.positions, lod, self.count, 2).expect("indices in range");
+        symmetric(
+            directed_error(&samples, &self.index),
+            directed_error(&self.samples, &index),
+        )
+    }
 }
 
 /// A `side × side` vertex grid in the xy plane (`V(0)`) whose vertex `(x, y)` rises to
