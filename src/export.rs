@@ -15,9 +15,10 @@
 //! vertex cache with meshoptimizer, and vertices numbered in the order the indices first use
 //! them (vertex-fetch locality).
 //!
-//! The meshes are written in the morph's own coordinates and the nodes carry no transform:
-//! load the source without `apply_transforms` to keep a glTF mesh where it was, or with it
-//! to bake its node's placement in.
+//! The meshes are written in the morph's own coordinates; [`ExportOptions::placement`] puts
+//! the source node's world matrix on every LOD node (a glTF source loaded without
+//! `apply_transforms`, with the matrix of [`crate::io::gltf::placement`], stays where it
+//! was; loaded with it, the placement is baked into the vertices and the nodes need none).
 
 use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
 use crate::collapse::CollapseSequence;
@@ -34,12 +35,28 @@ use thiserror::Error;
 /// Poses the shared sequence is simplified over when the caller gives no count.
 pub const DEFAULT_POSES: usize = 32;
 
+/// How the LODs below the original are chosen. Either way each LOD is a step boundary of the
+/// shared sequence (no seam torn open).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LodSteps {
+    /// Triangle fractions, each in (0, 1], strictly decreasing (`[0.5, 0.25, 0.1]`): per
+    /// fraction `f`, the finest LOD with at most `floor(f · triangles)` triangles.
+    Fractions(Vec<f32>),
+    /// Error bounds relative to the diagonal of the base pose's bounding box, each finite
+    /// and > 0, strictly increasing (`[0.002, 0.01]`: 0.2 % and 1 % of the diagonal): per
+    /// bound `e`, the coarsest LOD whose error is at most `e · diagonal`. A LOD's error is
+    /// the shared sequence's own: the square root of the largest collapse error so far, each
+    /// collapse's error being its worst over the sampled poses ([`PoseError::Max`]) — an
+    /// RMS distance to the planes of the original surface around the collapsed vertices,
+    /// not a measured Hausdorff distance.
+    Errors(Vec<f32>),
+}
+
 /// What to export.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExportOptions {
-    /// Triangle fractions of the LODs below the original, each in (0, 1], strictly
-    /// decreasing (`[0.5, 0.25, 0.1]`).
-    pub lods: Vec<f32>,
+    /// The LODs below the original (default: fractions `[0.5, 0.25, 0.1]`).
+    pub lods: LodSteps,
     /// Poses sampled over `t ∈ [0, 1]` for the shared sequence (1 to the builder's maximum).
     pub poses: usize,
     /// The meshes' default weights (`mesh.weights`), one per target; `None`: the weights at
@@ -47,15 +64,20 @@ pub struct ExportOptions {
     pub default_weights: Option<Vec<f32>>,
     /// Mesh and node names are `<name>_LOD<i>`.
     pub name: String,
+    /// The source node's placement, a column-major 4 × 4 matrix written as every LOD node's
+    /// `matrix` (each LOD stands where the source stood); `None`: the nodes carry no
+    /// transform (the mesh's own coordinates).
+    pub placement: Option<[f32; 16]>,
 }
 
 impl Default for ExportOptions {
     fn default() -> Self {
         ExportOptions {
-            lods: vec![0.5, 0.25, 0.1],
+            lods: LodSteps::Fractions(vec![0.5, 0.25, 0.1]),
             poses: DEFAULT_POSES,
             default_weights: None,
             name: "mesh".into(),
+            placement: None,
         }
     }
 }
@@ -65,12 +87,16 @@ impl Default for ExportOptions {
 pub enum ExportError {
     #[error("--lods {lods:?}: give triangle fractions in (0, 1], strictly decreasing (e.g. 0.5,0.25,0.1)")]
     Fractions { lods: Vec<f32> },
+    #[error("--error {errors:?}: give error bounds relative to the bounding-box diagonal, finite, > 0 and strictly increasing (e.g. 0.002,0.01)")]
+    Errors { errors: Vec<f32> },
     #[error("--poses {poses}: sample 1 to {max} poses (1 simplifies the rest pose only)", max = MAX_FRAMES)]
     Poses { poses: usize },
     #[error("{given} default weights for {targets} morph targets: give one per target")]
     DefaultWeights { given: usize, targets: usize },
     #[error("LOD fraction {fraction} leaves no triangle of {triangles}: choose a larger fraction")]
     Empty { fraction: f32, triangles: usize },
+    #[error("error bound {error} leaves no triangle of {triangles}: choose a smaller bound")]
+    EmptyError { error: f32, triangles: usize },
     #[error("simplifying over the poses: {0}")]
     Build(#[from] BuildError),
 }
@@ -78,8 +104,12 @@ pub enum ExportError {
 /// One exported level: which source vertices it keeps and its triangles over them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lod {
-    /// The fraction asked for (1 for LOD0).
+    /// The fraction asked for with [`LodSteps::Fractions`]; with [`LodSteps::Errors`] the
+    /// fraction of the original's triangles the LOD keeps (1 for LOD0).
     pub fraction: f32,
+    /// The shared sequence's error at this LOD ([`LodSteps::Errors`]), relative to the
+    /// base pose's bounding-box diagonal (0 for LOD0).
+    pub error: f32,
     /// Collapses of the shared sequence applied (0 for LOD0).
     pub step: usize,
     /// `source_vertex[i]`: the source vertex written as the LOD's vertex `i`.
@@ -93,7 +123,7 @@ pub struct Lod {
 pub struct Export {
     /// The GLB file's bytes.
     pub glb: Vec<u8>,
-    /// LOD0 (the original) first, then one per fraction.
+    /// LOD0 (the original) first, then one per fraction or error bound.
     pub lods: Vec<Lod>,
 }
 
@@ -101,7 +131,10 @@ pub struct Export {
 /// track ([`Weights::Animated`]); a two-pose morph gets a LINEAR 0 → 1 → 0 animation over
 /// two seconds (the weights of `t = 0`, `t = 1`, `t = 0`), so a viewer plays it.
 pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, ExportError> {
-    check_fractions(&options.lods)?;
+    match &options.lods {
+        LodSteps::Fractions(f) => check_fractions(f)?,
+        LodSteps::Errors(e) => check_errors(e)?,
+    }
     if options.poses == 0 || options.poses > MAX_FRAMES {
         return Err(ExportError::Poses {
             poses: options.poses,
@@ -126,13 +159,34 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
     let boundaries = StepBoundaries::new(sequence, &morph.topology().of_vertex);
     let triangles = morph.triangles();
 
-    let mut lods = vec![compact(triangles.to_vec(), 1.0, 0)];
-    for &fraction in &options.lods {
-        let step = step_for(sequence, &boundaries, triangles, fraction)?;
-        let mesh = sequence.reference_mesh(triangles, step);
-        lods.push(compact(mesh, fraction, step));
+    let diagonal = diagonal(morph.base());
+    let errors = sequence.errors();
+    let relative = |step: usize| errors[step].max(0.0).sqrt() / diagonal;
+    let mut lods = vec![compact(triangles.to_vec(), 1.0, 0, 0.0)];
+    match &options.lods {
+        LodSteps::Fractions(fractions) => {
+            for &fraction in fractions {
+                let step = step_for(sequence, &boundaries, triangles, fraction)?;
+                let mesh = sequence.reference_mesh(triangles, step);
+                lods.push(compact(mesh, fraction, step, relative(step)));
+            }
+        }
+        LodSteps::Errors(bounds) => {
+            for &bound in bounds {
+                let step = step_for_error(&errors, &boundaries, bound * diagonal);
+                let mesh = sequence.reference_mesh(triangles, step);
+                if mesh.is_empty() {
+                    return Err(ExportError::EmptyError {
+                        error: bound,
+                        triangles: triangles.len(),
+                    });
+                }
+                let fraction = mesh.len() as f32 / triangles.len() as f32;
+                lods.push(compact(mesh, fraction, step, relative(step)));
+            }
+        }
     }
-    let glb = write_glb(morph, &lods, &default_weights, &options.name);
+    let glb = write_glb(morph, &lods, &default_weights, options);
     Ok(Export { glb, lods })
 }
 
@@ -145,6 +199,38 @@ fn check_fractions(lods: &[f32]) -> Result<(), ExportError> {
         });
     }
     Ok(())
+}
+
+fn check_errors(errors: &[f32]) -> Result<(), ExportError> {
+    let in_range = errors.iter().all(|&e| e.is_finite() && e > 0.0);
+    let increasing = errors.windows(2).all(|w| w[0] < w[1]);
+    if errors.is_empty() || !in_range || !increasing {
+        return Err(ExportError::Errors {
+            errors: errors.to_vec(),
+        });
+    }
+    Ok(())
+}
+
+/// The length of the diagonal of `positions`' bounding box; 1 when that is 0 (one point, or
+/// none), so relative and absolute errors agree on a degenerate mesh.
+fn diagonal(positions: &[[f32; 3]]) -> f32 {
+    let (lo, hi) = bounds(positions);
+    let d = (0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f32>().sqrt();
+    if d > 0.0 && d.is_finite() {
+        d
+    } else {
+        1.0
+    }
+}
+
+/// The last step boundary at which the sequence's error (`errors[l]`, squared) is at most
+/// `bound` (a distance): errors never decrease with the step, so that is the floor of the
+/// last step within the bound.
+fn step_for_error(errors: &[f32], boundaries: &StepBoundaries, bound: f32) -> usize {
+    let within = errors.partition_point(|&e| e.max(0.0).sqrt() <= bound);
+    // errors[0] = 0 is always within, so `within` ≥ 1.
+    boundaries.floor(within - 1)
 }
 
 /// The first step boundary whose reference mesh has at most `fraction` of the triangles:
@@ -179,7 +265,7 @@ fn step_for(
 
 /// The LOD of `mesh` (over source vertices): indices in vertex-cache order, then only the
 /// vertices used, numbered by first use.
-fn compact(mesh: Vec<[u32; 3]>, fraction: f32, step: usize) -> Lod {
+fn compact(mesh: Vec<[u32; 3]>, fraction: f32, step: usize, error: f32) -> Lod {
     let flat: Vec<u32> = mesh.into_iter().flatten().collect();
     let vertex_bound = flat.iter().max().map_or(0, |&v| v as usize + 1);
     let ordered = meshopt::optimize_vertex_cache(&flat, vertex_bound);
@@ -198,6 +284,7 @@ fn compact(mesh: Vec<[u32; 3]>, fraction: f32, step: usize) -> Lod {
         .collect();
     Lod {
         fraction,
+        error,
         step,
         source_vertex,
         triangles: reindexed
@@ -441,7 +528,13 @@ fn screen_coverage(lods: &[Lod]) -> Vec<f32> {
     coverage
 }
 
-fn write_glb(morph: &Morph, lods: &[Lod], default_weights: &[f32], name: &str) -> Vec<u8> {
+fn write_glb(
+    morph: &Morph,
+    lods: &[Lod],
+    default_weights: &[f32],
+    options: &ExportOptions,
+) -> Vec<u8> {
+    let name = &options.name;
     let mut bin = Bin::default();
     let mut json = Json::default();
     let names: Vec<String> = (0..lods.len()).map(|i| format!("{name}_LOD{i}")).collect();
@@ -460,6 +553,10 @@ fn write_glb(morph: &Morph, lods: &[Lod], default_weights: &[f32], name: &str) -
     };
     let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
     let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
+    let matrix = options.placement.map_or(String::new(), |m| {
+        let m: Vec<String> = m.into_iter().map(number).collect();
+        format!(r#","matrix":[{}]"#, m.join(","))
+    });
     let nodes: Vec<String> = names
         .iter()
         .enumerate()
@@ -473,7 +570,7 @@ fn write_glb(morph: &Morph, lods: &[Lod], default_weights: &[f32], name: &str) -
             } else {
                 String::new()
             };
-            format!(r#"{{"name":{},"mesh":{i}{lod}}}"#, quote(n))
+            format!(r#"{{"name":{},"mesh":{i}{matrix}{lod}}}"#, quote(n))
         })
         .collect();
     let mut text = String::new();
@@ -533,7 +630,7 @@ mod tests {
         let export = export_glb(
             &morph,
             &ExportOptions {
-                lods: vec![0.5],
+                lods: LodSteps::Fractions(vec![0.5]),
                 ..ExportOptions::default()
             },
         )
@@ -556,6 +653,104 @@ mod tests {
                 assert_eq!(read, expected, "{}", source.name);
             }
         }
+    }
+
+    /// A bumpy `n × n` grid whose one target raises a ridge: collapse errors spread over
+    /// several orders of magnitude.
+    fn bumpy_grid(n: u32) -> Morph {
+        let height = |x: u32, y: u32| ((x as f32 * 0.9).sin() * (y as f32 * 0.6).cos()) * 0.3;
+        let base: Vec<[f32; 3]> = (0..n * n)
+            .map(|v| [(v % n) as f32, (v / n) as f32, height(v % n, v / n)])
+            .collect();
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let v = y * n + x;
+                triangles.push([v, v + 1, v + n]);
+                triangles.push([v + 1, v + n + 1, v + n]);
+            }
+        }
+        let ridge = (0..n * n)
+            .map(|v| [0.0, 0.0, if v % n == n / 2 { 1.0 } else { 0.0 }])
+            .collect();
+        let targets = vec![MorphTarget {
+            name: "ridge".into(),
+            deltas: ridge,
+            normal_deltas: None,
+        }];
+        let weights = Weights::TwoPose {
+            w0: vec![0.0],
+            w1: vec![1.0],
+        };
+        Morph::from_parts(triangles, base, targets, weights).unwrap()
+    }
+
+    /// Each error step is the coarsest step boundary of the shared sequence within its bound:
+    /// its error (relative to the diagonal) is at most the bound, the next boundary's is
+    /// above it, and the LODs get coarser as the bounds grow.
+    #[test]
+    fn error_steps_are_the_coarsest_boundaries_within_each_bound() {
+        let morph = bumpy_grid(16);
+        let bounds = vec![0.002, 0.01, 0.03, 0.1];
+        let options = ExportOptions {
+            lods: LodSteps::Errors(bounds.clone()),
+            ..ExportOptions::default()
+        };
+        let export = export_glb(&morph, &options).unwrap();
+        let (asset, _) = Builder::new(&morph)
+            .frames(DEFAULT_POSES)
+            .sequences(Sequences::Shared(PoseError::Max))
+            .build()
+            .unwrap();
+        let sequence = &asset.frames[0];
+        let errors = sequence.errors();
+        let boundaries = StepBoundaries::new(sequence, &morph.topology().of_vertex);
+        // sqrt(2 · 15²) plus the bumps' height: the grid's diagonal.
+        let diagonal = diagonal(morph.base());
+        assert!((diagonal - 15.0 * 2f32.sqrt()).abs() < 0.1, "{diagonal}");
+        assert_eq!(export.lods.len(), bounds.len() + 1);
+        let mut steps = vec![0];
+        for (lod, &bound) in export.lods[1..].iter().zip(&bounds) {
+            assert!(boundaries.is_boundary(lod.step), "{lod:?}");
+            let error = errors[lod.step].sqrt() / diagonal;
+            assert_eq!(lod.error, error);
+            assert!(error <= bound, "{bound}: {lod:?}");
+            if lod.step < sequence.len() {
+                let next = boundaries.ceil(lod.step + 1);
+                assert!(
+                    errors[next].sqrt() / diagonal > bound,
+                    "{bound}: step {next}"
+                );
+            }
+            steps.push(lod.step);
+        }
+        assert!(steps.windows(2).all(|w| w[0] <= w[1]), "{steps:?}");
+        // The bounds span the sequence: the LODs are not all the same.
+        assert!(steps[1] > 0 && steps[bounds.len()] > steps[1], "{steps:?}");
+        let counts: Vec<usize> = export.lods.iter().map(|l| l.triangles.len()).collect();
+        assert!(counts.windows(2).all(|w| w[0] >= w[1]), "{counts:?}");
+    }
+
+    #[test]
+    fn error_bounds_must_be_positive_finite_and_increase() {
+        for bad in [
+            vec![],
+            vec![0.0],
+            vec![-0.01],
+            vec![f32::NAN],
+            vec![f32::INFINITY],
+            vec![0.01, 0.01],
+            vec![0.02, 0.01],
+        ] {
+            let options = ExportOptions {
+                lods: LodSteps::Errors(bad.clone()),
+                ..ExportOptions::default()
+            };
+            let err = export_glb(&bumpy_grid(4), &options).unwrap_err();
+            assert!(matches!(err, ExportError::Errors { .. }), "{bad:?}");
+            assert!(err.to_string().contains("--error"), "{err}");
+        }
+        assert!(check_errors(&[0.001, 0.5, 2.0]).is_ok());
     }
 
     #[test]

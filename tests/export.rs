@@ -9,7 +9,7 @@ mod common;
 use common::validator::validate;
 use gltf::json::Value;
 use morphlod::collapse::canonical_multiset;
-use morphlod::export::{export_glb, Export, ExportOptions};
+use morphlod::export::{export_glb, Export, ExportOptions, LodSteps};
 use morphlod::io::{load_morph, LoadOptions, MorphSource};
 use morphlod::morph::Morph;
 use std::path::{Path, PathBuf};
@@ -197,6 +197,38 @@ fn face_lods_keep_targets_and_attributes_bit_for_bit() {
     assert_eq!(gltf.animations().count(), 1);
 }
 
+/// `--error` steps on the face: each LOD's error (the shared sequence's, relative to the
+/// bounding-box diagonal) is within its bound, the LODs get coarser as the bounds grow, and
+/// every LOD keeps targets and attributes bit for bit.
+#[test]
+fn face_error_steps_stay_within_their_bounds() {
+    let morph = load_morph(
+        &asset("makehuman_face.glb"),
+        &LoadOptions::default(),
+        &MorphSource::Animation("0".into()),
+    )
+    .unwrap();
+    let bounds = [0.001, 0.004, 0.02];
+    let export = export_glb(
+        &morph,
+        &ExportOptions {
+            lods: LodSteps::Errors(bounds.to_vec()),
+            name: "face".into(),
+            ..ExportOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(export.lods.len(), bounds.len() + 1);
+    for (lod, bound) in export.lods[1..].iter().zip(bounds) {
+        assert!(lod.error <= bound, "{bound}: {lod:?}");
+        assert!(lod.step > 0, "{bound}: the bound allows some collapses");
+    }
+    let steps: Vec<usize> = export.lods.iter().map(|l| l.step).collect();
+    assert!(steps.windows(2).all(|w| w[0] < w[1]), "{steps:?}");
+    check_against_source(&morph, &export);
+    check_structure(&export.glb, "face", bounds.len() + 1, true);
+}
+
 /// The CLI on the face, on the AnimatedMorphCube sample (.gltf with an external buffer) and on
 /// a supermesh pair (bunny.obj, cow.off): the Khronos validator reports 0 errors and 0
 /// warnings, the structure is as declared.
@@ -240,6 +272,45 @@ fn exported_files_pass_the_khronos_validator() {
         validate_clean(&out);
     }
 }
+
+/// The source node's placement travels: the AnimatedMorphCube sample's node (a rotation and
+/// a scale of 100) is every exported LOD node's matrix, so the cube stands where it stood;
+/// the face's node has no transform and its LOD nodes get none.
+#[test]
+fn lod_nodes_carry_the_source_node_placement() {
+    let dir = temp_dir("placement");
+    let cube = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
+    let source = gltf::Gltf::open(&cube).unwrap();
+    let placed = source.nodes().next().unwrap().transform().matrix();
+    assert_ne!(
+        placed,
+        gltf::scene::Transform::Matrix { matrix: IDENTITY }.matrix()
+    );
+    for (input, expected) in [(cube, placed), (asset("makehuman_face.glb"), IDENTITY)] {
+        let out = dir.join("out.glb");
+        let output = morphlod(&[
+            input.as_os_str(),
+            "--lods".as_ref(),
+            "0.5".as_ref(),
+            "-o".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert!(output.status.success(), "{output:?}");
+        let glb = std::fs::read(&out).unwrap();
+        let exported = gltf::Gltf::from_slice(&glb).unwrap();
+        for node in exported.nodes() {
+            let matrix = node.transform().matrix();
+            assert_eq!(matrix.map(bits), expected.map(bits), "{input:?}");
+        }
+    }
+}
+
+const IDENTITY: [[f32; 4]; 4] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
 
 /// Two OFF meshes with the same connectivity (a bumpy grid and a shifted copy): one target,
 /// the 0 → 1 → 0 animation, LODs that keep the target's deltas.
@@ -326,6 +397,18 @@ fn bad_input_is_refused_with_exit_code_1() {
             vec![face.as_os_str(), "--poses".as_ref(), "0".as_ref()],
             "--poses 0",
         ),
+        (
+            vec![face.as_os_str(), "--error".as_ref(), "-0.01".as_ref()],
+            "--error [-0.01]",
+        ),
+        (
+            vec![face.as_os_str(), "--error".as_ref(), "NaN".as_ref()],
+            "--error [NaN]",
+        ),
+        (
+            vec![face.as_os_str(), "--error".as_ref(), "0.01,0.002".as_ref()],
+            "strictly increasing",
+        ),
     ];
     for (args, expected) in cases {
         let mut args = args;
@@ -337,6 +420,19 @@ fn bad_input_is_refused_with_exit_code_1() {
         assert!(stderr.contains(expected), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
+    // --lods and --error exclude each other (clap's usage error, exit code 2).
+    let output = morphlod(&[
+        face.as_os_str(),
+        "--lods".as_ref(),
+        "0.5".as_ref(),
+        "--error".as_ref(),
+        "0.01".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("cannot be used with"), "{stderr}");
     let wrong_extension = dir.join("out.mlod");
     let output = morphlod(&[face.as_os_str(), "-o".as_ref(), wrong_extension.as_os_str()]);
     assert_eq!(output.status.code(), Some(1));

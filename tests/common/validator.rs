@@ -1,36 +1,32 @@
 //! The Khronos glTF validator (the `gltf-validator` npm package, pinned in
 //! `.ci/gltf-validator`, run under node), for every test that writes glTF
-//! (tests/gltf_validator.rs, tests/export.rs). Where node or the package is missing the
-//! helpers say so and return `None`, except under `CI=true`, where a missing validator fails.
+//! (tests/gltf_validator.rs, tests/export.rs); and [`run_node`], which runs any of the
+//! node harnesses in `.ci/` (tests/gltf_loader.rs). Where node or the package is missing the
+//! helpers say so and return `None`, except under `CI=true`, where a missing harness fails.
 
-use std::path::{Path, PathBuf};
+use std::ffi::OsStr;
+use std::path::Path;
 use std::process::Command;
 
-/// `node` and the validator script with its package installed, or `None` (outside CI).
-fn validator() -> Option<(PathBuf, PathBuf)> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci/gltf-validator");
-    let script = dir.join("validate.mjs");
-    let installed = dir.join("node_modules/gltf-validator").is_dir();
+/// Runs `node .ci/<dir>/<script> args...` when node and `.ci/<dir>/node_modules/<package>` are
+/// there: (exit code 0, stdout and stderr). `None` (outside CI) when they are not.
+pub fn run_node(dir: &str, package: &str, script: &str, args: &[&OsStr]) -> Option<(bool, String)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci").join(dir);
+    let installed = dir.join("node_modules").join(package).is_dir();
     let node = Command::new("node").arg("--version").output().is_ok();
-    if installed && node {
-        return Some((PathBuf::from("node"), script));
+    if !(installed && node) {
+        let why = format!(
+            "{package} is not installed (node found: {node}; package installed: {installed}); \
+             run `npm ci` in {}",
+            dir.display()
+        );
+        assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
+        eprintln!("skipped: {why}");
+        return None;
     }
-    let why = format!(
-        "the glTF validator is not installed (node found: {node}; package installed: {installed}); \
-         run `npm ci` in {}",
-        dir.display()
-    );
-    assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
-    eprintln!("skipped: {why}");
-    None
-}
-
-/// Runs the validator on `files`: (exit code 0, the JSON lines it printed).
-pub fn validate(files: &[&Path]) -> Option<(bool, String)> {
-    let (node, script) = validator()?;
-    let out = Command::new(node)
-        .arg(script)
-        .args(files)
+    let out = Command::new("node")
+        .arg(dir.join(script))
+        .args(args)
         .output()
         .expect("node runs");
     let report = format!(
@@ -39,4 +35,10 @@ pub fn validate(files: &[&Path]) -> Option<(bool, String)> {
         String::from_utf8_lossy(&out.stderr)
     );
     Some((out.status.success(), report))
+}
+
+/// Runs the validator on `files`: (exit code 0, the JSON lines it printed).
+pub fn validate(files: &[&Path]) -> Option<(bool, String)> {
+    let args: Vec<&OsStr> = files.iter().map(|f| f.as_os_str()).collect();
+    run_node("gltf-validator", "gltf-validator", "validate.mjs", &args)
 }

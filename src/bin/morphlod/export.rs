@@ -2,7 +2,7 @@
 
 use crate::{load_pair, load_surface};
 use clap::Args;
-use morphlod::export::{export_glb, ExportOptions, DEFAULT_POSES};
+use morphlod::export::{export_glb, ExportOptions, LodSteps, DEFAULT_POSES};
 use morphlod::io::{Format, LoadError, LoadOptions, MorphSource};
 use morphlod::morph::{Morph, Weights};
 use std::path::{Path, PathBuf};
@@ -23,6 +23,17 @@ pub(crate) struct ExportArgs {
         allow_negative_numbers = true
     )]
     lods: Vec<f32>,
+    /// Instead of --lods: one LOD per error bound, relative to the bounding-box diagonal
+    /// (0.01 = 1 %), > 0 and strictly increasing: the coarsest LOD whose simplification
+    /// error, worst over the sampled poses, is within the bound.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with = "lods",
+        allow_negative_numbers = true,
+        value_name = "E1,E2,..."
+    )]
+    error: Option<Vec<f32>>,
     /// Poses sampled over the animation for the one collapse sequence all LODs come from.
     #[arg(long, default_value_t = DEFAULT_POSES)]
     poses: usize,
@@ -47,9 +58,19 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
         ..LoadOptions::default()
     };
     let start = Instant::now();
-    let (morph, default_weights) = match args.inputs.as_slice() {
-        [a, b] => (load_pair(a, b, args.landmarks.as_deref(), &options)?, None),
-        [path] => load_gltf(path, args.animation.as_deref(), &options)?,
+    let (morph, default_weights, placement) = match args.inputs.as_slice() {
+        [a, b] => (
+            load_pair(a, b, args.landmarks.as_deref(), &options)?,
+            None,
+            None,
+        ),
+        [path] => {
+            let (morph, weights) = load_gltf(path, args.animation.as_deref(), &options)?;
+            let placement = morphlod::io::gltf::placement(path, &options)
+                .map_err(|e| e.to_string())?
+                .filter(|m| *m != glam::Mat4::IDENTITY.to_cols_array());
+            (morph, weights, placement)
+        }
         _ => return Err("give one glTF file or two meshes".into()),
     };
     let name = args.inputs[0]
@@ -58,23 +79,28 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
     let export = export_glb(
         &morph,
         &ExportOptions {
-            lods: args.lods.clone(),
+            lods: match &args.error {
+                Some(errors) => LodSteps::Errors(errors.clone()),
+                None => LodSteps::Fractions(args.lods.clone()),
+            },
             poses: args.poses,
             default_weights,
             name,
+            placement,
         },
     )
     .map_err(|e| e.to_string())?;
     std::fs::write(&args.output, &export.glb)
         .map_err(|e| format!("{}: cannot write: {e}", args.output.display()))?;
-    println!("LOD  fraction  triangles  vertices  collapses");
+    println!("LOD  fraction  triangles  vertices  collapses  error/diagonal");
     for (i, lod) in export.lods.iter().enumerate() {
         println!(
-            "{i:>3}  {:>8}  {:>9}  {:>8}  {:>9}",
+            "{i:>3}  {:>8.4}  {:>9}  {:>8}  {:>9}  {:>14.3e}",
             lod.fraction,
             lod.triangles.len(),
             lod.source_vertex.len(),
-            lod.step
+            lod.step,
+            lod.error
         );
     }
     println!(

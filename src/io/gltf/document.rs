@@ -291,6 +291,18 @@ impl Document {
         .map_err(|e| self.data_error(&element, e.to_string()))
     }
 
+    /// The first node instancing `mesh`.
+    fn instance(&self, mesh: &gltf::Mesh) -> Option<gltf::Node<'_>> {
+        self.document
+            .nodes()
+            .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
+    }
+
+    /// World matrix of the first node instancing `mesh`, `None` when no node does.
+    pub(super) fn placement(&self, mesh: &gltf::Mesh) -> Option<glam::Mat4> {
+        self.instance(mesh).map(|n| self.world_matrix(n.index()))
+    }
+
     /// World matrix of the first node instancing `mesh` (identity when none),
     /// applied to the positions (as points) and target deltas (as vectors).
     pub(super) fn transform(
@@ -299,11 +311,7 @@ impl Document {
         out: &mut IndexedMesh,
         deltas: &mut [Vec<[f32; 3]>],
     ) -> Result<(), LoadError> {
-        let Some(node) = self
-            .document
-            .nodes()
-            .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
-        else {
+        let Some(node) = self.instance(mesh) else {
             return Ok(());
         };
         let matrix = self.world_matrix(node.index());
@@ -346,11 +354,7 @@ impl Document {
         normals: Option<&mut Vec<[f32; 3]>>,
         deltas: &mut [Option<Vec<[f32; 3]>>],
     ) -> Result<(), LoadError> {
-        let Some(node) = self
-            .document
-            .nodes()
-            .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
-        else {
+        let Some(node) = self.instance(mesh) else {
             return Ok(());
         };
         let linear = glam::Mat3::from_mat4(self.world_matrix(node.index()));

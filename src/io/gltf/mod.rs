@@ -58,6 +58,15 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
     super::validated(mesh_out, path)
 }
 
+/// The world matrix (column-major) of the first node that instances the mesh `options`
+/// picks, the placement [`load_mesh`] applies with `options.apply_transforms`; `None` when no
+/// node instances the mesh. `options.apply_transforms` itself is ignored.
+pub fn placement(path: &Path, options: &LoadOptions) -> Result<Option<[f32; 16]>, LoadError> {
+    let doc = Document::open(path)?;
+    let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
+    Ok(doc.placement(&mesh).map(|m| m.to_cols_array()))
+}
+
 /// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
 /// chosen and placed by `options` as [`load_mesh`] does; its targets are not kept.
 pub fn load_attributed(path: &Path, options: &LoadOptions) -> Result<AttributedMesh, LoadError> {
