@@ -591,14 +591,8 @@ mod tests {
     use super::*;
     use crate::morph::MorphTarget;
 
-    /// A 5 × 5 grid with a target that moves two vertices (one by `-0.0` only) and one that
-    /// moves nothing: both are written sparse and read back bit for bit at every LOD.
-    #[test]
-    fn sparse_deltas_read_back_bit_for_bit() {
-        let n = 5u32;
-        let base: Vec<[f32; 3]> = (0..n * n)
-            .map(|v| [(v % n) as f32, (v / n) as f32, ((v * 7) % 3) as f32 * 0.1])
-            .collect();
+    /// Two triangles per cell of an `n × n` vertex grid, row by row.
+    fn grid_triangles(n: u32) -> Vec<[u32; 3]> {
         let mut triangles = Vec::new();
         for y in 0..n - 1 {
             for x in 0..n - 1 {
@@ -607,6 +601,18 @@ mod tests {
                 triangles.push([v + 1, v + n + 1, v + n]);
             }
         }
+        triangles
+    }
+
+    /// A 5 × 5 grid with a target that moves two vertices (one by `-0.0` only) and one that
+    /// moves nothing: both are written sparse and read back bit for bit at every LOD.
+    #[test]
+    fn sparse_deltas_read_back_bit_for_bit() {
+        let n = 5u32;
+        let base: Vec<[f32; 3]> = (0..n * n)
+            .map(|v| [(v % n) as f32, (v / n) as f32, ((v * 7) % 3) as f32 * 0.1])
+            .collect();
+        let triangles = grid_triangles(n);
         let mut moving = vec![[0.0f32; 3]; base.len()];
         moving[3] = [-0.0, 0.0, 0.0];
         moving[12] = [0.0, 0.0, 1.5];
@@ -662,14 +668,7 @@ mod tests {
         let base: Vec<[f32; 3]> = (0..n * n)
             .map(|v| [(v % n) as f32, (v / n) as f32, height(v % n, v / n)])
             .collect();
-        let mut triangles = Vec::new();
-        for y in 0..n - 1 {
-            for x in 0..n - 1 {
-                let v = y * n + x;
-                triangles.push([v, v + 1, v + n]);
-                triangles.push([v + 1, v + n + 1, v + n]);
-            }
-        }
+        let triangles = grid_triangles(n);
         let ridge = (0..n * n)
             .map(|v| [0.0, 0.0, if v % n == n / 2 { 1.0 } else { 0.0 }])
             .collect();
