@@ -191,7 +191,8 @@ impl<'a> Builder<'a> {
         // The attribute error reads the normals the asset gives: computed ones follow the
         // welded geometry, which the position quadrics already price.
         let rule = topology.as_ref().map(|map| {
-            SeamRule::new(map, attributes.uvs.as_deref()).with_normals(attributes.normals.as_deref())
+            SeamRule::new(map, attributes.uvs.as_deref())
+                .with_normals(attributes.normals.as_deref())
         });
 
         let done = AtomicUsize::new(0);
