@@ -266,3 +266,77 @@ fn attribute_error_against_meshopt() {
         );
     }
 }
+
+/// The build-time cost of the attribute term (BENCHMARKS.md): the face's simplification at
+/// rest, and `Builder` over the `expressions` animation (16 frames, per-frame and shared),
+/// with the default weights and with both weights 0, alternately; the best of 5 rounds.
+/// `cargo test --release --test attribute_quality attribute_term_time -- --ignored --nocapture`.
+#[test]
+#[ignore = "measurement: run in release with --nocapture"]
+fn attribute_term_time() {
+    use morphlod::build::Sequences;
+    use morphlod::simplify::PoseError;
+    use std::time::{Duration, Instant};
+    let rest = face();
+    let animated = morphlod::io::load_morph(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_face.glb"),
+        &Default::default(),
+        &morphlod::io::MorphSource::Animation("expressions".into()),
+    )
+    .unwrap();
+    let off = SimplifyOptions {
+        uv_weight: 0.0,
+        normal_weight: 0.0,
+        ..Default::default()
+    };
+    let map = rest.topology();
+    let attributes = rest.attributes();
+    let rule =
+        SeamRule::new(&map, attributes.uvs.as_deref()).with_normals(attributes.normals.as_deref());
+    let runs: [(&str, Box<dyn Fn(&SimplifyOptions)>); 3] = [
+        (
+            "simplify_with_seams, rest pose",
+            Box::new(|o| {
+                simplify_with_seams(rest.base(), rest.triangles(), &rule, o);
+            }),
+        ),
+        (
+            "Builder, 16 frames, per-frame",
+            Box::new(|o| {
+                morphlod::Builder::new(&animated)
+                    .frames(16)
+                    .simplify_options(o.clone())
+                    .build()
+                    .unwrap();
+            }),
+        ),
+        (
+            "Builder, 16 frames, shared (max)",
+            Box::new(|o| {
+                morphlod::Builder::new(&animated)
+                    .frames(16)
+                    .sequences(Sequences::Shared(PoseError::Max))
+                    .simplify_options(o.clone())
+                    .build()
+                    .unwrap();
+            }),
+        ),
+    ];
+    println!("| run | with the attribute term | without | ratio |\n|---|---|---|---|");
+    for (name, run) in &runs {
+        let mut best = [Duration::MAX; 2];
+        for _ in 0..5 {
+            for (i, o) in [SimplifyOptions::default(), off.clone()].iter().enumerate() {
+                let begin = Instant::now();
+                run(o);
+                best[i] = best[i].min(begin.elapsed());
+            }
+        }
+        println!(
+            "| {name} | {:.1} ms | {:.1} ms | {:.2} |",
+            best[0].as_secs_f64() * 1e3,
+            best[1].as_secs_f64() * 1e3,
+            best[0].as_secs_f64() / best[1].as_secs_f64()
+        );
+    }
+}
