@@ -293,7 +293,8 @@ fn attribute_term_time() {
     let attributes = rest.attributes();
     let rule =
         SeamRule::new(&map, attributes.uvs.as_deref()).with_normals(attributes.normals.as_deref());
-    let runs: [(&str, Box<dyn Fn(&SimplifyOptions)>); 3] = [
+    type Run<'a> = Box<dyn Fn(&SimplifyOptions) + 'a>;
+    let runs: [(&str, Run); 3] = [
         (
             "simplify_with_seams, rest pose",
             Box::new(|o| {
