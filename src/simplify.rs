@@ -40,6 +40,10 @@
 //!   [`SimplifyOptions::min_normal_cos`];
 //! * on a mesh with seams ([`simplify_with_seams`]): the seam rule of
 //!   [`crate::seams`] (no torn seam, no folded UV triangle).
+//!
+//! On a mesh with seams the cost also holds the attribute error of UVs and normals
+//! (`AttributeMetric`, weighted by [`SimplifyOptions::uv_weight`] and
+//! [`SimplifyOptions::normal_weight`]).
 
 use glam::DVec3;
 
@@ -161,10 +165,13 @@ pub fn simplify_poses(
 /// into the attribute-level sequence the runtime plays.
 ///
 /// Welded copies must share their position (a [`crate::morph::TopologyMap`] guarantees it); each topology
-/// vertex takes the position of its first copy. Triangles with an out-of-range or repeated
+/// vertex takes the position of its first copy. The cost of `u → w` adds the attribute error
+/// of the rule's UVs and normals ([`SimplifyOptions::uv_weight`]) over the attribute
+/// triangles, in the first pose. Triangles with an out-of-range or repeated
 /// attribute index are ignored; a triangle whose corners weld into fewer than three topology
 /// vertices (a sliver across a seam) is not simplified over, and its corners never move.
-/// With an identity map and no UVs the sequence equals [`simplify`]'s.
+/// With an identity map, no UVs and no normals (or both weights 0) the sequence equals
+/// [`simplify`]'s.
 pub fn simplify_with_seams(
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
@@ -175,7 +182,9 @@ pub fn simplify_with_seams(
 }
 
 /// [`simplify_with_seams`] over several poses, as [`simplify_poses`] does for meshes without
-/// seams: one topology sequence valid in every pose.
+/// seams: one topology sequence valid in every pose. The attribute error is the first pose's
+/// (UVs do not change with the pose; what a pose does to the normals is its change of shape,
+/// which each pose's position quadrics price).
 ///
 /// # Panics
 /// If the poses differ in length.
@@ -1802,6 +1811,79 @@ pub(crate) mod tests {
                 );
             }
         }
+    }
+
+    /// The attribute error against its definition: for each triangle of the attribute vertex,
+    /// area × Σ over the weighted channels of (the triangle's interpolation at `p`'s projection
+    /// onto its plane − the target's value)², summed; merged vertices sum both triangle sets.
+    #[test]
+    fn attribute_error_is_the_area_weighted_interpolation_misfit() {
+        let mut rng = 0x1234_5678_u64;
+        let mut unit = move || {
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (rng >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let n = 6;
+        let pos: Vec<[f32; 3]> = (0..n).map(|_| [unit(), unit(), unit()]).collect();
+        let uvs: Vec<[f32; 2]> = (0..n).map(|_| [unit(), unit()]).collect();
+        let normals: Vec<[f32; 3]> = (0..n).map(|_| [unit(), unit(), unit()]).collect();
+        let tris = [[0u32, 1, 2], [0, 2, 3], [0, 3, 4], [5, 1, 0]];
+        let map = crate::morph::TopologyMap::identity(n);
+        let rule = SeamRule::new(&map, Some(&uvs)).with_normals(Some(&normals));
+        let options = SimplifyOptions {
+            uv_weight: 2.0,
+            normal_weight: 0.5,
+            ..Default::default()
+        };
+        let mut metric = AttributeMetric::new(&pos, &tris, &tris, &rule, &options).unwrap();
+        let values = |v: u32| {
+            let (uv, nm) = (uvs[v as usize], normals[v as usize]);
+            [
+                uv[0] * 2.0,
+                uv[1] * 2.0,
+                nm[0] * 0.5,
+                nm[1] * 0.5,
+                nm[2] * 0.5,
+            ]
+            .map(f64::from)
+        };
+        let misfit = |t: [u32; 3], p: DVec3, b: u32| {
+            let [a, bb, c] = t.map(|v| dvec(pos[v as usize]));
+            let normal = (bb - a).cross(c - a);
+            let q = p - normal * (p - a).dot(normal) / normal.length_squared();
+            let whole = normal.length();
+            let l1 = (q - a).cross(c - a).dot(normal) / (whole * whole);
+            let l2 = (bb - a).cross(q - a).dot(normal) / (whole * whole);
+            let x = [values(t[0]), values(t[1]), values(t[2])];
+            let target = values(b);
+            0.5 * whole
+                * (0..5)
+                    .map(|k| {
+                        let fitted = x[0][k] * (1.0 - l1 - l2) + x[1][k] * l1 + x[2][k] * l2;
+                        (fitted - target[k]).powi(2)
+                    })
+                    .sum::<f64>()
+        };
+        let oracle = |of: &[u32], p: DVec3, b: u32| {
+            tris.iter()
+                .flat_map(|&t| of.iter().filter(move |&&a| holds(t, a)).map(move |_| t))
+                .map(|t| misfit(t, p, b))
+                .sum::<f64>()
+        };
+        let close = |got: f64, want: f64| (got - want).abs() <= 1e-9 * (1.0 + want.abs());
+        for a in 0..n as u32 {
+            for b in 0..n as u32 {
+                let p = DVec3::new(unit() as f64, unit() as f64, unit() as f64);
+                let (got, want) = (metric.error(a, p, b), oracle(&[a], p, b));
+                assert!(close(got, want), "{a} -> {b} at {p}: {got} vs {want}");
+            }
+        }
+        metric.merge(0, 1);
+        let p = DVec3::new(0.3, 0.7, 0.2);
+        let (got, want) = (metric.error(1, p, 4), oracle(&[0, 1], p, 4));
+        assert!(close(got, want), "merged: {got} vs {want}");
     }
 
     #[test]
