@@ -188,9 +188,12 @@ impl<'a> Builder<'a> {
         // rule; without, the identity map would change nothing but the time taken.
         let attributes = morph.attributes();
         let topology = attributes.has_vertex_attributes().then(|| morph.topology());
-        let rule = topology
-            .as_ref()
-            .map(|map| SeamRule::new(map, attributes.uvs.as_deref()));
+        // The attribute error reads the normals the asset gives: computed ones follow the
+        // welded geometry, which the position quadrics already price.
+        let rule = topology.as_ref().map(|map| {
+            SeamRule::new(map, attributes.uvs.as_deref())
+                .with_normals(attributes.normals.as_deref())
+        });
 
         let done = AtomicUsize::new(0);
         let time_of = |k: usize| {

@@ -12,7 +12,8 @@ use bytemuck::{Pod, Zeroable};
 use thiserror::Error;
 
 /// One half-edge collapse: `u` merges into `w`, at the given quadric `error`
-/// (object-space squared distance, as the simplifier measured it).
+/// (object-space squared distance, as the simplifier measured it; on a mesh with
+/// attributes it includes the attribute error, also a squared length).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 #[repr(C)]
 pub struct Collapse {

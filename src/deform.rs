@@ -45,9 +45,9 @@ pub enum Lod {
     Triangles(usize),
     /// An object-space error bound, in the mesh's units (a distance): the
     /// coarsest LOD whose collapses all have an error of at most this. The
-    /// simplifier records a mean squared distance (see
-    /// [`Collapse::error`](crate::collapse::Collapse)); it is compared as its
-    /// square root. Negative bounds give full detail.
+    /// simplifier records a mean squared distance, plus the attribute error on
+    /// a mesh with attributes (see [`Collapse::error`](crate::collapse::Collapse));
+    /// it is compared as its square root. Negative bounds give full detail.
     MaxError(f32),
 }
 

@@ -148,6 +148,7 @@ pub struct SeamRule<'a> {
     of_vertex: &'a [u32],
     wedges: Wedges,
     uvs: Option<&'a [[f32; 2]]>,
+    normals: Option<&'a [[f32; 3]]>,
 }
 
 impl<'a> SeamRule<'a> {
@@ -158,7 +159,26 @@ impl<'a> SeamRule<'a> {
             of_vertex: &topology.of_vertex,
             wedges: Wedges::new(&topology.of_vertex),
             uvs,
+            normals: None,
         }
+    }
+
+    /// The same rule, with the attribute vertices' normals (one per attribute vertex) for the
+    /// simplifier's attribute error ([`crate::simplify::SimplifyOptions::normal_weight`]).
+    /// The rule itself never reads them: normal splits are already seams of the map.
+    pub fn with_normals(mut self, normals: Option<&'a [[f32; 3]]>) -> SeamRule<'a> {
+        self.normals = normals;
+        self
+    }
+
+    /// The UVs the rule was made with.
+    pub fn uvs(&self) -> Option<&'a [[f32; 2]]> {
+        self.uvs
+    }
+
+    /// The normals given by [`with_normals`](Self::with_normals).
+    pub fn normals(&self) -> Option<&'a [[f32; 3]]> {
+        self.normals
     }
 
     /// The topology vertex of attribute vertex `a`.
