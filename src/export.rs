@@ -48,7 +48,9 @@ pub enum LodSteps {
     /// the shared sequence's own: the square root of the largest collapse error so far, each
     /// collapse's error being its worst over the sampled poses ([`PoseError::Max`]) — an
     /// RMS distance to the planes of the original surface around the collapsed vertices,
-    /// not a measured Hausdorff distance.
+    /// not a measured Hausdorff distance. For a mesh with UVs or given normals the collapse
+    /// error also holds the attribute term ([`crate::simplify::SimplifyOptions::uv_weight`],
+    /// `normal_weight`), so a bound limits how far the texture and shading drift too.
     Errors(Vec<f32>),
 }
 
