@@ -28,7 +28,7 @@ use crate::io::gltf::write::{
 };
 use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
 use crate::seams::StepBoundaries;
-use crate::simplify::PoseError;
+use crate::simplify::{PoseError, SimplifyOptions};
 use std::fmt::Write as _;
 use thiserror::Error;
 
@@ -61,6 +61,9 @@ pub struct ExportOptions {
     pub lods: LodSteps,
     /// Poses sampled over `t ∈ [0, 1]` for the shared sequence (1 to the builder's maximum).
     pub poses: usize,
+    /// The simplifier's options for the shared sequence (default: [`SimplifyOptions`]'s,
+    /// with the attribute error on for meshes with UVs or given normals).
+    pub simplify: SimplifyOptions,
     /// The meshes' default weights (`mesh.weights`), one per target; `None`: the weights at
     /// `t = 0`.
     pub default_weights: Option<Vec<f32>>,
@@ -77,6 +80,7 @@ impl Default for ExportOptions {
         ExportOptions {
             lods: LodSteps::Fractions(vec![0.5, 0.25, 0.1]),
             poses: DEFAULT_POSES,
+            simplify: SimplifyOptions::default(),
             default_weights: None,
             name: "mesh".into(),
             placement: None,
@@ -156,6 +160,7 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
     let (asset, _) = Builder::new(morph)
         .frames(options.poses)
         .sequences(Sequences::Shared(PoseError::Max))
+        .simplify_options(options.simplify.clone())
         .build()?;
     let sequence = &asset.frames[0];
     let boundaries = StepBoundaries::new(sequence, &morph.topology().of_vertex);

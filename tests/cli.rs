@@ -565,3 +565,55 @@ fn a_texture_that_does_not_decode_is_refused_before_writing() {
         assert_eq!(glb.exists(), decodes, "{input}");
     }
 }
+
+/// `--uv-weight` and `--normal-weight` reach the simplifier of `export` and `build`: on the
+/// face (UVs and normals) zero weights give another sequence than the defaults, and a weight
+/// that is negative or not a number is refused.
+#[test]
+fn attribute_weights_reach_the_simplifier() {
+    let dir = Scratch::new("weights");
+    let face = asset("makehuman_face.glb");
+    let face = face.to_str().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path(name);
+        let mut args = vec!["export", face, "-o", out.to_str().unwrap(), "--lods", "0.1"];
+        args.extend_from_slice(extra);
+        let result = morphlod(&args);
+        assert!(result.status.success(), "{}", text(&result.stderr));
+        std::fs::read(out).unwrap()
+    };
+    let default = run("default.glb", &[]);
+    let explicit = run(
+        "explicit.glb",
+        &["--uv-weight", "4", "--normal-weight", "0.25"],
+    );
+    let geometric = run(
+        "geometric.glb",
+        &["--uv-weight", "0", "--normal-weight", "0"],
+    );
+    assert!(default == explicit, "the defaults are 4 and 0.25");
+    assert!(
+        default != geometric,
+        "zero weights must change the face's LOD"
+    );
+    for bad in ["-1", "nan", "inf"] {
+        for command in ["export", "build"] {
+            let out = morphlod(&[
+                command,
+                face,
+                "--animation",
+                "expressions",
+                "-o",
+                dir.path("x").to_str().unwrap(),
+                "--uv-weight",
+                bad,
+            ]);
+            assert_eq!(out.status.code(), Some(2), "{command} --uv-weight {bad}");
+            assert!(
+                text(&out.stderr).contains("is not a weight"),
+                "{}",
+                text(&out.stderr)
+            );
+        }
+    }
+}

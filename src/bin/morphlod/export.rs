@@ -1,6 +1,6 @@
 //! `morphlod export`: the original and its LODs as one glTF binary ([`morphlod::export`]).
 
-use crate::{load_pair, load_surface};
+use crate::{load_pair, load_surface, AttributeWeights};
 use clap::Args;
 use morphlod::export::{export_glb, ExportOptions, LodSteps, DEFAULT_POSES};
 use morphlod::io::{Format, LoadError, LoadOptions, MorphSource};
@@ -37,6 +37,8 @@ pub(crate) struct ExportArgs {
     /// Poses sampled over the animation for the one collapse sequence all LODs come from.
     #[arg(long, default_value_t = DEFAULT_POSES)]
     poses: usize,
+    #[command(flatten)]
+    weights: AttributeWeights,
     /// glTF: the weight animation to follow (name or index; default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     animation: Option<String>,
@@ -84,6 +86,7 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
                 None => LodSteps::Fractions(args.lods.clone()),
             },
             poses: args.poses,
+            simplify: args.weights.simplify_options(),
             default_weights,
             name,
             placement,

@@ -17,6 +17,7 @@ use morphlod::io::{
 use morphlod::mesh::clean::{clean, CleanOptions};
 use morphlod::morph::{Attributes, Morph, MorphError};
 use morphlod::simplify::PoseError;
+use morphlod::simplify::SimplifyOptions;
 use morphlod::topology::analyze;
 use morphlod::{Asset, IndexedMesh};
 use std::io::{IsTerminal, Read};
@@ -101,6 +102,8 @@ struct BuildArgs {
     /// its quadric error.
     #[arg(long, value_enum, default_value_t = PoseErrorArg::Max)]
     pose_error: PoseErrorArg,
+    #[command(flatten)]
+    weights: AttributeWeights,
     /// Two meshes of different connectivity: landmark pairs for the supermesh, one
     /// `vertex_in_a vertex_in_b` a line.
     #[arg(long, value_name = "PAIRS.txt")]
@@ -196,6 +199,37 @@ struct DemoArgs {
 enum SequenceArg {
     PerFrame,
     Shared,
+}
+
+/// How much UVs and given normals count in the simplifier's error (meshes with attributes;
+/// others never use them).
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub(crate) struct AttributeWeights {
+    /// Weight of the UV error (0 = geometry only; see `SimplifyOptions::uv_weight`).
+    #[arg(long, default_value_t = morphlod::simplify::UV_WEIGHT, value_parser = weight, allow_negative_numbers = true)]
+    uv_weight: f32,
+    /// Weight of the normal error (0 = geometry only; see `SimplifyOptions::normal_weight`).
+    #[arg(long, default_value_t = morphlod::simplify::NORMAL_WEIGHT, value_parser = weight, allow_negative_numbers = true)]
+    normal_weight: f32,
+}
+
+impl AttributeWeights {
+    pub(crate) fn simplify_options(self) -> SimplifyOptions {
+        SimplifyOptions {
+            uv_weight: self.uv_weight,
+            normal_weight: self.normal_weight,
+            ..SimplifyOptions::default()
+        }
+    }
+}
+
+fn weight(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(w) if w.is_finite() && w >= 0.0 => Ok(w),
+        _ => Err(format!(
+            "'{text}' is not a weight: give a finite number >= 0 (0 turns the term off)"
+        )),
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -475,6 +509,7 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     let built = Builder::new(&morph)
         .frames(args.frames)
         .sequences(sequences)
+        .simplify_options(args.weights.simplify_options())
         .progress(&progress)
         .build();
     if let Some(bar) = &bar {
