@@ -23,8 +23,8 @@
 use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
 use crate::collapse::CollapseSequence;
 use crate::io::gltf::write::{
-    bounds, f32_bytes, glb, number, quote, Bin, Json, ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT,
-    UNSIGNED_INT,
+    bounds, f32_bytes, glb, index_accessor, number, quote, vec3_accessor, Bin, Json, ARRAY_BUFFER,
+    FLOAT, UNSIGNED_INT,
 };
 use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
 use crate::seams::StepBoundaries;
@@ -320,20 +320,6 @@ fn gather<T: Copy>(source: &[T], lod: &Lod) -> Vec<T> {
         .collect()
 }
 
-fn vec3_accessor(bin: &mut Bin, json: &mut Json, data: &[[f32; 3]], with_bounds: bool) -> usize {
-    let view = json.view(
-        bin.push(f32_bytes(data.iter().flatten())),
-        Some(ARRAY_BUFFER),
-    );
-    json.accessor(
-        view,
-        FLOAT,
-        data.len(),
-        "VEC3",
-        with_bounds.then(|| bounds(data)),
-    )
-}
-
 /// A morph target's deltas: sparse (only the entries that are not `+0.0` in every
 /// component, the rest read as zeros) when that is smaller, as the sources usually store
 /// them (a target moves part of the mesh). A `-0.0` is stored explicitly, so every value
@@ -434,20 +420,7 @@ fn mesh_json(
             }
         })
         .collect();
-    let indices: Vec<u8> = lod
-        .triangles
-        .iter()
-        .flatten()
-        .flat_map(|i| i.to_le_bytes())
-        .collect();
-    let index_view = json.view(bin.push(indices), Some(ELEMENT_ARRAY_BUFFER));
-    let index_acc = json.accessor(
-        index_view,
-        UNSIGNED_INT,
-        lod.triangles.len() * 3,
-        "SCALAR",
-        None,
-    );
+    let index_acc = index_accessor(bin, json, &lod.triangles);
     let primitive_targets = if targets.is_empty() {
         String::new()
     } else {

@@ -127,40 +127,14 @@ impl GltfMorph {
         let mut bin = Bin::default();
         let mut json = Json::default();
 
-        let positions = bin.push(f32_bytes(self.positions.iter().flatten()));
-        let pos_view = json.view(positions, Some(ARRAY_BUFFER));
-        let (lo, hi) = bounds(&self.positions);
-        let pos_acc = json.accessor(
-            pos_view,
-            FLOAT,
-            self.positions.len(),
-            "VEC3",
-            Some((lo, hi)),
-        );
+        let pos_acc = vec3_accessor(&mut bin, &mut json, &self.positions, true);
+        let target_accs: Vec<usize> = self
+            .targets
+            .iter()
+            .map(|(_, deltas)| vec3_accessor(&mut bin, &mut json, deltas, true))
+            .collect();
 
-        let mut target_accs = Vec::new();
-        for (_, deltas) in &self.targets {
-            let range = bin.push(f32_bytes(deltas.iter().flatten()));
-            let view = json.view(range, Some(ARRAY_BUFFER));
-            let (lo, hi) = bounds(deltas);
-            target_accs.push(json.accessor(view, FLOAT, deltas.len(), "VEC3", Some((lo, hi))));
-        }
-
-        let indices = bin.push(
-            self.triangles
-                .iter()
-                .flatten()
-                .flat_map(|i| i.to_le_bytes())
-                .collect(),
-        );
-        let index_view = json.view(indices, Some(ELEMENT_ARRAY_BUFFER));
-        let index_acc = json.accessor(
-            index_view,
-            UNSIGNED_INT,
-            self.triangles.len() * 3,
-            "SCALAR",
-            None,
-        );
+        let index_acc = index_accessor(&mut bin, &mut json, &self.triangles);
 
         let mut animation = String::new();
         if let Some(a) = &self.animation {
@@ -319,6 +293,34 @@ impl Json {
         ));
         self.accessors.len() - 1
     }
+}
+
+/// `data` as a VEC3 float buffer view and its accessor, with `min`/`max` when `with_bounds`
+/// (POSITION needs them, glTF's morph targets should have them); returns the accessor.
+pub(crate) fn vec3_accessor(
+    bin: &mut Bin,
+    json: &mut Json,
+    data: &[[f32; 3]],
+    with_bounds: bool,
+) -> usize {
+    let view = json.view(
+        bin.push(f32_bytes(data.iter().flatten())),
+        Some(ARRAY_BUFFER),
+    );
+    json.accessor(
+        view,
+        FLOAT,
+        data.len(),
+        "VEC3",
+        with_bounds.then(|| bounds(data)),
+    )
+}
+
+/// The triangles as a `u32` index buffer view and its SCALAR accessor; returns the accessor.
+pub(crate) fn index_accessor(bin: &mut Bin, json: &mut Json, triangles: &[[u32; 3]]) -> usize {
+    let bytes = triangles.iter().flatten().flat_map(|i| i.to_le_bytes());
+    let view = json.view(bin.push(bytes.collect()), Some(ELEMENT_ARRAY_BUFFER));
+    json.accessor(view, UNSIGNED_INT, triangles.len() * 3, "SCALAR", None)
 }
 
 pub(crate) fn bounds(points: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
