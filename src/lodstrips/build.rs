@@ -527,21 +527,7 @@ fn reduce(
         };
         if let Some((at, len, kind)) = cut_at {
             let values = &region.values[..current];
-            push_resize(
-                out,
-                group,
-                at as u32,
-                kind,
-                ResizeRun {
-                    values: &values[at..at + len],
-                    previous: if at > 0 { values[at - 1] } else { 0 },
-                    before: [
-                        at.checked_sub(2).map(|k| values[k]),
-                        at.checked_sub(1).map(|k| values[k]),
-                    ],
-                    right: values.get(at + len).copied(),
-                },
-            );
+            push_resize(out, group, at as u32, kind, ResizeRun::new(values, at, len));
             current = region.cut(current, at, len, kind);
             count += 1;
         }

@@ -461,6 +461,22 @@ struct ResizeRun<'a> {
     right: Option<u32>,
 }
 
+impl<'a> ResizeRun<'a> {
+    /// The run of `len` indices at `at` in `strip` (the strip before the cut), with its
+    /// context.
+    fn new(strip: &'a [u32], at: usize, len: usize) -> Self {
+        ResizeRun {
+            values: &strip[at..at + len],
+            previous: if at > 0 { strip[at - 1] } else { 0 },
+            before: [
+                at.checked_sub(2).map(|k| strip[k]),
+                at.checked_sub(1).map(|k| strip[k]),
+            ],
+            right: strip.get(at + len).copied(),
+        }
+    }
+}
+
 /// Reads a resize head: `(group, at, len, kind)`.
 fn read_resize_head(stream: &[u8], at: &mut usize) -> (u32, usize, usize, u16) {
     let b = u32::from(stream[*at]);
@@ -576,15 +592,7 @@ mod tests {
                 group,
                 at as u32,
                 kind,
-                ResizeRun {
-                    values: &strip[at..at + len],
-                    previous: if at > 0 { strip[at - 1] } else { 0 },
-                    before: [
-                        at.checked_sub(2).map(|k| strip[k]),
-                        at.checked_sub(1).map(|k| strip[k]),
-                    ],
-                    right: strip.get(at + len).copied(),
-                },
+                ResizeRun::new(&strip, at, len),
             );
             out.push(0xCD);
             let mut p = 1;
