@@ -124,8 +124,14 @@ pub fn simplify(
 /// combination of each pose's error at `w`'s position in that pose, and is valid only if no
 /// triangle flips or degenerates in any pose. With one pose this is [`simplify`].
 ///
+/// Each pose's error is scaled to the first pose's size, by the squared ratio of the first
+/// pose's bounding-box diagonal to its own, so a pose counts by its error relative to its size:
+/// scaling one pose uniformly does not change the sequence, and a pose that shrinks the mesh is
+/// not given up for the larger ones.
+///
 /// Every pose must have the vertex count of the first; no pose at all gives an empty
-/// sequence. The reported errors are squared distances in object units, like [`simplify`]'s.
+/// sequence. The reported errors are squared distances in the first pose's object units, like
+/// [`simplify`]'s.
 ///
 /// # Panics
 /// If the poses differ in length.
@@ -742,6 +748,9 @@ struct State<'o, 'r, 'm> {
     /// footprint of a `DVec3` copy, and the collapse loop is memory bound.
     poses: &'o [&'o [[f32; 3]]],
     combine: PoseError,
+    /// Per pose, the factor that puts its errors in the first pose's scale: the squared
+    /// ratio of the first pose's bounding-box diagonal to this pose's (1 for the first).
+    pose_scale: Vec<f64>,
     tris: Vec<[u32; 3]>,
     kind: Vec<Kind>,
     /// One quadric per vertex and pose, vertex-major (`v * poses.len() + pose`).
@@ -780,6 +789,18 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         let quadric = (0..n)
             .flat_map(|v| per_pose.iter().map(move |q| q[v]))
             .collect();
+        let first = diagonal_squared(poses[0]);
+        let pose_scale = poses
+            .iter()
+            .map(|pos| {
+                let own = diagonal_squared(pos);
+                if first > 0.0 && own > 0.0 && first != own {
+                    first / own
+                } else {
+                    1.0
+                }
+            })
+            .collect();
 
         let mut span = Vec::with_capacity(n);
         let mut pool = Vec::with_capacity(tris.len() * 3 * 3);
@@ -797,6 +818,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             seams,
             poses,
             combine,
+            pose_scale,
             tris,
             kind,
             quadric,
@@ -838,7 +860,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         let mut errors = quadrics
             .iter()
             .enumerate()
-            .map(|(pose, q)| q.error(self.p(pose, w)));
+            .map(|(pose, q)| q.error(self.p(pose, w)) * self.pose_scale[pose]);
         let first = errors.next().unwrap_or(0.0);
         match self.combine {
             PoseError::Mean => errors.fold(first, |a, e| a + e) / count as f64,
@@ -1342,6 +1364,20 @@ fn after_before(t: [u32; 3], v: u32) -> [u32; 2] {
 }
 
 /// Face quadrics, boundary edge quadrics and the regularizing point quadric of every vertex.
+/// The squared diagonal of the bounding box of `pos` (0 for no vertex or a non-finite one).
+fn diagonal_squared(pos: &[[f32; 3]]) -> f64 {
+    let (lo, hi) = pos.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(dvec(p)), hi.max(dvec(p))),
+    );
+    let d = (hi - lo).length_squared();
+    if d.is_finite() {
+        d
+    } else {
+        0.0
+    }
+}
+
 fn quadrics(
     pos: &[[f32; 3]],
     tris: &[[u32; 3]],

@@ -180,19 +180,26 @@ fn pose_aware_quality_over_the_animation() {
     );
 }
 
-/// Issue 12's goal, asserted: on the body's animation at 10% of the triangles, the
+/// Issue 12's goals, asserted: on the body's animation at 10% of the triangles, the
 /// max-over-t Hausdorff error of the shared pose-aware sequence (maximum over poses, the
-/// default) is at most 0.7× that of meshoptimizer on the base pose. Fewer times and samples
-/// than the table to fit the test profile. (With the mean over poses it is not: 0.78×.)
+/// default) is at most 0.7× that of meshoptimizer on the base pose and at most 1.25× that of
+/// the per-frame sequences. Fewer times and samples than the table to fit the test profile.
+/// (With the mean over poses the first fails; without the per-pose scale the second does,
+/// 1.70×: the baby pose, much smaller than the others, was given up. The 17 t include its
+/// peak at t = 5/8.)
 #[test]
 fn shared_sequence_beats_base_pose_simplification_on_the_body() {
     let body =
         common::load_asset_morph("makehuman_body.glb", MorphSource::Animation("morph".into()));
-    let rows = table("makehuman_body, 10%", &body, &[10], 16, 20_000);
-    let [s, _, _, m, _] = [0, 1, 2, 3, 4].map(|i| rows[0][i][0]);
+    let rows = table("makehuman_body, 10%", &body, &[10], 17, 20_000);
+    let [s, _, _, m, a] = [0, 1, 2, 3, 4].map(|i| rows[0][i][0]);
     assert!(
         s <= 0.7 * m,
         "shared sequence (max over poses) {s:.3}% vs meshopt on the base pose {m:.3}%: goal <= 0.7x"
+    );
+    assert!(
+        s <= 1.25 * a,
+        "shared sequence (max over poses) {s:.3}% vs the per-frame sequences {a:.3}%: goal <= 1.25x"
     );
 }
 
@@ -243,6 +250,32 @@ fn repeated_poses_give_the_single_pose_sequence() {
             let two = simplify_poses(&[pose, pose], &tris, &SimplifyOptions::default(), combine);
             assert_eq!(one, two, "{combine:?}");
         }
+    }
+}
+
+/// A pose counts by its error relative to its own size: scaling one pose by 4 (a power of two,
+/// so every product scales exactly) leaves the shared sequence unchanged, collapse for collapse
+/// and error for error (errors are in the first pose's units). Without the per-pose scale the
+/// larger pose's errors (16× here) decide alone, and its bumps are kept at the other's cost.
+#[test]
+fn scaling_a_pose_changes_nothing() {
+    let side = 16;
+    let bumps = |cx: f32, cy: f32| {
+        common::grid_morph(side, move |x, y| {
+            let (dx, dy) = (x as f32 - cx, y as f32 - cy);
+            2.0 * (-(dx * dx + dy * dy) / 6.0).exp()
+        })
+        .v1()
+    };
+    let a = bumps(4.0, 4.0);
+    let b = bumps(11.0, 10.0);
+    let b4: Vec<[f32; 3]> = b.iter().map(|p| p.map(|c| 4.0 * c)).collect();
+    let tris = common::grid_morph(side, |_, _| 0.0).triangles().to_vec();
+    for combine in [PoseError::Max, PoseError::Mean] {
+        let options = SimplifyOptions::default();
+        let plain = simplify_poses(&[&a, &b], &tris, &options, combine);
+        let scaled = simplify_poses(&[&a, &b4], &tris, &options, combine);
+        assert_eq!(plain, scaled, "{combine:?}");
     }
 }
 
