@@ -484,9 +484,9 @@ impl BenchReport {
         let _ = write!(
             out,
             "{{\"adapter\":{},\"backend\":{},\"device_type\":{},\"vertices\":{},\"full_triangles\":{},\"full_index_bytes\":{},\"rows\":[",
-            json_string(&self.adapter),
-            json_string(&self.backend),
-            json_string(&self.device_type),
+            serde_json::Value::from(self.adapter.as_str()),
+            serde_json::Value::from(self.backend.as_str()),
+            serde_json::Value::from(self.device_type.as_str()),
             self.vertices,
             self.full_triangles,
             self.full_index_bytes
@@ -527,23 +527,6 @@ impl BenchReport {
 }
 
 /// `s` as a JSON string literal.
-fn json_string(s: &str) -> String {
-    let mut out = String::with_capacity(s.len() + 2);
-    out.push('"');
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => {
-                let _ = write!(out, "\\u{:04x}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
 /// `bench_rows_are_consistent`: a short `run_bench` on a small morphing grid: row count, one
 /// draw per frame, triangle counts equal to the reference mesh of `docs/DESIGN.md`
 /// (`CollapseSequence::reference_mesh`) and to the list drawn beside, uploads exactly where the
