@@ -206,8 +206,8 @@ fn row(name: &str, q: &Quality) {
 
 /// The attribute term is what lowers the face's UV error and normal deviation at 10%, at a
 /// bounded cost in shape: the same simplifier with both weights 0 (position only) smears the
-/// UVs and normals more, and the geometric error with the term stays within 1.6× of it
-/// (1.4× measured; BENCHMARKS.md).
+/// UVs and normals more, and the geometric error with the term stays within 1.15× of it
+/// (UV p95 0.80×, normal deviation 0.88×, Hausdorff 0.99× measured; BENCHMARKS.md).
 #[test]
 fn the_attribute_term_lowers_uv_and_normal_error() {
     let morph = face();
@@ -224,7 +224,10 @@ fn the_attribute_term_lowers_uv_and_normal_error() {
         on.normal_mean < 0.9 * off.normal_mean,
         "on {on:?}, off {off:?}"
     );
-    assert!(on.hausdorff < 1.6 * off.hausdorff, "on {on:?}, off {off:?}");
+    assert!(
+        on.hausdorff < 1.15 * off.hausdorff,
+        "on {on:?}, off {off:?}"
+    );
 }
 
 /// The table in BENCHMARKS.md ("Attribute error against meshoptimizer"):
