@@ -46,9 +46,10 @@ pub enum LodSteps {
     /// and > 0, strictly increasing (`[0.002, 0.01]`: 0.2 % and 1 % of the diagonal): per
     /// bound `e`, the coarsest LOD whose error is at most `e · diagonal`. A LOD's error is
     /// the shared sequence's own: the square root of the largest collapse error so far, each
-    /// collapse's error being its worst over the sampled poses ([`PoseError::Max`]) — an
-    /// RMS distance to the planes of the original surface around the collapsed vertices,
-    /// not a measured Hausdorff distance. For a mesh with UVs or given normals the collapse
+    /// collapse's error being its worst over the sampled poses ([`PoseError::Max`]), each
+    /// pose's error scaled to the base pose's size (so the bound is relative to each pose's
+    /// own size) — an RMS distance to the planes of the original surface around the
+    /// collapsed vertices, not a measured Hausdorff distance. For a mesh with UVs or given normals the collapse
     /// error also holds the attribute term ([`crate::simplify::SimplifyOptions::uv_weight`],
     /// `normal_weight`), so a bound limits how far the texture and shading drift too.
     Errors(Vec<f32>),
