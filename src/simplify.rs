@@ -13,6 +13,8 @@
 //!   with size (better silhouettes than plain area weights);
 //! * every boundary edge adds a plane through the edge, perpendicular to its
 //!   triangle, weighted by edge length × [`SimplifyOptions::boundary_weight`];
+//!   on a mesh with seams each seam edge adds the same plane on each of its sides,
+//!   weighted by edge length × half of [`SimplifyOptions::seam_weight`];
 //! * the cost of `u → w` is `Q_u(p_w) / W_u`: the weighted mean squared distance
 //!   from `p_w` to the planes that `u` stands for, in object units squared.
 //!   That is the [`Collapse::error`](crate::collapse::Collapse) recorded.
@@ -61,6 +63,12 @@ pub struct SimplifyOptions {
     /// `acos(min_normal_cos)` or degenerates. 0.25 (about 75°) as in meshoptimizer: the
     /// "pure" test (0, 90°) lets a series of near-90° collapses fold a surface over.
     pub min_normal_cos: f32,
+    /// Weight of a seam edge's plane relative to the face planes ([`simplify_with_seams`]: an
+    /// edge of the welded surface whose sides have different attribute vertices), half on
+    /// each side as in meshoptimizer, which uses 1: keeps a UV seam's line in place, so the
+    /// texture on either side of it stays where it was. 0 turns it off; default
+    /// [`SEAM_WEIGHT`].
+    pub seam_weight: f32,
     /// Weight of a point quadric at each vertex, relative to its plane weights. A tiny value
     /// only breaks ties on flat regions (shorter edges collapse first) without changing shape.
     pub regularization: f32,
@@ -82,6 +90,7 @@ impl Default for SimplifyOptions {
     fn default() -> Self {
         Self {
             boundary_weight: 10.0,
+            seam_weight: SEAM_WEIGHT,
             min_normal_cos: 0.25,
             regularization: 1e-7,
             uv_weight: UV_WEIGHT,
@@ -156,7 +165,7 @@ pub fn simplify_poses(
             t.iter().all(|&v| (v as usize) < n) && t[0] != t[1] && t[1] != t[2] && t[0] != t[2]
         })
         .collect();
-    let mut state = State::new(poses, tris, options, combine, None);
+    let mut state = State::new(poses, tris, &[], options, combine, None);
     state.run();
     CollapseSequence {
         vertex_count: n as u32,
@@ -243,7 +252,8 @@ pub fn simplify_poses_with_seams(
         pairs: Vec::new(),
         metric,
     };
-    let mut state = State::new(&welded, tris, options, combine, Some(seams));
+    let seam_edges = seam_edges(&tris, &seams.corners);
+    let mut state = State::new(&welded, tris, &seam_edges, options, combine, Some(seams));
     for v in pinned {
         state.kind[v as usize] = Kind::Locked;
     }
@@ -438,6 +448,9 @@ impl Quadric {
         self.c + rx * p.x + ry * p.y + rz * p.z
     }
 }
+
+/// [`SimplifyOptions::seam_weight`]'s default, meshoptimizer's.
+pub const SEAM_WEIGHT: f32 = 1.0;
 
 /// [`SimplifyOptions::uv_weight`]'s default: on makehuman_face at 10% it lowers the UV error's
 /// 95th percentile by a fifth and the mean normal deviation by a tenth against both weights 0,
@@ -776,6 +789,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
     fn new(
         poses: &'o [&'o [[f32; 3]]],
         tris: Vec<[u32; 3]>,
+        seam_edges: &[[u32; 3]],
         options: &'o SimplifyOptions,
         combine: PoseError,
         seams: Option<Seams<'r, 'm>>,
@@ -785,7 +799,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         let (kind, boundary_edges) = classify(&tris, &vt);
         let per_pose: Vec<Vec<Quadric>> = poses
             .iter()
-            .map(|pos| quadrics(pos, &tris, &boundary_edges, options))
+            .map(|pos| quadrics(pos, &tris, &boundary_edges, seam_edges, options))
             .collect();
         let quadric = (0..n)
             .flat_map(|v| per_pose.iter().map(move |q| q[v]))
@@ -1365,6 +1379,41 @@ fn after_before(t: [u32; 3], v: u32) -> [u32; 2] {
 }
 
 /// Face quadrics, boundary edge quadrics and the regularizing point quadric of every vertex.
+/// Both sides of every seam edge of the welded surface `tris` (`[from, to, triangle]`, one
+/// entry per triangle on the edge): an edge with two triangles whose attribute `corners` at
+/// either end differ. Border and non-manifold edges are not seams.
+fn seam_edges(tris: &[[u32; 3]], corners: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    // Per directed edge `a → b`: its triangle and the attribute vertices at `a` and `b`.
+    let mut half = std::collections::HashMap::with_capacity(tris.len() * 3);
+    let mut repeated = std::collections::HashSet::new();
+    for (i, (t, c)) in tris.iter().zip(corners).enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if half
+                .insert((a, b), (i as u32, c[k], c[(k + 1) % 3]))
+                .is_some()
+            {
+                repeated.insert((a.min(b), a.max(b)));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for (&(a, b), &(i, ca, cb)) in &half {
+        if a > b || repeated.contains(&(a, b)) {
+            continue;
+        }
+        if let Some(&(j, cb2, ca2)) = half.get(&(b, a)) {
+            if ca != ca2 || cb != cb2 {
+                out.push([a, b, i]);
+                out.push([b, a, j]);
+            }
+        }
+    }
+    // The quadrics are sums: a fixed order keeps them bit-reproducible.
+    out.sort_unstable();
+    out
+}
+
 /// The squared diagonal of the bounding box of `pos` (0 for no vertex or a non-finite one).
 fn diagonal_squared(pos: &[[f32; 3]]) -> f64 {
     let (lo, hi) = pos.iter().fold(
@@ -1383,6 +1432,7 @@ fn quadrics(
     pos: &[[f32; 3]],
     tris: &[[u32; 3]],
     boundary_edges: &[[u32; 3]],
+    seam_edges: &[[u32; 3]],
     options: &SimplifyOptions,
 ) -> Vec<Quadric> {
     let mut q = vec![Quadric::default(); pos.len()];
@@ -1403,8 +1453,16 @@ fn quadrics(
             q[v as usize].add(&f);
         }
     }
+    // Border edges, and each side of a seam edge (half the seam weight, so a seam edge as a
+    // whole weighs `seam_weight`).
     let bw = options.boundary_weight as f64;
-    for &[from, to, tri] in boundary_edges {
+    let sw = 0.5 * options.seam_weight as f64;
+    let edges = boundary_edges
+        .iter()
+        .map(|e| (e, bw))
+        .chain(seam_edges.iter().map(|e| (e, sw)))
+        .filter(|&(_, weight)| weight > 0.0);
+    for (&[from, to, tri], weight) in edges {
         let t = tris[tri as usize];
         // The corner that is neither end: xor cancels the two ends out.
         let apex = t[0] ^ t[1] ^ t[2] ^ from ^ to;
@@ -1419,10 +1477,10 @@ fn quadrics(
         let perp =
             (p2 - p0) - edge * ((p2 - p0).dot(edge) / edge.length_squared().max(f64::MIN_POSITIVE));
         let perp = perp.normalize_or_zero();
-        let mut e = Quadric::plane(perp, -perp.dot(p0), edge.length() * bw);
+        let mut e = Quadric::plane(perp, -perp.dot(p0), edge.length() * weight);
         // The face plane too, with the same weight but no share of the mean
         // (meshoptimizer: stabilises collapses along the border both ways).
-        let mut f = face(t, bw);
+        let mut f = face(t, weight);
         f.w = 0.0;
         e.add(&f);
         q[from as usize].add(&e);
@@ -1769,6 +1827,47 @@ pub(crate) mod tests {
             }
             assert_eq!(seq.reference_mesh(tris, seq.len()).len(), 4);
         }
+    }
+
+    /// A 4×4 grid whose column x = 2 is a seam (cells right of it use copies of that column's
+    /// vertices): the seam edges are exactly the column's 4 edges, once from each side, and
+    /// border edges (one triangle) and edges whose ends agree on both sides are not seams.
+    #[test]
+    fn seam_edges_are_the_edges_whose_sides_differ_in_attributes() {
+        let (n, k) = (4u32, 2u32);
+        let row = n + 1;
+        let (pos, tris) = grid(n, 0.0);
+        let copy = |v: u32| {
+            if v % row == k {
+                pos.len() as u32 + v / row
+            } else {
+                v
+            }
+        };
+        let corners: Vec<[u32; 3]> = tris
+            .iter()
+            .enumerate()
+            // Cell of triangle i: (i / 2) % n; right of the seam when the cell's x ≥ k.
+            .map(|(i, t)| {
+                if (i as u32 / 2) % n >= k {
+                    t.map(copy)
+                } else {
+                    *t
+                }
+            })
+            .collect();
+        let found = seam_edges(&tris, &corners);
+        let mut want = Vec::new();
+        for j in 0..n {
+            let (low, high) = (j * row + k, (j + 1) * row + k);
+            let left = (j * n + k - 1) * 2; // [v, v+1, v+row+1] of the cell left of the seam
+            let right = (j * n + k) * 2 + 1; // [v, v+row+1, v+row] of the cell right of it
+            want.push([low, high, left]);
+            want.push([high, low, right]);
+        }
+        want.sort_unstable();
+        assert_eq!(found, want);
+        assert!(seam_edges(&tris, &tris).is_empty(), "no copies, no seams");
     }
 
     #[test]
