@@ -15,10 +15,17 @@
 //! vertex cache with meshoptimizer, and vertices numbered in the order the indices first use
 //! them (vertex-fetch locality).
 //!
-//! The meshes are written in the morph's own coordinates; [`ExportOptions::placement`] puts
-//! the source node's world matrix on every LOD node (a glTF source loaded without
-//! `apply_transforms`, with the matrix of [`crate::io::gltf::placement`], stays where it
-//! was; loaded with it, the placement is baked into the vertices and the nodes need none).
+//! The meshes are written in the morph's own coordinates. [`ExportOptions::nodes`] keeps the
+//! source's place in its scene ([`crate::io::gltf::node_chain`]): the ancestors of the node
+//! that instanced the mesh are written as they were (names, local transforms as matrix or
+//! TRS, bit for bit), the LOD0 node takes that node's place under them with its local
+//! transform, and every lower LOD node carries the same local transform. `MSFT_lod` puts a
+//! lower LOD where the LOD0 node is, under LOD0's parent, so a local transform is what it
+//! needs; a tool that places an out-of-scene LOD node at the root sees it without the
+//! ancestors' transforms, which the extension does not define. Composed world matrices are
+//! never written, so nothing written is a sheared matrix the source did not have. (A source
+//! loaded with `apply_transforms` has its placement baked into the vertices and needs no
+//! chain.) Only the weight animation is carried; TRS animations of the chain are not.
 
 use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
 use crate::collapse::CollapseSequence;
@@ -26,6 +33,7 @@ use crate::io::gltf::write::{
     bounds, f32_bytes, glb, index_accessor, number, quote, vec3_accessor, Bin, Json, ARRAY_BUFFER,
     FLOAT, UNSIGNED_INT,
 };
+use crate::io::gltf::{NodeTransform, SourceNode};
 use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
 use crate::seams::StepBoundaries;
 use crate::simplify::{PoseError, SimplifyOptions};
@@ -70,10 +78,11 @@ pub struct ExportOptions {
     pub default_weights: Option<Vec<f32>>,
     /// Mesh and node names are `<name>_LOD<i>`.
     pub name: String,
-    /// The source node's placement, a column-major 4 × 4 matrix written as every LOD node's
-    /// `matrix` (each LOD stands where the source stood); `None`: the nodes carry no
-    /// transform (the mesh's own coordinates).
-    pub placement: Option<[f32; 16]>,
+    /// Where the source stood: the nodes from a scene root down to the node that instanced
+    /// the mesh, root first ([`crate::io::gltf::node_chain`]). The ancestors are written as
+    /// they are, the LOD nodes take the last node's place and local transform. Empty (the
+    /// default): the LOD0 node is a scene root with no transform.
+    pub nodes: Vec<SourceNode>,
 }
 
 impl Default for ExportOptions {
@@ -84,7 +93,7 @@ impl Default for ExportOptions {
             simplify: SimplifyOptions::default(),
             default_weights: None,
             name: "mesh".into(),
-            placement: None,
+            nodes: Vec::new(),
         }
     }
 }
@@ -509,6 +518,39 @@ fn screen_coverage(lods: &[Lod]) -> Vec<f32> {
     coverage
 }
 
+/// A node's transform as glTF node properties, each after a comma; nothing for the identity
+/// (the properties' defaults), so an untransformed node stays bare.
+fn transform_json(transform: &NodeTransform) -> String {
+    let list = |values: &[f32]| {
+        values
+            .iter()
+            .map(|&v| number(v))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    match transform {
+        NodeTransform::Matrix(m) if *m == glam::Mat4::IDENTITY.to_cols_array() => String::new(),
+        NodeTransform::Matrix(m) => format!(r#","matrix":[{}]"#, list(m)),
+        NodeTransform::Trs {
+            translation,
+            rotation,
+            scale,
+        } => {
+            let mut out = String::new();
+            if *translation != [0.0; 3] {
+                let _ = write!(out, r#","translation":[{}]"#, list(translation));
+            }
+            if *rotation != [0.0, 0.0, 0.0, 1.0] {
+                let _ = write!(out, r#","rotation":[{}]"#, list(rotation));
+            }
+            if *scale != [1.0; 3] {
+                let _ = write!(out, r#","scale":[{}]"#, list(scale));
+            }
+            out
+        }
+    }
+}
+
 fn write_glb(
     morph: &Morph,
     lods: &[Lod],
@@ -534,10 +576,12 @@ fn write_glb(
     };
     let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
     let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
-    let matrix = options.placement.map_or(String::new(), |m| {
-        let m: Vec<String> = m.into_iter().map(number).collect();
-        format!(r#","matrix":[{}]"#, m.join(","))
-    });
+    // The LOD nodes are 0..lods (the animation and MSFT_lod address them so); the ancestors
+    // follow, each the parent of the next, the last the parent of LOD0.
+    let (ancestors, own) = match options.nodes.split_last() {
+        Some((own, ancestors)) => (ancestors, transform_json(&own.transform)),
+        None => (&[][..], String::new()),
+    };
     let nodes: Vec<String> = names
         .iter()
         .enumerate()
@@ -551,13 +595,29 @@ fn write_glb(
             } else {
                 String::new()
             };
-            format!(r#"{{"name":{},"mesh":{i}{matrix}{lod}}}"#, quote(n))
+            format!(r#"{{"name":{},"mesh":{i}{own}{lod}}}"#, quote(n))
         })
+        .chain(ancestors.iter().enumerate().map(|(k, node)| {
+            let child = if k + 1 < ancestors.len() {
+                lods.len() + k + 1
+            } else {
+                0
+            };
+            let name = node
+                .name
+                .as_deref()
+                .map_or(String::new(), |n| format!(r#""name":{},"#, quote(n)));
+            format!(
+                r#"{{{name}"children":[{child}]{}}}"#,
+                transform_json(&node.transform)
+            )
+        }))
         .collect();
+    let root = if ancestors.is_empty() { 0 } else { lods.len() };
     let mut text = String::new();
     let _ = write!(
         text,
-        r#"{{"asset":{{"version":"2.0","generator":"morphlod export"}},"extensionsUsed":["MSFT_lod"],"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{nodes}],"meshes":[{meshes}],{material}{animation},"buffers":[{{"byteLength":{len}}}],"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        r#"{{"asset":{{"version":"2.0","generator":"morphlod export"}},"extensionsUsed":["MSFT_lod"],"scene":0,"scenes":[{{"nodes":[{root}]}}],"nodes":[{nodes}],"meshes":[{meshes}],{material}{animation},"buffers":[{{"byteLength":{len}}}],"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
         nodes = nodes.join(","),
         meshes = meshes.join(","),
         len = bin.bytes.len(),

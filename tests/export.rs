@@ -305,6 +305,104 @@ fn lod_nodes_carry_the_source_node_placement() {
     }
 }
 
+/// The source's place in its scene travels: the AnimatedMorphCube sample re-parented under a
+/// named TRS node ("rig": translation, rotation, scale) under a named matrix node ("root"). The
+/// export keeps both ancestors (names and transforms, same form, bit for bit), LOD0 under
+/// "rig" with the cube node's own transform, the scene rooted at "root", every lower LOD with
+/// LOD0's local transform, so LOD0's world matrix is the source node's, bit for bit; the
+/// Khronos validator reports no error and no warning.
+#[test]
+fn lods_keep_the_source_node_hierarchy() {
+    let dir = temp_dir("hierarchy");
+    let cube = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
+    let mut json: Value = serde_json::from_slice(&std::fs::read(&cube).unwrap()).unwrap();
+    json["nodes"][0]["translation"] = serde_json::json!([0.25, -1.5, 3.0]);
+    json["nodes"].as_array_mut().unwrap().extend(
+        serde_json::from_str::<Vec<Value>>(
+            r#"[{"name":"rig","children":[0],"translation":[1.0,2.0,-0.5],
+                 "rotation":[0.0,0.38268343,0.0,0.9238795],"scale":[2.0,2.0,2.0]},
+                {"name":"root","children":[1],
+                 "matrix":[0.5,0,0,0, 0,0.5,0,0, 0,0,0.5,0, 10,0,-4,1]}]"#,
+        )
+        .unwrap(),
+    );
+    json["scenes"][0]["nodes"] = serde_json::json!([2]);
+    let input = dir.join("rigged.gltf");
+    std::fs::write(&input, serde_json::to_vec(&json).unwrap()).unwrap();
+    std::fs::copy(
+        asset("AnimatedMorphCube-glTF/AnimatedMorphCube.bin"),
+        dir.join("AnimatedMorphCube.bin"),
+    )
+    .unwrap();
+    let out = dir.join("rigged_lods.glb");
+    let output = morphlod(&[
+        input.as_os_str(),
+        "--lods".as_ref(),
+        "0.5,0.25".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(output.status.success(), "{output:?}");
+
+    let source = gltf::Gltf::open(&input).unwrap();
+    let glb = std::fs::read(&out).unwrap();
+    let exported = gltf::Gltf::from_slice(&glb).unwrap();
+    let same = |a: gltf::scene::Transform, b: gltf::scene::Transform| {
+        let kind = |t: &gltf::scene::Transform| matches!(t, gltf::scene::Transform::Matrix { .. });
+        kind(&a) == kind(&b) && a.matrix().map(bits) == b.matrix().map(bits)
+    };
+    for name in ["rig", "root"] {
+        let (a, b) = (named(&source, name), named(&exported, name));
+        assert!(same(a.transform(), b.transform()), "{name}");
+    }
+    let (root, rig, lod0) = (
+        named(&exported, "root"),
+        named(&exported, "rig"),
+        named(&exported, "rigged_LOD0"),
+    );
+    let scene: Vec<usize> = exported
+        .scenes()
+        .next()
+        .unwrap()
+        .nodes()
+        .map(|n| n.index())
+        .collect();
+    assert_eq!(scene, [root.index()]);
+    assert_eq!(
+        root.children().map(|n| n.index()).collect::<Vec<_>>(),
+        [rig.index()]
+    );
+    assert_eq!(
+        rig.children().map(|n| n.index()).collect::<Vec<_>>(),
+        [lod0.index()]
+    );
+    let cube_node = source.nodes().next().unwrap();
+    assert!(same(cube_node.transform(), lod0.transform()));
+    for i in 1..3 {
+        let lod = named(&exported, &format!("rigged_LOD{i}"));
+        assert!(same(lod0.transform(), lod.transform()), "LOD{i}");
+    }
+    let world = |chain: [gltf::Node; 3]| {
+        chain.iter().fold(glam::Mat4::IDENTITY, |m, n| {
+            m * glam::Mat4::from_cols_array_2d(&n.transform().matrix())
+        })
+    };
+    assert_eq!(
+        world([named(&source, "root"), named(&source, "rig"), cube_node])
+            .to_cols_array_2d()
+            .map(bits),
+        world([root, rig, lod0]).to_cols_array_2d().map(bits)
+    );
+    validate_clean(&out);
+}
+
+/// The node of `doc` named `name`.
+fn named<'a>(doc: &'a gltf::Gltf, name: &str) -> gltf::Node<'a> {
+    doc.nodes()
+        .find(|n| n.name() == Some(name))
+        .unwrap_or_else(|| panic!("no node {name}"))
+}
+
 const IDENTITY: [[f32; 4]; 4] = [
     [1.0, 0.0, 0.0, 0.0],
     [0.0, 1.0, 0.0, 0.0],

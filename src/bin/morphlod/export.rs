@@ -60,18 +60,17 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
         ..LoadOptions::default()
     };
     let start = Instant::now();
-    let (morph, default_weights, placement) = match args.inputs.as_slice() {
+    let (morph, default_weights, nodes) = match args.inputs.as_slice() {
         [a, b] => (
             load_pair(a, b, args.landmarks.as_deref(), &options)?,
             None,
-            None,
+            Vec::new(),
         ),
         [path] => {
             let (morph, weights) = load_gltf(path, args.animation.as_deref(), &options)?;
-            let placement = morphlod::io::gltf::placement(path, &options)
-                .map_err(|e| e.to_string())?
-                .filter(|m| *m != glam::Mat4::IDENTITY.to_cols_array());
-            (morph, weights, placement)
+            let nodes =
+                morphlod::io::gltf::node_chain(path, &options).map_err(|e| e.to_string())?;
+            (morph, weights, nodes)
         }
         _ => return Err("give one glTF file or two meshes".into()),
     };
@@ -89,7 +88,7 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
             simplify: args.weights.simplify_options(),
             default_weights,
             name,
-            placement,
+            nodes,
         },
     )
     .map_err(|e| e.to_string())?;

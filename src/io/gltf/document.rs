@@ -298,9 +298,47 @@ impl Document {
             .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
     }
 
-    /// World matrix of the first node instancing `mesh`, `None` when no node does.
-    pub(super) fn placement(&self, mesh: &gltf::Mesh) -> Option<glam::Mat4> {
-        self.instance(mesh).map(|n| self.world_matrix(n.index()))
+    /// The first node instancing `mesh` and its ancestors, root first; empty when no node
+    /// instances it.
+    pub(super) fn node_chain(&self, mesh: &gltf::Mesh) -> Vec<super::SourceNode> {
+        let Some(node) = self.instance(mesh) else {
+            return Vec::new();
+        };
+        let nodes: Vec<gltf::Node> = self.document.nodes().collect();
+        let mut chain = Vec::new();
+        let mut current = Some(node.index());
+        // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
+        while let (Some(i), true) = (current, chain.len() < nodes.len()) {
+            let n = &nodes[i];
+            chain.push(super::SourceNode {
+                name: n.name().map(str::to_owned),
+                transform: match n.transform() {
+                    gltf::scene::Transform::Matrix { matrix } => super::NodeTransform::Matrix(
+                        glam::Mat4::from_cols_array_2d(&matrix).to_cols_array(),
+                    ),
+                    gltf::scene::Transform::Decomposed {
+                        translation,
+                        rotation,
+                        scale,
+                    } => super::NodeTransform::Trs {
+                        translation,
+                        rotation,
+                        scale,
+                    },
+                },
+            });
+            current = self.parent(i);
+        }
+        chain.reverse();
+        chain
+    }
+
+    /// The node whose `children` hold `node`.
+    fn parent(&self, node: usize) -> Option<usize> {
+        self.document
+            .nodes()
+            .find(|n| n.children().any(|c| c.index() == node))
+            .map(|n| n.index())
     }
 
     /// World matrix of the first node instancing `mesh` (identity when none),
@@ -398,15 +436,6 @@ impl Document {
     }
 
     pub(super) fn world_matrix(&self, node: usize) -> glam::Mat4 {
-        let count = self.document.nodes().len();
-        let mut parent = vec![None; count];
-        for n in self.document.nodes() {
-            for child in n.children() {
-                if let Some(slot) = parent.get_mut(child.index()) {
-                    *slot = Some(n.index());
-                }
-            }
-        }
         let local = |i: usize| {
             self.document
                 .nodes()
@@ -418,8 +447,8 @@ impl Document {
         let mut matrix = local(node);
         let mut current = node;
         // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
-        for _ in 0..count {
-            match parent.get(current).copied().flatten() {
+        for _ in 0..self.document.nodes().len() {
+            match self.parent(current) {
                 Some(p) => {
                     matrix = local(p) * matrix;
                     current = p;

@@ -58,13 +58,43 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
     super::validated(mesh_out, path)
 }
 
-/// The world matrix (column-major) of the first node that instances the mesh `options`
-/// picks, the placement [`load_mesh`] applies with `options.apply_transforms`; `None` when no
-/// node instances the mesh. `options.apply_transforms` itself is ignored.
-pub fn placement(path: &Path, options: &LoadOptions) -> Result<Option<[f32; 16]>, LoadError> {
+/// A node's local transform as a glTF file states it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NodeTransform {
+    /// `matrix`, column-major.
+    Matrix([f32; 16]),
+    /// `translation`, `rotation` (a unit quaternion x, y, z, w) and `scale`.
+    Trs {
+        translation: [f32; 3],
+        rotation: [f32; 4],
+        scale: [f32; 3],
+    },
+}
+
+impl NodeTransform {
+    /// The transform that moves nothing.
+    pub const IDENTITY: NodeTransform = NodeTransform::Trs {
+        translation: [0.0; 3],
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        scale: [1.0; 3],
+    };
+}
+
+/// One node of a scene: its name and local transform, exactly as the file has them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceNode {
+    pub name: Option<String>,
+    pub transform: NodeTransform,
+}
+
+/// The nodes from a root of the node tree down to the first node that instances the mesh
+/// `options` picks, root first (the last is that node): the placement [`load_mesh`] applies
+/// with `options.apply_transforms` is the product of their transforms. Empty when no node
+/// instances the mesh. `options.apply_transforms` itself is ignored.
+pub fn node_chain(path: &Path, options: &LoadOptions) -> Result<Vec<SourceNode>, LoadError> {
     let doc = Document::open(path)?;
     let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
-    Ok(doc.placement(&mesh).map(|m| m.to_cols_array()))
+    Ok(doc.node_chain(&mesh))
 }
 
 /// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
