@@ -36,6 +36,24 @@ fn morphlod(args: &[&std::ffi::OsStr]) -> Output {
         .expect("the morphlod binary runs")
 }
 
+/// `morphlod export INPUTS --lods LODS -o OUT`, which must succeed; the GLB it wrote.
+fn export_lods(inputs: &[PathBuf], lods: &str, out: &Path) -> Vec<u8> {
+    let mut args: Vec<&std::ffi::OsStr> = inputs.iter().map(|p| p.as_os_str()).collect();
+    args.extend([
+        "--lods".as_ref(),
+        lods.as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    let output = morphlod(&args);
+    assert!(
+        output.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    std::fs::read(out).unwrap()
+}
+
 fn bits<const N: usize>(v: [f32; N]) -> [u32; N] {
     v.map(f32::to_bits)
 }
@@ -254,20 +272,7 @@ fn exported_files_pass_the_khronos_validator() {
     ];
     for (inputs, name, lods) in cases {
         let out = dir.join(format!("{name}.glb"));
-        let mut args: Vec<&std::ffi::OsStr> = inputs.iter().map(|p| p.as_os_str()).collect();
-        args.extend([
-            "--lods".as_ref(),
-            lods.as_ref(),
-            "-o".as_ref(),
-            out.as_os_str(),
-        ]);
-        let output = morphlod(&args);
-        assert!(
-            output.status.success(),
-            "{}",
-            String::from_utf8_lossy(&output.stderr)
-        );
-        let glb = std::fs::read(&out).unwrap();
+        let glb = export_lods(&inputs, lods, &out);
         check_structure(&glb, name, lods.split(',').count() + 1, true);
         validate_clean(&out);
     }
@@ -287,16 +292,7 @@ fn lod_nodes_carry_the_source_node_placement() {
         gltf::scene::Transform::Matrix { matrix: IDENTITY }.matrix()
     );
     for (input, expected) in [(cube, placed), (asset("makehuman_face.glb"), IDENTITY)] {
-        let out = dir.join("out.glb");
-        let output = morphlod(&[
-            input.as_os_str(),
-            "--lods".as_ref(),
-            "0.5".as_ref(),
-            "-o".as_ref(),
-            out.as_os_str(),
-        ]);
-        assert!(output.status.success(), "{output:?}");
-        let glb = std::fs::read(&out).unwrap();
+        let glb = export_lods(std::slice::from_ref(&input), "0.5", &dir.join("out.glb"));
         let exported = gltf::Gltf::from_slice(&glb).unwrap();
         for node in exported.nodes() {
             let matrix = node.transform().matrix();
@@ -335,17 +331,8 @@ fn lods_keep_the_source_node_hierarchy() {
     )
     .unwrap();
     let out = dir.join("rigged_lods.glb");
-    let output = morphlod(&[
-        input.as_os_str(),
-        "--lods".as_ref(),
-        "0.5,0.25".as_ref(),
-        "-o".as_ref(),
-        out.as_os_str(),
-    ]);
-    assert!(output.status.success(), "{output:?}");
-
+    let glb = export_lods(std::slice::from_ref(&input), "0.5,0.25", &out);
     let source = gltf::Gltf::open(&input).unwrap();
-    let glb = std::fs::read(&out).unwrap();
     let exported = gltf::Gltf::from_slice(&glb).unwrap();
     let same = |a: gltf::scene::Transform, b: gltf::scene::Transform| {
         let kind = |t: &gltf::scene::Transform| matches!(t, gltf::scene::Transform::Matrix { .. });
