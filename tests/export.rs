@@ -310,26 +310,7 @@ fn lod_nodes_carry_the_source_node_placement() {
 #[test]
 fn lods_keep_the_source_node_hierarchy() {
     let dir = temp_dir("hierarchy");
-    let cube = asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
-    let mut json: Value = serde_json::from_slice(&std::fs::read(&cube).unwrap()).unwrap();
-    json["nodes"][0]["translation"] = serde_json::json!([0.25, -1.5, 3.0]);
-    json["nodes"].as_array_mut().unwrap().extend(
-        serde_json::from_str::<Vec<Value>>(
-            r#"[{"name":"rig","children":[0],"translation":[1.0,2.0,-0.5],
-                 "rotation":[0.0,0.38268343,0.0,0.9238795],"scale":[2.0,2.0,2.0]},
-                {"name":"root","children":[1],
-                 "matrix":[0.5,0,0,0, 0,0.5,0,0, 0,0,0.5,0, 10,0,-4,1]}]"#,
-        )
-        .unwrap(),
-    );
-    json["scenes"][0]["nodes"] = serde_json::json!([2]);
-    let input = dir.join("rigged.gltf");
-    std::fs::write(&input, serde_json::to_vec(&json).unwrap()).unwrap();
-    std::fs::copy(
-        asset("AnimatedMorphCube-glTF/AnimatedMorphCube.bin"),
-        dir.join("AnimatedMorphCube.bin"),
-    )
-    .unwrap();
+    let input = common::rigged_cube(&dir);
     let out = dir.join("rigged_lods.glb");
     let glb = export_lods(std::slice::from_ref(&input), "0.5,0.25", &out);
     let source = gltf::Gltf::open(&input).unwrap();

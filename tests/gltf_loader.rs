@@ -75,7 +75,7 @@ fn load(file: &Path, expected: &str) -> Option<(bool, String)> {
 }
 
 /// The face (52 targets with NORMAL deltas, a texture, seams), the AnimatedMorphCube sample
-/// (.gltf with an external buffer) and a supermesh pair (bunny.obj → cow.off, one target):
+/// (.gltf with an external buffer; also under a TRS and a matrix ancestor) and a supermesh pair (bunny.obj → cow.off, one target):
 /// every LOD loads in three.js with all its targets, driven by the animation.
 #[test]
 fn exported_files_load_in_three_js() {
@@ -95,6 +95,8 @@ fn exported_files_load_in_three_js() {
     ];
     if cube.exists() {
         cases.push((vec![cube], "AnimatedMorphCube", "0.6,0.3"));
+        // The cube under two named ancestors: LOD0 is found in the scene below them.
+        cases.push((vec![common::rigged_cube(&dir)], "rigged", "0.6,0.3"));
     }
     for (inputs, name, lods) in cases {
         let out = dir.join(format!("{name}.glb"));

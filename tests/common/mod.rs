@@ -566,3 +566,32 @@ pub fn cut_grid(side: u32) -> Morph {
         .and_then(|m| m.with_attributes(attributes))
         .expect("a cut grid is a valid morph")
 }
+
+/// The AnimatedMorphCube sample (its node given a translation) re-parented under a named TRS
+/// node "rig" (translation, rotation, scale) under a named matrix node "root", written to
+/// `dir/rigged.gltf` beside a copy of its buffer: a source with a real node hierarchy.
+pub fn rigged_cube(dir: &std::path::Path) -> std::path::PathBuf {
+    use serde_json::{json, Value};
+    let assets =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/AnimatedMorphCube-glTF");
+    let mut gltf: Value =
+        serde_json::from_slice(&std::fs::read(assets.join("AnimatedMorphCube.gltf")).unwrap())
+            .unwrap();
+    gltf["nodes"][0]["translation"] = json!([0.25, -1.5, 3.0]);
+    let nodes = gltf["nodes"].as_array_mut().unwrap();
+    nodes.push(
+        json!({"name": "rig", "children": [0], "translation": [1.0, 2.0, -0.5],
+        "rotation": [0.0, 0.38268343, 0.0, 0.9238795], "scale": [2.0, 2.0, 2.0]}),
+    );
+    nodes.push(json!({"name": "root", "children": [1],
+        "matrix": [0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 10, 0, -4, 1]}));
+    gltf["scenes"][0]["nodes"] = json!([2]);
+    let input = dir.join("rigged.gltf");
+    std::fs::write(&input, serde_json::to_vec(&gltf).unwrap()).unwrap();
+    std::fs::copy(
+        assets.join("AnimatedMorphCube.bin"),
+        dir.join("AnimatedMorphCube.bin"),
+    )
+    .unwrap();
+    input
+}
