@@ -36,7 +36,7 @@ use crate::io::gltf::write::{
 use crate::io::gltf::{NodeTransform, SourceNode};
 use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
 use crate::seams::StepBoundaries;
-use crate::simplify::{PoseError, SimplifyOptions};
+use crate::simplify::{PoseError, SimplifyOptions, DISTANCE_WEIGHT};
 use std::fmt::Write as _;
 use thiserror::Error;
 
@@ -59,7 +59,11 @@ pub enum LodSteps {
     /// own size) — an RMS distance to the planes of the original surface around the
     /// collapsed vertices, not a measured Hausdorff distance. For a mesh with UVs or given normals the collapse
     /// error also holds the attribute term ([`crate::simplify::SimplifyOptions::uv_weight`],
-    /// `normal_weight`), so a bound limits how far the texture and shading drift too.
+    /// `normal_weight`), so a bound limits how far the texture and shading drift too. With the
+    /// distance term ([`crate::simplify::SimplifyOptions::distance_weight`] `w`, on by default
+    /// here) the error is at least `w ×` the squared distance between the LOD and the
+    /// full surface that the term tracks, so a bound `e` also keeps every removed vertex
+    /// within `e · diagonal / √w` of the LOD in the base pose.
     Errors(Vec<f32>),
 }
 
@@ -70,8 +74,10 @@ pub struct ExportOptions {
     pub lods: LodSteps,
     /// Poses sampled over `t ∈ [0, 1]` for the shared sequence (1 to the builder's maximum).
     pub poses: usize,
-    /// The simplifier's options for the shared sequence (default: [`SimplifyOptions`]'s,
-    /// with the attribute error on for meshes with UVs or given normals).
+    /// The simplifier's options for the shared sequence (default: [`SimplifyOptions`]'s, with
+    /// the attribute error on for meshes with UVs or given normals, and the distance term on
+    /// at [`DISTANCE_WEIGHT`]: an export is made once, offline, and the term lowers the LODs'
+    /// Hausdorff error by a quarter to a half for a build many times longer; BENCHMARKS.md).
     pub simplify: SimplifyOptions,
     /// The meshes' default weights (`mesh.weights`), one per target; `None`: the weights at
     /// `t = 0`.
@@ -90,7 +96,10 @@ impl Default for ExportOptions {
         ExportOptions {
             lods: LodSteps::Fractions(vec![0.5, 0.25, 0.1]),
             poses: DEFAULT_POSES,
-            simplify: SimplifyOptions::default(),
+            simplify: SimplifyOptions {
+                distance_weight: DISTANCE_WEIGHT,
+                ..SimplifyOptions::default()
+            },
             default_weights: None,
             name: "mesh".into(),
             nodes: Vec::new(),
@@ -740,6 +749,7 @@ mod tests {
         let (asset, _) = Builder::new(&morph)
             .frames(DEFAULT_POSES)
             .sequences(Sequences::Shared(PoseError::Max))
+            .simplify_options(options.simplify.clone())
             .build()
             .unwrap();
         let sequence = &asset.frames[0];

@@ -566,11 +566,12 @@ fn a_texture_that_does_not_decode_is_refused_before_writing() {
     }
 }
 
-/// `--uv-weight` and `--normal-weight` reach the simplifier of `export` and `build`: on the
-/// face (UVs and normals) zero weights give another sequence than the defaults, and a weight
-/// that is negative or not a number is refused.
+/// `--uv-weight`, `--normal-weight` and `--distance-weight` reach the simplifier of `export`
+/// and `build`: on the face (UVs and normals) zero attribute weights, and the distance term
+/// off, each give another sequence than export's defaults, and a weight that is negative or
+/// not a number is refused.
 #[test]
-fn attribute_weights_reach_the_simplifier() {
+fn simplifier_weights_reach_the_simplifier() {
     let dir = Scratch::new("weights");
     let face = asset("makehuman_face.glb");
     let face = face.to_str().unwrap();
@@ -591,12 +592,25 @@ fn attribute_weights_reach_the_simplifier() {
         "geometric.glb",
         &["--uv-weight", "0", "--normal-weight", "0"],
     );
+    let distance = run("distance.glb", &["--distance-weight", "4"]);
+    let no_distance = run("no_distance.glb", &["--distance-weight", "0"]);
     assert!(default == explicit, "the defaults are 4 and 0.1");
+    assert!(
+        default == distance,
+        "export's distance weight defaults to 4"
+    );
     assert!(
         default != geometric,
         "zero weights must change the face's LOD"
     );
-    for bad in ["-1", "nan", "inf"] {
+    assert!(
+        default != no_distance,
+        "turning the distance term off must change the face's LOD"
+    );
+    for (flag, bad) in ["--uv-weight", "--normal-weight", "--distance-weight"]
+        .into_iter()
+        .flat_map(|flag| ["-1", "nan", "inf"].map(|bad| (flag, bad)))
+    {
         for command in ["export", "build"] {
             let out = morphlod(&[
                 command,
@@ -605,10 +619,10 @@ fn attribute_weights_reach_the_simplifier() {
                 "expressions",
                 "-o",
                 dir.path("x").to_str().unwrap(),
-                "--uv-weight",
+                flag,
                 bad,
             ]);
-            assert_eq!(out.status.code(), Some(2), "{command} --uv-weight {bad}");
+            assert_eq!(out.status.code(), Some(2), "{command} {flag} {bad}");
             assert!(
                 text(&out.stderr).contains("is not a weight"),
                 "{}",

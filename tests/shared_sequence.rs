@@ -11,14 +11,17 @@
 //! * (b) one sequence of the rest pose `V(0)`;
 //! * (m) `meshopt::simplify` of the base pose with `Regularize` (what gltfpack does for meshes
 //!   with morph targets), drawn at every `t`;
-//! * (a) the per-frame sequences (frame `round(31 t)` at `t`).
+//! * (a) the per-frame sequences (frame `round(31 t)` at `t`);
+//! * (d) (s) with the distance term (`SimplifyOptions::distance_weight` = `DISTANCE_WEIGHT`,
+//!   `--distance-weight 4`), in the printed table only (its build is slow for the test
+//!   profile).
 //!
 //! `cargo test --release --test shared_sequence -- --ignored --nocapture`
 
 use morphlod::build::Sequences;
 use morphlod::io::MorphSource;
 use morphlod::morph::Morph;
-use morphlod::simplify::{simplify, simplify_poses, PoseError, SimplifyOptions};
+use morphlod::simplify::{simplify, simplify_poses, PoseError, SimplifyOptions, DISTANCE_WEIGHT};
 use morphlod::{Builder, DeformingModel, DeformingState, Lod};
 use rayon::prelude::*;
 
@@ -36,34 +39,51 @@ fn error_at(morph: &Morph, t: f32, lod: &[[u32; 3]], samples: usize) -> (f64, f6
     (100.0 * e.hausdorff / diagonal, 100.0 * e.rms / diagonal)
 }
 
-const METHODS: [&str; 5] = [
+const METHODS: [&str; 6] = [
     "(s) shared max",
     "(x) shared mean",
     "(b) rest pose",
     "(m) meshopt",
     "(a) per-frame",
+    "(d) shared+dist",
 ];
 
-/// Per method and percent: (max H, mean H, max RMS, mean RMS, mean triangles) over `times`.
+/// Per method and percent: (max H, mean H, max RMS, mean RMS, mean triangles) over `times`;
+/// method (d) only `with_distance`.
 fn table(
     name: &str,
     morph: &Morph,
     percents: &[usize],
     times: usize,
     samples: usize,
+    with_distance: bool,
 ) -> Vec<Vec<[f64; 5]>> {
     let tris = morph.triangles();
-    let build = |sequences| {
+    let build = |sequences, options| {
         Builder::new(morph)
             .frames(FRAMES)
             .sequences(sequences)
+            .simplify_options(options)
             .build()
             .expect("the morph builds")
             .0
     };
-    let shared_max = build(Sequences::Shared(PoseError::Max));
-    let shared_mean = build(Sequences::Shared(PoseError::Mean));
-    let per_frame = build(Sequences::PerFrame);
+    let quadrics = SimplifyOptions::default;
+    let start = std::time::Instant::now();
+    let shared_max = build(Sequences::Shared(PoseError::Max), quadrics());
+    println!("{name}: (s) built in {:.2?}", start.elapsed());
+    let shared_mean = build(Sequences::Shared(PoseError::Mean), quadrics());
+    let per_frame = build(Sequences::PerFrame, quadrics());
+    let shared_distance = with_distance.then(|| {
+        let options = SimplifyOptions {
+            distance_weight: DISTANCE_WEIGHT,
+            ..SimplifyOptions::default()
+        };
+        let start = std::time::Instant::now();
+        let asset = build(Sequences::Shared(PoseError::Max), options);
+        println!("{name}: (d) built in {:.2?}", start.elapsed());
+        asset
+    });
     let v0 = morph.v0();
     let lods: Vec<Vec<Vec<Vec<[u32; 3]>>>> = percents
         .iter()
@@ -72,7 +92,7 @@ fn table(
             let reference = |seq: &morphlod::CollapseSequence| {
                 seq.reference_mesh(tris, lod_for(seq, tris, target))
             };
-            vec![
+            let mut methods = vec![
                 vec![reference(&shared_max.frames[0])],
                 vec![reference(&shared_mean.frames[0])],
                 vec![reference(&per_frame.frames[0])],
@@ -83,7 +103,11 @@ fn table(
                     meshopt::SimplifyOptions::Regularize,
                 )],
                 per_frame.frames.par_iter().map(|s| reference(s)).collect(),
-            ]
+            ];
+            if let Some(asset) = &shared_distance {
+                methods.push(vec![reference(&asset.frames[0])]);
+            }
+            methods
         })
         .collect();
     // rows[i][p][m] = (H, RMS, triangles) at time i.
@@ -117,7 +141,7 @@ fn table(
     let mut out = Vec::new();
     for (p, percent) in percents.iter().enumerate() {
         let mut per_method = Vec::new();
-        for (m, method) in METHODS.iter().enumerate() {
+        for (m, method) in METHODS.iter().enumerate().take(lods[p].len()) {
             let column: Vec<(f64, f64, usize)> = rows.iter().map(|r| r[p][m]).collect();
             let n = column.len() as f64;
             let stats = [
@@ -141,6 +165,14 @@ fn table(
             s / a,
             x / a
         );
+        if let Some(d) = per_method.get(5) {
+            println!(
+                "{percent:>3}% | max-over-t H: (d)/(m) {:.3}, (d)/(s) {:.3}, (d)/(a) {:.3}",
+                d[0] / m,
+                d[0] / s,
+                d[0] / a
+            );
+        }
         out.push(per_method);
     }
     out
@@ -157,6 +189,7 @@ fn pose_aware_quality_over_the_animation() {
         &[10, 5, 2],
         64,
         50_000,
+        true,
     );
     let face = common::load_asset_morph(
         "makehuman_face.glb",
@@ -168,6 +201,7 @@ fn pose_aware_quality_over_the_animation() {
         &[10, 5, 2],
         64,
         50_000,
+        true,
     );
     let head =
         common::load_asset_morph("makehuman_head.glb", MorphSource::Animation("morph".into()));
@@ -177,6 +211,7 @@ fn pose_aware_quality_over_the_animation() {
         &[10, 5, 2],
         64,
         50_000,
+        true,
     );
 }
 
@@ -191,7 +226,7 @@ fn pose_aware_quality_over_the_animation() {
 fn shared_sequence_beats_base_pose_simplification_on_the_body() {
     let body =
         common::load_asset_morph("makehuman_body.glb", MorphSource::Animation("morph".into()));
-    let rows = table("makehuman_body, 10%", &body, &[10], 17, 20_000);
+    let rows = table("makehuman_body, 10%", &body, &[10], 17, 20_000, false);
     let [s, _, _, m, a] = [0, 1, 2, 3, 4].map(|i| rows[0][i][0]);
     assert!(
         s <= 0.7 * m,
@@ -201,6 +236,49 @@ fn shared_sequence_beats_base_pose_simplification_on_the_body() {
         s <= 1.25 * a,
         "shared sequence (max over poses) {s:.3}% vs the per-frame sequences {a:.3}%: goal <= 1.25x"
     );
+}
+
+/// Issue 12's goal on the face with what `export` builds by default (the shared sequence with
+/// the distance term): max-over-t Hausdorff error at most 0.7× meshoptimizer's on the base pose
+/// at 10% and 5% of the triangles, and at 2% no worse than 0.8× (measured 0.73: the goal's
+/// 0.7 is not met there; BENCHMARKS.md). Quadrics alone give 1.06 at 2%, so this fails if the
+/// term is lost. 17 t and 20,000 samples a side to fit the test profile.
+#[test]
+fn export_sequence_beats_base_pose_simplification_on_the_face() {
+    let face = common::load_asset_morph(
+        "makehuman_face.glb",
+        MorphSource::Animation("expressions".into()),
+    );
+    let tris = face.triangles();
+    let (asset, _) = Builder::new(&face)
+        .frames(FRAMES)
+        .sequences(Sequences::Shared(PoseError::Max))
+        .simplify_options(morphlod::export::ExportOptions::default().simplify)
+        .build()
+        .expect("the face builds");
+    let sequence = &asset.frames[0];
+    let v0 = face.v0();
+    for (percent, goal) in [(10, 0.7), (5, 0.7), (2, 0.8)] {
+        let target = tris.len() * percent / 100;
+        let ours = sequence.reference_mesh(tris, lod_for(sequence, tris, target));
+        let meshopt =
+            meshopt_simplify_with(&v0, tris, target, meshopt::SimplifyOptions::Regularize);
+        let worst = |lod: &[[u32; 3]]| {
+            (0..17)
+                .into_par_iter()
+                .map(|i| error_at(&face, i as f32 / 16.0, lod, 20_000).0)
+                .reduce(|| 0.0, f64::max)
+        };
+        let (d, m) = (worst(&ours), worst(&meshopt));
+        println!(
+            "face {percent}%: export's sequence {d:.3}%, meshopt {m:.3}%: {:.3}",
+            d / m
+        );
+        assert!(
+            d <= goal * m,
+            "{percent}%: export's sequence {d:.3}% vs meshopt on the base pose {m:.3}%: goal <= {goal}x"
+        );
+    }
 }
 
 /// A flat grid (`V(0)`) and the same grid twisted about its centre (`V(1)`: each point turned

@@ -1,10 +1,11 @@
 //! `morphlod export`: the original and its LODs as one glTF binary ([`morphlod::export`]).
 
-use crate::{load_pair, load_surface, AttributeWeights};
+use crate::{load_pair, load_surface, SimplifyWeights};
 use clap::Args;
 use morphlod::export::{export_glb, ExportOptions, LodSteps, DEFAULT_POSES};
 use morphlod::io::{Format, LoadError, LoadOptions, MorphSource};
 use morphlod::morph::{Morph, Weights};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -38,7 +39,7 @@ pub(crate) struct ExportArgs {
     #[arg(long, default_value_t = DEFAULT_POSES)]
     poses: usize,
     #[command(flatten)]
-    weights: AttributeWeights,
+    weights: SimplifyWeights,
     /// glTF: the weight animation to follow (name or index; default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     animation: Option<String>,
@@ -77,6 +78,18 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
     let name = args.inputs[0]
         .file_stem()
         .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+    // One shared sequence over every pose: seconds to tens of seconds with the distance term,
+    // and no natural unit of progress inside it, so a spinner says it is working.
+    let spinner = std::io::stderr().is_terminal().then(|| {
+        let spinner = indicatif::ProgressBar::new_spinner();
+        spinner.set_message(format!(
+            "simplifying over {} poses ({} triangles)",
+            args.poses,
+            morph.triangles().len()
+        ));
+        spinner.enable_steady_tick(std::time::Duration::from_millis(120));
+        spinner
+    });
     let export = export_glb(
         &morph,
         &ExportOptions {
@@ -85,13 +98,17 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
                 None => LodSteps::Fractions(args.lods.clone()),
             },
             poses: args.poses,
-            simplify: args.weights.simplify_options(),
+            simplify: args.weights.simplify_options(true),
             default_weights,
             name,
             nodes,
         },
     )
-    .map_err(|e| e.to_string())?;
+    .map_err(|e| e.to_string());
+    if let Some(spinner) = spinner {
+        spinner.finish_and_clear();
+    }
+    let export = export?;
     std::fs::write(&args.output, &export.glb)
         .map_err(|e| format!("{}: cannot write: {e}", args.output.display()))?;
     println!("LOD  fraction  triangles  vertices  collapses  error/diagonal");

@@ -103,7 +103,7 @@ struct BuildArgs {
     #[arg(long, value_enum, default_value_t = PoseErrorArg::Max)]
     pose_error: PoseErrorArg,
     #[command(flatten)]
-    weights: AttributeWeights,
+    weights: SimplifyWeights,
     /// Two meshes of different connectivity: landmark pairs for the supermesh, one
     /// `vertex_in_a vertex_in_b` a line.
     #[arg(long, value_name = "PAIRS.txt")]
@@ -201,23 +201,36 @@ enum SequenceArg {
     Shared,
 }
 
-/// How much UVs and given normals count in the simplifier's error (meshes with attributes;
-/// others never use them).
+/// The simplifier's optional error terms: how much UVs and given normals count (meshes with
+/// attributes; others never use them), and the distance term.
 #[derive(clap::Args, Debug, Clone, Copy)]
-pub(crate) struct AttributeWeights {
+pub(crate) struct SimplifyWeights {
     /// Weight of the UV error (0 = geometry only; see `SimplifyOptions::uv_weight`).
     #[arg(long, default_value_t = morphlod::simplify::UV_WEIGHT, value_parser = weight, allow_negative_numbers = true)]
     uv_weight: f32,
     /// Weight of the normal error (0 = geometry only; see `SimplifyOptions::normal_weight`).
     #[arg(long, default_value_t = morphlod::simplify::NORMAL_WEIGHT, value_parser = weight, allow_negative_numbers = true)]
     normal_weight: f32,
+    /// Weight of the distance term (0 = off): lower Hausdorff error, most at low triangle
+    /// counts, for a build many times longer (see `SimplifyOptions::distance_weight`).
+    /// Default: 4 for one shared sequence (export, build --sequence shared), 0 for per-frame
+    /// sequences (one simplification per frame).
+    #[arg(long, value_parser = weight, allow_negative_numbers = true)]
+    distance_weight: Option<f32>,
 }
 
-impl AttributeWeights {
-    pub(crate) fn simplify_options(self) -> SimplifyOptions {
+impl SimplifyWeights {
+    /// The options for a shared sequence (`shared`) or per-frame ones.
+    pub(crate) fn simplify_options(self, shared: bool) -> SimplifyOptions {
+        let distance = if shared {
+            morphlod::simplify::DISTANCE_WEIGHT
+        } else {
+            0.0
+        };
         SimplifyOptions {
             uv_weight: self.uv_weight,
             normal_weight: self.normal_weight,
+            distance_weight: self.distance_weight.unwrap_or(distance),
             ..SimplifyOptions::default()
         }
     }
@@ -509,7 +522,10 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     let built = Builder::new(&morph)
         .frames(args.frames)
         .sequences(sequences)
-        .simplify_options(args.weights.simplify_options())
+        .simplify_options(
+            args.weights
+                .simplify_options(args.sequence == SequenceArg::Shared),
+        )
         .progress(&progress)
         .build();
     if let Some(bar) = &bar {
