@@ -253,7 +253,11 @@ fn export_sequence_beats_base_pose_simplification_on_the_face() {
     let (asset, _) = Builder::new(&face)
         .frames(FRAMES)
         .sequences(Sequences::Shared(PoseError::Max))
-        .simplify_options(morphlod::export::ExportOptions::default().simplify)
+        .simplify_options(SimplifyOptions {
+            // What `morphlod::export::ExportOptions::default()` simplifies with.
+            distance_weight: DISTANCE_WEIGHT,
+            ..SimplifyOptions::default()
+        })
         .build()
         .expect("the face builds");
     let sequence = &asset.frames[0];
