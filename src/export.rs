@@ -25,7 +25,11 @@
 //! ancestors' transforms, which the extension does not define. Composed world matrices are
 //! never written, so nothing written is a sheared matrix the source did not have. (A source
 //! loaded with `apply_transforms` has its placement baked into the vertices and needs no
-//! chain.) Only the weight animation is carried; TRS animations of the chain are not.
+//! chain.) The one animation written holds the weight track and, from the same source
+//! animation, its channels on the chain's translations, rotations and scales
+//! ([`SourceNode::tracks`]): an ancestor's drive that ancestor, the instancing node's drive
+//! every LOD node, keys and values as the file has them. Skins, other meshes and the mesh
+//! node's children are not written.
 
 use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
 use crate::collapse::CollapseSequence;
@@ -33,7 +37,7 @@ use crate::io::gltf::write::{
     bounds, f32_bytes, glb, index_accessor, number, quote, vec3_accessor, Bin, Json, ARRAY_BUFFER,
     FLOAT, UNSIGNED_INT,
 };
-use crate::io::gltf::{NodeTransform, SourceNode};
+use crate::io::gltf::{NodeTrack, NodeTransform, SourceNode};
 use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
 use crate::seams::StepBoundaries;
 use crate::simplify::{PoseError, SimplifyOptions, DISTANCE_WEIGHT};
@@ -86,8 +90,9 @@ pub struct ExportOptions {
     pub name: String,
     /// Where the source stood: the nodes from a scene root down to the node that instanced
     /// the mesh, root first ([`crate::io::gltf::node_chain`]). The ancestors are written as
-    /// they are, the LOD nodes take the last node's place and local transform. Empty (the
-    /// default): the LOD0 node is a scene root with no transform.
+    /// they are, the LOD nodes take the last node's place and local transform, and each
+    /// node's [`SourceNode::tracks`] join the animation. Empty (the default): the LOD0 node is
+    /// a scene root with no transform.
     pub nodes: Vec<SourceNode>,
 }
 
@@ -493,26 +498,65 @@ fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
     )
 }
 
-/// The animation JSON member: one sampler, one `weights` channel per LOD node.
-fn animation_json(track: &WeightTrack, lods: usize, bin: &mut Bin, json: &mut Json) -> String {
-    let times = track.times();
-    let times_view = json.view(bin.push(f32_bytes(times.iter())), None);
-    let (t0, t1) = (times[0], times[times.len() - 1]);
-    let input = json.accessor(
-        times_view,
-        FLOAT,
-        times.len(),
-        "SCALAR",
-        Some((vec![t0], vec![t1])),
-    );
-    let values = track.values();
-    let output = flat_accessor(bin, json, values, 1, "SCALAR", None);
-    let channels: Vec<String> = (0..lods)
-        .map(|node| format!(r#"{{"sampler":0,"target":{{"node":{node},"path":"weights"}}}}"#))
-        .collect();
+/// The animation JSON member (empty when there is nothing to play): the weight track's
+/// sampler with one `weights` channel per LOD node, and one sampler per node track with a
+/// channel on each of the nodes it drives.
+fn animation_json(
+    weights: Option<&WeightTrack>,
+    node_tracks: &[(Vec<usize>, &NodeTrack)],
+    lods: usize,
+    bin: &mut Bin,
+    json: &mut Json,
+) -> String {
+    let mut samplers = Vec::new();
+    let mut channels = Vec::new();
+    let input = |bin: &mut Bin, json: &mut Json, times: &[f32]| {
+        let view = json.view(bin.push(f32_bytes(times.iter())), None);
+        let (t0, t1) = (times[0], times[times.len() - 1]);
+        json.accessor(
+            view,
+            FLOAT,
+            times.len(),
+            "SCALAR",
+            Some((vec![t0], vec![t1])),
+        )
+    };
+    if let Some(track) = weights {
+        let input = input(bin, json, track.times());
+        let output = flat_accessor(bin, json, track.values(), 1, "SCALAR", None);
+        samplers.push(format!(
+            r#"{{"input":{input},"output":{output},"interpolation":"{}"}}"#,
+            track.interpolation().name()
+        ));
+        channels.extend(
+            (0..lods).map(|node| {
+                format!(r#"{{"sampler":0,"target":{{"node":{node},"path":"weights"}}}}"#)
+            }),
+        );
+    }
+    for (nodes, track) in node_tracks {
+        let input = input(bin, json, &track.times);
+        let width = track.property.components();
+        let kind = if width == 4 { "VEC4" } else { "VEC3" };
+        let output = flat_accessor(bin, json, &track.values, width, kind, None);
+        let sampler = samplers.len();
+        samplers.push(format!(
+            r#"{{"input":{input},"output":{output},"interpolation":"{}"}}"#,
+            track.interpolation.name()
+        ));
+        channels.extend(nodes.iter().map(|node| {
+            format!(
+                r#"{{"sampler":{sampler},"target":{{"node":{node},"path":"{}"}}}}"#,
+                track.property.name()
+            )
+        }));
+    }
+    if samplers.is_empty() {
+        return String::new();
+    }
     format!(
-        r#","animations":[{{"name":"weights","samplers":[{{"input":{input},"output":{output},"interpolation":"{}"}}],"channels":[{}]}}]"#,
-        track.interpolation().name(),
+        r#","animations":[{{"name":"weights","samplers":[{}],"channels":[{}]}}]"#,
+        samplers.join(","),
         channels.join(",")
     )
 }
@@ -576,21 +620,38 @@ fn write_glb(
         .map(|(lod, n)| mesh_json(morph, lod, n, default_weights, &mut bin, &mut json))
         .collect();
     let material = material_json(morph, &mut bin, &mut json);
-    let animation = if morph.targets().is_empty() {
-        String::new()
-    } else {
-        animation(morph).map_or(String::new(), |track| {
-            animation_json(&track, lods.len(), &mut bin, &mut json)
-        })
-    };
-    let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
-    let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
     // The LOD nodes are 0..lods (the animation and MSFT_lod address them so); the ancestors
     // follow, each the parent of the next, the last the parent of LOD0.
     let (ancestors, own) = match options.nodes.split_last() {
-        Some((own, ancestors)) => (ancestors, transform_json(&own.transform)),
-        None => (&[][..], String::new()),
+        Some((own, ancestors)) => (ancestors, Some(own)),
+        None => (&[][..], None),
     };
+    // Every LOD node stands where the source node stood, so its channels drive each of them;
+    // an ancestor's drive the ancestor.
+    let node_tracks: Vec<(Vec<usize>, &NodeTrack)> =
+        own.iter()
+            .flat_map(|own| own.tracks.iter().map(|t| ((0..lods.len()).collect(), t)))
+            .chain(
+                ancestors.iter().enumerate().flat_map(|(k, node)| {
+                    node.tracks.iter().map(move |t| (vec![lods.len() + k], t))
+                }),
+            )
+            .collect();
+    let weights = if morph.targets().is_empty() {
+        None
+    } else {
+        animation(morph)
+    };
+    let animation = animation_json(
+        weights.as_ref(),
+        &node_tracks,
+        lods.len(),
+        &mut bin,
+        &mut json,
+    );
+    let own = own.map_or(String::new(), |own| transform_json(&own.transform));
+    let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
+    let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
     let nodes: Vec<String> = names
         .iter()
         .enumerate()

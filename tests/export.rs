@@ -306,7 +306,8 @@ fn lod_nodes_carry_the_source_node_placement() {
 /// export keeps both ancestors (names and transforms, same form, bit for bit), LOD0 under
 /// "rig" with the cube node's own transform, the scene rooted at "root", every lower LOD with
 /// LOD0's local transform, so LOD0's world matrix is the source node's, bit for bit; the
-/// Khronos validator reports no error and no warning.
+/// animation's channels on "rig" and on the cube node drive "rig" and every LOD node, keys and
+/// values bit for bit; the Khronos validator reports no error and no warning.
 #[test]
 fn lods_keep_the_source_node_hierarchy() {
     let dir = temp_dir("hierarchy");
@@ -345,6 +346,7 @@ fn lods_keep_the_source_node_hierarchy() {
         [lod0.index()]
     );
     let cube_node = source.nodes().next().unwrap();
+    let (rig_index, cube_index) = (rig.index(), cube_node.index());
     assert!(same(cube_node.transform(), lod0.transform()));
     for i in 1..3 {
         let lod = named(&exported, &format!("rigged_LOD{i}"));
@@ -361,6 +363,51 @@ fn lods_keep_the_source_node_hierarchy() {
             .map(bits),
         world([root, rig, lod0]).to_cols_array_2d().map(bits)
     );
+    // The animation's channels on the chain travel with their nodes, keys and values bit for
+    // bit: "rig"'s translation drives "rig", the cube node's rotation every LOD node.
+    let source_blob = std::fs::read(dir.join("AnimatedMorphCube.bin")).unwrap();
+    let exported_blob = exported.blob.clone().unwrap();
+    let channel = |doc: &gltf::Gltf, blob: &[u8], node: usize, path: gltf::animation::Property| {
+        let found = doc
+            .animations()
+            .flat_map(|a| a.channels())
+            .find(|c| c.target().node().index() == node && c.target().property() == path)
+            .unwrap_or_else(|| panic!("no {path:?} channel on node {node}"));
+        let read = |a: gltf::Accessor| -> Vec<u32> {
+            let view = a.view().unwrap();
+            let start = view.offset() + a.offset();
+            let n = a.count() * a.dimensions().multiplicity();
+            (0..n)
+                .map(|i| {
+                    u32::from_le_bytes(blob[start + 4 * i..start + 4 * i + 4].try_into().unwrap())
+                })
+                .collect()
+        };
+        let sampler = found.sampler();
+        (
+            read(sampler.input()),
+            read(sampler.output()),
+            sampler.interpolation(),
+        )
+    };
+    use gltf::animation::Property::{Rotation, Translation};
+    assert_eq!(
+        channel(&exported, &exported_blob, rig_index, Translation),
+        channel(
+            &source,
+            &source_blob,
+            named(&source, "rig").index(),
+            Translation
+        )
+    );
+    for i in 0..3 {
+        let lod = named(&exported, &format!("rigged_LOD{i}"));
+        assert_eq!(
+            channel(&exported, &exported_blob, lod.index(), Rotation),
+            channel(&source, &source_blob, cube_index, Rotation),
+            "LOD{i}"
+        );
+    }
     validate_clean(&out);
 }
 

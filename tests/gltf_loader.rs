@@ -109,6 +109,15 @@ fn exported_files_load_in_three_js() {
         assert!(report.contains(r#""ok":true"#), "{report}");
         let lods = lods.split(',').count() + 1;
         assert!(report.contains(&format!(r#""driven":{lods}"#)), "{report}");
+        if name == "rigged" {
+            // The source moves "rig" and turns the cube node: the rig's track, and one
+            // rotation track per LOD node.
+            assert!(report.contains(r#""rig.position""#), "{report}");
+            for i in 0..lods {
+                let track = format!(r#""rigged_LOD{i}.quaternion""#);
+                assert!(report.contains(&track), "{track}: {report}");
+            }
+        }
     }
 }
 

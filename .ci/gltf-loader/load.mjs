@@ -100,7 +100,12 @@ try {
     lods.forEach(({ name }, i) => check(moved[i], `${name}: the animation never changes its morphTargetInfluences`));
     driven = moved.filter((m) => m).length;
   }
-  summary = { lods: lods.map(({ name, got }) => ({ name, ...got })), driven };
+  // Node transform channels (position, quaternion, scale tracks), for sources that animate them.
+  const transformTracks = gltf.animations
+    .flatMap((clip) => clip.tracks)
+    .filter((t) => /\.(position|quaternion|scale)$/.test(t.name))
+    .map((t) => t.name);
+  summary = { lods: lods.map(({ name, got }) => ({ name, ...got })), driven, transformTracks };
 } catch (e) {
   problems.push(`could not load: ${e && e.stack ? e.stack : e}`);
 }

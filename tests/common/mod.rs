@@ -569,7 +569,8 @@ pub fn cut_grid(side: u32) -> Morph {
 
 /// The AnimatedMorphCube sample (its node given a translation) re-parented under a named TRS
 /// node "rig" (translation, rotation, scale) under a named matrix node "root", written to
-/// `dir/rigged.gltf` beside a copy of its buffer: a source with a real node hierarchy.
+/// `dir/rigged.gltf` beside a copy of its buffer: a source with a real node hierarchy. Its
+/// animation also moves "rig" (LINEAR translation) and turns the cube's node (STEP rotation).
 pub fn rigged_cube(dir: &std::path::Path) -> std::path::PathBuf {
     use serde_json::{json, Value};
     let assets =
@@ -586,12 +587,51 @@ pub fn rigged_cube(dir: &std::path::Path) -> std::path::PathBuf {
     nodes.push(json!({"name": "root", "children": [1],
         "matrix": [0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 10, 0, -4, 1]}));
     gltf["scenes"][0]["nodes"] = json!([2]);
+    // The weight animation also moves "rig" (LINEAR translation) and turns the cube node
+    // (STEP rotation): keys and values appended to a copy of the buffer.
+    let mut bin = std::fs::read(assets.join("AnimatedMorphCube.bin")).unwrap();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let offset = bin.len();
+    let floats: [f32; 24] = [
+        0.0, 0.75, 1.5, // times
+        1.0, 2.0, -0.5, 1.5, 2.0, -0.25, 0.5, 2.5, -0.5, // translations
+        0.0, 0.0, 0.0, 1.0, 0.0, 0.70710677, 0.0, 0.70710677, 0.0, 1.0, 0.0, 0.0, // rotations
+    ];
+    for f in floats {
+        bin.extend_from_slice(&f.to_le_bytes());
+    }
+    gltf["buffers"][0]["byteLength"] = json!(bin.len());
+    let view = gltf["bufferViews"].as_array().unwrap().len();
+    gltf["bufferViews"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 4 * floats.len()}));
+    let first = gltf["accessors"].as_array().unwrap().len();
+    let accessors = gltf["accessors"].as_array_mut().unwrap();
+    accessors.push(
+        json!({"bufferView": view, "byteOffset": 0, "componentType": 5126,
+        "count": 3, "type": "SCALAR", "min": [0.0], "max": [1.5]}),
+    );
+    accessors.push(
+        json!({"bufferView": view, "byteOffset": 12, "componentType": 5126,
+        "count": 3, "type": "VEC3"}),
+    );
+    accessors.push(
+        json!({"bufferView": view, "byteOffset": 48, "componentType": 5126,
+        "count": 3, "type": "VEC4"}),
+    );
+    let animation = &mut gltf["animations"][0];
+    let sampler = animation["samplers"].as_array().unwrap().len();
+    let samplers = animation["samplers"].as_array_mut().unwrap();
+    samplers.push(json!({"input": first, "output": first + 1, "interpolation": "LINEAR"}));
+    samplers.push(json!({"input": first, "output": first + 2, "interpolation": "STEP"}));
+    let channels = animation["channels"].as_array_mut().unwrap();
+    channels.push(json!({"sampler": sampler, "target": {"node": 1, "path": "translation"}}));
+    channels.push(json!({"sampler": sampler + 1, "target": {"node": 0, "path": "rotation"}}));
     let input = dir.join("rigged.gltf");
     std::fs::write(&input, serde_json::to_vec(&gltf).unwrap()).unwrap();
-    std::fs::copy(
-        assets.join("AnimatedMorphCube.bin"),
-        dir.join("AnimatedMorphCube.bin"),
-    )
-    .unwrap();
+    std::fs::write(dir.join("AnimatedMorphCube.bin"), bin).unwrap();
     input
 }

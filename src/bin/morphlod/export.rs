@@ -69,8 +69,11 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
         ),
         [path] => {
             let (morph, weights) = load_gltf(path, args.animation.as_deref(), &options)?;
-            let nodes =
-                morphlod::io::gltf::node_chain(path, &options).map_err(|e| e.to_string())?;
+            // The animation whose weight track the morph plays also moves the chain's nodes.
+            let played = matches!(morph.weights(), Weights::Animated(_))
+                .then(|| args.animation.as_deref().unwrap_or("0"));
+            let nodes = morphlod::io::gltf::node_chain(path, &options, played)
+                .map_err(|e| e.to_string())?;
             (morph, weights, nodes)
         }
         _ => return Err("give one glTF file or two meshes".into()),

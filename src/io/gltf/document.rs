@@ -298,11 +298,15 @@ impl Document {
             .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
     }
 
-    /// The first node instancing `mesh` and its ancestors, root first; empty when no node
-    /// instances it.
-    pub(super) fn node_chain(&self, mesh: &gltf::Mesh) -> Vec<super::SourceNode> {
+    /// The first node instancing `mesh` and its ancestors, root first, each with the channels
+    /// of `animation` on its transform; empty when no node instances it.
+    pub(super) fn node_chain(
+        &self,
+        mesh: &gltf::Mesh,
+        animation: Option<&gltf::Animation>,
+    ) -> Result<Vec<super::SourceNode>, LoadError> {
         let Some(node) = self.instance(mesh) else {
-            return Vec::new();
+            return Ok(Vec::new());
         };
         let nodes: Vec<gltf::Node> = self.document.nodes().collect();
         let mut chain = Vec::new();
@@ -326,11 +330,85 @@ impl Document {
                         scale,
                     },
                 },
+                tracks: match animation {
+                    Some(animation) => self.node_tracks(animation, i)?,
+                    None => Vec::new(),
+                },
             });
             current = self.parent(i);
         }
         chain.reverse();
-        chain
+        Ok(chain)
+    }
+
+    /// The channels of `animation` on node `node`'s translation, rotation and scale, checked
+    /// as [`WeightTrack::new`] checks a weight track: finite, strictly increasing times, and
+    /// finite values, as many as the keys ask for.
+    fn node_tracks(
+        &self,
+        animation: &gltf::Animation,
+        node: usize,
+    ) -> Result<Vec<super::NodeTrack>, LoadError> {
+        use gltf::animation::Property;
+        let mut tracks = Vec::new();
+        for channel in animation.channels() {
+            if channel.target().node().index() != node {
+                continue;
+            }
+            let (property, dimensions) = match channel.target().property() {
+                Property::Translation => (super::NodeProperty::Translation, Dimensions::Vec3),
+                Property::Rotation => (super::NodeProperty::Rotation, Dimensions::Vec4),
+                Property::Scale => (super::NodeProperty::Scale, Dimensions::Vec3),
+                Property::MorphTargetWeights => continue,
+            };
+            let sampler = channel.sampler();
+            let element = format!(
+                "animation {} sampler {}",
+                display_name(animation.name(), animation.index()),
+                sampler.index()
+            );
+            let times = self.read_floats(
+                &sampler.input(),
+                &format!("{element} input"),
+                Dimensions::Scalar,
+            )?;
+            let values =
+                self.read_floats(&sampler.output(), &format!("{element} output"), dimensions)?;
+            let interpolation = interpolation(sampler.interpolation());
+            let per_key = property.components()
+                * if interpolation == crate::morph::Interpolation::CubicSpline {
+                    3
+                } else {
+                    1
+                };
+            let problem = if times.is_empty() {
+                Some("has no keyframe".to_string())
+            } else if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[0] >= w[1])
+            {
+                Some("has key times that are not finite and strictly increasing".to_string())
+            } else if values.len() != times.len() * per_key {
+                Some(format!(
+                    "has {} output values for {} keys, expected {}",
+                    values.len(),
+                    times.len(),
+                    times.len() * per_key
+                ))
+            } else if values.iter().any(|v| !v.is_finite()) {
+                Some("has a value that is not finite".to_string())
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err(self.data_error(&element, problem));
+            }
+            tracks.push(super::NodeTrack {
+                property,
+                interpolation,
+                times,
+                values,
+            });
+        }
+        Ok(tracks)
     }
 
     /// The node whose `children` hold `node`.

@@ -80,21 +80,84 @@ impl NodeTransform {
     };
 }
 
-/// One node of a scene: its name and local transform, exactly as the file has them.
+/// One node of a scene: its name and local transform, exactly as the file has them, and what
+/// an animation does to that transform.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SourceNode {
     pub name: Option<String>,
     pub transform: NodeTransform,
+    /// The animation's channels that drive this node's translation, rotation or scale.
+    pub tracks: Vec<NodeTrack>,
+}
+
+/// A node property an animation channel drives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeProperty {
+    Translation,
+    Rotation,
+    Scale,
+}
+
+impl NodeProperty {
+    /// The glTF `path`.
+    pub fn name(self) -> &'static str {
+        match self {
+            NodeProperty::Translation => "translation",
+            NodeProperty::Rotation => "rotation",
+            NodeProperty::Scale => "scale",
+        }
+    }
+
+    /// Components per value: 4 for a rotation (a quaternion x, y, z, w), else 3.
+    pub fn components(self) -> usize {
+        match self {
+            NodeProperty::Rotation => 4,
+            _ => 3,
+        }
+    }
+}
+
+/// One animation channel on a node's transform, as its sampler has it: key times in seconds
+/// (finite, strictly increasing) and per key [`NodeProperty::components`] values (for
+/// `CubicSpline` an in-tangent, the value and an out-tangent, the glTF layout), read as `f32`
+/// (normalized integer rotations converted as the glTF specification says).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeTrack {
+    pub property: NodeProperty,
+    pub interpolation: Interpolation,
+    pub times: Vec<f32>,
+    pub values: Vec<f32>,
 }
 
 /// The nodes from a root of the node tree down to the first node that instances the mesh
 /// `options` picks, root first (the last is that node): the placement [`load_mesh`] applies
 /// with `options.apply_transforms` is the product of their transforms. Empty when no node
-/// instances the mesh. `options.apply_transforms` itself is ignored.
-pub fn node_chain(path: &Path, options: &LoadOptions) -> Result<Vec<SourceNode>, LoadError> {
+/// instances the mesh. `options.apply_transforms` itself is ignored. With `animation` (a
+/// name, else a decimal index) each node also carries that animation's channels on its
+/// translation, rotation and scale.
+pub fn node_chain(
+    path: &Path,
+    options: &LoadOptions,
+    animation: Option<&str>,
+) -> Result<Vec<SourceNode>, LoadError> {
     let doc = Document::open(path)?;
     let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
-    Ok(doc.node_chain(&mesh))
+    let animation = match animation {
+        Some(wanted) => {
+            let animations: Vec<gltf::Animation> = doc.document.animations().collect();
+            let names: Vec<Option<&str>> = animations.iter().map(|a| a.name()).collect();
+            let Some(i) = pick(wanted, &names) else {
+                return Err(LoadError::NoSuchAnimation {
+                    path: path.to_path_buf(),
+                    wanted: wanted.to_string(),
+                    available: list_names(&names),
+                });
+            };
+            Some(animations[i].clone())
+        }
+        None => None,
+    };
+    doc.node_chain(&mesh, animation.as_ref())
 }
 
 /// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
