@@ -411,6 +411,28 @@ fn lods_keep_the_source_node_hierarchy() {
     validate_clean(&out);
 }
 
+/// A node track whose output does not fit its keys (the rigged cube's rotation sampler with 2
+/// of its 3 values) is refused with a message naming the sampler, and nothing is written.
+#[test]
+fn a_broken_node_track_is_refused() {
+    let dir = temp_dir("broken_track");
+    let input = common::rigged_cube(&dir);
+    let mut gltf: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&input).unwrap()).unwrap();
+    let last = gltf["accessors"].as_array().unwrap().len() - 1;
+    gltf["accessors"][last]["count"] = serde_json::json!(2);
+    std::fs::write(&input, serde_json::to_vec(&gltf).unwrap()).unwrap();
+    let out = dir.join("broken.glb");
+    let output = morphlod(&[input.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("has 8 output values for 3 keys, expected 12"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "nothing is written");
+}
+
 /// The node of `doc` named `name`.
 fn named<'a>(doc: &'a gltf::Gltf, name: &str) -> gltf::Node<'a> {
     doc.nodes()

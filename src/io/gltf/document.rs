@@ -266,21 +266,8 @@ impl Document {
             return Ok(None);
         };
         let sampler = channel.sampler();
-        let element = format!(
-            "animation {} sampler {}",
-            display_name(animation.name(), animation.index()),
-            sampler.index()
-        );
-        let times = self.read_floats(
-            &sampler.input(),
-            &format!("{element} input"),
-            Dimensions::Scalar,
-        )?;
-        let values = self.read_floats(
-            &sampler.output(),
-            &format!("{element} output"),
-            Dimensions::Scalar,
-        )?;
+        let (element, times, values) =
+            self.sampler_keys(animation, &sampler, Dimensions::Scalar)?;
         WeightTrack::new(
             interpolation(sampler.interpolation()),
             times,
@@ -341,6 +328,29 @@ impl Document {
         Ok(chain)
     }
 
+    /// How messages name `sampler` of `animation`, its key times and its output values (of
+    /// `dimensions` each), as floats.
+    fn sampler_keys(
+        &self,
+        animation: &gltf::Animation,
+        sampler: &gltf::animation::Sampler,
+        dimensions: Dimensions,
+    ) -> Result<(String, Vec<f32>, Vec<f32>), LoadError> {
+        let element = format!(
+            "animation {} sampler {}",
+            display_name(animation.name(), animation.index()),
+            sampler.index()
+        );
+        let times = self.read_floats(
+            &sampler.input(),
+            &format!("{element} input"),
+            Dimensions::Scalar,
+        )?;
+        let values =
+            self.read_floats(&sampler.output(), &format!("{element} output"), dimensions)?;
+        Ok((element, times, values))
+    }
+
     /// The channels of `animation` on node `node`'s translation, rotation and scale, checked
     /// as [`WeightTrack::new`] checks a weight track: finite, strictly increasing times, and
     /// finite values, as many as the keys ask for.
@@ -362,18 +372,7 @@ impl Document {
                 Property::MorphTargetWeights => continue,
             };
             let sampler = channel.sampler();
-            let element = format!(
-                "animation {} sampler {}",
-                display_name(animation.name(), animation.index()),
-                sampler.index()
-            );
-            let times = self.read_floats(
-                &sampler.input(),
-                &format!("{element} input"),
-                Dimensions::Scalar,
-            )?;
-            let values =
-                self.read_floats(&sampler.output(), &format!("{element} output"), dimensions)?;
+            let (element, times, values) = self.sampler_keys(animation, &sampler, dimensions)?;
             let interpolation = interpolation(sampler.interpolation());
             let per_key = property.components()
                 * if interpolation == crate::morph::Interpolation::CubicSpline {
