@@ -905,23 +905,20 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             })
             .collect();
 
-        let still: Vec<bool> = if options.distance_weight > 0.0 {
-            (0..n)
+        let (still, ring_still): (Vec<bool>, Vec<bool>) = if options.distance_weight > 0.0 {
+            let still: Vec<bool> = (0..n)
                 .map(|v| poses.iter().all(|pose| pose[v] == poses[0][v]))
-                .collect()
-        } else {
-            Vec::new()
-        };
-        let ring_still: Vec<bool> = if options.distance_weight > 0.0 {
-            (0..n as u32)
+                .collect();
+            let ring_still = (0..n as u32)
                 .map(|v| {
                     vt.of(v)
                         .iter()
                         .all(|&t| tris[t as usize].iter().all(|&x| still[x as usize]))
                 })
-                .collect()
+                .collect();
+            (still, ring_still)
         } else {
-            Vec::new()
+            (Vec::new(), Vec::new())
         };
         let scale_max = pose_scale.iter().copied().fold(1.0, f64::max);
         let mut span = Vec::with_capacity(n);
@@ -982,19 +979,23 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
     /// The cost of moving `u` onto `w`: each pose's quadric error of `u` at `w`'s position
     /// in that pose, combined over the poses, plus the attribute error in the first pose.
     fn cost(&self, u: u32, w: u32) -> f64 {
-        let attributes = match &self.seams {
+        self.position_cost(u, w) + self.attribute_cost(u, w)
+    }
+
+    /// The attribute error of `u → w` in the first pose (0 without seams).
+    fn attribute_cost(&self, u: u32, w: u32) -> f64 {
+        match &self.seams {
             Some(seams) => seams.attribute_cost(&self.tris, self.list(u), u, w, self.p(0, w)),
             None => 0.0,
-        };
-        self.position_cost(u, w) + attributes
+        }
     }
 
     /// [`cost`](Self::cost) with the distance term: the position error is the larger of the
     /// quadric error and the distance term. Above `limit` the result is only a lower bound
     /// (the pricing stops as soon as it cannot come under `limit`).
     fn exact_cost(&mut self, u: u32, w: u32, limit: f64) -> f64 {
-        let cheap = self.cost(u, w);
         let position = self.position_cost(u, w);
+        let cheap = position + self.attribute_cost(u, w);
         let distance = self.distance_cost(u, w, limit - cheap + position);
         cheap + (distance - position).max(0.0)
     }
@@ -1109,7 +1110,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         // reaches `stop` (then it is only a lower bound, and loses).
         let over_poses = |tri: [u32; 3], first: f64, stop: f64| {
             let mut d = first;
-            if !(self.still[x as usize] && tri.iter().all(|&v| self.still[v as usize])) {
+            if !self.stand_still(x, tri) {
                 for pose in 1..self.poses.len() {
                     if d >= stop {
                         break;
@@ -1140,7 +1141,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             let [a, b, c] = tri.map(|v| self.p(0, v));
             let p = self.p(0, x);
             let d = p.distance_squared(closest_point(p, a, b, c));
-            if self.still[x as usize] && tri.iter().all(|&v| self.still[v as usize]) {
+            if self.stand_still(x, tri) {
                 d * self.scale_max
             } else {
                 d
@@ -1191,6 +1192,11 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
                 .fold(0.0, f64::max);
         }
         best
+    }
+
+    /// Whether vertex `x` and the corners of `tri` stand still in every pose (see `still`).
+    fn stand_still(&self, x: u32, tri: [u32; 3]) -> bool {
+        self.still[x as usize] && tri.iter().all(|&v| self.still[v as usize])
     }
 
     fn position_cost(&self, u: u32, w: u32) -> f64 {
@@ -2229,9 +2235,6 @@ pub(crate) mod tests {
         }
     }
 
-    /// A 4×4 grid whose column x = 2 is a seam (cells right of it use copies of that column's
-    /// vertices): the seam edges are exactly the column's 4 edges, once from each side, and
-    /// border edges (one triangle) and edges whose ends agree on both sides are not seams.
     /// With the distance term, at every LOD each vertex removed so far lies within
     /// `sqrt(error / distance_weight)` of the coarse surface, `error` the largest collapse
     /// error so far: a collapse prices the distance of every vertex it moves before it is
@@ -2308,6 +2311,9 @@ pub(crate) mod tests {
         }
     }
 
+    /// A 4×4 grid whose column x = 2 is a seam (cells right of it use copies of that column's
+    /// vertices): the seam edges are exactly the column's 4 edges, once from each side, and
+    /// border edges (one triangle) and edges whose ends agree on both sides are not seams.
     #[test]
     fn seam_edges_are_the_edges_whose_sides_differ_in_attributes() {
         let (n, k) = (4u32, 2u32);
