@@ -373,24 +373,20 @@ fn lods_keep_the_source_node_hierarchy() {
             .flat_map(|a| a.channels())
             .find(|c| c.target().node().index() == node && c.target().property() == path)
             .unwrap_or_else(|| panic!("no {path:?} channel on node {node}"));
-        let read = |a: gltf::Accessor| -> Vec<u32> {
-            let view = a.view().unwrap();
-            let start = view.offset() + a.offset();
-            let n = a.count() * a.dimensions().multiplicity();
-            (0..n)
-                .map(|i| {
-                    u32::from_le_bytes(blob[start + 4 * i..start + 4 * i + 4].try_into().unwrap())
-                })
-                .collect()
+        let reader = found.reader(|_| Some(blob));
+        let times: Vec<u32> = reader.read_inputs().unwrap().map(f32::to_bits).collect();
+        let values: Vec<u32> = match reader.read_outputs().unwrap() {
+            ReadOutputs::Translations(t) => t.flat_map(bits).collect(),
+            ReadOutputs::Rotations(r) => r.into_f32().flat_map(bits).collect(),
+            ReadOutputs::Scales(s) => s.flat_map(bits).collect(),
+            ReadOutputs::MorphTargetWeights(_) => panic!("a weights channel"),
         };
-        let sampler = found.sampler();
-        (
-            read(sampler.input()),
-            read(sampler.output()),
-            sampler.interpolation(),
-        )
+        (times, values, found.sampler().interpolation())
     };
-    use gltf::animation::Property::{Rotation, Translation};
+    use gltf::animation::{
+        util::ReadOutputs,
+        Property::{Rotation, Translation},
+    };
     assert_eq!(
         channel(&exported, &exported_blob, rig_index, Translation),
         channel(
