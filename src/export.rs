@@ -15,21 +15,32 @@
 //! vertex cache with meshoptimizer, and vertices numbered in the order the indices first use
 //! them (vertex-fetch locality).
 //!
-//! The meshes are written in the morph's own coordinates. [`ExportOptions::nodes`] keeps the
-//! source's place in its scene ([`crate::io::gltf::node_chain`]): the ancestors of the node
-//! that instanced the mesh are written as they were (names, local transforms as matrix or
-//! TRS, bit for bit), the LOD0 node takes that node's place under them with its local
-//! transform, and every lower LOD node carries the same local transform. `MSFT_lod` puts a
-//! lower LOD where the LOD0 node is, under LOD0's parent, so a local transform is what it
-//! needs; a tool that places an out-of-scene LOD node at the root sees it without the
-//! ancestors' transforms, which the extension does not define. Composed world matrices are
-//! never written, so nothing written is a sheared matrix the source did not have. (A source
-//! loaded with `apply_transforms` has its placement baked into the vertices and needs no
-//! chain.) The one animation written holds the weight track and, from the same source
-//! animation, its channels on the chain's translations, rotations and scales
-//! ([`SourceNode::tracks`]): an ancestor's drive that ancestor, the instancing node's drive
-//! every LOD node, keys and values as the file has them. Skins, other meshes and the mesh
-//! node's children are not written.
+//! The meshes are written in the morph's own coordinates. [`ExportOptions::source`] keeps
+//! what the source file has around the mesh ([`crate::io::gltf::source_scene`]):
+//! * its place in the scene: the ancestors of the node that instanced the mesh are written as
+//!   they were (names, local transforms as matrix or TRS, bit for bit), the LOD0 node takes
+//!   that node's place under them with its local transform (and its children, when they are
+//!   joints), and every lower LOD node carries the same local transform. `MSFT_lod` puts a
+//!   lower LOD where the LOD0 node is, under LOD0's parent, so a local transform is what it
+//!   needs; a tool that places an out-of-scene LOD node at the root sees it without the
+//!   ancestors' transforms, which the extension does not define. Composed world matrices are
+//!   never written, so nothing written is a sheared matrix the source did not have. (A
+//!   source loaded with `apply_transforms` has its placement baked into the vertices and
+//!   needs no nodes.)
+//! * its skin: the joints and skeleton with their ancestors (names, transforms, hierarchy),
+//!   the inverse bind matrices bit for bit, and the skin bound to every LOD node;
+//! * its animation's channels on those nodes' translations, rotations and scales
+//!   ([`crate::io::gltf::SourceNode::tracks`]), in the one animation written beside the
+//!   weight track: a node's channels drive that node, the mesh node's drive every LOD node,
+//!   keys and values as the file has them;
+//! * the vertex attributes a morph does not hold (TANGENT, JOINTS_n, WEIGHTS_n, further
+//!   TEXCOORD and COLOR sets, application-specific `_NAME`s) and the targets' TANGENT deltas,
+//!   each kept vertex's bytes as stored, the sets renumbered after the morph's own;
+//! * its material whole (factors, every texture with its sampler and image, extensions),
+//!   texture coordinates sets renumbered as the attributes are.
+//!
+//! Other meshes of the file, other children of the mesh node, cameras and lights are not
+//! written; [`crate::io::gltf::SourceScene::left_out`] lists what of the mesh is not.
 
 use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
 use crate::collapse::CollapseSequence;
@@ -37,7 +48,9 @@ use crate::io::gltf::write::{
     bounds, f32_bytes, glb, index_accessor, number, quote, vec3_accessor, Bin, Json, ARRAY_BUFFER,
     FLOAT, UNSIGNED_INT,
 };
-use crate::io::gltf::{NodeTrack, NodeTransform, SourceNode};
+use crate::io::gltf::{
+    texture_infos, NodeTrack, NodeTransform, RawAttribute, SourceMaterial, SourceScene,
+};
 use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
 use crate::seams::StepBoundaries;
 use crate::simplify::{PoseError, SimplifyOptions, DISTANCE_WEIGHT};
@@ -88,12 +101,13 @@ pub struct ExportOptions {
     pub default_weights: Option<Vec<f32>>,
     /// Mesh and node names are `<name>_LOD<i>`.
     pub name: String,
-    /// Where the source stood: the nodes from a scene root down to the node that instanced
-    /// the mesh, root first ([`crate::io::gltf::node_chain`]). The ancestors are written as
-    /// they are, the LOD nodes take the last node's place and local transform, and each
-    /// node's [`SourceNode::tracks`] join the animation. Empty (the default): the LOD0 node is
-    /// a scene root with no transform.
-    pub nodes: Vec<SourceNode>,
+    /// What the source file has besides the morph ([`crate::io::gltf::source_scene`]): its
+    /// nodes are written as they are (names, local transforms, parents), the LOD nodes take
+    /// the mesh node's place and local transform (LOD0 also its children), each node's
+    /// [`crate::io::gltf::SourceNode::tracks`] join the animation, the skin binds every LOD,
+    /// and the raw attributes are written for each kept vertex bit for bit. Empty (the
+    /// default): the LOD0 node is a scene root with no transform.
+    pub source: SourceScene,
 }
 
 impl Default for ExportOptions {
@@ -107,7 +121,7 @@ impl Default for ExportOptions {
             },
             default_weights: None,
             name: "mesh".into(),
-            nodes: Vec::new(),
+            source: SourceScene::default(),
         }
     }
 }
@@ -127,6 +141,8 @@ pub enum ExportError {
     Empty { fraction: f32, triangles: usize },
     #[error("error bound {error} leaves no triangle of {triangles}: choose a smaller bound")]
     EmptyError { error: f32, triangles: usize },
+    #[error("the source scene does not fit the morph: {0}")]
+    Source(String),
     #[error("simplifying over the poses: {0}")]
     Build(#[from] BuildError),
 }
@@ -181,6 +197,7 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
         Some(w) => w.clone(),
         None => morph.weights_at(0.0),
     };
+    check_source(morph, &options.source)?;
     let (asset, _) = Builder::new(morph)
         .frames(options.poses)
         .sequences(Sequences::Shared(PoseError::Max))
@@ -239,6 +256,86 @@ fn check_errors(errors: &[f32]) -> Result<(), ExportError> {
         return Err(ExportError::Errors {
             errors: errors.to_vec(),
         });
+    }
+    Ok(())
+}
+
+/// Refuses a source scene that does not describe `morph`: raw attributes of another vertex
+/// or target count, nodes whose parents do not come first, a skin without a mesh node or
+/// without JOINTS_0 and WEIGHTS_0 to bind it (and skinning attributes without a skin),
+/// indices out of range.
+fn check_source(morph: &Morph, source: &SourceScene) -> Result<(), ExportError> {
+    let fail = |message: String| Err(ExportError::Source(message));
+    let vertices = morph.vertex_count();
+    let targets = &source.target_attributes;
+    if !targets.is_empty() && targets.len() != morph.targets().len() {
+        return fail(format!(
+            "target attributes for {} targets, the morph has {}",
+            targets.len(),
+            morph.targets().len()
+        ));
+    }
+    for a in source.attributes.iter().chain(targets.iter().flatten()) {
+        let known = matches!(a.kind, "SCALAR" | "VEC2" | "VEC3" | "VEC4")
+            && matches!(a.component_type, 5120..=5123 | 5125 | 5126);
+        if !known || a.data.len() != vertices * a.element_size() {
+            return fail(format!(
+                "attribute {} ({} of component type {}, {} bytes) for {vertices} vertices",
+                a.semantic,
+                a.kind,
+                a.component_type,
+                a.data.len()
+            ));
+        }
+    }
+    if let Some(a) = targets
+        .iter()
+        .flatten()
+        .find(|a| !source.attributes.iter().any(|b| b.semantic == a.semantic))
+    {
+        return fail(format!(
+            "target deltas of {}, which the base lacks",
+            a.semantic
+        ));
+    }
+    let n = source.nodes.len();
+    if let Some(i) = source
+        .nodes
+        .iter()
+        .enumerate()
+        .position(|(i, node)| node.parent.is_some_and(|p| p >= i))
+    {
+        return fail(format!("node {i}'s parent does not come before it"));
+    }
+    if source.mesh_node.is_some_and(|m| m >= n) || (source.mesh_node.is_none() && n > 0) {
+        return fail(format!("mesh node {:?} of {n} nodes", source.mesh_node));
+    }
+    let skinning = |prefix: &str| {
+        source
+            .attributes
+            .iter()
+            .any(|a| a.semantic.starts_with(prefix))
+    };
+    match &source.skin {
+        Some(skin) => {
+            let in_range = skin.joints.iter().chain(&skin.skeleton).all(|&j| j < n);
+            if !in_range || skin.joints.is_empty() || source.mesh_node.is_none() {
+                return fail(format!(
+                    "skin with joints {:?} and skeleton {:?} over {n} nodes, mesh node {:?}",
+                    skin.joints, skin.skeleton, source.mesh_node
+                ));
+            }
+            let binds = ["JOINTS_0", "WEIGHTS_0"]
+                .iter()
+                .all(|s| source.attributes.iter().any(|a| a.semantic == *s));
+            if !binds {
+                return fail("a skin, but no JOINTS_0 and WEIGHTS_0 to bind the vertices".into());
+            }
+        }
+        None if skinning("JOINTS_") || skinning("WEIGHTS_") => {
+            return fail("JOINTS_n or WEIGHTS_n without a skin".into())
+        }
+        None => {}
     }
     Ok(())
 }
@@ -398,12 +495,84 @@ fn flat_accessor(
     json.accessor(view, FLOAT, data.len() / width, kind, None)
 }
 
-/// One mesh's JSON for `lod`, its data pushed into `bin`.
+/// The name each raw attribute is written under. glTF numbers the sets of TEXCOORD, COLOR,
+/// JOINTS and WEIGHTS from 0 without gaps, so each carried set is renumbered in order after
+/// the morph's own (TEXCOORD_0 for its UVs, COLOR_0 for its colours); the others keep theirs.
+fn written_names(morph: &Morph, attributes: &[RawAttribute]) -> Vec<String> {
+    let set = |semantic: &str| {
+        let (prefix, n) = semantic.rsplit_once('_')?;
+        let n: u32 = n.parse().ok()?;
+        ["TEXCOORD", "COLOR", "JOINTS", "WEIGHTS"]
+            .contains(&prefix)
+            .then(|| (prefix.to_string(), n))
+    };
+    let own = morph.attributes();
+    attributes
+        .iter()
+        .map(|a| match set(&a.semantic) {
+            Some((prefix, n)) => {
+                let first = match prefix.as_str() {
+                    "TEXCOORD" => own.uvs.is_some() as usize,
+                    "COLOR" => own.colors.is_some() as usize,
+                    _ => 0,
+                };
+                let before = attributes
+                    .iter()
+                    .filter_map(|b| set(&b.semantic))
+                    .filter(|(p, m)| *p == prefix && *m < n)
+                    .count();
+                format!("{prefix}_{}", first + before)
+            }
+            None => a.semantic.clone(),
+        })
+        .collect()
+}
+
+/// `attribute`'s elements at the LOD's vertices, byte for byte, as a vertex buffer view (its
+/// stride padded to 4 bytes, as glTF asks of vertex attributes) and accessor.
+fn raw_accessor(bin: &mut Bin, json: &mut Json, attribute: &RawAttribute, lod: &Lod) -> usize {
+    let size = attribute.element_size();
+    let stride = size.next_multiple_of(4);
+    let mut data = Vec::with_capacity(stride * lod.source_vertex.len());
+    for &v in &lod.source_vertex {
+        let v = v as usize;
+        data.extend_from_slice(&attribute.data[v * size..(v + 1) * size]);
+        data.resize(data.len() + stride - size, 0);
+    }
+    let (offset, length) = bin.push(data);
+    let stride = if stride == size {
+        String::new()
+    } else {
+        format!(r#","byteStride":{stride}"#)
+    };
+    json.views.push(format!(
+        r#"{{"buffer":0,"byteOffset":{offset},"byteLength":{length}{stride},"target":{ARRAY_BUFFER}}}"#
+    ));
+    let normalized = if attribute.normalized {
+        r#","normalized":true"#
+    } else {
+        ""
+    };
+    json.accessors.push(format!(
+        r#"{{"bufferView":{},"componentType":{},"count":{}{normalized},"type":"{}"}}"#,
+        json.views.len() - 1,
+        attribute.component_type,
+        lod.source_vertex.len(),
+        attribute.kind
+    ));
+    json.accessors.len() - 1
+}
+
+/// One mesh's JSON for `lod`, its data pushed into `bin`; `raw_names`: what the source's raw
+/// attributes are written as ([`written_names`]).
+#[allow(clippy::too_many_arguments)]
 fn mesh_json(
     morph: &Morph,
     lod: &Lod,
     name: &str,
     default_weights: &[f32],
+    source: &SourceScene,
+    raw_names: &[String],
     bin: &mut Bin,
     json: &mut Json,
 ) -> String {
@@ -426,6 +595,10 @@ fn mesh_json(
         let acc = flat_accessor(bin, json, &data, 4, "VEC4", Some(ARRAY_BUFFER));
         fields.push(format!(r#""COLOR_0":{acc}"#));
     }
+    for (attribute, name) in source.attributes.iter().zip(raw_names) {
+        let acc = raw_accessor(bin, json, attribute, lod);
+        fields.push(format!("{}:{acc}", quote(name)));
+    }
     // Target NORMAL deltas only where the base has normals and every target gives them:
     // a target attribute needs its base attribute.
     let normal_deltas =
@@ -433,15 +606,19 @@ fn mesh_json(
     let targets: Vec<String> = morph
         .targets()
         .iter()
-        .map(|t| {
+        .enumerate()
+        .map(|(k, t)| {
             let pos = delta_accessor(bin, json, &gather(&t.deltas, lod), true);
-            match t.normal_deltas.as_ref().filter(|_| normal_deltas) {
-                Some(nd) => {
-                    let n = delta_accessor(bin, json, &gather(nd, lod), false);
-                    format!(r#"{{"POSITION":{pos},"NORMAL":{n}}}"#)
-                }
-                None => format!(r#"{{"POSITION":{pos}}}"#),
+            let mut fields = vec![format!(r#""POSITION":{pos}"#)];
+            if let Some(nd) = t.normal_deltas.as_ref().filter(|_| normal_deltas) {
+                let n = delta_accessor(bin, json, &gather(nd, lod), false);
+                fields.push(format!(r#""NORMAL":{n}"#));
             }
+            for attribute in source.target_attributes.get(k).into_iter().flatten() {
+                let acc = raw_accessor(bin, json, attribute, lod);
+                fields.push(format!("{}:{acc}", quote(&attribute.semantic)));
+            }
+            format!("{{{}}}", fields.join(","))
         })
         .collect();
     let index_acc = index_accessor(bin, json, &lod.triangles);
@@ -468,7 +645,10 @@ fn mesh_json(
     )
 }
 
-/// The material (and its texture, image and sampler) as top-level JSON members.
+/// The morph's own material (and its texture, image and sampler) as top-level JSON members,
+/// for a source without a glTF material (OBJ, OFF, PLY, a supermesh): base colour and
+/// texture, written as a dielectric (`metallicFactor` 0), which is what those formats' diffuse
+/// colour means; glTF's default of 1 would draw it as bare metal.
 fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
     let material = &morph.attributes().material;
     let name = material
@@ -478,7 +658,7 @@ fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
     let factor: Vec<String> = material.base_color.iter().map(|&c| number(c)).collect();
     let Some(texture) = &material.texture else {
         return format!(
-            r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}]}}}}]"#,
+            r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}],"metallicFactor":0}}}}]"#,
             factor.join(",")
         );
     };
@@ -492,10 +672,95 @@ fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
         let _ = write!(sampler, r#","minFilter":{f}"#);
     }
     format!(
-        r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}],"baseColorTexture":{{"index":0}}}}}}],"textures":[{{"sampler":0,"source":0}}],"samplers":[{{{sampler}}}],"images":[{{"bufferView":{view},"mimeType":"{}"}}]"#,
+        r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}],"baseColorTexture":{{"index":0}},"metallicFactor":0}}}}],"textures":[{{"sampler":0,"source":0}}],"samplers":[{{{sampler}}}],"images":[{{"bufferView":{view},"mimeType":"{}"}}]"#,
         factor.join(","),
         texture.format.mime_type()
     )
+}
+
+/// The source's material written again ([`SourceMaterial`]): its object with every texture
+/// info's `texCoord` renumbered to the TEXCOORD set as written (`raw_names`), its textures,
+/// samplers and images (embedded in the BIN chunk, whatever the file had); top-level JSON
+/// members like [`material_json`]'s.
+fn source_material_json(
+    morph: &Morph,
+    source: &SourceScene,
+    material: &SourceMaterial,
+    raw_names: &[String],
+    bin: &mut Bin,
+    json: &mut Json,
+) -> String {
+    // A set n of the file → the set written: the morph's UVs are TEXCOORD_0, a carried set
+    // is where `written_names` put it.
+    let written_set = |n: u64| -> u64 {
+        if n == source.uv_set as u64 && morph.attributes().uvs.is_some() {
+            return 0;
+        }
+        let name = format!("TEXCOORD_{n}");
+        source
+            .attributes
+            .iter()
+            .zip(raw_names)
+            .find(|(a, _)| a.semantic == name)
+            .and_then(|(_, written)| written.strip_prefix("TEXCOORD_")?.parse().ok())
+            // The loader kept only infos whose set is written.
+            .unwrap_or(0)
+    };
+    let mut object = material.json.clone();
+    texture_infos(&mut object, &mut |_, info| {
+        let set = info["texCoord"].as_u64().unwrap_or(0);
+        // Absent means set 0: left absent when it stays 0.
+        if info.get("texCoord").is_some() || written_set(set) != 0 {
+            info["texCoord"] = written_set(set).into();
+        }
+        // (`get_mut`: indexing a missing member would insert a null.)
+        let transform = info
+            .get_mut("extensions")
+            .and_then(|e| e.get_mut("KHR_texture_transform"))
+            .and_then(|t| t.get_mut("texCoord"));
+        if let Some(set) = transform {
+            *set = written_set(set.as_u64().unwrap_or(0)).into();
+        }
+        true
+    });
+    let mut samplers = Vec::new();
+    let textures: Vec<String> = material
+        .textures
+        .iter()
+        .map(|t| match &t.sampler {
+            Some(sampler) => {
+                samplers.push(sampler.to_string());
+                format!(
+                    r#"{{"sampler":{},"source":{}}}"#,
+                    samplers.len() - 1,
+                    t.image
+                )
+            }
+            None => format!(r#"{{"source":{}}}"#, t.image),
+        })
+        .collect();
+    let images: Vec<String> = material
+        .images
+        .iter()
+        .map(|image| {
+            let view = json.view(bin.push(image.bytes.clone()), None);
+            format!(
+                r#"{{"bufferView":{view},"mimeType":"{}"}}"#,
+                image.format.mime_type()
+            )
+        })
+        .collect();
+    let mut out = format!(r#""materials":[{object}]"#);
+    for (name, list) in [
+        ("textures", textures),
+        ("samplers", samplers),
+        ("images", images),
+    ] {
+        if !list.is_empty() {
+            let _ = write!(out, r#","{name}":[{}]"#, list.join(","));
+        }
+    }
+    out
 }
 
 /// The animation JSON member (empty when there is nothing to play): the weight track's
@@ -614,29 +879,79 @@ fn write_glb(
     let mut bin = Bin::default();
     let mut json = Json::default();
     let names: Vec<String> = (0..lods.len()).map(|i| format!("{name}_LOD{i}")).collect();
+    let source = &options.source;
+    let raw_names = written_names(morph, &source.attributes);
     let meshes: Vec<String> = lods
         .iter()
         .zip(&names)
-        .map(|(lod, n)| mesh_json(morph, lod, n, default_weights, &mut bin, &mut json))
-        .collect();
-    let material = material_json(morph, &mut bin, &mut json);
-    // The LOD nodes are 0..lods (the animation and MSFT_lod address them so); the ancestors
-    // follow, each the parent of the next, the last the parent of LOD0.
-    let (ancestors, own) = match options.nodes.split_last() {
-        Some((own, ancestors)) => (ancestors, Some(own)),
-        None => (&[][..], None),
-    };
-    // Every LOD node stands where the source node stood, so its channels drive each of them;
-    // an ancestor's drive the ancestor.
-    let node_tracks: Vec<(Vec<usize>, &NodeTrack)> =
-        own.iter()
-            .flat_map(|own| own.tracks.iter().map(|t| ((0..lods.len()).collect(), t)))
-            .chain(
-                ancestors.iter().enumerate().flat_map(|(k, node)| {
-                    node.tracks.iter().map(move |t| (vec![lods.len() + k], t))
-                }),
+        .map(|(lod, n)| {
+            let (bin, json) = (&mut bin, &mut json);
+            mesh_json(
+                morph,
+                lod,
+                n,
+                default_weights,
+                source,
+                &raw_names,
+                bin,
+                json,
             )
-            .collect();
+        })
+        .collect();
+    let material = match &source.material {
+        Some(material) => {
+            source_material_json(morph, source, material, &raw_names, &mut bin, &mut json)
+        }
+        None => material_json(morph, &mut bin, &mut json),
+    };
+    let mut used = vec!["MSFT_lod".to_string()];
+    let mut required = Vec::new();
+    if let Some(material) = &source.material {
+        used.extend(material.extensions_used.iter().cloned());
+        required.extend(material.extensions_required.iter().cloned());
+    }
+    let extensions = {
+        let list = |names: &[String]| names.iter().map(|n| quote(n)).collect::<Vec<_>>().join(",");
+        let mut out = format!(r#""extensionsUsed":[{}]"#, list(&used));
+        if !required.is_empty() {
+            let _ = write!(out, r#","extensionsRequired":[{}]"#, list(&required));
+        }
+        out
+    };
+    // The LOD nodes are 0..lods (the animation and MSFT_lod address them so); the source's
+    // other nodes follow in their order, the mesh node's place taken by LOD0.
+    let mesh_node = source.mesh_node;
+    let mut written = Vec::with_capacity(source.nodes.len());
+    let mut next = lods.len();
+    for i in 0..source.nodes.len() {
+        if Some(i) == mesh_node {
+            written.push(0);
+        } else {
+            written.push(next);
+            next += 1;
+        }
+    }
+    let children = |i: usize| -> Vec<String> {
+        (0..source.nodes.len())
+            .filter(|&c| source.nodes[c].parent == Some(i))
+            .map(|c| written[c].to_string())
+            .collect()
+    };
+    // Every LOD node stands where the mesh node stood, so its channels drive each of them;
+    // another node's drive that node.
+    let node_tracks: Vec<(Vec<usize>, &NodeTrack)> = source
+        .nodes
+        .iter()
+        .enumerate()
+        .flat_map(|(i, node)| {
+            let driven: Vec<usize> = if Some(i) == mesh_node {
+                (0..lods.len()).collect()
+            } else {
+                vec![written[i]]
+            };
+            node.tracks.iter().map(move |t| (driven.clone(), t))
+        })
+        .collect();
     let weights = if morph.targets().is_empty() {
         None
     } else {
@@ -649,45 +964,92 @@ fn write_glb(
         &mut bin,
         &mut json,
     );
-    let own = own.map_or(String::new(), |own| transform_json(&own.transform));
+    let skin = match &source.skin {
+        Some(skin) => {
+            let joints: Vec<String> = skin
+                .joints
+                .iter()
+                .map(|&j| written[j].to_string())
+                .collect();
+            let mut fields = vec![format!(r#""joints":[{}]"#, joints.join(","))];
+            if let Some(name) = &skin.name {
+                fields.push(format!(r#""name":{}"#, quote(name)));
+            }
+            if let Some(skeleton) = skin.skeleton {
+                fields.push(format!(r#""skeleton":{}"#, written[skeleton]));
+            }
+            if let Some(matrices) = &skin.inverse_bind_matrices {
+                let data: Vec<f32> = matrices.iter().flatten().copied().collect();
+                let acc = flat_accessor(&mut bin, &mut json, &data, 16, "MAT4", None);
+                fields.push(format!(r#""inverseBindMatrices":{acc}"#));
+            }
+            format!(r#","skins":[{{{}}}]"#, fields.join(","))
+        }
+        None => String::new(),
+    };
+    let own = mesh_node.map_or(String::new(), |m| {
+        transform_json(&source.nodes[m].transform)
+    });
+    let bind = if skin.is_empty() { "" } else { r#","skin":0"# };
     let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
     let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
+    let children_json = |i: usize| {
+        let list = children(i);
+        if list.is_empty() {
+            String::new()
+        } else {
+            format!(r#","children":[{}]"#, list.join(","))
+        }
+    };
     let nodes: Vec<String> = names
         .iter()
         .enumerate()
         .map(|(i, n)| {
-            let lod = if i == 0 {
-                format!(
+            // LOD0 holds the mesh node's children and declares the chain.
+            let mut lod = String::new();
+            if i == 0 {
+                lod += &mesh_node.map_or(String::new(), children_json);
+                let _ = write!(
+                    lod,
                     r#","extensions":{{"MSFT_lod":{{"ids":[{}]}}}},"extras":{{"MSFT_screencoverage":[{}]}}"#,
                     ids.join(","),
                     coverage.join(",")
-                )
-            } else {
-                String::new()
-            };
-            format!(r#"{{"name":{},"mesh":{i}{own}{lod}}}"#, quote(n))
+                );
+            }
+            format!(r#"{{"name":{},"mesh":{i}{bind}{own}{lod}}}"#, quote(n))
         })
-        .chain(ancestors.iter().enumerate().map(|(k, node)| {
-            let child = if k + 1 < ancestors.len() {
-                lods.len() + k + 1
-            } else {
-                0
-            };
-            let name = node
-                .name
-                .as_deref()
-                .map_or(String::new(), |n| format!(r#""name":{},"#, quote(n)));
-            format!(
-                r#"{{{name}"children":[{child}]{}}}"#,
-                transform_json(&node.transform)
-            )
-        }))
+        .chain(
+            (0..source.nodes.len())
+                .filter(|&i| Some(i) != mesh_node)
+                .map(|i| {
+                    let node = &source.nodes[i];
+                    let name = node
+                        .name
+                        .as_deref()
+                        .map_or(String::new(), |n| format!(r#","name":{}"#, quote(n)));
+                    let body = format!(
+                        "{name}{}{}",
+                        children_json(i),
+                        transform_json(&node.transform)
+                    );
+                    // Each property follows a comma; the object opens without one.
+                    format!("{{{}}}", body.strip_prefix(',').unwrap_or(""))
+                }),
+        )
         .collect();
-    let root = if ancestors.is_empty() { 0 } else { lods.len() };
+    let roots: Vec<String> = if source.nodes.is_empty() {
+        vec!["0".into()]
+    } else {
+        (0..source.nodes.len())
+            .filter(|&i| source.nodes[i].parent.is_none())
+            .map(|i| written[i].to_string())
+            .collect()
+    };
     let mut text = String::new();
     let _ = write!(
         text,
-        r#"{{"asset":{{"version":"2.0","generator":"morphlod export"}},"extensionsUsed":["MSFT_lod"],"scene":0,"scenes":[{{"nodes":[{root}]}}],"nodes":[{nodes}],"meshes":[{meshes}],{material}{animation},"buffers":[{{"byteLength":{len}}}],"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        r#"{{"asset":{{"version":"2.0","generator":"morphlod export"}},{extensions},"scene":0,"scenes":[{{"nodes":[{roots}]}}],"nodes":[{nodes}],"meshes":[{meshes}]{skin},{material}{animation},"buffers":[{{"byteLength":{len}}}],"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        roots = roots.join(","),
         nodes = nodes.join(","),
         meshes = meshes.join(","),
         len = bin.bytes.len(),
@@ -862,6 +1224,147 @@ mod tests {
             assert!(err.to_string().contains("--error"), "{err}");
         }
         assert!(check_errors(&[0.001, 0.5, 2.0]).is_ok());
+    }
+
+    /// A raw attribute of `semantic`: one FLOAT SCALAR per vertex.
+    fn raw(semantic: &str, vertices: usize) -> RawAttribute {
+        RawAttribute {
+            semantic: semantic.into(),
+            kind: "SCALAR",
+            component_type: FLOAT,
+            normalized: false,
+            data: vec![0; 4 * vertices],
+        }
+    }
+
+    /// Carried TEXCOORD and COLOR sets are numbered on after the morph's own, in order and
+    /// without gaps; JOINTS and WEIGHTS from 0; other names are kept.
+    #[test]
+    fn carried_sets_are_numbered_after_the_morphs_own() {
+        let plain = bumpy_grid(3);
+        let vertices = plain.vertex_count();
+        let with_uvs = plain
+            .clone()
+            .with_attributes(crate::morph::Attributes {
+                uvs: Some(vec![[0.0; 2]; vertices]),
+                ..Default::default()
+            })
+            .unwrap();
+        let carried: Vec<RawAttribute> = [
+            "TEXCOORD_3",
+            "TANGENT",
+            "TEXCOORD_1",
+            "COLOR_2",
+            "JOINTS_1",
+            "WEIGHTS_1",
+            "_ID",
+        ]
+        .iter()
+        .map(|s| raw(s, vertices))
+        .collect();
+        assert_eq!(
+            written_names(&with_uvs, &carried),
+            [
+                "TEXCOORD_2",
+                "TANGENT",
+                "TEXCOORD_1",
+                "COLOR_0",
+                "JOINTS_0",
+                "WEIGHTS_0",
+                "_ID"
+            ]
+        );
+        assert_eq!(
+            written_names(&plain, &carried),
+            [
+                "TEXCOORD_1",
+                "TANGENT",
+                "TEXCOORD_0",
+                "COLOR_0",
+                "JOINTS_0",
+                "WEIGHTS_0",
+                "_ID"
+            ]
+        );
+    }
+
+    /// A source scene that does not describe the morph is refused before anything is built.
+    #[test]
+    fn a_source_scene_that_does_not_fit_is_refused() {
+        use crate::io::gltf::{SourceNode, SourceSkin};
+        let morph = bumpy_grid(4);
+        let vertices = morph.vertex_count();
+        let node = |parent| SourceNode {
+            name: None,
+            transform: NodeTransform::IDENTITY,
+            tracks: Vec::new(),
+            parent,
+        };
+        let skin = SourceSkin {
+            name: None,
+            joints: vec![1],
+            skeleton: None,
+            inverse_bind_matrices: None,
+        };
+        let skinned = SourceScene {
+            nodes: vec![node(None), node(None)],
+            mesh_node: Some(0),
+            skin: Some(skin.clone()),
+            attributes: vec![raw("JOINTS_0", vertices), raw("WEIGHTS_0", vertices)],
+            ..SourceScene::default()
+        };
+        let export = |source: SourceScene| {
+            export_glb(
+                &morph,
+                &ExportOptions {
+                    source,
+                    ..ExportOptions::default()
+                },
+            )
+        };
+        assert!(export(skinned.clone()).is_ok());
+        let bad = [
+            SourceScene {
+                attributes: vec![raw("_ID", vertices - 1)],
+                ..SourceScene::default()
+            },
+            SourceScene {
+                target_attributes: vec![vec![], vec![]],
+                ..SourceScene::default()
+            },
+            SourceScene {
+                attributes: vec![raw("_ID", vertices)],
+                target_attributes: vec![vec![raw("TANGENT", vertices)]],
+                ..SourceScene::default()
+            },
+            SourceScene {
+                nodes: vec![node(Some(1)), node(None)],
+                ..skinned.clone()
+            },
+            SourceScene {
+                mesh_node: Some(2),
+                ..skinned.clone()
+            },
+            SourceScene {
+                skin: Some(SourceSkin {
+                    joints: vec![2],
+                    ..skin.clone()
+                }),
+                ..skinned.clone()
+            },
+            SourceScene {
+                attributes: vec![raw("JOINTS_0", vertices)],
+                ..skinned.clone()
+            },
+            SourceScene {
+                skin: None,
+                ..skinned.clone()
+            },
+        ];
+        for source in bad {
+            let err = export(source.clone()).unwrap_err();
+            assert!(matches!(err, ExportError::Source(_)), "{source:?}: {err}");
+        }
     }
 
     #[test]

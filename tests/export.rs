@@ -407,6 +407,210 @@ fn lods_keep_the_source_node_hierarchy() {
     validate_clean(&out);
 }
 
+/// A skinned character keeps its skin and every vertex attribute: the face bound to two joints
+/// with JOINTS_0, WEIGHTS_0, a second TEXCOORD set of 2-byte elements, TANGENT, an
+/// application-specific `_ID` and target TANGENT deltas ([`common::skinned_face`]). Nothing is left out;
+/// every LOD has each attribute with the source's bytes at its kept vertices and the targets'
+/// TANGENT deltas bit for bit; the skin keeps its name, joints (written with their names,
+/// transforms and hierarchy), skeleton and inverse bind matrices bit for bit, and binds every
+/// LOD; the joint's rotation channel travels; `morphlod export` writes the same bytes as the
+/// library; the Khronos validator reports no error and no warning on source and export.
+#[test]
+fn a_skinned_character_keeps_its_skin_and_every_attribute() {
+    let dir = temp_dir("skinned");
+    let (input, written) = common::skinned_face(&dir);
+    validate_clean(&input);
+    let options = LoadOptions::default();
+    let morph = load_morph(&input, &options, &MorphSource::Animation("0".into())).unwrap();
+    let source = morphlod::io::gltf::source_scene(&input, &options, Some("0")).unwrap();
+    assert!(source.left_out.is_empty(), "{:?}", source.left_out);
+    let export = export_glb(
+        &morph,
+        &ExportOptions {
+            lods: LodSteps::Fractions(vec![0.5, 0.1]),
+            name: "skinned".into(),
+            source,
+            ..ExportOptions::default()
+        },
+    )
+    .unwrap();
+    let out = dir.join("skinned_lods.glb");
+    assert_eq!(
+        export_lods(std::slice::from_ref(&input), "0.5,0.1", &out),
+        export.glb,
+        "the CLI carries the source scene as the library does"
+    );
+    check_against_source(&morph, &export);
+
+    let exported = gltf::Gltf::from_slice(&export.glb).unwrap();
+    let blob = exported.blob.clone().unwrap();
+    for (mesh, lod) in exported.meshes().zip(&export.lods) {
+        let primitive = mesh.primitives().next().unwrap();
+        for (semantic, values) in &written.attributes {
+            let read = raw_elements(&attribute(&primitive, semantic), &blob);
+            let expected: Vec<&Vec<u8>> = lod
+                .source_vertex
+                .iter()
+                .map(|&v| &values[v as usize])
+                .collect();
+            assert_eq!(read.iter().collect::<Vec<_>>(), expected, "{semantic}");
+        }
+        let reader = primitive.reader(|_| Some(&blob[..]));
+        for (k, (_, _, tangents)) in reader.read_morph_targets().enumerate() {
+            let read: Option<Vec<[u32; 3]>> = tangents.map(|t| t.map(bits).collect());
+            let expected: Option<Vec<[u32; 3]>> = written.tangent_deltas.get(k).map(|d| {
+                lod.source_vertex
+                    .iter()
+                    .map(|&v| bits(d[v as usize]))
+                    .collect()
+            });
+            assert_eq!(read, expected, "target {k} TANGENT deltas");
+        }
+    }
+    // The skin, its joints and their hierarchy.
+    let skin = exported.skins().next().expect("a skin");
+    assert_eq!(skin.name(), Some("armature"));
+    let joints: Vec<&str> = skin.joints().map(|j| j.name().unwrap()).collect();
+    assert_eq!(joints, ["hips", "spine"]);
+    assert_eq!(skin.skeleton().and_then(|s| s.name()), Some("hips"));
+    let matrices: Vec<[u32; 16]> = skin
+        .reader(|_| Some(&blob[..]))
+        .read_inverse_bind_matrices()
+        .unwrap()
+        .map(|m| bits(glam::Mat4::from_cols_array_2d(&m).to_cols_array()))
+        .collect();
+    let expected: Vec<[u32; 16]> = written
+        .inverse_bind_matrices
+        .iter()
+        .map(|m| bits(*m))
+        .collect();
+    assert_eq!(matrices, expected);
+    for i in 0..3 {
+        let node = named(&exported, &format!("skinned_LOD{i}"));
+        assert_eq!(node.skin().map(|s| s.index()), Some(0), "LOD{i}");
+    }
+    let (hips, spine) = (named(&exported, "hips"), named(&exported, "spine"));
+    assert_eq!(hips.transform().decomposed().0, [0.0, 0.5, 0.0]);
+    assert_eq!(spine.transform().decomposed().0, [0.0, 0.25, 0.0]);
+    assert_eq!(
+        hips.children().map(|c| c.index()).collect::<Vec<_>>(),
+        [spine.index()]
+    );
+    let roots: Vec<&str> = exported
+        .scenes()
+        .next()
+        .unwrap()
+        .nodes()
+        .map(|n| n.name().unwrap())
+        .collect();
+    assert_eq!(roots, ["skinned_LOD0", "hips"]);
+    let channel = exported
+        .animations()
+        .flat_map(|a| a.channels())
+        .find(|c| c.target().node().index() == spine.index())
+        .expect("a channel on spine");
+    let reader = channel.reader(|_| Some(&blob[..]));
+    let times: Vec<u32> = reader.read_inputs().unwrap().map(f32::to_bits).collect();
+    let values: Vec<[u32; 4]> = match reader.read_outputs().unwrap() {
+        gltf::animation::util::ReadOutputs::Rotations(r) => r.into_f32().map(bits).collect(),
+        _ => panic!("not a rotation"),
+    };
+    // The material whole: every member as the source has it, its extensions declared, the
+    // image the source's bytes.
+    let source_json: Value = serde_json::from_slice(&std::fs::read(&input).unwrap()).unwrap();
+    let exported_json = json(&export.glb);
+    assert_eq!(exported_json["materials"], source_json["materials"]);
+    assert_eq!(exported_json["samplers"], source_json["samplers"]);
+    for extension in ["KHR_texture_transform", "KHR_materials_emissive_strength"] {
+        let used = exported_json["extensionsUsed"].as_array().unwrap();
+        assert!(used.iter().any(|e| e == extension), "{extension}: {used:?}");
+    }
+    let image = |doc: &gltf::Gltf, blob: &[u8]| match doc.images().next().unwrap().source() {
+        gltf::image::Source::View { view, .. } => {
+            blob[view.offset()..view.offset() + view.length()].to_vec()
+        }
+        gltf::image::Source::Uri { .. } => panic!("an external image"),
+    };
+    let texture = morph.attributes().material.texture.as_ref().unwrap();
+    assert_eq!(image(&exported, &blob), texture.bytes);
+    let (key_times, rotations) = &written.spine_rotation;
+    assert_eq!(
+        times,
+        key_times.iter().map(|t| t.to_bits()).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        values,
+        rotations.iter().map(|q| bits(*q)).collect::<Vec<_>>()
+    );
+    validate_clean(&out);
+}
+
+/// What cannot be carried is left out with a note, and the file stays valid: the skinned face
+/// with its node's skin removed exports without JOINTS_0 and WEIGHTS_0 (they would bind to
+/// nothing) and says so; its other attributes are still written.
+#[test]
+fn skinning_without_a_skin_is_left_out_with_a_note() {
+    let dir = temp_dir("unskinned");
+    let (input, _) = common::skinned_face(&dir);
+    let mut gltf: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&input).unwrap()).unwrap();
+    gltf["nodes"][0].as_object_mut().unwrap().remove("skin");
+    gltf.as_object_mut().unwrap().remove("skins");
+    std::fs::write(&input, serde_json::to_vec(&gltf).unwrap()).unwrap();
+    let out = dir.join("unskinned.glb");
+    let output = morphlod(&[
+        input.as_os_str(),
+        "--lods".as_ref(),
+        "0.25".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    for semantic in ["JOINTS_0", "WEIGHTS_0"] {
+        let note = format!("note: not exported: {semantic}: its node has no skin");
+        assert!(stderr.contains(&note), "{note}: {stderr}");
+    }
+    let exported = gltf::Gltf::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    assert_eq!(exported.skins().count(), 0);
+    for mesh in exported.meshes() {
+        let names: Vec<String> = mesh
+            .primitives()
+            .next()
+            .unwrap()
+            .attributes()
+            .map(|(s, _)| s.to_string())
+            .collect();
+        assert!(!names
+            .iter()
+            .any(|n| n.starts_with("JOINTS") || n.starts_with("WEIGHTS")));
+        for kept in ["TANGENT", "TEXCOORD_1", "_ID"] {
+            assert!(names.iter().any(|n| n == kept), "{kept}: {names:?}");
+        }
+    }
+    validate_clean(&out);
+}
+
+/// The accessor of `primitive`'s attribute `semantic`.
+fn attribute<'a>(primitive: &gltf::Primitive<'a>, semantic: &str) -> gltf::Accessor<'a> {
+    primitive
+        .attributes()
+        .find(|(s, _)| s.to_string() == semantic)
+        .map(|(_, a)| a)
+        .unwrap_or_else(|| panic!("{semantic} missing"))
+}
+
+/// An accessor's elements as stored (view offset, accessor offset and stride applied).
+fn raw_elements(accessor: &gltf::Accessor, blob: &[u8]) -> Vec<Vec<u8>> {
+    let view = accessor.view().expect("a buffer view");
+    let size = accessor.size();
+    let stride = view.stride().unwrap_or(size);
+    let start = view.offset() + accessor.offset();
+    (0..accessor.count())
+        .map(|i| blob[start + i * stride..start + i * stride + size].to_vec())
+        .collect()
+}
+
 /// A node track whose output does not fit its keys (the rigged cube's rotation sampler with 2
 /// of its 3 values) is refused with a message naming the sampler, and nothing is written.
 #[test]

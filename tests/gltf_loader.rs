@@ -75,8 +75,10 @@ fn load(file: &Path, expected: &str) -> Option<(bool, String)> {
 }
 
 /// The face (52 targets with NORMAL deltas, a texture, seams), the AnimatedMorphCube sample
-/// (.gltf with an external buffer; also under a TRS and a matrix ancestor) and a supermesh pair (bunny.obj → cow.off, one target):
-/// every LOD loads in three.js with all its targets, driven by the animation.
+/// (.gltf with an external buffer; also under a TRS and a matrix ancestor), the face as a
+/// skinned character and a supermesh pair (bunny.obj → cow.off, one target): every LOD loads
+/// in three.js with all its targets, driven by the animation; the skinned one's LODs are
+/// SkinnedMeshes over the skin's two joints.
 #[test]
 fn exported_files_load_in_three_js() {
     let dir = temp_dir("exported");
@@ -98,6 +100,8 @@ fn exported_files_load_in_three_js() {
         // The cube under two named ancestors: LOD0 is found in the scene below them.
         cases.push((vec![common::rigged_cube(&dir)], "rigged", "0.6,0.3"));
     }
+    // A skinned character: every LOD a SkinnedMesh over the skin's two joints.
+    cases.push((vec![common::skinned_face(&dir).0], "skinned", "0.5,0.1"));
     for (inputs, name, lods) in cases {
         let out = dir.join(format!("{name}.glb"));
         export(&inputs, lods, &out);
@@ -109,6 +113,15 @@ fn exported_files_load_in_three_js() {
         assert!(report.contains(r#""ok":true"#), "{report}");
         let lods = lods.split(',').count() + 1;
         assert!(report.contains(&format!(r#""driven":{lods}"#)), "{report}");
+        if name == "skinned" {
+            for i in 0..lods {
+                let skinned = format!(r#""name":"skinned_LOD{i}""#);
+                assert!(report.contains(&skinned), "{skinned}: {report}");
+            }
+            assert_eq!(report.matches(r#""bones":2,"#).count(), lods, "{report}");
+            assert!(!report.contains(r#""skinned":0"#), "{report}");
+            assert!(report.contains(r#""spine.quaternion""#), "{report}");
+        }
         if name == "rigged" {
             // The source moves "rig" and turns the cube node: the rig's track, and one
             // rotation track per LOD node.

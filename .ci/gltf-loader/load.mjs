@@ -59,6 +59,9 @@ try {
       positionTargets: (morph.position || []).length,
       normalTargets: (morph.normal || []).length,
       influences: (mesh.morphTargetInfluences || []).length,
+      // A skinned LOD: its skeleton's bones, and the vertices its skin attributes bind.
+      bones: mesh.isSkinnedMesh ? mesh.skeleton.bones.length : 0,
+      skinned: g.attributes.skinIndex && g.attributes.skinWeight ? g.attributes.skinWeight.count : 0,
     };
     check(got.vertices === want.vertices, `${name}: ${got.vertices} vertices, wrote ${want.vertices}`);
     check(got.indices === want.indices, `${name}: ${got.indices} indices, wrote ${want.indices}`);

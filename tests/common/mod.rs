@@ -635,3 +635,193 @@ pub fn rigged_cube(dir: &std::path::Path) -> std::path::PathBuf {
     std::fs::write(dir.join("AnimatedMorphCube.bin"), bin).unwrap();
     input
 }
+
+/// makehuman_face.glb as a skinned character, written to `dir/skinned.gltf` beside its
+/// buffer `skinned.bin`: its node bound by the skin "armature" to two joints, "hips" (a scene
+/// root) and its child "spine", with inverse bind matrices; per vertex JOINTS_0
+/// (UNSIGNED_BYTE), WEIGHTS_0 (normalized UNSIGNED_BYTE, summing to 1), TEXCOORD_1 (normalized
+/// UNSIGNED_BYTE, 2 bytes per vertex in a 4-byte stride), TANGENT (FLOAT VEC4) and an
+/// application-specific `_ID` (FLOAT); TANGENT deltas on its first two targets; a rotation
+/// channel on "spine" in the `expressions` animation; and a material that also has a normal
+/// map on TEXCOORD_1, an occlusion map with `KHR_texture_transform`, an emissive factor and
+/// `KHR_materials_emissive_strength`. The values differ from vertex
+/// to vertex.
+pub fn skinned_face(dir: &std::path::Path) -> (std::path::PathBuf, SkinnedFace) {
+    use serde_json::{json, Value};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_face.glb");
+    let bytes = std::fs::read(path).unwrap();
+    let glb = gltf::Glb::from_slice(&bytes).unwrap();
+    let mut gltf: Value = serde_json::from_slice(&glb.json).unwrap();
+    let mut bin = glb.bin.unwrap().into_owned();
+    let vertices = gltf["accessors"][0]["count"].as_u64().unwrap() as usize;
+    gltf["buffers"][0]["uri"] = json!("skinned.bin");
+    gltf["nodes"][0]["skin"] = json!(0);
+    let nodes = gltf["nodes"].as_array_mut().unwrap();
+    let hips = nodes.len();
+    nodes.push(json!({"name": "hips", "translation": [0.0, 0.5, 0.0], "children": [hips + 1]}));
+    nodes.push(json!({"name": "spine", "translation": [0.0, 0.25, 0.0]}));
+    gltf["scenes"][0]["nodes"] = json!([0, hips]);
+    // The material also has a normal map on TEXCOORD_1, an occlusion map with a texture
+    // transform, and an emissive strength (both extensions the validator knows).
+    let material = &mut gltf["materials"][0];
+    material["normalTexture"] = json!({"index": 0, "texCoord": 1, "scale": 0.5});
+    material["occlusionTexture"] = json!({"index": 0, "strength": 0.75,
+        "extensions": {"KHR_texture_transform": {"scale": [2.0, 2.0]}}});
+    material["emissiveFactor"] = json!([0.1, 0.05, 0.0]);
+    material["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}});
+    gltf["extensionsUsed"] = json!(["KHR_texture_transform", "KHR_materials_emissive_strength"]);
+    let floats =
+        |values: Vec<f32>| -> Vec<u8> { values.iter().flat_map(|f| f.to_le_bytes()).collect() };
+    let joints: Vec<u8> = (0..vertices).flat_map(|_| [0, 1, 0, 0]).collect();
+    let weights: Vec<u8> = (0..vertices)
+        .flat_map(|v| {
+            let w = 1 + (v % 254) as u8;
+            [w, 255 - w, 0, 0]
+        })
+        .collect();
+    let uv1: Vec<u8> = (0..vertices)
+        .flat_map(|v| [(v % 251) as u8, (v / 251) as u8, 0, 0])
+        .collect();
+    let tangents: Vec<f32> = (0..vertices)
+        .flat_map(|v| {
+            let a = v as f32 * 0.01;
+            [a.cos(), a.sin(), 0.0, if v % 2 == 0 { 1.0 } else { -1.0 }]
+        })
+        .collect();
+    let tangent_deltas = |k: usize| -> Vec<f32> {
+        (0..vertices)
+            .flat_map(|v| [0.001 * ((v + k) % 7) as f32, 0.0, -0.002 * (v % 3) as f32])
+            .collect()
+    };
+    let ids: Vec<f32> = (0..vertices).map(|v| 1000.0 + v as f32).collect();
+    let ibm: Vec<f32> = [-0.5f32, -0.75]
+        .iter()
+        .flat_map(|&y| {
+            [
+                1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, y, 0.0, 1.0,
+            ]
+        })
+        .collect();
+    let keys: Vec<f32> = vec![
+        0.0, 1.0, 2.0, // times
+        0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.38268343, 0.9238795, 0.0, 0.0, 0.0, 1.0, // rotations
+    ];
+    let elements = |bytes: &[u8], size: usize, stride: usize| -> Vec<Vec<u8>> {
+        bytes
+            .chunks_exact(stride)
+            .map(|e| e[..size].to_vec())
+            .collect()
+    };
+    let written = SkinnedFace {
+        attributes: vec![
+            ("JOINTS_0", elements(&joints, 4, 4)),
+            ("WEIGHTS_0", elements(&weights, 4, 4)),
+            ("TEXCOORD_1", elements(&uv1, 2, 4)),
+            ("TANGENT", elements(&floats(tangents.clone()), 16, 16)),
+            ("_ID", elements(&floats(ids.clone()), 4, 4)),
+        ],
+        tangent_deltas: [0, 1].map(|k| {
+            tangent_deltas(k)
+                .chunks_exact(3)
+                .map(|d| [d[0], d[1], d[2]])
+                .collect()
+        }),
+        inverse_bind_matrices: ibm
+            .chunks_exact(16)
+            .map(|m| std::array::from_fn(|i| m[i]))
+            .collect(),
+        spine_rotation: (
+            keys[..3].to_vec(),
+            keys[3..]
+                .chunks_exact(4)
+                .map(|q| [q[0], q[1], q[2], q[3]])
+                .collect(),
+        ),
+    };
+    // Appends `bytes` as a buffer view (4-byte aligned) and returns its index.
+    let mut view = |gltf: &mut Value, bytes: Vec<u8>, stride: Option<usize>, vertex: bool| {
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let mut v = json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()});
+        if let Some(stride) = stride {
+            v["byteStride"] = json!(stride);
+        }
+        if vertex {
+            v["target"] = json!(34962);
+        }
+        bin.extend(bytes);
+        let views = gltf["bufferViews"].as_array_mut().unwrap();
+        views.push(v);
+        views.len() - 1
+    };
+    let views = [
+        view(&mut gltf, joints, None, true),
+        view(&mut gltf, weights, None, true),
+        view(&mut gltf, uv1, Some(4), true),
+        view(&mut gltf, floats(tangents), None, true),
+        view(&mut gltf, floats(ids), None, true),
+        view(&mut gltf, floats(tangent_deltas(0)), None, true),
+        view(&mut gltf, floats(tangent_deltas(1)), None, true),
+        view(&mut gltf, floats(ibm), None, false),
+        view(&mut gltf, floats(keys), None, false),
+    ];
+    gltf["buffers"][0]["byteLength"] = json!(bin.len());
+    let first = gltf["accessors"].as_array().unwrap().len();
+    let accessors = gltf["accessors"].as_array_mut().unwrap();
+    for a in [
+        json!({"bufferView": views[0], "componentType": 5121, "count": vertices, "type": "VEC4"}),
+        json!({"bufferView": views[1], "componentType": 5121, "normalized": true, "count": vertices, "type": "VEC4"}),
+        json!({"bufferView": views[2], "componentType": 5121, "normalized": true, "count": vertices, "type": "VEC2"}),
+        json!({"bufferView": views[3], "componentType": 5126, "count": vertices, "type": "VEC4"}),
+        json!({"bufferView": views[4], "componentType": 5126, "count": vertices, "type": "SCALAR"}),
+        json!({"bufferView": views[5], "componentType": 5126, "count": vertices, "type": "VEC3",
+            "min": [0.0, 0.0, -0.004], "max": [0.006, 0.0, 0.0]}),
+        json!({"bufferView": views[6], "componentType": 5126, "count": vertices, "type": "VEC3",
+            "min": [0.0, 0.0, -0.004], "max": [0.006, 0.0, 0.0]}),
+        json!({"bufferView": views[7], "componentType": 5126, "count": 2, "type": "MAT4"}),
+        json!({"bufferView": views[8], "componentType": 5126, "count": 3, "type": "SCALAR", "min": [0.0], "max": [2.0]}),
+        json!({"bufferView": views[8], "byteOffset": 12, "componentType": 5126, "count": 3, "type": "VEC4"}),
+    ] {
+        accessors.push(a);
+    }
+    let primitive = &mut gltf["meshes"][0]["primitives"][0];
+    for (k, semantic) in ["JOINTS_0", "WEIGHTS_0", "TEXCOORD_1", "TANGENT", "_ID"]
+        .iter()
+        .enumerate()
+    {
+        primitive["attributes"][*semantic] = json!(first + k);
+    }
+    for k in 0..2 {
+        primitive["targets"][k]["TANGENT"] = json!(first + 5 + k);
+    }
+    gltf["skins"] = json!([{"name": "armature", "joints": [hips, hips + 1], "skeleton": hips,
+        "inverseBindMatrices": first + 7}]);
+    let animation = &mut gltf["animations"][0];
+    let sampler = animation["samplers"].as_array().unwrap().len();
+    animation["samplers"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"input": first + 8, "output": first + 9, "interpolation": "LINEAR"}));
+    animation["channels"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"sampler": sampler, "target": {"node": hips + 1, "path": "rotation"}}));
+    let input = dir.join("skinned.gltf");
+    std::fs::write(&input, serde_json::to_vec(&gltf).unwrap()).unwrap();
+    std::fs::write(dir.join("skinned.bin"), bin).unwrap();
+    (input, written)
+}
+
+/// What [`skinned_face`] wrote, to check an export against.
+pub struct SkinnedFace {
+    /// Per added vertex attribute, its name and each vertex's element bytes (without the
+    /// stride's padding).
+    pub attributes: Vec<(&'static str, Vec<Vec<u8>>)>,
+    /// The TANGENT deltas of targets 0 and 1.
+    pub tangent_deltas: [Vec<[f32; 3]>; 2],
+    /// The two inverse bind matrices, column-major.
+    pub inverse_bind_matrices: Vec<[f32; 16]>,
+    /// The key times and rotations of the channel on "spine".
+    pub spine_rotation: (Vec<f32>, Vec<[f32; 4]>),
+}

@@ -3,6 +3,7 @@
 use crate::{load_pair, load_surface, SimplifyWeights};
 use clap::Args;
 use morphlod::export::{export_glb, ExportOptions, LodSteps, DEFAULT_POSES};
+use morphlod::io::gltf::SourceScene;
 use morphlod::io::{Format, LoadError, LoadOptions, MorphSource};
 use morphlod::morph::{Morph, Weights};
 use std::io::IsTerminal;
@@ -61,23 +62,26 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
         ..LoadOptions::default()
     };
     let start = Instant::now();
-    let (morph, default_weights, nodes) = match args.inputs.as_slice() {
+    let (morph, default_weights, source) = match args.inputs.as_slice() {
         [a, b] => (
             load_pair(a, b, args.landmarks.as_deref(), &options)?,
             None,
-            Vec::new(),
+            SourceScene::default(),
         ),
         [path] => {
             let (morph, weights) = load_gltf(path, args.animation.as_deref(), &options)?;
-            // The animation whose weight track the morph plays also moves the chain's nodes.
+            // The animation whose weight track the morph plays also moves the scene's nodes.
             let played = matches!(morph.weights(), Weights::Animated(_))
                 .then(|| args.animation.as_deref().unwrap_or("0"));
-            let nodes = morphlod::io::gltf::node_chain(path, &options, played)
+            let source = morphlod::io::gltf::source_scene(path, &options, played)
                 .map_err(|e| e.to_string())?;
-            (morph, weights, nodes)
+            (morph, weights, source)
         }
         _ => return Err("give one glTF file or two meshes".into()),
     };
+    for line in &source.left_out {
+        eprintln!("note: not exported: {line}");
+    }
     let name = args.inputs[0]
         .file_stem()
         .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
@@ -104,7 +108,7 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
             simplify: args.weights.simplify_options(true),
             default_weights,
             name,
-            nodes,
+            source,
         },
     )
     .map_err(|e| e.to_string());

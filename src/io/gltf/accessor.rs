@@ -150,12 +150,16 @@ impl Document {
         accessor: &gltf::Accessor,
         element: &str,
     ) -> Result<Vec<u8>, LoadError> {
-        if matches!(
+        let matrix = matches!(
             accessor.dimensions(),
             Dimensions::Mat2 | Dimensions::Mat3 | Dimensions::Mat4
-        ) {
-            // Matrix columns carry alignment padding; no morph data uses them.
-            return Err(self.unsupported(element, "matrix accessors".to_string()));
+        );
+        if matrix && accessor.data_type().size() < 4 {
+            // Byte and short matrix columns carry alignment padding; nothing read uses them
+            // (inverse bind matrices are FLOAT, whose columns are packed).
+            return Err(
+                self.unsupported(element, "matrix accessors of bytes or shorts".to_string())
+            );
         }
         let size = accessor.size();
         let count = accessor.count();

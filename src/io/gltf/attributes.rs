@@ -256,7 +256,7 @@ impl Document {
 
     /// The encoded bytes of image `index`: a buffer view, a data URI, or a file relative to
     /// the glTF file. The format is taken from the bytes, not `mimeType`.
-    fn image_bytes(&self, index: usize) -> Result<Vec<u8>, LoadError> {
+    pub(super) fn image_bytes(&self, index: usize) -> Result<Vec<u8>, LoadError> {
         let image = &self.document.as_json().images[index];
         let element = format!("image {index}");
         if let Some(view) = image.buffer_view {

@@ -33,6 +33,7 @@ pub(super) struct Geometry {
 pub(super) struct Document {
     pub(super) path: PathBuf,
     pub(super) document: gltf::Document,
+    pub(super) raw: serde_json::Value,
     pub(super) buffers: Vec<Vec<u8>>,
 }
 
@@ -54,6 +55,10 @@ impl Document {
         };
         let root: gltf::json::Root =
             gltf::json::deserialize::from_slice(json).map_err(|e| json_error(e.to_string()))?;
+        // The same JSON untyped, for what an export copies as the file has it (materials
+        // with their extensions, which the typed tree drops).
+        let raw: serde_json::Value =
+            serde_json::from_slice(json).map_err(|e| json_error(e.to_string()))?;
         precheck(&root).map_err(json_error)?;
         validate(&root).map_err(json_error)?;
         let document = gltf::Document::from_json_without_validation(root);
@@ -64,6 +69,7 @@ impl Document {
         Ok(Document {
             path: path.to_path_buf(),
             document,
+            raw,
             buffers,
         })
     }
@@ -279,53 +285,10 @@ impl Document {
     }
 
     /// The first node instancing `mesh`.
-    fn instance(&self, mesh: &gltf::Mesh) -> Option<gltf::Node<'_>> {
+    pub(super) fn instance(&self, mesh: &gltf::Mesh) -> Option<gltf::Node<'_>> {
         self.document
             .nodes()
             .find(|n| n.mesh().map(|m| m.index()) == Some(mesh.index()))
-    }
-
-    /// The first node instancing `mesh` and its ancestors, root first, each with the channels
-    /// of `animation` on its transform; empty when no node instances it.
-    pub(super) fn node_chain(
-        &self,
-        mesh: &gltf::Mesh,
-        animation: Option<&gltf::Animation>,
-    ) -> Result<Vec<super::SourceNode>, LoadError> {
-        let Some(node) = self.instance(mesh) else {
-            return Ok(Vec::new());
-        };
-        let nodes: Vec<gltf::Node> = self.document.nodes().collect();
-        let mut chain = Vec::new();
-        let mut current = Some(node.index());
-        // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
-        while let (Some(i), true) = (current, chain.len() < nodes.len()) {
-            let n = &nodes[i];
-            chain.push(super::SourceNode {
-                name: n.name().map(str::to_owned),
-                transform: match n.transform() {
-                    gltf::scene::Transform::Matrix { matrix } => super::NodeTransform::Matrix(
-                        glam::Mat4::from_cols_array_2d(&matrix).to_cols_array(),
-                    ),
-                    gltf::scene::Transform::Decomposed {
-                        translation,
-                        rotation,
-                        scale,
-                    } => super::NodeTransform::Trs {
-                        translation,
-                        rotation,
-                        scale,
-                    },
-                },
-                tracks: match animation {
-                    Some(animation) => self.node_tracks(animation, i)?,
-                    None => Vec::new(),
-                },
-            });
-            current = self.parent(i);
-        }
-        chain.reverse();
-        Ok(chain)
     }
 
     /// How messages name `sampler` of `animation`, its key times and its output values (of
@@ -354,7 +317,7 @@ impl Document {
     /// The channels of `animation` on node `node`'s translation, rotation and scale, checked
     /// as [`WeightTrack::new`] checks a weight track: finite, strictly increasing times, and
     /// finite values, as many as the keys ask for.
-    fn node_tracks(
+    pub(super) fn node_tracks(
         &self,
         animation: &gltf::Animation,
         node: usize,
@@ -410,12 +373,15 @@ impl Document {
         Ok(tracks)
     }
 
-    /// The node whose `children` hold `node`.
-    fn parent(&self, node: usize) -> Option<usize> {
-        self.document
-            .nodes()
-            .find(|n| n.children().any(|c| c.index() == node))
-            .map(|n| n.index())
+    /// Per node, the node whose `children` hold it.
+    pub(super) fn parents(&self) -> Vec<Option<usize>> {
+        let mut parents = vec![None; self.document.nodes().len()];
+        for node in self.document.nodes() {
+            for child in node.children() {
+                parents[child.index()] = Some(node.index());
+            }
+        }
+        parents
     }
 
     /// World matrix of the first node instancing `mesh` (identity when none),
@@ -521,11 +487,12 @@ impl Document {
                     glam::Mat4::from_cols_array_2d(&n.transform().matrix())
                 })
         };
+        let parents = self.parents();
         let mut matrix = local(node);
         let mut current = node;
         // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
         for _ in 0..self.document.nodes().len() {
-            match self.parent(current) {
+            match parents[current] {
                 Some(p) => {
                     matrix = local(p) * matrix;
                     current = p;

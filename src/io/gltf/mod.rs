@@ -15,6 +15,9 @@ mod attributes;
 mod document;
 #[cfg(test)]
 mod morph_tests;
+mod scene;
+#[cfg(feature = "export")]
+pub(crate) use scene::texture_infos;
 pub mod summary;
 pub mod write;
 
@@ -80,14 +83,123 @@ impl NodeTransform {
     };
 }
 
-/// One node of a scene: its name and local transform, exactly as the file has them, and what
-/// an animation does to that transform.
+/// One node of a scene: its name and local transform, exactly as the file has them, what an
+/// animation does to that transform, and its parent.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SourceNode {
     pub name: Option<String>,
     pub transform: NodeTransform,
     /// The animation's channels that drive this node's translation, rotation or scale.
     pub tracks: Vec<NodeTrack>,
+    /// The parent's index in [`SourceScene::nodes`] (always smaller than this node's);
+    /// `None` for a scene root.
+    pub parent: Option<usize>,
+}
+
+/// A skin as the file has it, its nodes as indices in [`SourceScene::nodes`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceSkin {
+    pub name: Option<String>,
+    pub joints: Vec<usize>,
+    pub skeleton: Option<usize>,
+    /// Column-major, at least one per joint (the file's count).
+    pub inverse_bind_matrices: Option<Vec<[f32; 16]>>,
+}
+
+/// A vertex attribute a morph does not hold, as the file stores it: an export writes each
+/// kept vertex's element bytes unchanged.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawAttribute {
+    /// The file's name for it (`TANGENT`, `JOINTS_0`, `TEXCOORD_1`, `_BATCHID`, ...).
+    pub semantic: String,
+    /// The accessor type: `SCALAR`, `VEC2`, `VEC3` or `VEC4`.
+    pub kind: &'static str,
+    /// The accessor's componentType (5120 BYTE to 5126 FLOAT).
+    pub component_type: u32,
+    pub normalized: bool,
+    /// One element per vertex of the primitives concatenated (as the morph's vertices are),
+    /// tightly packed, little-endian.
+    pub data: Vec<u8>,
+}
+
+impl RawAttribute {
+    /// Bytes per component.
+    pub fn component_size(&self) -> usize {
+        match self.component_type {
+            5120 | 5121 => 1,
+            5122 | 5123 => 2,
+            _ => 4,
+        }
+    }
+
+    /// Bytes per element (one vertex's value).
+    pub fn element_size(&self) -> usize {
+        let components = match self.kind {
+            "SCALAR" => 1,
+            "VEC2" => 2,
+            "VEC3" => 3,
+            _ => 4,
+        };
+        components * self.component_size()
+    }
+}
+
+/// The material of the mesh's first primitive as the file has it, for an export to write
+/// again: every factor, texture and extension, not only what a morph draws with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceMaterial {
+    /// The material object verbatim, but for its texture infos (every `...Texture` member
+    /// with an `index`, in the core material or in its extensions): each `index` names one of
+    /// `textures`; `texCoord` still names the file's TEXCOORD set.
+    pub json: serde_json::Value,
+    pub textures: Vec<SourceTexture>,
+    pub images: Vec<SourceImage>,
+    /// The extensions the material and its texture infos use, and which of them the file
+    /// requires.
+    pub extensions_used: Vec<String>,
+    pub extensions_required: Vec<String>,
+}
+
+/// A texture of a [`SourceMaterial`]: its image (an index in [`SourceMaterial::images`]) and
+/// its sampler object as the file has it (`None`: glTF's default sampler).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceTexture {
+    pub image: usize,
+    pub sampler: Option<serde_json::Value>,
+}
+
+/// An encoded image as the file stores it (header checked).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceImage {
+    pub format: crate::morph::ImageFormat,
+    pub bytes: Vec<u8>,
+}
+
+/// What an export carries from a glTF file besides the morph (module `scene`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SourceScene {
+    /// The node that instances the mesh and its ancestors; for a skinned mesh also the
+    /// skin's joints and skeleton and theirs. Parents come before their children.
+    pub nodes: Vec<SourceNode>,
+    /// The node that instances the mesh, in `nodes`; `None` (and `nodes` empty) when no
+    /// node does.
+    pub mesh_node: Option<usize>,
+    /// The mesh node's skin, kept when the mesh binds its vertices to it (JOINTS_0 and
+    /// WEIGHTS_0 on every primitive).
+    pub skin: Option<SourceSkin>,
+    /// The vertex attributes a morph does not hold: all but POSITION, NORMAL, COLOR_0 and
+    /// the TEXCOORD set of the base-colour texture, kept when every primitive stores them
+    /// alike (JOINTS_n and WEIGHTS_n only in pairs, and only with a skin).
+    pub attributes: Vec<RawAttribute>,
+    /// Per morph target, its deltas of those attributes (TANGENT, where every primitive
+    /// gives them and the base has TANGENT).
+    pub target_attributes: Vec<Vec<RawAttribute>>,
+    /// The material, whole; `None` for a primitive without one (glTF's default material).
+    pub material: Option<SourceMaterial>,
+    /// The TEXCOORD set the morph's UVs were read from (the base-colour texture's).
+    pub uv_set: u32,
+    /// What the file has for this mesh that is not carried, a line each.
+    pub left_out: Vec<String>,
 }
 
 /// A node property an animation channel drives.
@@ -129,17 +241,18 @@ pub struct NodeTrack {
     pub values: Vec<f32>,
 }
 
-/// The nodes from a root of the node tree down to the first node that instances the mesh
-/// `options` picks, root first (the last is that node): the placement [`load_mesh`] applies
-/// with `options.apply_transforms` is the product of their transforms. Empty when no node
-/// instances the mesh. `options.apply_transforms` itself is ignored. With `animation` (a
-/// name, else a decimal index) each node also carries that animation's channels on its
-/// translation, rotation and scale.
-pub fn node_chain(
+/// What an export of the mesh `options` picks carries from the file besides the morph
+/// ([`SourceScene`]): its nodes, skin, material and the vertex attributes a morph does not
+/// hold. The nodes' placement is the one [`load_mesh`] applies with
+/// `options.apply_transforms`, which is itself ignored here: the raw attributes are as stored,
+/// in the mesh's own coordinates, so they go with a morph loaded without it (a baked
+/// transform would not turn their TANGENTs). With `animation` (a name, else a decimal index) each node also
+/// carries that animation's channels on its translation, rotation and scale.
+pub fn source_scene(
     path: &Path,
     options: &LoadOptions,
     animation: Option<&str>,
-) -> Result<Vec<SourceNode>, LoadError> {
+) -> Result<SourceScene, LoadError> {
     let doc = Document::open(path)?;
     let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
     let animation = match animation {
@@ -157,7 +270,7 @@ pub fn node_chain(
         }
         None => None,
     };
-    doc.node_chain(&mesh, animation.as_ref())
+    doc.source_scene(&mesh, animation.as_ref())
 }
 
 /// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
