@@ -841,13 +841,10 @@ struct State<'o, 'r, 'm> {
     stamp: u32,
     scratch: Vec<u32>,
     around: Vec<u32>,
-    candidates: Vec<(f64, u32)>,
-    /// Scratch of the distance term when priced on this thread: the vertices near a
-    /// candidate fan.
-    near: Vec<u32>,
+    /// Scratch of ranking and pricing on this thread.
+    pricing: PriceScratch,
     /// Scratch of [`State::price_batch`].
     batch: Vec<u32>,
-    price_scratch: PriceScratch,
     queue: Queue,
     collapses: Vec<Collapse>,
     /// The distance term, when [`SimplifyOptions::distance_weight`] is above 0.
@@ -860,7 +857,8 @@ struct State<'o, 'r, 'm> {
     scale_max: f64,
 }
 
-/// What pricing a vertex ([`State::price`]) writes to: one per thread.
+/// What ranking and pricing a vertex ([`State::targets`], [`State::price`]) write to: one per
+/// thread.
 #[derive(Default)]
 struct PriceScratch {
     candidates: Vec<(f64, u32)>,
@@ -963,10 +961,8 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             stamp: 0,
             scratch: Vec::new(),
             around: Vec::new(),
-            candidates: Vec::new(),
-            near: Vec::new(),
+            pricing: PriceScratch::default(),
             batch: Vec::new(),
-            price_scratch: PriceScratch::default(),
             queue: Queue::new(n),
             collapses: Vec::with_capacity(n),
             attached: (options.distance_weight > 0.0).then(|| Attached {
@@ -1311,9 +1307,9 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
             }
         }
         let prices: Vec<Option<(f64, u32)>> = if batch.len() == 1 {
-            let mut scratch = std::mem::take(&mut self.price_scratch);
+            let mut scratch = std::mem::take(&mut self.pricing);
             let price = self.price(u, &mut scratch);
-            self.price_scratch = scratch;
+            self.pricing = scratch;
             vec![price]
         } else {
             let state = &*self;
@@ -1358,13 +1354,18 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         if let Some(attached) = &mut self.attached {
             attached.exact[u as usize] = false;
         }
-        let mut candidates = std::mem::take(&mut self.candidates);
-        self.targets(u, &mut candidates);
-        match candidates.iter().map(|&(cost, v)| key(cost, v)).min() {
+        let mut scratch = std::mem::take(&mut self.pricing);
+        self.targets(u, &mut scratch.candidates);
+        match scratch
+            .candidates
+            .iter()
+            .map(|&(cost, v)| key(cost, v))
+            .min()
+        {
             None => self.queue.remove(u),
             Some(best) => self.queue.set(u, key_cost(best), key_vertex(best)),
         }
-        self.candidates = candidates;
+        self.pricing = scratch;
     }
 
     /// The targets the vertex kinds allow for `u`, each with its cost, into `out`. A
@@ -1406,20 +1407,20 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
 
     /// The cheapest target of `u` that passes every check, if any.
     fn best_valid(&mut self, u: u32) -> Option<(f64, u32)> {
-        let mut candidates = std::mem::take(&mut self.candidates);
-        let mut near = std::mem::take(&mut self.near);
-        self.targets(u, &mut candidates);
+        let mut scratch = std::mem::take(&mut self.pricing);
+        let PriceScratch { candidates, near } = &mut scratch;
+        self.targets(u, candidates);
         // Cheapest first. With the distance term the cost ranked by is a lower bound of the
         // exact one, so candidates are priced in that order until none can win, and only
         // one that would win is checked.
         candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut best: Option<(f64, u32)> = None;
-        for &(cheap, w) in &candidates {
+        for &(cheap, w) in candidates.iter() {
             if best.is_some_and(|(b, bw)| key(cheap, w) >= key(b, bw)) {
                 break;
             }
             let cost = match self.attached {
-                Some(_) => self.exact_cost(u, w, best.map_or(f64::INFINITY, |b| b.0), &mut near),
+                Some(_) => self.exact_cost(u, w, best.map_or(f64::INFINITY, |b| b.0), near),
                 None => cheap,
             };
             let wins = best.is_none_or(|(b, bw)| key(cost, w) < key(b, bw));
@@ -1430,8 +1431,7 @@ impl<'o, 'r, 'm> State<'o, 'r, 'm> {
         if let Some(attached) = &mut self.attached {
             attached.exact[u as usize] = true;
         }
-        self.candidates = candidates;
-        self.near = near;
+        self.pricing = scratch;
         best
     }
 
