@@ -51,7 +51,7 @@ use crate::io::gltf::write::{
 use crate::io::gltf::{
     texture_infos, NodeTrack, NodeTransform, RawAttribute, SourceMaterial, SourceScene,
 };
-use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
+use crate::morph::{ImageFormat, Interpolation, Morph, WeightTrack, Weights};
 use crate::seams::StepBoundaries;
 use crate::simplify::{PoseError, SimplifyOptions, DISTANCE_WEIGHT};
 use std::fmt::Write as _;
@@ -539,28 +539,19 @@ fn raw_accessor(bin: &mut Bin, json: &mut Json, attribute: &RawAttribute, lod: &
         data.extend_from_slice(&attribute.data[v * size..(v + 1) * size]);
         data.resize(data.len() + stride - size, 0);
     }
-    let (offset, length) = bin.push(data);
-    let stride = if stride == size {
-        String::new()
-    } else {
-        format!(r#","byteStride":{stride}"#)
-    };
-    json.views.push(format!(
-        r#"{{"buffer":0,"byteOffset":{offset},"byteLength":{length}{stride},"target":{ARRAY_BUFFER}}}"#
-    ));
-    let normalized = if attribute.normalized {
-        r#","normalized":true"#
-    } else {
-        ""
-    };
-    json.accessors.push(format!(
-        r#"{{"bufferView":{},"componentType":{},"count":{}{normalized},"type":"{}"}}"#,
-        json.views.len() - 1,
+    let view = json.strided_view(
+        bin.push(data),
+        (stride != size).then_some(stride),
+        Some(ARRAY_BUFFER),
+    );
+    json.normalized_accessor(
+        view,
         attribute.component_type,
+        attribute.normalized,
         lod.source_vertex.len(),
-        attribute.kind
-    ));
-    json.accessors.len() - 1
+        attribute.kind,
+        None,
+    )
 }
 
 /// One mesh's JSON for `lod`, its data pushed into `bin`; `raw_names`: what the source's raw
@@ -662,7 +653,7 @@ fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
             factor.join(",")
         );
     };
-    let view = json.view(bin.push(texture.bytes.clone()), None);
+    let image = image_json(&texture.bytes, texture.format, bin, json);
     let s = &texture.sampler;
     let mut sampler = format!(r#""wrapS":{},"wrapT":{}"#, s.wrap_s, s.wrap_t);
     if let Some(f) = s.mag_filter {
@@ -672,9 +663,17 @@ fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
         let _ = write!(sampler, r#","minFilter":{f}"#);
     }
     format!(
-        r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}],"baseColorTexture":{{"index":0}},"metallicFactor":0}}}}],"textures":[{{"sampler":0,"source":0}}],"samplers":[{{{sampler}}}],"images":[{{"bufferView":{view},"mimeType":"{}"}}]"#,
+        r#""materials":[{{{name}"pbrMetallicRoughness":{{"baseColorFactor":[{}],"baseColorTexture":{{"index":0}},"metallicFactor":0}}}}],"textures":[{{"sampler":0,"source":0}}],"samplers":[{{{sampler}}}],"images":[{image}]"#,
         factor.join(","),
-        texture.format.mime_type()
+    )
+}
+
+/// An `images` entry for encoded image `bytes`, embedded in the BIN chunk.
+fn image_json(bytes: &[u8], format: ImageFormat, bin: &mut Bin, json: &mut Json) -> String {
+    let view = json.view(bin.push(bytes.to_vec()), None);
+    format!(
+        r#"{{"bufferView":{view},"mimeType":"{}"}}"#,
+        format.mime_type()
     )
 }
 
@@ -708,10 +707,10 @@ fn source_material_json(
     };
     let mut object = material.json.clone();
     texture_infos(&mut object, &mut |_, info| {
-        let set = info["texCoord"].as_u64().unwrap_or(0);
+        let set = written_set(info["texCoord"].as_u64().unwrap_or(0));
         // Absent means set 0: left absent when it stays 0.
-        if info.get("texCoord").is_some() || written_set(set) != 0 {
-            info["texCoord"] = written_set(set).into();
+        if info.get("texCoord").is_some() || set != 0 {
+            info["texCoord"] = set.into();
         }
         // (`get_mut`: indexing a missing member would insert a null.)
         let transform = info
@@ -742,13 +741,7 @@ fn source_material_json(
     let images: Vec<String> = material
         .images
         .iter()
-        .map(|image| {
-            let view = json.view(bin.push(image.bytes.clone()), None);
-            format!(
-                r#"{{"bufferView":{view},"mimeType":"{}"}}"#,
-                image.format.mime_type()
-            )
-        })
+        .map(|image| image_json(&image.bytes, image.format, bin, json))
         .collect();
     let mut out = format!(r#""materials":[{object}]"#);
     for (name, list) in [
@@ -885,7 +878,6 @@ fn write_glb(
         .iter()
         .zip(&names)
         .map(|(lod, n)| {
-            let (bin, json) = (&mut bin, &mut json);
             mesh_json(
                 morph,
                 lod,
@@ -893,8 +885,8 @@ fn write_glb(
                 default_weights,
                 source,
                 &raw_names,
-                bin,
-                json,
+                &mut bin,
+                &mut json,
             )
         })
         .collect();
@@ -931,12 +923,6 @@ fn write_glb(
             next += 1;
         }
     }
-    let children = |i: usize| -> Vec<String> {
-        (0..source.nodes.len())
-            .filter(|&c| source.nodes[c].parent == Some(i))
-            .map(|c| written[c].to_string())
-            .collect()
-    };
     // Every LOD node stands where the mesh node stood, so its channels drive each of them;
     // another node's drive that node.
     let node_tracks: Vec<(Vec<usize>, &NodeTrack)> = source
@@ -994,7 +980,10 @@ fn write_glb(
     let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
     let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
     let children_json = |i: usize| {
-        let list = children(i);
+        let list: Vec<String> = (0..source.nodes.len())
+            .filter(|&c| source.nodes[c].parent == Some(i))
+            .map(|c| written[c].to_string())
+            .collect();
         if list.is_empty() {
             String::new()
         } else {

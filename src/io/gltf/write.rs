@@ -268,10 +268,21 @@ pub(crate) struct Json {
 }
 
 impl Json {
-    pub(crate) fn view(&mut self, (offset, length): (usize, usize), target: Option<u32>) -> usize {
+    pub(crate) fn view(&mut self, at: (usize, usize), target: Option<u32>) -> usize {
+        self.strided_view(at, None, target)
+    }
+
+    /// A buffer view whose elements start `stride` bytes apart (`None`: tightly packed).
+    pub(crate) fn strided_view(
+        &mut self,
+        (offset, length): (usize, usize),
+        stride: Option<usize>,
+        target: Option<u32>,
+    ) -> usize {
+        let stride = stride.map_or(String::new(), |s| format!(r#","byteStride":{s}"#));
         let target = target.map_or(String::new(), |t| format!(r#","target":{t}"#));
         self.views.push(format!(
-            r#"{{"buffer":0,"byteOffset":{offset},"byteLength":{length}{target}}}"#
+            r#"{{"buffer":0,"byteOffset":{offset},"byteLength":{length}{stride}{target}}}"#
         ));
         self.views.len() - 1
     }
@@ -284,12 +295,30 @@ impl Json {
         kind: &str,
         bounds: Option<(Vec<f32>, Vec<f32>)>,
     ) -> usize {
+        self.normalized_accessor(view, component, false, count, kind, bounds)
+    }
+
+    /// An accessor whose integer components are read as normalized when `normalized`.
+    pub(crate) fn normalized_accessor(
+        &mut self,
+        view: usize,
+        component: u32,
+        normalized: bool,
+        count: usize,
+        kind: &str,
+        bounds: Option<(Vec<f32>, Vec<f32>)>,
+    ) -> usize {
+        let normalized = if normalized {
+            r#","normalized":true"#
+        } else {
+            ""
+        };
         let bounds = bounds.map_or(String::new(), |(lo, hi)| {
             let list = |v: Vec<f32>| v.into_iter().map(number).collect::<Vec<_>>().join(",");
             format!(r#","min":[{}],"max":[{}]"#, list(lo), list(hi))
         });
         self.accessors.push(format!(
-            r#"{{"bufferView":{view},"componentType":{component},"count":{count},"type":"{kind}"{bounds}}}"#
+            r#"{{"bufferView":{view},"componentType":{component},"count":{count}{normalized},"type":"{kind}"{bounds}}}"#
         ));
         self.accessors.len() - 1
     }
