@@ -591,6 +591,30 @@ fn skinning_without_a_skin_is_left_out_with_a_note() {
     validate_clean(&out);
 }
 
+/// A skin whose inverse bind matrices hold a NaN is refused with a data error naming them,
+/// before anything is built.
+#[test]
+fn a_non_finite_inverse_bind_matrix_is_refused() {
+    let dir = temp_dir("skinned_nan");
+    let (input, _) = common::skinned_face(&dir);
+    let gltf: serde_json::Value = serde_json::from_slice(&std::fs::read(&input).unwrap()).unwrap();
+    let accessor =
+        &gltf["accessors"][gltf["skins"][0]["inverseBindMatrices"].as_u64().unwrap() as usize];
+    let view = &gltf["bufferViews"][accessor["bufferView"].as_u64().unwrap() as usize];
+    let at = view["byteOffset"].as_u64().unwrap() as usize + 5 * 4;
+    let bin = dir.join("skinned.bin");
+    let mut bytes = std::fs::read(&bin).unwrap();
+    bytes[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(&bin, bytes).unwrap();
+    let err = morphlod::io::gltf::source_scene(&input, &LoadOptions::default(), Some("0"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("inverseBindMatrices") && err.contains("NaN"),
+        "{err}"
+    );
+}
+
 /// The accessor of `primitive`'s attribute `semantic`.
 fn attribute<'a>(primitive: &gltf::Primitive<'a>, semantic: &str) -> gltf::Accessor<'a> {
     primitive

@@ -189,14 +189,8 @@ impl Document {
                         ),
                     ));
                 }
-                let bytes = self.gather(&accessor, &what)?;
-                let floats: Vec<f32> = bytes
-                    .chunks_exact(4)
-                    .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-                    .collect();
-                if floats.iter().any(|v| !v.is_finite()) {
-                    return Err(self.data_error(&what, "has a value that is not finite".into()));
-                }
+                // Decoded and checked finite as every float accessor is.
+                let floats = self.read_floats(&accessor, &what, Dimensions::Mat4)?;
                 Some(
                     floats
                         .chunks_exact(16)
