@@ -285,6 +285,87 @@ fn export_sequence_beats_base_pose_simplification_on_the_face() {
     }
 }
 
+/// The harness of BENCHMARKS.md "The face at 2%": the face's shared sequence with the
+/// distance term, built with the options in `FACE_OPTIONS` (space-separated `field=value` of
+/// [`SimplifyOptions`]: `distance_weight`, `normal_weight`, `uv_weight`, `seam_weight`,
+/// `regularization`, `min_normal_cos`, `boundary_weight`; unset, what `export` uses), at 10, 5
+/// and 2% of the triangles over 17 t with 20,000 samples a side: the symmetric Hausdorff
+/// error (each one-sided part: LOD→full, full→LOD), the sequence's own bound
+/// `sqrt(largest error / distance_weight)` in the base pose, and the ratio to meshoptimizer's.
+///
+/// `FACE_OPTIONS="normal_weight=0.05" cargo test --release --test shared_sequence \
+///     face_levels_under_options -- --ignored --nocapture`
+#[test]
+#[ignore = "prints the face's levels under the options given; run in release"]
+fn face_levels_under_options() {
+    let mut options = SimplifyOptions {
+        distance_weight: DISTANCE_WEIGHT,
+        ..SimplifyOptions::default()
+    };
+    for pair in std::env::var("FACE_OPTIONS")
+        .unwrap_or_default()
+        .split_whitespace()
+    {
+        let (field, value) = pair.split_once('=').expect("field=value");
+        let value: f32 = value.parse().expect("a number");
+        match field {
+            "distance_weight" => options.distance_weight = value,
+            "normal_weight" => options.normal_weight = value,
+            "uv_weight" => options.uv_weight = value,
+            "seam_weight" => options.seam_weight = value,
+            "regularization" => options.regularization = value,
+            "min_normal_cos" => options.min_normal_cos = value,
+            "boundary_weight" => options.boundary_weight = value,
+            other => panic!("unknown option {other}"),
+        }
+    }
+    let face = common::load_asset_morph(
+        "makehuman_face.glb",
+        MorphSource::Animation("expressions".into()),
+    );
+    let tris = face.triangles();
+    let (asset, _) = Builder::new(&face)
+        .frames(FRAMES)
+        .sequences(Sequences::Shared(PoseError::Max))
+        .simplify_options(options.clone())
+        .build()
+        .expect("the face builds");
+    let sequence = &asset.frames[0];
+    let v0 = face.v0();
+    let diagonal = common::diagonal(&v0);
+    println!("{options:?}");
+    for percent in [10, 5, 2] {
+        let target = tris.len() * percent / 100;
+        let level = lod_for(sequence, tris, target);
+        let ours = sequence.reference_mesh(tris, level);
+        let meshopt =
+            meshopt_simplify_with(&v0, tris, target, meshopt::SimplifyOptions::Regularize);
+        // Per t: (H, LOD→full, full→LOD) in % of V(t)'s diagonal; the largest over t.
+        let worst = |lod: &[[u32; 3]]| {
+            (0..17)
+                .into_par_iter()
+                .map(|i| {
+                    let pos = face.positions_at(i as f32 / 16.0);
+                    let d = 100.0 / common::diagonal(&pos);
+                    let e = FullSurface::new(&pos, tris, 20_000).error(lod);
+                    [e.hausdorff * d, e.a_to_b.max * d, e.b_to_a.max * d]
+                })
+                .reduce(|| [0.0; 3], |a, b| std::array::from_fn(|k| a[k].max(b[k])))
+        };
+        let ([h, lod_full, full_lod], [m, ..]) = (worst(&ours), worst(&meshopt));
+        let largest = sequence.collapses[..level]
+            .iter()
+            .map(|c| c.error as f64)
+            .fold(0.0, f64::max);
+        let bound = 100.0 * (largest / options.distance_weight as f64).sqrt() / diagonal;
+        println!(
+            "{percent}%: {} triangles, H {h:.3}% (LOD->full {lod_full:.3}%, full->LOD {full_lod:.3}%), bound {bound:.3}%, meshopt {m:.3}%, ratio {:.3}",
+            ours.len(),
+            h / m
+        );
+    }
+}
+
 /// A flat grid (`V(0)`) and the same grid twisted about its centre (`V(1)`: each point turned
 /// by `π/2 (1 − r/R)` inside the radius `R`). The twist preserves area and orientation, so every
 /// full-detail triangle faces +z in both poses, but a large triangle whose corners turn by
