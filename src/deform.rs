@@ -18,7 +18,7 @@
 //!
 //! [`Strategy::Auto`] takes the cheaper by [`STEP_COST`], the measured cost of
 //! one step in rebuild work units (`cargo bench --bench deform`). Both produce
-//! the identical buffer (tests/oracle_deform.rs checks it), so the choice is
+//! the identical buffer (tests/suite/oracle_deform.rs checks it), so the choice is
 //! invisible except in time and in how much the dirty log holds.
 
 use rayon::prelude::*;

@@ -19,14 +19,14 @@
 //!   Skip Strips' `(ab)+ → ab` and `(aa)+ → aa`. Unneeded runs stay unneeded
 //!   and needed indices stay needed, so one right-to-left pass suffices.
 //!
-//! The runtime applies these records blindly; the oracle (tests/oracle.rs)
+//! The runtime applies these records blindly; the oracle (tests/suite/oracle.rs)
 //! checks the drawn multiset against the reference mesh after every step.
 //!
 //! Alongside, the build tracks where every buffer entry comes from (`Tokens`):
 //! an `S0` slot or a copy made by a resize, with the LOD range it is alive in
 //! and one order per strip of every entry ever alive. That is what lets the
 //! runtime rebuild any LOD of a frame in one pass, bit-identical to stepping
-//! (tests/oracle_deform.rs compares the two).
+//! (tests/suite/oracle_deform.rs compares the two).
 
 use crate::varint;
 use thiserror::Error;

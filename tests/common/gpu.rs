@@ -11,7 +11,7 @@
 //!   the real pass and keeps it, so [`assert_one_multi_draw_each`] sees the draw calls really
 //!   issued and their arguments (not a counter the object keeps about itself).
 //! * [`reference_lists`], [`differences`], [`fail_with_images`]: the image oracle's comparison
-//!   of strips with the reference list (tests/image_oracle.rs, tests/textured.rs).
+//!   of strips with the reference list (tests/suite/image_oracle.rs, tests/suite/textured.rs).
 
 use std::io::Write;
 use std::sync::mpsc;

@@ -1,9 +1,9 @@
-//! Helpers shared by the oracle tests (tests/oracle.rs, tests/oracle_deform.rs):
+//! Helpers shared by the oracle tests (tests/suite/oracle.rs, tests/suite/oracle_deform.rs):
 //! a seeded RNG, random collapse sequences, the reference multiset hash of
 //! every LOD in one pass, and a GPU mirror updated only through the dirty log;
-//! and by the quality tables (tests/simplify_quality.rs, tests/deform_quality.rs):
+//! and by the quality tables (tests/suite/simplify_quality.rs, tests/suite/deform_quality.rs):
 //! the peer simplifier, meshopt, run the same way for both, and the LOD search; and by the
-//! asset-file tests (tests/asset_file.rs, tests/asset_alloc.rs): the grid morph fixture and
+//! asset-file tests (tests/suite/asset_file.rs, tests/asset_alloc.rs): the grid morph fixture and
 //! the header repair; and by every GPU test (`gpu`: one device set-up, buffer read-back and the
 //! decoding of what an indirect multi-draw draws).
 //!
@@ -11,7 +11,8 @@
 //! written here from the specification, not from `morphlod::strip`), so a parity rule flipped in
 //! both the stripifier and the library's own decoder still fails the oracles.
 //!
-//! Each test binary compiles this module and uses a subset of it.
+//! The suite (tests/suite/main.rs) and the binaries that measure the whole process (tests/*.rs)
+//! compile this module; each uses a subset of it.
 #![allow(dead_code)]
 
 #[cfg(feature = "gpu")]
@@ -23,6 +24,16 @@ use morphlod::collapse::{canonical, Collapse, CollapseSequence};
 use morphlod::lodstrips::Dirty;
 use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
 use morphlod::morph::Morph;
+
+/// A fresh, empty directory for one test's files, `<area>_<name>` under cargo's scratch
+/// directory for integration tests (`CARGO_TARGET_TMPDIR`): the suite is one process, so the
+/// area (the test module) keeps two modules' names apart.
+pub fn scratch_dir(area: &str, name: &str) -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{area}_{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
 
 /// SplitMix64: small, seedable, good enough to drive random walks.
 pub struct Rng(pub u64);

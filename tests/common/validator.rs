@@ -1,7 +1,7 @@
 //! The Khronos glTF validator (the `gltf-validator` npm package, pinned in
 //! `.ci/gltf-validator`, run under node), for every test that writes glTF
-//! (tests/gltf_validator.rs, tests/export.rs); and [`run_node`], which runs any of the
-//! node harnesses in `.ci/` (tests/gltf_loader.rs). Where node or the package is missing the
+//! (tests/suite/gltf_validator.rs, tests/suite/export.rs); and [`run_node`], which runs any of the
+//! node harnesses in `.ci/` (tests/suite/gltf_loader.rs). Where node or the package is missing the
 //! helpers say so and return `None`, except under `CI=true`, where a missing harness fails.
 
 use std::ffi::OsStr;

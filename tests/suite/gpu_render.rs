@@ -2,7 +2,7 @@
 //! says must be covered. Every test gets its device from `common::gpu::Gpu::new`: it fails when
 //! no adapter exists and `CI` is `true` or `1`, and skips with a printed reason elsewhere.
 
-mod common;
+use crate::common;
 
 use common::gpu::{ci_requires_gpu, Gpu};
 use glam::{Mat4, Vec3};

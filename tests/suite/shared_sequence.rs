@@ -16,7 +16,7 @@
 //!   `--distance-weight 4`), in the printed table only (its build is slow for the test
 //!   profile).
 //!
-//! `cargo test --release --test shared_sequence -- --ignored --nocapture`
+//! `cargo test --release --test suite shared_sequence:: -- --ignored --nocapture`
 
 use morphlod::build::Sequences;
 use morphlod::io::MorphSource;
@@ -25,7 +25,7 @@ use morphlod::simplify::{simplify, simplify_poses, PoseError, SimplifyOptions, D
 use morphlod::{Builder, DeformingModel, DeformingState, Lod};
 use rayon::prelude::*;
 
-mod common;
+use crate::common;
 use common::{lod_for, meshopt_simplify_with, FullSurface};
 
 const FRAMES: usize = 32;
@@ -293,8 +293,8 @@ fn export_sequence_beats_base_pose_simplification_on_the_face() {
 /// error (each one-sided part: LOD→full, full→LOD), the sequence's own bound
 /// `sqrt(largest error / distance_weight)` in the base pose, and the ratio to meshoptimizer's.
 ///
-/// `FACE_OPTIONS="normal_weight=0.05" cargo test --release --test shared_sequence \
-///     face_levels_under_options -- --ignored --nocapture`
+/// `FACE_OPTIONS="normal_weight=0.05" cargo test --release --test suite \
+///     shared_sequence::face_levels_under_options -- --ignored --nocapture`
 #[test]
 #[ignore = "prints the face's levels under the options given; run in release"]
 fn face_levels_under_options() {

@@ -3,7 +3,7 @@
 //! vertices, no boundary LOD opens a crack or folds a UV triangle, the runtime shows only
 //! step boundaries, and random walks draw the attribute-level reference mesh.
 
-mod common;
+use crate::common;
 
 use common::{cut_grid, seamed_sphere, strip_draw, Rng};
 use morphlod::collapse::{canonical_multiset, CollapseSequence};
@@ -416,7 +416,7 @@ fn measure(what: &str, morph: &Morph, frames: usize) {
 /// The cost of seams (BENCHMARKS.md, "Seams"): real meshes cut into two UV islands, and the
 /// MakeHuman face (its own UV seams, 52 targets, the `expressions` animation), built with
 /// their attributes against the same morphs welded without them.
-/// `cargo test --release --test seams -- --ignored --nocapture`
+/// `cargo test --release --test suite seams:: -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn measure_seam_cost() {

@@ -22,7 +22,7 @@
 //! * End of walk: the walked state equals fresh states moved straight to the
 //!   final `(frame, lod)` by either strategy.
 
-mod common;
+use crate::common;
 
 use common::{multiset_hash, random_sequence, reference_hashes, Mirror, Rng};
 use morphlod::collapse::{canonical_multiset, CollapseSequence};

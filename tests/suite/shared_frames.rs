@@ -6,7 +6,7 @@ use morphlod::build::Builder;
 use morphlod::deform::DeformingModel;
 use morphlod::Asset;
 
-mod common;
+use crate::common;
 use common::grid_morph;
 
 /// A valid asset of a `side`² grid whose frames are `pattern` (indices into two built frames).

@@ -8,7 +8,7 @@
 //! short of the count, both are compared at the count it reached.
 //!
 //! Print the table with
-//! `cargo test --release --test simplify_quality -- --ignored --nocapture`.
+//! `cargo test --release --test suite simplify_quality:: -- --ignored --nocapture`.
 
 use std::path::Path;
 
@@ -16,7 +16,7 @@ use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, S
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::IndexedMesh;
 
-mod common;
+use crate::common;
 use common::lod_for;
 
 /// Samples per surface: enough that the RMS is stable to well under 1%.

@@ -4,6 +4,7 @@
 //! genus > 0, several components, a bad landmarks line) is a clear error with exit code 1,
 //! never a panic.
 
+use crate::common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -28,10 +29,7 @@ fn text(output: &Output) -> String {
 
 /// A fresh directory under the target's temp folder.
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cli_supermesh_{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::scratch_dir("cli_supermesh", name)
 }
 
 fn write_off(path: &Path, vertices: &[[f64; 3]], faces: &[Vec<usize>]) {

@@ -3,7 +3,7 @@
 //! draws are decoded by the GPU's own rules (`common::gpu::draw_indexed_indirect`: records,
 //! restarts, strip parity, degenerate triangles skipped). They must be the reference mesh of
 //! DESIGN.md as a multiset of oriented triangles: one lost, extra or flipped triangle fails,
-//! where the pixel oracle (tests/image_oracle.rs) sees a single lost triangle only sometimes.
+//! where the pixel oracle (tests/suite/image_oracle.rs) sees a single lost triangle only sometimes.
 //!
 //! * `object_draws_the_reference_mesh_over_lods`: a single-sequence `gpu::Object` (cow, QEM
 //!   sequence) driven by the LOD runtime's dirty logs over a random walk of LODs, in all three
@@ -17,7 +17,7 @@
 //!
 //! GPU set-up: `common::gpu::Gpu` (fails without an adapter when `CI` is `true` or `1`).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::Arc;

@@ -3,17 +3,14 @@
 //! and the package (`npm ci`); where they are missing the tests say so and pass, except under
 //! `CI=true`, where a missing validator fails.
 
-mod common;
+use crate::common;
 
 use common::validator::validate;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("gltf_validator_{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::scratch_dir("gltf_validator", name)
 }
 
 /// `morphlod supermesh bunny.obj cow.off -o S.glb` (a supermesh of two real meshes of

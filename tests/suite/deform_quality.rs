@@ -17,7 +17,7 @@
 //! The head with its expression animation (a small deformation) is the
 //! control: there (a) ≈ (b) is expected.
 //!
-//! `cargo test --profile bench --test deform_quality -- --ignored --nocapture`
+//! `cargo test --profile bench --test suite deform_quality:: -- --ignored --nocapture`
 
 use std::path::Path;
 
@@ -25,7 +25,7 @@ use morphlod::io::LoadOptions;
 use morphlod::io::MorphSource;
 use morphlod::Builder;
 
-mod common;
+use crate::common;
 use common::{lod_for, FullSurface};
 use rayon::prelude::*;
 
@@ -230,7 +230,7 @@ fn body_baby_per_frame_at_most_0_7_of_rest_pose() {
 /// the full supermesh `V(t)`, in % of the diagonal of `V(t)`, at t = 0, 0.25, 0.5, 0.75, 1.
 /// The goal at 10%: below 0.5% at every t.
 ///
-/// `cargo test --release --test deform_quality -- --ignored --nocapture man_to_camel`
+/// `cargo test --release --test suite deform_quality::man_to_camel -- --ignored --nocapture`
 #[test]
 #[ignore = "prints the man → camel supermesh quality table; run in release"]
 fn man_to_camel_supermesh_quality_over_t() {

@@ -390,6 +390,7 @@ fn extension_is_case_insensitive() {
 
 /// The CLI turns a load error into one located message and exit code 1,
 /// still reporting the good files given with it.
+#[cfg(feature = "cli")]
 #[test]
 fn cli_info_reports_errors_without_panic() {
     let dir = std::env::temp_dir().join(format!("morphlod-cli-{}", std::process::id()));
@@ -570,10 +571,6 @@ proptest! {
     }
 }
 
-// A test crate root resolves `mod x;` beside itself (tests/x.rs), so the
-// per-format files under tests/bad_input/ need explicit paths.
-#[path = "bad_input/gltf.rs"]
+// The per-format files under tests/suite/bad_input/.
 mod gltf;
-
-#[path = "bad_input/gltf_attributes.rs"]
 mod gltf_attributes;

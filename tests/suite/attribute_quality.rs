@@ -13,7 +13,7 @@
 //! UV error and normal deviation are reported as mean and 95th percentile: near a seam the
 //! closest point can fall on the far side (another UV island), which only the tail sees.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use morphlod::metrics::{closest_point, hausdorff};
@@ -258,7 +258,7 @@ fn seams_stay_in_place() {
 }
 
 /// The table in BENCHMARKS.md ("Attribute error against meshoptimizer"):
-/// `cargo test --test attribute_quality -- --ignored --nocapture`.
+/// `cargo test --test suite attribute_quality:: -- --ignored --nocapture`.
 #[test]
 #[ignore = "measurement: run with --nocapture"]
 fn attribute_error_against_meshopt() {
@@ -300,7 +300,7 @@ fn attribute_error_against_meshopt() {
 /// The build-time cost of the attribute term (BENCHMARKS.md): the face's simplification at
 /// rest, and `Builder` over the `expressions` animation (16 frames, per-frame and shared),
 /// with the default weights and with both weights 0, alternately; the best of 5 rounds.
-/// `cargo test --release --test attribute_quality attribute_term_time -- --ignored --nocapture`.
+/// `cargo test --release --test suite attribute_quality::attribute_term_time -- --ignored --nocapture`.
 #[test]
 #[ignore = "measurement: run in release with --nocapture"]
 fn attribute_term_time() {

@@ -113,7 +113,7 @@ impl Gltf {
             self.more_primitives,
             self.node,
         );
-        crate::gltf::glb(&json, &self.bin)
+        super::gltf::glb(&json, &self.bin)
     }
 
     /// Writes the GLB into a fresh directory (beside which external images may be put) and
@@ -123,7 +123,7 @@ impl Gltf {
     }
 
     fn write(&self, test: &str) -> PathBuf {
-        crate::gltf::write(&format!("attributes-{test}"), "file.glb", &self.glb())
+        super::gltf::write(&format!("attributes-{test}"), "file.glb", &self.glb())
     }
 }
 

@@ -18,7 +18,7 @@
 //!   from the same inputs, moved straight from LOD 0 (same index contents and
 //!   lengths, which this model guarantees: every LOD has one buffer state).
 
-mod common;
+use crate::common;
 
 use common::{degenerate, random_sequence, reference_hashes, strips_draw, Mirror, Rng};
 use morphlod::collapse::{canonical_multiset, Collapse, CollapseSequence};

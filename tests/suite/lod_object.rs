@@ -18,7 +18,7 @@
 //! Every test gets its device from `common::gpu::Gpu::new`: it fails when no adapter exists and
 //! `CI` is `true` or `1`, and skips with a printed reason elsewhere.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -20,7 +20,7 @@
 //!   jawOpen) from four sides at five (t, LOD) states; it fails (3 enclosed pixels at full
 //!   detail) when the second copy of every seam vertex is moved by 3%.
 
-mod common;
+use crate::common;
 
 use std::collections::VecDeque;
 use std::sync::Arc;

@@ -11,7 +11,7 @@
 //!   format version is unchanged, be byte for byte what the encoder writes today. A format change
 //!   made in the encoder and decoder together fails here until the version is bumped.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 
@@ -38,7 +38,7 @@ fn golden_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/golden_grid.mlod")
 }
 
-/// Regenerates the golden file: `MORPHLOD_BLESS=1 cargo test --test asset_golden`.
+/// Regenerates the golden file: `MORPHLOD_BLESS=1 cargo test --test suite asset_golden::`.
 fn bless_requested() -> bool {
     std::env::var("MORPHLOD_BLESS").is_ok_and(|v| v == "1")
 }
@@ -54,7 +54,7 @@ fn golden_file_matches_a_fresh_build() {
     }
     let golden = std::fs::read(&path).unwrap_or_else(|e| {
         panic!(
-            "{}: {e}; regenerate it with `MORPHLOD_BLESS=1 cargo test --test asset_golden`",
+            "{}: {e}; regenerate it with `MORPHLOD_BLESS=1 cargo test --test suite asset_golden::`",
             path.display()
         )
     });
@@ -78,7 +78,7 @@ fn golden_file_matches_a_fresh_build() {
              under the same format version {current}. If the format changed on purpose: bump \
              asset::VERSION (or VERSION_PLAIN), keep reading version-{version} files (keep this golden file as \
              golden_grid_v{version}.mlod and load it here), then write the new golden file with \
-             `MORPHLOD_BLESS=1 cargo test --test asset_golden`",
+             `MORPHLOD_BLESS=1 cargo test --test suite asset_golden::`",
             bytes.len(),
             golden.len()
         );

@@ -15,7 +15,7 @@ use proptest::prelude::*;
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
-mod common;
+use crate::common;
 use common::{cut_grid, fix_header, grid_morph};
 
 fn asset_path(name: &str) -> PathBuf {
