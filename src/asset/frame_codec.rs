@@ -3,7 +3,7 @@
 //! constants that fix the format come first: changing any of them changes the file format
 //! and needs a new [`VERSION`](super::VERSION).
 
-use super::sections::Reader;
+use super::reader::Reader;
 use super::AssetError;
 use crate::collapse::{Collapse, CollapseSequence, SequenceError, NEVER};
 use crate::strip::Strips;

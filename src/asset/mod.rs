@@ -77,6 +77,7 @@
 
 mod frame_codec;
 mod inspect;
+mod reader;
 mod sections;
 mod surface;
 

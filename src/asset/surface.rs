@@ -14,7 +14,7 @@
 //!         | wrap s, wrap t u32 | byte length LEB128 | the encoded image | CRC-32 u32
 //! ```
 
-use super::sections::Reader;
+use super::reader::Reader;
 use super::{u32_at, Asset, AssetError, Surface};
 use crate::collapse::CollapseSequence;
 use crate::morph::{ImageFormat, Material, Sampler, Texture};

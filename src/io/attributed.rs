@@ -1,5 +1,5 @@
-//! Meshes with their vertex attributes: what [`load_attributed`] reads from any format, and
-//! the two-mesh morph made from a pair of them ([`morph_from_pair`]).
+//! Meshes with their vertex attributes: what [`load_attributed`](super::load_attributed) reads
+//! from any format, and the two-mesh morph made from a pair of them ([`morph_from_pair`]).
 //!
 //! Formats index attributes differently: glTF and PLY give one normal and UV per vertex,
 //! OBJ gives every face corner its own `v/vt/vn` triple. An [`AttributedMesh`] holds both
@@ -7,11 +7,9 @@
 //! *attribute vertices* the GPU draws, one per distinct corner triple, each naming its
 //! position, so a position is split exactly where its corners' attributes differ (a seam).
 
-use super::{LoadError, LoadOptions};
 use crate::mesh::IndexedMesh;
 use crate::morph::{Attributes, Morph, MorphError, MorphTarget};
 use std::collections::HashMap;
-use std::path::Path;
 
 /// A mesh as the file stores it, in two indexings (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
@@ -60,23 +58,6 @@ impl AttributedMesh {
         };
         Morph::from_parts(mesh.triangles, mesh.positions, Vec::new(), weights)?
             .with_attributes(self.attributes.clone())
-    }
-}
-
-/// Loads one mesh with its vertex attributes, choosing the loader by the file's extension
-/// (OBJ `vt`/`vn`, PLY normals and UVs, glTF NORMAL/TEXCOORD/COLOR_0 and material; OFF has
-/// none). For glTF the mesh is placed by `options` as [`super::load_mesh`] does, and its
-/// morph targets are not read.
-pub fn load_attributed(path: &Path, options: &LoadOptions) -> Result<AttributedMesh, LoadError> {
-    use super::Format;
-    match Format::from_path(path) {
-        Some(Format::Obj) => super::obj::load_attributed(path),
-        Some(Format::Ply) => super::ply::load_attributed(path),
-        Some(Format::Gltf) => super::gltf::load_attributed(path, options),
-        Some(Format::Off) | None => Ok(AttributedMesh::unsplit(
-            super::load_mesh(path, options)?,
-            Attributes::default(),
-        )),
     }
 }
 
@@ -291,121 +272,5 @@ impl std::fmt::Display for AttributeSummary {
             )?;
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::io::obj::parse_attributed;
-
-    /// Two unit quads side by side sharing the edge x = 1. The UVs agree at (1, 1) but not
-    /// at (1, 0): a seam there, so 6 positions make 7 attribute vertices.
-    fn quads(z: f32, normal: &str) -> AttributedMesh {
-        let text = format!(
-            "v 0 0 {z}\nv 1 0 {z}\nv 1 1 {z}\nv 0 1 {z}\nv 2 0 {z}\nv 2 1 {z}\n\
-             vt 0 0\nvt 0.5 0\nvt 0.5 1\nvt 0 1\nvt 0.75 0\nvt 1 0\nvt 1 1\nvn {normal}\n\
-             f 1/1/1 2/2/1 3/3/1 4/4/1\nf 2/5/1 5/6/1 6/7/1 3/3/1\n"
-        );
-        parse_attributed(text.as_bytes(), Path::new("quads.obj")).unwrap()
-    }
-
-    #[test]
-    fn obj_corners_split_at_the_seam_only() {
-        let mesh = quads(0.0, "0 0 1");
-        assert_eq!(mesh.positions.vertex_count(), 6);
-        // Position 1 has two (vt, vn) pairs; every other position one. Vertices are
-        // numbered by position, then by first appearance.
-        assert_eq!(mesh.position_of, vec![0, 1, 1, 2, 3, 4, 5]);
-        assert_eq!(
-            mesh.triangles,
-            vec![[0, 1, 3], [0, 3, 4], [2, 5, 6], [2, 6, 3]]
-        );
-        // v flipped to glTF's convention: (0.5, 0) -> (0.5, 1), (0.5, 1) -> (0.5, 0).
-        let uvs = mesh.attributes.uvs.as_ref().unwrap();
-        assert_eq!(uvs[1], [0.5, 1.0]);
-        assert_eq!(uvs[2], [0.75, 1.0]);
-        assert_eq!(uvs[3], [0.5, 0.0]);
-        assert_eq!(
-            mesh.attributes.normals.as_deref(),
-            Some(&[[0.0, 0.0, 1.0]; 7][..])
-        );
-        let morph = mesh.to_static_morph().unwrap();
-        let topology = morph.topology();
-        assert_eq!((topology.topology_count, topology.seam_vertices()), (6, 1));
-        // The split mesh draws the same triangles at the same places.
-        let split = mesh.mesh();
-        for (a, b) in split.triangles.iter().zip(&mesh.positions.triangles) {
-            assert_eq!(
-                a.map(|v| split.positions[v as usize]),
-                b.map(|v| mesh.positions.positions[v as usize])
-            );
-        }
-    }
-
-    #[test]
-    fn obj_attributes_some_corners_lack_are_dropped() {
-        // The second face's corners have no `vt`: only the normals are kept, and they do
-        // not differ, so nothing is split.
-        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvn 0 0 1\n\
-                    f 1/1/1 2/2/1 3/3/1\nf 1//1 3//1 4//1\n";
-        let mesh = parse_attributed(text.as_bytes(), Path::new("mixed.obj")).unwrap();
-        assert!(mesh.attributes.uvs.is_none());
-        assert_eq!(mesh.attributes.normals.as_ref().map(Vec::len), Some(4));
-        assert_eq!(mesh.position_of, vec![0, 1, 2, 3]);
-        // Without any `vt`/`vn`, the file's vertices are kept as they are.
-        let plain = parse_attributed(
-            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 9 9 9\nf 1 2 3\n",
-            Path::new("p.obj"),
-        )
-        .unwrap();
-        assert_eq!(plain.position_of, vec![0, 1, 2, 3]);
-        assert!(!plain.attributes.has_vertex_attributes());
-    }
-
-    #[test]
-    fn obj_attribute_indices_are_checked_when_read() {
-        let text = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n";
-        // The position loader never used `vt`, and still loads the file.
-        assert!(crate::io::obj::parse(text, Path::new("bad.obj")).is_ok());
-        let err = parse_attributed(text, Path::new("bad.obj")).unwrap_err();
-        assert!(matches!(err, LoadError::Syntax { .. }), "{err:?}");
-        assert!(
-            err.to_string()
-                .contains("line 5: `vt` index 2 names no `vt` statement (the file has 1"),
-            "{err}"
-        );
-        let forward = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//3 2//1 3//1\nvn 0 0 1\n";
-        let err = parse_attributed(forward, Path::new("fwd.obj")).unwrap_err();
-        assert!(err.to_string().contains("`vn` index 3"), "{err}");
-        let garbage = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/x 2/1 3/1\n";
-        let err = parse_attributed(garbage, Path::new("x.obj")).unwrap_err();
-        assert!(err.to_string().contains("\"x\" is not an integer"), "{err}");
-    }
-
-    #[test]
-    fn a_pair_morphs_the_first_meshes_attribute_vertices() {
-        let a = quads(0.0, "0 0 1");
-        let b = quads(2.0, "0 1 0");
-        let morph = morph_from_pair(&a, &b).unwrap();
-        assert_eq!(morph.vertex_count(), 7);
-        assert_eq!(morph.attributes(), &a.attributes);
-        assert!(morph.v1().iter().all(|p| p[2] == 2.0));
-        assert_eq!(
-            morph.targets()[0].normal_deltas.as_deref(),
-            Some(&[[0.0, 1.0, -1.0]; 7][..])
-        );
-        // Without normals on one side there are no normal deltas to give.
-        let mut bare = b.clone();
-        bare.attributes.normals = None;
-        let morph = morph_from_pair(&a, &bare).unwrap();
-        assert!(morph.targets()[0].normal_deltas.is_none());
-        // Different connectivity is reported as Morph::from_meshes reports it.
-        let mut other = b;
-        other.positions.triangles.swap(0, 1);
-        assert!(matches!(
-            morph_from_pair(&a, &other),
-            Err(MorphError::TriangleMismatch { index: 0, .. })
-        ));
     }
 }

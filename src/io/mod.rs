@@ -26,15 +26,13 @@ pub mod ply;
 mod polygon;
 mod text;
 
-pub use attributed::{
-    load_attributed, morph_from_pair, AttributeSummary, AttributedMesh, TextureSummary,
-};
+pub use attributed::{morph_from_pair, AttributeSummary, AttributedMesh, TextureSummary};
 pub use gltf::{load_morph, MorphSource};
 pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;
 
 use crate::mesh::{IndexedMesh, MeshError};
-use crate::morph::MorphError;
+use crate::morph::{Attributes, MorphError};
 use std::fmt;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -281,6 +279,22 @@ pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<IndexedMesh, Load
             ),
             hint: "give a .obj, .off, .ply, .gltf or .glb file".into(),
         }),
+    }
+}
+
+/// Loads one mesh with its vertex attributes, choosing the loader by the file's extension
+/// (OBJ `vt`/`vn`, PLY normals and UVs, glTF NORMAL/TEXCOORD/COLOR_0 and material; OFF has
+/// none). For glTF the mesh is placed by `options` as [`load_mesh`] does, and its
+/// morph targets are not read.
+pub fn load_attributed(path: &Path, options: &LoadOptions) -> Result<AttributedMesh, LoadError> {
+    match Format::from_path(path) {
+        Some(Format::Obj) => obj::load_attributed(path),
+        Some(Format::Ply) => ply::load_attributed(path),
+        Some(Format::Gltf) => gltf::load_attributed(path, options),
+        Some(Format::Off) | None => Ok(AttributedMesh::unsplit(
+            load_mesh(path, options)?,
+            Attributes::default(),
+        )),
     }
 }
 

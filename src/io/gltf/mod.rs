@@ -11,10 +11,13 @@
 //! and strides and panics when they point past the data.
 
 mod accessor;
+mod animation;
 mod attributes;
 mod document;
 #[cfg(test)]
 mod morph_tests;
+mod nodes;
+mod primitives;
 mod scene;
 #[cfg(feature = "export")]
 pub(crate) use scene::texture_infos;
