@@ -644,3 +644,245 @@ fn simplifier_weights_reach_the_simplifier() {
         }
     }
 }
+
+// ---- issue 23: one output rule for every command --------------------------------------
+
+/// Runs `morphlod args...` in `dir` (so relative paths are relative to it), expects exit code
+/// 1 with `needle` in the message, and every file of `inputs` byte for byte as it was.
+fn assert_refused(dir: &Path, args: &[&str], needle: &str, inputs: &[&Path]) {
+    let before: Vec<Vec<u8>> = inputs.iter().map(|p| std::fs::read(p).unwrap()).collect();
+    let out = Command::new(env!("CARGO_BIN_EXE_morphlod"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("the binary runs");
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+    assert!(
+        stderr.contains(needle),
+        "{args:?}: {needle:?} not in {stderr}"
+    );
+    for (input, bytes) in inputs.iter().zip(before) {
+        assert!(
+            std::fs::read(input).unwrap() == bytes,
+            "{args:?}: {} was overwritten",
+            input.display()
+        );
+    }
+}
+
+const IS_INPUT: &str = "the output is one of the inputs";
+
+/// `dir/name`, a symbolic link to `target`.
+fn link(dir: &Scratch, name: &str, target: &Path) -> PathBuf {
+    let path = dir.path(name);
+    std::os::unix::fs::symlink(target, &path).unwrap();
+    path
+}
+
+/// `supermesh cow.off bull.off -o cow.off` overwrote the cow with a GLB: an output that is an
+/// input, however spelled (same path, `./`, absolute, a symlink; the landmarks file too), and
+/// an output that is not `.glb`, are refused and the inputs stay as they were.
+#[test]
+fn supermesh_refuses_an_input_or_a_wrong_extension_as_output() {
+    let dir = Scratch::new("out-supermesh");
+    let (cow, bull, pairs) = (
+        dir.path("cow.off"),
+        dir.path("bull.off"),
+        dir.path("pairs.txt"),
+    );
+    std::fs::copy(asset("cow.off"), &cow).unwrap();
+    std::fs::copy(asset("bull.off"), &bull).unwrap();
+    std::fs::write(&pairs, "0 0\n").unwrap();
+    let glb = link(&dir, "cow_link.glb", &cow);
+    let inputs = [cow.as_path(), bull.as_path(), pairs.as_path()];
+    let cow_abs = cow.to_str().unwrap();
+    for output in [
+        "cow.off",
+        "./cow.off",
+        cow_abs,
+        "../",
+        "bull.off",
+        "pairs.txt",
+    ] {
+        let output = if output == "../" {
+            // The scratch folder reached from its parent: `../<scratch>/cow.off`.
+            format!(
+                "../{}/cow.off",
+                dir.0.file_name().unwrap().to_str().unwrap()
+            )
+        } else {
+            output.to_string()
+        };
+        let args = [
+            "supermesh",
+            "cow.off",
+            "bull.off",
+            "--landmarks",
+            "pairs.txt",
+            "-o",
+            &output,
+        ];
+        assert_refused(&dir.0, &args, IS_INPUT, &inputs);
+    }
+    let args = [
+        "supermesh",
+        "cow.off",
+        "bull.off",
+        "-o",
+        glb.to_str().unwrap(),
+    ];
+    assert_refused(&dir.0, &args, IS_INPUT, &inputs);
+    let args = ["supermesh", "cow.off", "bull.off", "-o", "out.off"];
+    assert_refused(&dir.0, &args, "must be a .glb file", &inputs);
+    assert!(!dir.path("out.off").exists());
+}
+
+/// `render head.mlod -o head.mlod` replaced the asset with a PNG: refused, as is an output
+/// that is not `.png`.
+#[test]
+fn render_refuses_an_input_or_a_wrong_extension_as_output() {
+    let dir = Scratch::new("out-render");
+    let head = build_octahedron(&dir, "head", 1.0);
+    let png = link(&dir, "head.png", &head);
+    for output in [
+        "head.mlod",
+        "./head.mlod",
+        head.to_str().unwrap(),
+        png.to_str().unwrap(),
+    ] {
+        assert_refused(
+            &dir.0,
+            &["render", "head.mlod", "-o", output],
+            IS_INPUT,
+            &[&head],
+        );
+    }
+    assert_refused(
+        &dir.0,
+        &["render", "head.mlod", "-o", "head.jpg"],
+        "must be a .png file",
+        &[&head],
+    );
+    assert!(!dir.path("head.jpg").exists());
+}
+
+/// `build` refuses every spelling of an input (a mesh or the landmarks file) and an output
+/// that is not `.mlod`.
+#[test]
+fn build_refuses_an_input_or_a_wrong_extension_as_output() {
+    let dir = Scratch::new("out-build");
+    let (a, b, pairs) = (dir.path("a.off"), dir.path("b.off"), dir.path("pairs.txt"));
+    std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
+    std::fs::write(&b, cube()).unwrap();
+    std::fs::write(&pairs, "0 0\n").unwrap();
+    let mlod = link(&dir, "b.mlod", &b);
+    let inputs = [a.as_path(), b.as_path(), pairs.as_path()];
+    for output in [
+        "./b.off",
+        a.to_str().unwrap(),
+        "pairs.txt",
+        mlod.to_str().unwrap(),
+    ] {
+        let args = [
+            "build",
+            "a.off",
+            "b.off",
+            "--landmarks",
+            "pairs.txt",
+            "-o",
+            output,
+        ];
+        assert_refused(&dir.0, &args, IS_INPUT, &inputs);
+    }
+    let args = ["build", "a.off", "b.off", "-o", "out.glb"];
+    assert_refused(&dir.0, &args, "must be a .mlod file", &inputs);
+    assert!(!dir.path("out.glb").exists());
+}
+
+/// `export` refuses every spelling of an input (a mesh or the landmarks file) and an output
+/// that is not `.glb`.
+#[test]
+fn export_refuses_an_input_or_a_wrong_extension_as_output() {
+    let dir = Scratch::new("out-export");
+    let (a, b, pairs) = (dir.path("a.off"), dir.path("b.off"), dir.path("pairs.txt"));
+    std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
+    std::fs::write(&b, cube()).unwrap();
+    std::fs::write(&pairs, "0 0\n").unwrap();
+    let glb = link(&dir, "a.glb", &a);
+    let inputs = [a.as_path(), b.as_path(), pairs.as_path()];
+    for output in ["a.off", "./b.off", "pairs.txt", glb.to_str().unwrap()] {
+        let args = [
+            "export",
+            "a.off",
+            "b.off",
+            "--landmarks",
+            "pairs.txt",
+            "-o",
+            output,
+        ];
+        assert_refused(&dir.0, &args, IS_INPUT, &inputs);
+    }
+    let args = ["export", "a.off", "b.off", "-o", "out.gltf"];
+    assert_refused(&dir.0, &args, "must be a .glb file", &inputs);
+    assert!(!dir.path("out.gltf").exists());
+}
+
+/// `bench --json` and `--plot` refuse the asset and a wrong extension before the benchmark
+/// runs.
+#[test]
+fn bench_refuses_an_input_or_a_wrong_extension_as_output() {
+    let dir = Scratch::new("out-bench");
+    let head = build_octahedron(&dir, "head", 1.0);
+    let json = link(&dir, "rows.json", &head);
+    for flag in ["--json", "--plot"] {
+        for output in ["head.mlod", "./head.mlod", head.to_str().unwrap()] {
+            assert_refused(
+                &dir.0,
+                &["bench", "head.mlod", flag, output],
+                IS_INPUT,
+                &[&head],
+            );
+        }
+    }
+    let json = json.to_str().unwrap();
+    assert_refused(
+        &dir.0,
+        &["bench", "head.mlod", "--json", json],
+        IS_INPUT,
+        &[&head],
+    );
+    for (flag, output, needle) in [
+        ("--json", "rows.csv", "must be a .json file"),
+        ("--plot", "plot.json", "must be a .png file"),
+    ] {
+        assert_refused(
+            &dir.0,
+            &["bench", "head.mlod", flag, output],
+            needle,
+            &[&head],
+        );
+        assert!(!dir.path(output).exists());
+    }
+}
+
+/// The demo writes demo.mlod, demo.png and demo_strips.png into `--output`: one of them
+/// resolving to the demo's input (here a symlink to the face) is refused before anything is
+/// built, and an `--output` that is a file is refused, not written into.
+#[test]
+fn demo_refuses_an_input_as_output_and_a_file_as_folder() {
+    let dir = Scratch::new("out-demo");
+    let face = asset("makehuman_face.glb");
+    let out = dir.path("out");
+    std::fs::create_dir_all(&out).unwrap();
+    std::os::unix::fs::symlink(&face, out.join("demo.mlod")).unwrap();
+    assert_refused(&dir.0, &["demo", "-o", "out"], IS_INPUT, &[&face]);
+    let file = dir.path("notes.txt");
+    std::fs::write(&file, "keep me").unwrap();
+    assert_refused(
+        &dir.0,
+        &["demo", "-o", "notes.txt"],
+        "is a file, not a folder",
+        &[&file],
+    );
+}
