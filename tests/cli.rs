@@ -304,8 +304,9 @@ fn drawn_fraction(png: &Path) -> (f64, usize) {
     )
 }
 
-/// Item 6: meshes about 1e19 and 1e-22 across render visibly and shaded (or fail
-/// with a clear error), never as a blank image with exit code 0.
+/// Item 6: meshes about 1e19 and 1e-22 across render visibly and shaded: the render succeeds
+/// (no error is an acceptable answer for a mesh whose coordinates are finite f32) and the
+/// image is neither blank nor flat.
 #[test]
 fn render_extreme_scales_is_not_blank() {
     let dir = Scratch::new("scales");
@@ -324,23 +325,17 @@ fn render_extreme_scales_is_not_blank() {
             return;
         }
         let stderr = text(&out.stderr);
-        if out.status.success() {
-            let (drawn, colours) = drawn_fraction(&png);
-            assert!(
-                drawn > 0.05,
-                "{name} (scale {scale}): only {drawn} of the pixels drawn"
-            );
-            // Shaded, not ambient only: the visible faces of the octahedron differ.
-            assert!(
-                colours >= 3,
-                "{name} (scale {scale}): {colours} colours, the faces are not shaded"
-            );
-        } else {
-            assert!(
-                stderr.contains("scale") || stderr.contains("too"),
-                "{name}: {stderr}"
-            );
-        }
+        assert!(out.status.success(), "{name} (scale {scale}): {stderr}");
+        let (drawn, colours) = drawn_fraction(&png);
+        assert!(
+            drawn > 0.05,
+            "{name} (scale {scale}): only {drawn} of the pixels drawn"
+        );
+        // Shaded, not ambient only: the visible faces of the octahedron differ.
+        assert!(
+            colours >= 3,
+            "{name} (scale {scale}): {colours} colours, the faces are not shaded"
+        );
     }
 }
 
