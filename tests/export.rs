@@ -945,7 +945,7 @@ fn lods_are_the_shared_sequences_reference_meshes() {
                 .map(|t| t.map(|v| lod.source_vertex[v as usize]));
             let (written, expected) = (
                 canonical_multiset(back),
-                canonical_multiset(reference(lod.step).into_iter()),
+                canonical_multiset(reference(lod.step)),
             );
             assert!(
                 written == expected,
