@@ -28,6 +28,8 @@
 //! * [`metrics`] measures geometric error (Hausdorff / RMS by surface sampling).
 //! * [`gpu`] renders with wgpu: the caller owns the device, queue and render pass (feature
 //!   `gpu`).
+//! * [`ci`] is the one rule by which a test that lacks a GPU or a tool fails under CI
+//!   instead of skipping.
 //!
 //! # Features
 //!
@@ -43,6 +45,7 @@
 
 pub mod asset;
 pub mod build;
+pub mod ci;
 pub mod collapse;
 pub mod deform;
 pub mod error;

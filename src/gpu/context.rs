@@ -68,25 +68,24 @@ impl Context {
 /// The context every GPU test uses, with the one skip policy for machines without a GPU.
 ///
 /// * An adapter exists: `Ok(Some(context))`.
-/// * No adapter and the environment variable `CI` is `"true"` or `"1"`: `Err(NoAdapter)`, so the test
-///   fails — CI must not pass by skipping every GPU test.
+/// * No adapter under CI ([`crate::ci::is_ci`]: `CI` set to anything but empty, `0` or
+///   `false`): `Err(NoAdapter)`, so the test fails — CI must not pass by skipping every GPU test.
 /// * No adapter outside CI: prints why on stderr and returns `Ok(None)`; the test returns early.
 /// * Any other failure (the adapter cannot create a device): `Err`, in and out of CI.
 pub fn test_context() -> Result<Option<Context>, GpuError> {
     match Context::headless() {
         Ok(context) => Ok(Some(context)),
         Err(error @ GpuError::NoAdapter { .. }) => {
-            let ci = std::env::var("CI");
-            if matches!(ci.as_deref(), Ok("true") | Ok("1")) {
+            if crate::ci::is_ci() {
                 // The test harness prints the error with Debug; show the install hint too.
-                eprintln!("GPU test failed because CI={ci:?}: {error}");
+                eprintln!("GPU test failed because CI is set: {error}");
                 Err(error)
             } else {
                 // Written to the stderr handle, not with eprintln!, which the test harness
                 // captures: a skip must be visible in a normal `cargo test` run.
                 let _ = writeln!(
                     std::io::stderr(),
-                    "skipping GPU test (set CI=true or CI=1 to make this an error): {error}"
+                    "skipping GPU test (set CI=1 to make this an error): {error}"
                 );
                 Ok(None)
             }

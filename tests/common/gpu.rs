@@ -1,8 +1,8 @@
 //! The one GPU set-up of the test suite, and the read-back of what a `gpu::Object` holds.
 //!
 //! * [`Gpu::new`]: a headless device, the default morph pipeline and the skip/fail rule: with
-//!   no adapter, a test fails when the environment variable `CI` is `true` or `1` (CI must not
-//!   pass by skipping every GPU test) and skips with a printed reason elsewhere.
+//!   no adapter, a test fails under CI ([`morphlod::ci::is_ci`]: CI must not pass by skipping
+//!   every GPU test) and skips with a printed reason elsewhere ([`super::skip_outside_ci`]).
 //! * [`Gpu::read_words`]: copies a buffer back from the GPU (`copy_buffer_to_buffer` into a
 //!   `MAP_READ` staging buffer).
 //! * [`Gpu::drawn_by`]: the triangles one `multi_draw_indexed_indirect` of an object draws,
@@ -13,7 +13,6 @@
 //! * [`reference_lists`], [`differences`], [`fail_with_images`]: the image oracle's comparison
 //!   of strips with the reference list (tests/suite/image_oracle.rs, tests/suite/textured.rs).
 
-use std::io::Write;
 use std::sync::mpsc;
 
 use morphlod::gpu::{Context, GpuError, MorphPipeline, Object, RenderCommands, RenderTarget};
@@ -27,12 +26,6 @@ use morphlod::lodstrips::StripsState;
 
 use super::strip_draw;
 
-/// Whether the value of the `CI` environment variable marks a CI run, where a missing GPU
-/// adapter is a failure: `true` or `1` (what CI services set), nothing else.
-pub fn ci_requires_gpu(ci: Option<&str>) -> bool {
-    matches!(ci, Some("true") | Some("1"))
-}
-
 /// A headless device, its queue and the default pipeline (colour + depth, back faces culled).
 pub struct Gpu {
     pub ctx: Context,
@@ -40,25 +33,15 @@ pub struct Gpu {
 }
 
 impl Gpu {
-    /// The device every GPU test uses. No adapter: panics under CI (`CI=true` or `CI=1`),
-    /// otherwise prints why and returns `None` so the test returns early. An adapter that
-    /// cannot make a device is a failure everywhere.
+    /// The device every GPU test uses. No adapter: panics under CI ([`morphlod::ci::is_ci`]),
+    /// otherwise prints why and returns `None` so the test returns early
+    /// ([`super::skip_outside_ci`]). An adapter that cannot make a device is a failure
+    /// everywhere.
     pub fn new() -> Option<Gpu> {
         let ctx = match Context::headless() {
             Ok(ctx) => ctx,
             Err(error @ GpuError::NoAdapter { .. }) => {
-                let ci = std::env::var("CI").ok();
-                if ci_requires_gpu(ci.as_deref()) {
-                    panic!(
-                        "GPU test failed: no adapter and CI={ci:?} (CI runs must render): {error}"
-                    );
-                }
-                // Written to the stderr handle, not with eprintln!, which the test harness
-                // captures: a skip must be visible in a normal `cargo test` run.
-                let _ = writeln!(
-                    std::io::stderr(),
-                    "skipping GPU test (set CI=true or CI=1 to make this an error): {error}"
-                );
+                super::skip_outside_ci(&format!("GPU test without an adapter: {error}"));
                 return None;
             }
             Err(error) => panic!("GPU test failed: {error}"),

@@ -35,6 +35,23 @@ pub fn scratch_dir(area: &str, name: &str) -> std::path::PathBuf {
     dir
 }
 
+/// The one skip rule of every test that needs what a machine may lack (a GPU adapter, node
+/// and the pinned npm packages): under CI ([`morphlod::ci::is_ci`]) the missing piece is a
+/// failure and this panics with `why`; elsewhere it prints `why` and the caller returns early.
+pub fn skip_outside_ci(why: &str) {
+    assert!(
+        !morphlod::ci::is_ci(),
+        "{why} (CI is set: a CI run must not skip this test)"
+    );
+    // Written to the stderr handle, not with eprintln!, which the test harness captures: a
+    // skip must be visible in a normal `cargo test` run.
+    use std::io::Write as _;
+    let _ = writeln!(
+        std::io::stderr(),
+        "skipping (set CI=1 to make this an error): {why}"
+    );
+}
+
 /// SplitMix64: small, seedable, good enough to drive random walks.
 pub struct Rng(pub u64);
 

@@ -7,12 +7,18 @@
 use crate::common;
 
 use common::validator::validate;
+use gltf::animation::{util::ReadOutputs, Interpolation, Property};
 use gltf::json::Value;
+use morphlod::build::{Builder, Sequences};
 use morphlod::collapse::canonical_multiset;
-use morphlod::export::{export_glb, Export, ExportOptions, LodSteps};
-use morphlod::io::{load_morph, LoadOptions, MorphSource};
+use morphlod::export::{export_glb, Export, ExportOptions, LodSteps, DEFAULT_POSES};
+use morphlod::io::{
+    load_attributed, load_mesh, load_morph, morph_from_pair, LoadOptions, MorphSource,
+};
 use morphlod::morph::Morph;
-use morphlod::simplify::SimplifyOptions;
+use morphlod::seams::StepBoundaries;
+use morphlod::simplify::{PoseError, SimplifyOptions};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -188,6 +194,64 @@ fn validate_clean(file: &Path) {
     assert!(report.contains("\"errors\":0,\"warnings\":0"), "{report}");
 }
 
+/// The binary buffer of a glTF file: its BIN chunk, or (a `.gltf`) its one external buffer.
+fn blob_of(path: &Path, doc: &gltf::Gltf) -> Vec<u8> {
+    if let Some(blob) = &doc.blob {
+        return blob.clone();
+    }
+    match doc.buffers().next().expect("a buffer").source() {
+        gltf::buffer::Source::Uri(uri) => std::fs::read(path.with_file_name(uri)).unwrap(),
+        gltf::buffer::Source::Bin => panic!("{path:?}: no BIN chunk"),
+    }
+}
+
+/// The morph-weight animation of a document, read with the `gltf` crate: its sampler's
+/// interpolation, key times and values as bits. Every `weights` channel uses that one sampler.
+fn weight_track(doc: &gltf::Gltf, blob: &[u8]) -> (Interpolation, Vec<u32>, Vec<u32>) {
+    let channels: Vec<gltf::animation::Channel> = doc
+        .animations()
+        .take(1)
+        .flat_map(|a| a.channels())
+        .filter(|c| c.target().property() == Property::MorphTargetWeights)
+        .collect();
+    assert!(!channels.is_empty(), "no weights channel");
+    let sampler = channels[0].sampler().index();
+    assert!(channels.iter().all(|c| c.sampler().index() == sampler));
+    let reader = channels[0].reader(|_| Some(blob));
+    let times = reader.read_inputs().unwrap().map(f32::to_bits).collect();
+    let values = match reader.read_outputs().unwrap() {
+        ReadOutputs::MorphTargetWeights(w) => w.into_f32().map(f32::to_bits).collect(),
+        _ => panic!("not a weights sampler"),
+    };
+    (channels[0].sampler().interpolation(), times, values)
+}
+
+/// The exported weight animation is the source file's first animation's weight track: the
+/// interpolation, every key and every value, bit for bit.
+fn check_weights_against_source(glb: &[u8], source: &Path) {
+    let exported = gltf::Gltf::from_slice(glb).unwrap();
+    // Without validation: the face's file has accessors without a buffer view (zeros), which
+    // the gltf crate's validation refuses and glTF allows.
+    let original =
+        gltf::Gltf::from_slice_without_validation(&std::fs::read(source).unwrap()).unwrap();
+    let (interpolation, times, values) = weight_track(&exported, exported.blob.as_deref().unwrap());
+    let (source_interpolation, source_times, source_values) =
+        weight_track(&original, &blob_of(source, &original));
+    assert_eq!(interpolation, source_interpolation, "{source:?}");
+    let first_difference =
+        |a: &[u32], b: &[u32]| (a.len(), b.len(), a.iter().zip(b).position(|(x, y)| x != y));
+    assert!(
+        times == source_times,
+        "{source:?}: key times differ (lengths and first difference: {:?})",
+        first_difference(&times, &source_times)
+    );
+    assert!(
+        values == source_values,
+        "{source:?}: weights differ (lengths and first difference: {:?})",
+        first_difference(&values, &source_values)
+    );
+}
+
 /// makehuman_face.glb (52 targets with NORMAL deltas, normals, UVs, a JPEG texture, seams and
 /// a weight animation): every LOD keeps every target and attribute bit for bit.
 #[test]
@@ -226,6 +290,7 @@ fn face_lods_keep_targets_and_attributes_bit_for_bit() {
     );
     check_against_source(&morph, &export);
     check_structure(&export.glb, "face", 4, true);
+    check_weights_against_source(&export.glb, &path);
     let gltf = gltf::Gltf::from_slice(&export.glb).unwrap();
     assert_eq!(gltf.textures().count(), 1);
     assert_eq!(gltf.animations().count(), 1);
@@ -690,11 +755,9 @@ const IDENTITY: [[f32; 4]; 4] = [
     [0.0, 0.0, 0.0, 1.0],
 ];
 
-/// Two OFF meshes with the same connectivity (a bumpy grid and a shifted copy): one target,
-/// the 0 → 1 → 0 animation, LODs that keep the target's deltas.
-#[test]
-fn an_off_pair_exports_with_its_one_target() {
-    let dir = temp_dir("off_pair");
+/// Two OFF meshes with the same connectivity in `dir`: a bumpy 12 × 12 grid (`a.off`) and the
+/// same grid tilted (`b.off`: every vertex but the first column moves).
+fn off_pair(dir: &Path) -> (PathBuf, PathBuf) {
     let n = 12;
     let write = |file: &str, lift: f32| {
         let mut text = format!("OFF\n{} {} 0\n", n * n, 2 * (n - 1) * (n - 1));
@@ -722,7 +785,17 @@ fn an_off_pair_exports_with_its_one_target() {
         std::fs::write(&path, text).unwrap();
         path
     };
-    let (a, b) = (write("a.off", 0.0), write("b.off", 1.0));
+    (write("a.off", 0.0), write("b.off", 1.0))
+}
+
+/// Two OFF meshes with the same connectivity: one target, LODs with falling triangle counts,
+/// every written vertex one of A's (position bit for bit) with B's position minus A's as its
+/// delta (so A and B swapped, or a delta of another vertex, fail), and the two-pose animation
+/// `[w0, w1, w0] = [0, 1, 0]` at 0, 1, 2 s, LINEAR.
+#[test]
+fn an_off_pair_exports_with_its_one_target() {
+    let dir = temp_dir("off_pair");
+    let (a, b) = off_pair(&dir);
     let out = dir.join("pair.glb");
     let output = morphlod(&[a.as_os_str(), b.as_os_str(), "-o".as_ref(), out.as_os_str()]);
     assert!(
@@ -733,16 +806,191 @@ fn an_off_pair_exports_with_its_one_target() {
     let glb = std::fs::read(&out).unwrap();
     check_structure(&glb, "a", 4, true);
     let gltf = gltf::Gltf::from_slice(&glb).unwrap();
-    let counts: Vec<usize> = gltf
-        .meshes()
-        .map(|m| {
-            let p = m.primitives().next().unwrap();
-            assert_eq!(p.morph_targets().count(), 1);
-            p.indices().unwrap().count() / 3
-        })
+    let blob = gltf.blob.clone().unwrap();
+    let (va, vb) = (
+        load_mesh(&a, &LoadOptions::default()).unwrap(),
+        load_mesh(&b, &LoadOptions::default()).unwrap(),
+    );
+    let of_position: HashMap<[u32; 3], usize> = va
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (bits(*p), i))
         .collect();
+    assert_eq!(
+        of_position.len(),
+        va.positions.len(),
+        "A's positions differ"
+    );
+    let mut counts = Vec::new();
+    for mesh in gltf.meshes() {
+        let p = mesh.primitives().next().unwrap();
+        assert_eq!(p.morph_targets().count(), 1);
+        counts.push(p.indices().unwrap().count() / 3);
+        let reader = p.reader(|_| Some(&blob[..]));
+        let positions: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
+        let (deltas, _, _) = reader.read_morph_targets().next().unwrap();
+        let deltas: Vec<[f32; 3]> = deltas.expect("POSITION deltas").collect();
+        assert_eq!(deltas.len(), positions.len());
+        let moved = deltas.iter().filter(|d| **d != [0.0; 3]).count();
+        assert!(moved > 0, "no vertex moves");
+        for (p, d) in positions.iter().zip(&deltas) {
+            let i = *of_position
+                .get(&bits(*p))
+                .unwrap_or_else(|| panic!("{p:?} is not a vertex of A"));
+            let expected: [f32; 3] =
+                std::array::from_fn(|k| vb.positions[i][k] - va.positions[i][k]);
+            assert_eq!(bits(*d), bits(expected), "vertex {i}");
+        }
+    }
     assert!(counts.windows(2).all(|w| w[0] > w[1]), "{counts:?}");
+    let (one, zero) = (1f32.to_bits(), 0f32.to_bits());
+    assert_eq!(
+        weight_track(&gltf, &blob),
+        (
+            Interpolation::Linear,
+            vec![zero, one, 2f32.to_bits()],
+            vec![zero, one, zero]
+        )
+    );
     validate_clean(&out);
+}
+
+/// `--poses` reaches the shared sequence: the CLI with `--poses 1` writes what the library
+/// writes for one pose, without it what the library writes for `DEFAULT_POSES`, and on this
+/// pair the two differ (the rest pose alone simplifies otherwise than the whole tilt).
+#[test]
+fn poses_reach_the_shared_sequence() {
+    let dir = temp_dir("poses");
+    let (a, b) = off_pair(&dir);
+    let options = LoadOptions::default();
+    let morph = morph_from_pair(
+        &load_attributed(&a, &options).unwrap(),
+        &load_attributed(&b, &options).unwrap(),
+    )
+    .unwrap();
+    let library = |poses: usize| {
+        let options = ExportOptions {
+            poses,
+            name: "a".into(),
+            ..ExportOptions::default()
+        };
+        export_glb(&morph, &options).unwrap().glb
+    };
+    let cli = |poses: &[&str]| {
+        let out = dir.join("poses.glb");
+        let mut args = vec![a.as_os_str(), b.as_os_str(), "-o".as_ref(), out.as_os_str()];
+        args.extend(poses.iter().map(std::ffi::OsStr::new));
+        let output = morphlod(&args);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        std::fs::read(&out).unwrap()
+    };
+    let one = library(1);
+    assert!(
+        one != library(DEFAULT_POSES),
+        "the fixture must tell poses apart"
+    );
+    assert!(cli(&["--poses", "1"]) == one, "--poses 1");
+    assert!(cli(&[]) == library(DEFAULT_POSES), "the default");
+}
+
+/// The weight animation written is the source's, bit for bit (interpolation, keys, values):
+/// the AnimatedMorphCube sample (LINEAR, 127 keys of 2 weights), and the same file with its
+/// sampler made STEP (an exporter that writes LINEAR whatever the source says fails).
+#[test]
+fn the_weight_animation_is_the_sources_bit_for_bit() {
+    let dir = temp_dir("weights");
+    let sample = asset("AnimatedMorphCube-glTF");
+    for file in ["AnimatedMorphCube.gltf", "AnimatedMorphCube.bin"] {
+        std::fs::copy(sample.join(file), dir.join(file)).unwrap();
+    }
+    let linear = dir.join("AnimatedMorphCube.gltf");
+    let mut json: Value = serde_json::from_slice(&std::fs::read(&linear).unwrap()).unwrap();
+    json["animations"][0]["samplers"][0]["interpolation"] = Value::from("STEP");
+    let step = dir.join("step.gltf");
+    std::fs::write(&step, serde_json::to_vec(&json).unwrap()).unwrap();
+    for (input, interpolation) in [(linear, Interpolation::Linear), (step, Interpolation::Step)] {
+        let glb = export_lods(std::slice::from_ref(&input), "0.5", &dir.join("out.glb"));
+        let exported = gltf::Gltf::from_slice(&glb).unwrap();
+        let (written, _, _) = weight_track(&exported, exported.blob.as_deref().unwrap());
+        assert_eq!(written, interpolation, "{input:?}");
+        check_weights_against_source(&glb, &input);
+    }
+}
+
+/// Every LOD is the reference mesh (docs/DESIGN.md: `CollapseSequence::reference_mesh`) of the
+/// one shared sequence at its step, rebuilt here with the builder the way the module docs say
+/// the export makes it, on a seamed sphere (seams: steps must be boundaries), for `--lods`
+/// fractions and for `--error` bounds: the LOD's triangles mapped back to source vertices are
+/// that mesh, and the step is a boundary. A fraction's LOD is the finest boundary within the
+/// goal: at most `floor(f · triangles)` triangles, the boundary before it more.
+#[test]
+fn lods_are_the_shared_sequences_reference_meshes() {
+    let morph = common::seamed_sphere(10, 16);
+    let triangles = morph.triangles();
+    let poses = 4;
+    let fractions = vec![0.5, 0.25, 0.1];
+    for lods in [
+        LodSteps::Fractions(fractions.clone()),
+        LodSteps::Errors(vec![0.02, 0.05, 0.15]),
+    ] {
+        let options = ExportOptions {
+            lods: lods.clone(),
+            poses,
+            ..ExportOptions::default()
+        };
+        let export = export_glb(&morph, &options).unwrap();
+        let (asset, _) = Builder::new(&morph)
+            .frames(poses)
+            .sequences(Sequences::Shared(PoseError::Max))
+            .simplify_options(options.simplify.clone())
+            .build()
+            .unwrap();
+        let sequence = &asset.frames[0];
+        let boundaries = StepBoundaries::new(sequence, &morph.topology().of_vertex);
+        let reference = |step: usize| sequence.reference_mesh(triangles, step);
+        assert_eq!(export.lods.len(), 4);
+        assert_eq!(export.lods[0].step, 0);
+        let mut steps = Vec::new();
+        for (i, lod) in export.lods.iter().enumerate() {
+            let back = lod
+                .triangles
+                .iter()
+                .map(|t| t.map(|v| lod.source_vertex[v as usize]));
+            let (written, expected) = (
+                canonical_multiset(back),
+                canonical_multiset(reference(lod.step)),
+            );
+            assert!(
+                written == expected,
+                "{lods:?}: LOD{i} ({} triangles) is not the reference mesh at step {} ({})",
+                written.len(),
+                lod.step,
+                expected.len()
+            );
+            assert!(boundaries.is_boundary(lod.step), "{lods:?}: LOD{i}");
+            steps.push(lod.step);
+            if i == 0 {
+                continue;
+            }
+            if let LodSteps::Fractions(_) = lods {
+                let goal = (f64::from(fractions[i - 1]) * triangles.len() as f64).floor() as usize;
+                assert!(lod.triangles.len() <= goal, "LOD{i}: {lod:?}");
+                let previous = boundaries.floor(lod.step - 1);
+                assert!(
+                    reference(previous).len() > goal,
+                    "LOD{i} (step {}) is not the finest within {goal} triangles: step {previous} is",
+                    lod.step
+                );
+            }
+        }
+        assert!(steps.windows(2).all(|w| w[0] < w[1]), "{lods:?}: {steps:?}");
+        check_against_source(&morph, &export);
+    }
 }
 
 /// Bad input: a message on stderr and exit code 1, no panic.

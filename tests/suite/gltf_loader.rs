@@ -3,7 +3,8 @@
 //! as a mesh with the vertex and index counts written and one POSITION (and NORMAL) morph
 //! attribute per target, and the animation clip moves every LOD's morphTargetInfluences in step.
 //! `.ci/run` installs node and the package (`npm ci`); where they are missing the tests say so
-//! and pass, except under `CI=true`, where a missing harness fails.
+//! and pass, except under CI (`CI` set to anything but empty, `0` or `false`), where a missing
+//! harness fails.
 
 use crate::common;
 

@@ -1,7 +1,7 @@
 //! glTF that morphlod writes, checked by the Khronos glTF validator (the `gltf-validator` npm
 //! package, pinned in `.ci/gltf-validator`, run under node): 0 errors. `.ci/run` installs node
 //! and the package (`npm ci`); where they are missing the tests say so and pass, except under
-//! `CI=true`, where a missing validator fails.
+//! CI (`CI` set to anything but empty, `0` or `false`), where a missing validator fails.
 
 use crate::common;
 
@@ -67,4 +67,52 @@ fn the_validator_reports_a_broken_file() {
     };
     assert!(!ok, "{report}");
     assert!(!report.contains("\"errors\":0"), "{report}");
+}
+
+/// One CI rule for every harness (`morphlod::ci::is_ci`, applied by
+/// `common::skip_outside_ci`): a missing node harness is a failure under `CI=1`, `CI=true` or
+/// `CI=yes` (CI services spell it differently), and a printed skip with `CI` empty, `0` or
+/// `false`. The probe below runs in a child process of this test binary with `CI` set.
+#[test]
+fn a_missing_harness_fails_under_any_ci_value() {
+    for (ci, fails) in [
+        ("1", true),
+        ("true", true),
+        ("yes", true),
+        ("", false),
+        ("0", false),
+        ("false", false),
+    ] {
+        let out = Command::new(std::env::current_exe().unwrap())
+            .args(["gltf_validator::missing_harness_probe", "--exact", "--ignored"])
+            .env("CI", ci)
+            .output()
+            .expect("the test binary runs");
+        let report = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            report.contains("running 1 test"),
+            "the probe did not run: {report}"
+        );
+        assert_eq!(!out.status.success(), fails, "CI={ci:?}: {report}");
+        let said = if fails {
+            "a CI run must not skip"
+        } else {
+            "skipping"
+        };
+        assert!(report.contains(said), "CI={ci:?}: {report}");
+    }
+}
+
+/// Asks for a harness that is never installed; run by
+/// `a_missing_harness_fails_under_any_ci_value` with `CI` set.
+#[test]
+#[ignore = "a probe: run by a_missing_harness_fails_under_any_ci_value"]
+fn missing_harness_probe() {
+    assert!(
+        common::validator::run_node("no-such-harness", "no-such-package", "x.mjs", &[]).is_none()
+    );
 }

@@ -15,7 +15,7 @@
 //!   mean index + indirect bytes per frame over the bench's exponential sweep ≤ 5% of the
 //!   full index buffer.
 //!
-//! GPU set-up: `common::gpu::Gpu` (fails without an adapter when `CI` is `true` or `1`).
+//! GPU set-up: `common::gpu::Gpu` (fails without an adapter when `CI` is set: `morphlod::ci::is_ci`).
 
 use crate::common;
 

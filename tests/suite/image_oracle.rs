@@ -14,7 +14,7 @@
 //! * `apply_dirty_rejects_bad_input`: typed errors, nothing changed on error.
 //!
 //! Every test gets its device from `common::gpu::Gpu::new`: it fails when no adapter exists and
-//! `CI` is `true` or `1`, and skips with a printed reason elsewhere.
+//! `CI` is set (`morphlod::ci::is_ci`), and skips with a printed reason elsewhere.
 
 use crate::common;
 

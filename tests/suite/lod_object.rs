@@ -16,7 +16,7 @@
 //!   static object holding the CPU's exact pose `Morph::positions_at(t)`, and visibly moves.
 //!
 //! Every test gets its device from `common::gpu::Gpu::new`: it fails when no adapter exists and
-//! `CI` is `true` or `1`, and skips with a printed reason elsewhere.
+//! `CI` is set (`morphlod::ci::is_ci`), and skips with a printed reason elsewhere.
 
 use crate::common;
 

@@ -8,7 +8,7 @@
 //! A new area goes here as `mod area;`; a new top-level tests/*.rs file is a binary of its own.
 
 #[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 
 mod asset_file;
 mod asset_golden;

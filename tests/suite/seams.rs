@@ -481,3 +481,29 @@ fn the_rule_frees_interiors_and_holds_seams() {
         ));
     }
 }
+
+/// `Refusal::UvFold`, directly: a fan of four triangles around vertex 0 (no seams), collapsed
+/// 0 → 1. The surviving triangle (0, 2, 3) becomes (1, 2, 3); with vertex 1's UV across the
+/// UV edge (2, 3) from vertex 0's it turns over in UV space and the rule refuses, with the
+/// same UV on vertex 0's side it passes, and without UVs (geometry alone) it passes.
+#[test]
+fn a_collapse_that_flips_a_uv_triangle_is_refused() {
+    use morphlod::morph::TopologyMap;
+    use morphlod::seams::Refusal;
+    let fan = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
+    let map = TopologyMap::identity(5);
+    let uvs = |uv1: [f32; 2]| vec![[0.0, 0.0], uv1, [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]];
+    let collapse = |uvs: Option<&[[f32; 2]]>| {
+        let rule = SeamRule::new(&map, uvs);
+        let mut pairs = Vec::new();
+        rule.map_collapse(0, 1, fan.iter().copied(), &mut pairs)
+            .map(|()| pairs)
+    };
+    // The line through UVs 2 and 3 is v = u + 1; vertex 0's UV (0, 0) lies below it, (-1, 2)
+    // above (and on the same side of the line through UVs 3 and 4: only (1, 2, 3) turns).
+    let across = uvs([-1.0, 2.0]);
+    assert_eq!(collapse(Some(&across)), Err(Refusal::UvFold));
+    let same_side = uvs([1.0, 0.0]);
+    assert_eq!(collapse(Some(&same_side)), Ok(vec![(0, 1)]));
+    assert_eq!(collapse(None), Ok(vec![(0, 1)]));
+}

@@ -78,9 +78,20 @@ fn builder_shares_frames_with_equal_poses() {
     assert_eq!(asset.frames.len(), 64);
     assert_eq!(asset.distinct_frames(), 1);
     assert_eq!(report.collapses.len(), 64);
-    // A morph that moves: every frame its own pose, none shared wrongly.
+    // A morph that moves: every frame its own pose, so its own sequence, none shared wrongly
+    // (five distinct sequences in memory), each the one simplifying its pose alone gives.
     let moving = grid_morph(12, |x, y| ((x * 7 + y * 3) % 5) as f32 * 0.1);
     let (asset, _) = Builder::new(&moving).frames(5).build().expect("build");
+    assert_eq!(asset.distinct_frames(), 5);
+    let options = morphlod::simplify::SimplifyOptions::default();
+    let collapses = |seq: &morphlod::CollapseSequence| -> Vec<(u32, u32)> {
+        seq.collapses.iter().map(|c| (c.u, c.w)).collect()
+    };
+    for (k, frame) in asset.frames.iter().enumerate() {
+        let pose = moving.positions_at(k as f32 / 4.0);
+        let alone = morphlod::simplify::simplify(&pose, moving.triangles(), &options);
+        assert_eq!(collapses(frame), collapses(&alone), "frame {k}");
+    }
     let back = Asset::from_bytes(&asset.to_bytes()).unwrap();
     assert_eq!(back, asset);
 }

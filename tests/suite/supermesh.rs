@@ -4,9 +4,12 @@
 //! What every supermesh must satisfy (`check`): one closed manifold with
 //! χ = 2; every triangle strictly positive on the sphere (exact) and the
 //! spherical areas summing to 4π; `V = V_A + V_B − coincident + crossings`
-//! (a B vertex exactly on an A vertex is one vertex, `Origin::Both`); A's vertices
-//! bit for bit in `V(0)` and B's in `V(1)`; the surface at `t = 0` is A (same
-//! area, Hausdorff ≤ 1e-6 of the diagonal) and at `t = 1` is B.
+//! (a B vertex exactly on an A vertex is one vertex, `Origin::Both`), counting the
+//! vertices the meshes' triangles use (cleaning drops the others); A's vertices
+//! bit for bit in `V(0)` and B's in `V(1)`, by the input's own indices; every crossing
+//! on its A edge in `V(0)`, on its B edge in `V(1)` and on both great arcs on the sphere;
+//! the surface at `t = 0` is A (same area, Hausdorff ≤ 1e-6 of the diagonal) and at
+//! `t = 1` is B.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -207,12 +210,28 @@ fn check(a: &IndexedMesh, b: &IndexedMesh, s: &Supermesh, r: &SupermeshReport, s
         .filter(|o| matches!(o, Origin::Both { .. }))
         .count();
     assert_eq!(both, r.coincident);
+    let (used_a, used_b) = (used(a), used(b));
+    let count = |used: &[bool]| used.iter().filter(|&&u| u).count();
     assert_eq!(
         s.vertex_count(),
-        a.vertex_count() + b.vertex_count() - both + crossings
+        count(&used_a) + count(&used_b) - both + crossings
     );
     let mut seen_a = vec![false; a.vertex_count()];
     let mut seen_b = vec![false; b.vertex_count()];
+    // Each input vertex's point on the sphere, for the crossings' arcs.
+    let mut sphere_a = vec![None; a.vertex_count()];
+    let mut sphere_b = vec![None; b.vertex_count()];
+    for (i, o) in s.origins.iter().enumerate() {
+        match *o {
+            Origin::A(v) => sphere_a[v as usize] = Some(s.sphere[i]),
+            Origin::B(v) => sphere_b[v as usize] = Some(s.sphere[i]),
+            Origin::Both { a: va, b: vb } => {
+                sphere_a[va as usize] = Some(s.sphere[i]);
+                sphere_b[vb as usize] = Some(s.sphere[i]);
+            }
+            Origin::Crossing { .. } => {}
+        }
+    }
     for (i, o) in s.origins.iter().enumerate() {
         match *o {
             Origin::A(v) => {
@@ -241,10 +260,25 @@ fn check(a: &IndexedMesh, b: &IndexedMesh, s: &Supermesh, r: &SupermeshReport, s
                     b.positions[vb as usize].map(f32::to_bits)
                 );
             }
-            Origin::Crossing { .. } => {}
+            Origin::Crossing { a_edge, b_edge } => {
+                for (mesh, edge, pose, sphere, name) in [
+                    (a, a_edge, &s.v0, &sphere_a, "A"),
+                    (b, b_edge, &s.v1, &sphere_b, "B"),
+                ] {
+                    let what = format!("crossing {i} on {name} edge {edge:?}");
+                    assert!(
+                        edge[0] < edge[1] && is_edge(mesh, edge),
+                        "{what}: not an edge"
+                    );
+                    on_segment(pose[i], edge.map(|v| mesh.positions[v as usize]), &what);
+                    let ends = edge.map(|v| sphere[v as usize].expect("an input vertex"));
+                    on_arc(s.sphere[i], ends, &what);
+                }
+            }
         }
     }
-    assert!(seen_a.iter().all(|&x| x) && seen_b.iter().all(|&x| x));
+    assert_eq!(seen_a, used_a);
+    assert_eq!(seen_b, used_b);
     // The surfaces at t = 0 and t = 1.
     for (pose, mesh, name) in [(&s.v0, a, "t = 0 vs A"), (&s.v1, b, "t = 1 vs B")] {
         let (sa, ma) = (
@@ -275,6 +309,52 @@ fn check(a: &IndexedMesh, b: &IndexedMesh, s: &Supermesh, r: &SupermeshReport, s
     // And a morph can be made of it.
     let morph = s.to_morph().unwrap();
     assert_eq!(morph.vertex_count(), s.vertex_count());
+}
+
+/// The vertices a mesh's triangles use (a triangle that repeats a vertex counts for nothing:
+/// cleaning drops it).
+fn used(mesh: &IndexedMesh) -> Vec<bool> {
+    let mut used = vec![false; mesh.vertex_count()];
+    for t in &mesh.triangles {
+        if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+            t.iter().for_each(|&v| used[v as usize] = true);
+        }
+    }
+    used
+}
+
+/// Whether `edge` (low index first) is an edge of a triangle of `mesh`.
+fn is_edge(mesh: &IndexedMesh, edge: [u32; 2]) -> bool {
+    mesh.triangles.iter().any(|t| {
+        (0..3).any(|k| {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            [p.min(q), p.max(q)] == edge
+        })
+    })
+}
+
+/// `p` lies on the segment `ends` (within f32 rounding of the segment's length).
+fn on_segment(p: [f32; 3], ends: [[f32; 3]; 2], what: &str) {
+    let [p, e0, e1] = [p, ends[0], ends[1]].map(|q| DVec3::from_array(q.map(f64::from)));
+    let d = e1 - e0;
+    let t = (p - e0).dot(d) / d.length_squared();
+    let off = (e0 + d * t - p).length();
+    let tolerance = 1e-5 * d.length().max(e0.length()).max(e1.length());
+    assert!(
+        (-1e-6..=1.0 + 1e-6).contains(&t) && off <= tolerance,
+        "{what}: {p} is {off:e} off the segment, at t = {t}"
+    );
+}
+
+/// `p` lies on the shorter great arc between the unit vectors `ends`.
+fn on_arc(p: DVec3, ends: [DVec3; 2], what: &str) {
+    let n = ends[0].cross(ends[1]).normalize();
+    let off = p.dot(n).abs();
+    let between = ends[0].cross(p).dot(n) >= -1e-9 && p.cross(ends[1]).dot(n) >= -1e-9;
+    assert!(
+        off <= 1e-9 && between,
+        "{what}: {p} is {off:e} off the arc, between its ends: {between}"
+    );
 }
 
 fn build(
@@ -442,6 +522,71 @@ fn landmarks_are_pulled_together() {
             "landmark pair ({la}, {lb}) not merged"
         );
     }
+}
+
+/// Input that cleaning changes: A with an unused vertex in front (every index after it moves
+/// down by one in the cleaned mesh) and a degenerate triangle. Origins, crossings and
+/// landmarks all speak of the input's indices: the checks run on the uncleaned A, and a
+/// landmark pair given in input indices ends as one `Origin::Both` of those indices. A
+/// landmark on the unused vertex, and a B vertex in two pairs, are refused.
+#[test]
+fn origins_and_landmarks_use_the_input_indices() {
+    // landmarks_are_pulled_together's pair and landmarks, A's indices moved up by one.
+    let clean = blob(2, 0.2, [1.0, 1.0, 1.0], 7);
+    // The unused vertex at the blob's centre: inside the bounds, so the diagonal is the surface's.
+    let mut positions = vec![[0.3, -0.2, 0.1]];
+    positions.extend_from_slice(&clean.positions);
+    let mut triangles: Vec<[u32; 3]> = clean.triangles.iter().map(|t| t.map(|v| v + 1)).collect();
+    triangles.insert(3, [5, 5, 7]);
+    let a = IndexedMesh::new(positions, triangles);
+    let b = blob(1, 0.2, [2.0, 1.0, 0.5], 8);
+    let options = SupermeshOptions {
+        landmarks: vec![(1, 5), (41, 17), (101, 33)],
+        perturb: false,
+        ..SupermeshOptions::default()
+    };
+    let (s, r) = build(&a, &b, &options);
+    assert!(r.crossings > 0, "{r}");
+    check(&a, &b, &s, &r, 300);
+    for &(la, lb) in &options.landmarks {
+        assert!(
+            s.origins.contains(&Origin::Both { a: la, b: lb }),
+            "landmark pair ({la}, {lb}) not merged"
+        );
+    }
+    let refused = |landmarks: Vec<(u32, u32)>| {
+        let options = SupermeshOptions {
+            landmarks,
+            ..SupermeshOptions::default()
+        };
+        Supermesh::build(&a, &b, &options).map(|_| ()).unwrap_err()
+    };
+    let e = refused(vec![(1, 5), (0, 17)]);
+    assert!(
+        matches!(
+            e,
+            SupermeshError::LandmarkUnused {
+                pair: 1,
+                mesh: Side::A,
+                vertex: 0
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("used by no triangle"), "{e}");
+    let e = refused(vec![(1, 5), (41, 17), (101, 5)]);
+    assert!(
+        matches!(
+            e,
+            SupermeshError::LandmarkRepeated {
+                first: 0,
+                second: 2,
+                vertex: 5
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("twice"), "{e}");
 }
 
 #[test]

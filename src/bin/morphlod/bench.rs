@@ -531,7 +531,7 @@ impl BenchReport {
 /// draw per frame, triangle counts equal to the reference mesh of `docs/DESIGN.md`
 /// (`CollapseSequence::reference_mesh`) and to the list drawn beside, uploads exactly where the
 /// strips changed, and the JSON holds every row. Uses `gpu::test_context`: fails without an
-/// adapter when `CI=true`, skips elsewhere.
+/// adapter under CI (`morphlod::ci::is_ci`), skips elsewhere.
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,6 +1,7 @@
 //! `morphlod export`: the original and its LODs as one glTF binary ([`morphlod::export`]).
 
-use crate::{load_pair, load_surface, SimplifyWeights};
+use crate::output::{check_output, Written};
+use crate::{command_inputs, load_pair, load_surface, SimplifyWeights};
 use clap::Args;
 use morphlod::export::{export_glb, ExportOptions, LodSteps, DEFAULT_POSES};
 use morphlod::io::gltf::SourceScene;
@@ -56,7 +57,8 @@ pub(crate) struct ExportArgs {
 }
 
 pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
-    check_output(&args.output, &args.inputs)?;
+    let inputs = command_inputs(&args.inputs, args.landmarks.as_deref());
+    check_output(&args.output, Written::Glb, &inputs)?;
     let options = LoadOptions {
         gltf_mesh: args.mesh.clone(),
         ..LoadOptions::default()
@@ -170,18 +172,4 @@ fn load_gltf(
         }
         Err(e) => Err(e.to_string()),
     }
-}
-
-/// Refuses an output that is not `.glb` or that is one of the inputs.
-fn check_output(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
-    if !output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("glb"))
-    {
-        return Err(format!(
-            "{}: the output must be a .glb file (binary glTF)",
-            output.display()
-        ));
-    }
-    crate::check_not_input(output, inputs)
 }

@@ -28,12 +28,14 @@ use std::time::{Duration, Instant};
 
 mod bench;
 mod export;
+mod output;
 mod plot;
 mod sheet;
 mod supermesh;
 
 use bench::{run_bench, BenchOptions};
 use export::ExportArgs;
+use output::{check_folder, check_output, Written};
 use sheet::{render_sheet, SheetOptions};
 use supermesh::{build_supermesh, read_landmarks, SupermeshArgs};
 
@@ -475,7 +477,8 @@ fn ms(d: Duration) -> String {
 
 /// Loads the inputs into one morph, cleans it, builds, writes and reports.
 fn build(args: &BuildArgs) -> Result<(), String> {
-    check_output(&args.output, &args.inputs)?;
+    let inputs = command_inputs(&args.inputs, args.landmarks.as_deref());
+    check_output(&args.output, Written::Mlod, &inputs)?;
     let total = Instant::now();
     let options = LoadOptions {
         gltf_mesh: args.mesh.clone(),
@@ -562,36 +565,17 @@ fn build(args: &BuildArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// Refuses a `build` output that is not `.mlod` or that is one of the inputs
-/// (the build would overwrite its own source).
-fn check_output(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
-    check_not_input(output, inputs)?;
-    if !output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mlod"))
-    {
-        return Err(format!(
-            "{}: the output must be a .mlod file (morphlod writes its own asset format)",
-            output.display()
-        ));
-    }
-    Ok(())
-}
-
-/// Refuses an output that is one of the inputs (writing would overwrite a source).
-fn check_not_input(output: &Path, inputs: &[PathBuf]) -> Result<(), String> {
-    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => a == b,
-    };
-    if let Some(input) = inputs.iter().find(|input| same(input, output)) {
-        return Err(format!(
-            "{}: the output is one of the inputs ({}); choose another output file",
-            output.display(),
-            input.display()
-        ));
-    }
-    Ok(())
+/// The files a command reads: its input meshes and the landmarks file, if any. No output
+/// may be one of them ([`check_output`]).
+pub(crate) fn command_inputs<'a>(
+    inputs: impl IntoIterator<Item = &'a PathBuf>,
+    landmarks: Option<&'a Path>,
+) -> Vec<&'a Path> {
+    inputs
+        .into_iter()
+        .map(PathBuf::as_path)
+        .chain(landmarks)
+        .collect()
 }
 
 /// `--weld` / `--no-weld` as cleaning options (neither: only a triangle soup is welded).
@@ -740,6 +724,7 @@ fn stage_table(report: &BuildReport, load: Duration, clean: Duration) -> String 
 
 /// Renders one asset's (t, lod) grid to a PNG and prints what each cell drew.
 fn render(args: &RenderArgs) -> Result<(), String> {
+    check_output(&args.output, Written::Png, &[&args.asset])?;
     let ts = unit_values("t", &args.ts)?;
     let fractions = unit_values("lod", &args.lod)?;
     check_sheet_size(args.size, ts.len(), fractions.len())?;
@@ -826,6 +811,12 @@ fn read_asset(path: &Path, options: &AssetLoadOptions) -> Result<Vec<u8>, String
 
 /// Runs the frame-rate benchmark and prints its summary (and writes the rows as JSON).
 fn bench(args: &BenchArgs) -> Result<(), String> {
+    if let Some(path) = &args.json {
+        check_output(path, Written::Json, &[&args.asset])?;
+    }
+    if let Some(path) = &args.plot {
+        check_output(path, Written::Png, &[&args.asset])?;
+    }
     let budget = budget(args.memory_budget);
     let bytes = read_asset(&args.asset, &budget)?;
     let mut asset = Asset::from_bytes_with(&bytes, &budget)
@@ -866,7 +857,20 @@ const DEMO_INPUT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_
 const DEMO_TARGET: &str = "jawOpen";
 const DEMO_FRAMES: usize = 16;
 
+/// The demo's files in its `--output` folder: the asset and the two contact sheets.
+const DEMO_ASSET: &str = "demo.mlod";
+const DEMO_SHEETS: [(ShadeMode, &str); 2] = [
+    (ShadeMode::Textured, "demo.png"),
+    (ShadeMode::StripColours, "demo_strips.png"),
+];
+
 fn demo(args: &DemoArgs) -> Result<(), String> {
+    check_folder(&args.output)?;
+    let input = Path::new(DEMO_INPUT);
+    check_output(&args.output.join(DEMO_ASSET), Written::Mlod, &[input])?;
+    for (_, name) in DEMO_SHEETS {
+        check_output(&args.output.join(name), Written::Png, &[input])?;
+    }
     println!("morphlod demo: {DEMO_INPUT}, target '{DEMO_TARGET}', {DEMO_FRAMES} frames");
     let source = MorphSource::Target(DEMO_TARGET.into());
     let morph = morphlod::io::load_morph(Path::new(DEMO_INPUT), &LoadOptions::default(), &source)
@@ -878,16 +882,13 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
     print!("{}", stage_table(&report, Duration::ZERO, Duration::ZERO));
     std::fs::create_dir_all(&args.output).map_err(|e| format!("{}: {e}", args.output.display()))?;
-    let path = args.output.join("demo.mlod");
+    let path = args.output.join(DEMO_ASSET);
     asset.save(&path).map_err(|e| e.to_string())?;
     println!("asset written to {}", path.display());
 
     let ts = [0.0, 0.25, 0.5, 0.75, 1.0];
     let lods = [Lod::Fraction(0.0), Lod::Fraction(0.75), Lod::Fraction(0.95)];
-    for (shade, name) in [
-        (ShadeMode::Textured, "demo.png"),
-        (ShadeMode::StripColours, "demo_strips.png"),
-    ] {
+    for (shade, name) in DEMO_SHEETS {
         let options = SheetOptions {
             shade,
             ..SheetOptions::default()

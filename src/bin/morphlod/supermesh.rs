@@ -5,6 +5,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::output::{check_output, Written};
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use morphlod::asset::save_bytes;
@@ -140,6 +141,8 @@ fn diagonal(mesh: &IndexedMesh) -> f64 {
 
 /// `morphlod supermesh A B -o S.glb`.
 pub fn supermesh(args: &SupermeshArgs) -> Result<(), String> {
+    let inputs = crate::command_inputs([&args.a, &args.b], args.landmarks.as_deref());
+    check_output(&args.output, Written::Glb, &inputs)?;
     let total = Instant::now();
     let landmarks = read_landmarks(args.landmarks.as_deref())?;
     let options = LoadOptions::default();
