@@ -51,20 +51,29 @@
 //! shader or layout duplication. Objects of the same asset still own separate index buffers,
 //! because each may sit at its own LOD and frame.
 
+mod asset;
 pub mod camera;
+mod checks;
 mod commands;
 mod context;
+mod crowd;
 mod lod_object;
 mod object;
 mod pipeline;
 mod pose;
+mod readback;
 mod records;
 mod render_target;
 mod surface;
 mod upload;
 
+pub use asset::GpuAsset;
 pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
+pub use crowd::{
+    AssetId, Crowd, CrowdError, CrowdStats, CrowdUpload, InstanceId, CROWD_WGSL, SCATTER_WGSL,
+    WEIGHT_SLOTS,
+};
 pub use lod_object::{s0_regions, LodObject};
 pub use object::{Object, Topology};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
@@ -211,6 +220,9 @@ pub enum GpuError {
     /// Nothing to frame: the asset has no vertices.
     #[error("the asset has no vertices to frame")]
     NoVertices,
+    /// A shared asset made on another device than the one drawing it.
+    #[error("the GPU asset was uploaded to another device; make it with GpuAsset::from_asset on the device that draws it")]
+    OtherDevice,
     /// Waiting for the GPU failed (device lost, timeout).
     #[error("waiting for the GPU failed: {0}")]
     Poll(#[from] wgpu::PollError),
