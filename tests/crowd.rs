@@ -650,3 +650,33 @@ fn host_memory_per_instance_is_bounded() -> Result<()> {
     }
     Ok(())
 }
+
+/// The bench's library entry runs both modes on the same instances: full detail draws every
+/// instance's `S0`, the LOD mode no more, and both report their uploads.
+#[test]
+fn crowd_bench_reports_both_modes() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let asset = grid_asset(10, 4, 0.4);
+    let model = Arc::new(DeformingModel::new(&asset)?);
+    let options = gpu::CrowdBenchOptions {
+        instances: 9,
+        frames: 4,
+        period: 6,
+        width: 96,
+        height: 64,
+        pixels: 4.0,
+    };
+    let report = gpu::run_crowd_bench(&ctx.ctx, &asset, Arc::clone(&model), &options)?;
+    let modes: Vec<&str> = report.modes.iter().map(|m| m.mode).collect();
+    assert_eq!(modes, ["lod", "full"]);
+    let full_detail = 9.0 * model.layout().triangle_count() as f64;
+    assert_eq!(report.modes[1].triangles.mean, full_detail);
+    assert!(report.modes[0].triangles.mean <= full_detail);
+    assert!(report.modes.iter().all(|m| m.uploaded_bytes.mean > 0.0));
+    assert!(report.gpu_bytes_per_instance > 0.0 && report.host_bytes_per_instance > 0.0);
+    let json: serde_json::Value = serde_json::from_str(&report.to_json())?;
+    assert_eq!(json["modes"][1]["mode"], "full");
+    Ok(())
+}

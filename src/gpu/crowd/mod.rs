@@ -22,6 +22,7 @@
 //! animations are summed on the GPU from 8 weights per instance (the largest of the frame):
 //! exact for assets of at most 8 targets, see [`WEIGHT_SLOTS`].
 
+mod bench;
 mod pipeline;
 mod slots;
 
@@ -31,6 +32,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
+pub use self::bench::{run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, ModeFigures, Stat};
 use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, SCATTER_GROUP};
 pub use self::pipeline::{CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
 use self::slots::SlotLayout;
