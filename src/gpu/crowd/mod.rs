@@ -109,7 +109,8 @@ pub struct CrowdUpload {
     pub bytes: u64,
     /// `queue.write_buffer` and `write_texture` calls.
     pub writes: usize,
-    /// Scatter dispatches (at most one per asset).
+    /// Scatter dispatches (one per asset with patches; more when a frame's patches pass a
+    /// binding's size limit).
     pub dispatches: usize,
 }
 
@@ -623,10 +624,6 @@ impl Crowd {
                 bytemuck::bytes_of(&self.scene),
             );
         }
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("crowd scatter"),
-        });
-        let mut dispatches = 0;
         for a in &mut self.assets {
             let texture = a.gpu.upload(queue);
             upload.bytes += texture;
@@ -677,19 +674,35 @@ impl Crowd {
             }
             if let Some(&last) = a.patches.last() {
                 upload.patches += a.patches.len() as u64;
-                let groups = (a.patches.len() as u32).div_ceil(SCATTER_GROUP);
-                let max = device.limits().max_compute_workgroups_per_dimension.max(1);
-                let (x, y) = (groups.min(max), groups.div_ceil(max));
-                a.patches.resize((x * y * SCATTER_GROUP) as usize, last);
-                let size = (a.patches.len() * size_of::<[u32; 2]>()) as u64;
-                let group = a.patch_group(device, &self.pipeline, size);
-                let buffer = &a.patch_buffer.as_ref().expect("made above").0;
-                upload.write(queue, buffer, 0, bytemuck::cast_slice(&a.patches));
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.pipeline.scatter);
-                pass.set_bind_group(0, &group, &[]);
-                pass.dispatch_workgroups(x, y, 1);
-                dispatches += 1;
+                // Whole workgroups: the last patch repeated (same slot, same value).
+                let padded = a.patches.len().next_multiple_of(SCATTER_GROUP as usize);
+                a.patches.resize(padded, last);
+                // A frame that moves many instances far (the first LOD frame of a crowd)
+                // can pass one binding's or one dispatch's limit: then it goes in chunks, each
+                // written and submitted before the next reuses the buffer.
+                let limits = device.limits();
+                let by_binding = limits.max_storage_buffer_binding_size / 8;
+                let by_dispatch = u64::from(limits.max_compute_workgroups_per_dimension)
+                    * u64::from(SCATTER_GROUP);
+                let chunk = (by_binding.min(by_dispatch) as usize / SCATTER_GROUP as usize).max(1)
+                    * SCATTER_GROUP as usize;
+                let patches = std::mem::take(&mut a.patches);
+                for part in patches.chunks(chunk) {
+                    let size = std::mem::size_of_val(part) as u64;
+                    let group = a.patch_group(device, &self.pipeline, size);
+                    let buffer = &a.patch_buffer.as_ref().expect("made above").0;
+                    upload.write(queue, buffer, 0, bytemuck::cast_slice(part));
+                    let mut encoder = device.create_command_encoder(&Default::default());
+                    {
+                        let mut pass = encoder.begin_compute_pass(&Default::default());
+                        pass.set_pipeline(&self.pipeline.scatter);
+                        pass.set_bind_group(0, &group, &[]);
+                        pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
+                    }
+                    queue.submit([encoder.finish()]);
+                    upload.dispatches += 1;
+                }
+                a.patches = patches;
             }
             if let Some(range) = a.dirty_records.take() {
                 let records = &a.records[range.start as usize..range.end as usize];
@@ -712,10 +725,6 @@ impl Crowd {
                 );
             }
         }
-        if dispatches > 0 {
-            queue.submit([encoder.finish()]);
-        }
-        upload.dispatches = dispatches;
         upload
     }
 
@@ -842,9 +851,11 @@ impl CrowdAsset {
                 return group.clone();
             }
         }
+        // The caller keeps `bytes` within the binding limit; so does the rounding.
+        let max = device.limits().max_storage_buffer_binding_size;
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("crowd patches"),
-            size: bytes.next_power_of_two(),
+            size: bytes.next_power_of_two().min(max).max(bytes),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
