@@ -43,13 +43,13 @@
 //! # A crowd: many objects, one pipeline
 //!
 //! Any number of objects share one [`MorphPipeline`] (created once per colour/depth format and
-//! cull mode): it holds the shader module, the one bind group layout (binding 0: the
-//! [`Uniforms`] block) and the strip and list pipelines. Each [`Object`] owns what differs per
-//! instance — its vertex, index and indirect buffers, its uniform buffer (t, camera, model
-//! matrix, colour) and the bind group pointing at it — so a pass draws N objects with N
-//! `multi_draw_indexed_indirect` calls, one `set_bind_group` and buffer binding each, and no
-//! shader or layout duplication. Objects of the same asset still own separate index buffers,
-//! because each may sit at its own LOD and frame.
+//! cull mode) and, made with [`Object::with_asset`] / [`LodObject::with_asset`], one
+//! [`GpuAsset`] per asset (poses, surface, texture, target deltas uploaded once). Each [`Object`]
+//! owns its index and indirect buffers, uniforms and bind group: a pass draws N objects with N
+//! multi-draws. For many instances, [`Crowd`] draws every instance of an asset with one
+//! `multi_draw_indexed_indirect`, blends weight animations on the GPU from per-instance weights
+//! and uploads a frame's index edits with one write and one scatter dispatch per asset
+//! (`docs/DESIGN.md`, "Crowds").
 
 mod asset;
 pub mod camera;
