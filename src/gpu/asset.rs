@@ -48,8 +48,9 @@ pub(super) struct TargetDeltas {
 
 impl GpuAsset {
     /// Uploads two poses (one vertex each per mesh vertex, at least 1 and fewer than
-    /// `0xFFFFFFFF` vertices) and, when given, a surface (see [`GpuSurface`]'s checks: one
-    /// finite entry per vertex, a texture that decodes).
+    /// `0xFFFFFFFF` vertices) and, when given, a surface (one finite entry per vertex:
+    /// [`GpuError::SurfaceLength`], [`GpuError::NonFiniteAttribute`]; a texture that decodes:
+    /// [`GpuError::TextureDecode`]).
     pub fn new(
         device: &wgpu::Device,
         (v0, v1): (&[[f32; 3]], &[[f32; 3]]),
