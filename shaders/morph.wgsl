@@ -1,4 +1,5 @@
-// morphlod: blend two poses of one mesh and shade it.
+// morphlod: blend two poses of one mesh and shade it. Compiled after shade.wgsl (the shading
+// it shares with crowd.wgsl): gpu::MORPH_WGSL is the two files concatenated.
 //
 // Vertex stage: every vertex has its position in pose 0 (buffer slot 0, location 0) and in
 // pose 1 (buffer slot 1, location 1); the drawn position is mix(v0, v1, t) with the exact t
@@ -61,9 +62,6 @@ struct Uniforms {
     encode_srgb: u32,
 }
 
-const MODE_STRIPS: u32 = 1u;
-const MODE_TEXTURED: u32 = 3u;
-
 @group(0) @binding(0) var<uniform> u: Uniforms;
 @group(0) @binding(1) var<storage, read> offsets: array<f32>;
 // Only in the surface layout: the normal offsets (like `offsets`), the base-colour texture
@@ -112,11 +110,6 @@ fn vs_main(
     return out;
 }
 
-// `v / |v|`, or 0 for a zero vector (where normalize would give NaN), without a branch.
-fn unit_or_zero(v: vec3<f32>) -> vec3<f32> {
-    return v * inverseSqrt(max(dot(v, v), 1e-30));
-}
-
 @vertex
 fn vs_surface(
     @location(0) v0: vec3<f32>,
@@ -142,51 +135,9 @@ fn vs_surface(
     return out;
 }
 
-// A well-spread, stable colour per strip id (integer hash; u32 arithmetic wraps in WGSL).
-fn strip_colour(id: u32) -> vec3<f32> {
-    var h = id * 2654435761u;
-    h = h ^ (h >> 15u);
-    h = h * 2246822519u;
-    h = h ^ (h >> 13u);
-    let rgb = vec3<f32>(f32(h & 255u), f32((h >> 8u) & 255u), f32((h >> 16u) & 255u)) / 255.0;
-    // Keep every channel away from black so shading stays visible.
-    return 0.25 + 0.75 * rgb;
-}
-
-// The facet normal of the drawn triangle at this fragment, from screen-space derivatives.
-fn facet_normal(world: vec3<f32>) -> vec3<f32> {
-    // Each derivative is scaled to its largest component first: for a mesh ~1e19 across,
-    // dot(c, c) would overflow f32 (n = 0, ambient only), and for one ~1e-22 across it would
-    // underflow; scaled, the normal is the same at every size.
-    let a = dpdy(world);
-    let b = dpdx(world);
-    let c = cross(a / max(max(abs(a.x), max(abs(a.y), abs(a.z))), 1e-37),
-                  b / max(max(abs(b.x), max(abs(b.y), abs(b.z))), 1e-37));
-    // A zero-area fragment footprint gives c = 0: n stays 0 and the fragment gets ambient only,
-    // instead of the NaN that normalize(0) would produce.
-    return c * inverseSqrt(max(dot(c, c), 1e-30));
-}
-
-// Lambert with an ambient floor: the light factor for unit (or zero) normal n.
-fn light_factor(n: vec3<f32>) -> f32 {
-    let diffuse = max(dot(n, normalize(u.light.xyz)), 0.0);
-    return u.light.w + (1.0 - u.light.w) * diffuse;
-}
-
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    let shade = light_factor(facet_normal(in.world));
-    var base = u.color.rgb;
-    if u.mode == MODE_STRIPS {
-        base = strip_colour(in.strip);
-    }
-    return vec4<f32>(base * shade, u.color.a);
-}
-
-// The sRGB transfer function (IEC 61966-2-1) of a linear colour in [0, 1].
-fn srgb_encode(linear: vec3<f32>) -> vec3<f32> {
-    let c = clamp(linear, vec3<f32>(0.0), vec3<f32>(1.0));
-    return select(1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055, 12.92 * c, c <= vec3<f32>(0.0031308));
+    return shade_plain(in.world, in.strip, u.mode, u.color, u.light);
 }
 
 @fragment
@@ -194,17 +145,6 @@ fn fs_surface(in: SurfaceOut) -> @location(0) vec4<f32> {
     // Sampled before any mode test: textureSample needs uniform control flow (implicit
     // derivatives), and the mode is uniform anyway.
     let texel = textureSample(base_texture, base_sampler, in.uv);
-    let smooth_normal = u.mode >= 2u;
-    let n = select(facet_normal(in.world), unit_or_zero(in.normal), smooth_normal);
-    let shade = light_factor(n);
-    if u.mode == MODE_TEXTURED {
-        let albedo = u.base_color * texel * in.color;
-        let lit = albedo.rgb * shade;
-        return vec4<f32>(select(lit, srgb_encode(lit), u.encode_srgb == 1u), albedo.a);
-    }
-    var base = u.color.rgb;
-    if u.mode == MODE_STRIPS {
-        base = strip_colour(in.strip);
-    }
-    return vec4<f32>(base * shade, u.color.a);
+    let material = Material(u.mode, u.color, u.base_color, u.light, u.encode_srgb);
+    return shade_surface(in.world, in.strip, in.normal, texel, in.color, material);
 }

@@ -542,6 +542,11 @@ impl DeformingState {
         self.state.region_offsets()
     }
 
+    /// Bytes this state holds on the heap (see [`StripsState::heap_bytes`]).
+    pub fn heap_bytes(&self) -> usize {
+        self.state.heap_bytes()
+    }
+
     /// Hands the dirty log to the uploader and clears it. After a rebuild it
     /// names every live strip; the uploader coalesces.
     pub fn take_dirty(&mut self) -> Dirty {

@@ -14,7 +14,7 @@
 use std::sync::Arc;
 
 use super::commands::RenderCommands;
-use super::{Draws, GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
+use super::{Draws, GpuAsset, GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, DeformingState, Lod, SetError};
 use crate::morph::WeightTrack;
@@ -43,14 +43,31 @@ impl LodObject {
         asset: &Asset,
         model: Arc<DeformingModel>,
     ) -> Result<LodObject, GpuError> {
-        let object = Object::from_asset(
+        LodObject::with_asset(
+            device,
+            pipeline,
+            GpuAsset::from_asset(device, asset)?,
+            model,
+        )
+    }
+
+    /// As [`new`](Self::new), over an asset already on the GPU and shared with other objects
+    /// ([`GpuAsset::from_asset`] of the asset `model` was made from): the object then holds
+    /// only its runtime, index and indirect buffers and uniforms (see [`Object::with_asset`]).
+    pub fn with_asset(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        asset: Arc<GpuAsset>,
+        model: Arc<DeformingModel>,
+    ) -> Result<LodObject, GpuError> {
+        let track = asset.track().cloned();
+        let object = Object::with_asset(
             device,
             pipeline,
             Topology::Strip,
             asset,
             &s0_regions(&model),
         )?;
-        let track = asset.blend.as_ref().map(|blend| blend.track.clone());
         let state = DeformingState::new(&model);
         Ok(LodObject {
             model,

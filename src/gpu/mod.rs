@@ -43,28 +43,37 @@
 //! # A crowd: many objects, one pipeline
 //!
 //! Any number of objects share one [`MorphPipeline`] (created once per colour/depth format and
-//! cull mode): it holds the shader module, the one bind group layout (binding 0: the
-//! [`Uniforms`] block) and the strip and list pipelines. Each [`Object`] owns what differs per
-//! instance — its vertex, index and indirect buffers, its uniform buffer (t, camera, model
-//! matrix, colour) and the bind group pointing at it — so a pass draws N objects with N
-//! `multi_draw_indexed_indirect` calls, one `set_bind_group` and buffer binding each, and no
-//! shader or layout duplication. Objects of the same asset still own separate index buffers,
-//! because each may sit at its own LOD and frame.
+//! cull mode) and, made with [`Object::with_asset`] / [`LodObject::with_asset`], one
+//! [`GpuAsset`] per asset (poses, surface, texture, target deltas uploaded once). Each [`Object`]
+//! owns its index and indirect buffers, uniforms and bind group: a pass draws N objects with N
+//! multi-draws. For many instances, [`Crowd`] draws every instance of an asset with one
+//! `multi_draw_indexed_indirect`, blends weight animations on the GPU from per-instance weights
+//! and uploads a frame's index edits with one write and one scatter dispatch per asset
+//! (`docs/DESIGN.md`, "Crowds").
 
+mod asset;
 pub mod camera;
+mod checks;
 mod commands;
 mod context;
+mod crowd;
 mod lod_object;
 mod object;
 mod pipeline;
 mod pose;
+mod readback;
 mod records;
 mod render_target;
 mod surface;
 mod upload;
 
+pub use asset::GpuAsset;
 pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
+pub use crowd::{
+    run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdStats,
+    CrowdUpload, InstanceId, ModeFigures, Stat, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS,
+};
 pub use lod_object::{s0_regions, LodObject};
 pub use object::{Object, Topology};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
@@ -211,6 +220,9 @@ pub enum GpuError {
     /// Nothing to frame: the asset has no vertices.
     #[error("the asset has no vertices to frame")]
     NoVertices,
+    /// A shared asset made on another device than the one drawing it.
+    #[error("the GPU asset was uploaded to another device; make it with GpuAsset::from_asset on the device that draws it")]
+    OtherDevice,
     /// Waiting for the GPU failed (device lost, timeout).
     #[error("waiting for the GPU failed: {0}")]
     Poll(#[from] wgpu::PollError),

@@ -44,14 +44,16 @@
 //! no record reads.
 
 use std::ops::Range;
+use std::sync::Arc;
 
 use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
+use super::asset::GpuAsset;
+use super::checks::{check_indices, check_size};
 use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
-use super::pose::Pose;
+use super::pose::{default_mode, Pose};
 use super::records::{DrawRecords, ARGS_BYTES};
-use super::surface::GpuSurface;
 use super::upload::{clip, coalesce, IndexMirror};
 #[allow(unused_imports)] // named in the docs
 use super::MERGE_GAP_BYTES;
@@ -74,8 +76,8 @@ pub struct Object {
     pipeline: wgpu::RenderPipeline,
     topology: Topology,
     vertex_count: u32,
-    v0: wgpu::Buffer,
-    v1: wgpu::Buffer,
+    /// Poses, surface and morph targets, shared with every other user of the asset.
+    asset: Arc<GpuAsset>,
     index_buffer: wgpu::Buffer,
     indirect_buffer: wgpu::Buffer,
     /// Region r owns slots `region_starts[r]..region_starts[r + 1]`: its capacity, then (in a
@@ -111,7 +113,8 @@ impl Object {
         v1: &[[f32; 3]],
         regions: &[Vec<u32>],
     ) -> Result<Object, GpuError> {
-        Object::make(device, pipeline, topology, (v0, v1), regions, None)
+        let asset = GpuAsset::new(device, (v0, v1), None)?;
+        Object::make(device, pipeline, topology, Arc::new(asset), regions)
     }
 
     /// As [`Object::new`], with `surface`'s normals, UVs, colours and material (one entry per
@@ -129,7 +132,8 @@ impl Object {
         regions: &[Vec<u32>],
         surface: &Surface,
     ) -> Result<Object, GpuError> {
-        Object::make(device, pipeline, topology, (v0, v1), regions, Some(surface))
+        let asset = GpuAsset::new(device, (v0, v1), Some(surface))?;
+        Object::make(device, pipeline, topology, Arc::new(asset), regions)
     }
 
     /// An object drawing `asset`'s poses over `regions`, with its surface and its morph targets
@@ -143,18 +147,29 @@ impl Object {
         asset: &Asset,
         regions: &[Vec<u32>],
     ) -> Result<Object, GpuError> {
-        let poses = (asset.v0.as_slice(), asset.v1.as_slice());
-        let surface = asset.surface.as_ref();
-        let mut object = Object::make(device, pipeline, topology, poses, regions, surface)?;
-        if let Some(blend) = &asset.blend {
-            if blend.track.targets() != blend.deltas.len() {
-                return Err(GpuError::TrackMismatch {
-                    track: blend.track.targets(),
-                    targets: blend.deltas.len(),
-                });
-            }
-            let normals = surface.map_or(&[][..], |s| s.normal_deltas.as_slice());
-            object.set_targets_with_normals(device, pipeline, &blend.deltas, normals)?;
+        let shared = GpuAsset::from_asset(device, asset)?;
+        Object::with_asset(device, pipeline, topology, shared, regions)
+    }
+
+    /// An object over an asset already on the GPU ([`GpuAsset::from_asset`]), sharing its
+    /// poses, surface and morph-target deltas with every other object made from it: the object
+    /// owns only its index and indirect buffers, its uniforms and (with targets) the offsets
+    /// it sums. An asset of another device is [`GpuError::OtherDevice`].
+    pub fn with_asset(
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        topology: Topology,
+        asset: Arc<GpuAsset>,
+        regions: &[Vec<u32>],
+    ) -> Result<Object, GpuError> {
+        if !asset.is_on(device) {
+            return Err(GpuError::OtherDevice);
+        }
+        let mut object = Object::make(device, pipeline, topology, Arc::clone(&asset), regions)?;
+        if let Some(deltas) = asset.targets() {
+            object
+                .pose
+                .share_targets(device, pipeline, Arc::clone(deltas), asset.surface());
         }
         Ok(object)
     }
@@ -163,29 +178,13 @@ impl Object {
         device: &wgpu::Device,
         pipeline: &MorphPipeline,
         topology: Topology,
-        (v0, v1): (&[[f32; 3]], &[[f32; 3]]),
+        asset: Arc<GpuAsset>,
         regions: &[Vec<u32>],
-        surface: Option<&Surface>,
     ) -> Result<Object, GpuError> {
-        if v0.len() != v1.len() {
-            return Err(GpuError::PoseSizeMismatch {
-                v0: v0.len(),
-                v1: v1.len(),
-            });
-        }
-        // RESTART itself must never be a vertex number.
-        let max_vertices = RESTART as usize;
-        if v0.is_empty() || v0.len() >= max_vertices {
-            return Err(GpuError::VertexCount {
-                count: v0.len(),
-                max: max_vertices - 1,
-            });
-        }
-        let vertex_count = v0.len() as u32;
+        let vertex_count = asset.vertex_count();
         let separator = separator_slots(topology);
         let total: usize = regions.iter().map(|r| r.len() + separator as usize).sum();
         let max_buffer = device.limits().max_buffer_size;
-        check_size("vertex", v0.len() as u64 * 12, max_buffer)?;
         check_size("index", total as u64 * 4, max_buffer)?;
         check_size("indirect", regions.len() as u64 * ARGS_BYTES, max_buffer)?;
         // first_index is a u32, so every region must start below 2^32 indices.
@@ -202,7 +201,7 @@ impl Object {
         let mut indices = Vec::with_capacity(total);
         region_starts.push(0);
         for (region, strip) in regions.iter().enumerate() {
-            check_indices(region, strip, vertex_count, topology)?;
+            check_indices(region, strip, vertex_count, topology == Topology::Strip)?;
             indices.extend_from_slice(strip);
             if topology == Topology::Strip {
                 indices.push(RESTART);
@@ -222,15 +221,6 @@ impl Object {
             .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE);
         let records = DrawRecords::new(&region_starts, &lengths, draws, first_instance);
 
-        let vertex_buffer = |label, pose: &[[f32; 3]]| {
-            device.create_buffer_init(&BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::cast_slice(pose),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-            })
-        };
-        let v0_buffer = vertex_buffer("morphlod V(0)", v0);
-        let v1_buffer = vertex_buffer("morphlod V(1)", v1);
         // wgpu cannot bind an empty index buffer; an object without regions gets one unused
         // index so its (empty) multi-draw stays valid.
         let index_contents: &[u32] = if indices.is_empty() { &[0] } else { &indices };
@@ -253,32 +243,33 @@ impl Object {
                 | wgpu::BufferUsages::COPY_DST
                 | wgpu::BufferUsages::COPY_SRC,
         });
-        let surface = surface
-            .map(|surface| GpuSurface::new(device, surface, v0.len()))
-            .transpose()?;
-        let render_pipeline = match (topology, surface.is_some()) {
+        let render_pipeline = match (topology, asset.has_surface()) {
             (Topology::Strip, false) => pipeline.strip().clone(),
             (Topology::List, false) => pipeline.list().clone(),
             (Topology::Strip, true) => pipeline.surface_strip().clone(),
             (Topology::List, true) => pipeline.surface_list().clone(),
         };
-        let pose = Pose::new(device, pipeline, vertex_count, surface);
+        let pose = Pose::new(device, pipeline, vertex_count, asset.surface());
         Ok(Object {
             pipeline: render_pipeline,
             topology,
             vertex_count,
-            v0: v0_buffer,
-            v1: v1_buffer,
+            shade: default_mode(asset.surface()),
+            asset,
             index_buffer,
             indirect_buffer,
             region_starts,
             lengths,
             draws,
-            shade: pose.default_mode(),
             mirror: IndexMirror::new(indices),
             records,
             pose,
         })
+    }
+
+    /// The shared vertex data the object draws.
+    pub fn asset(&self) -> &Arc<GpuAsset> {
+        &self.asset
     }
 
     /// Number of regions (strips of `S0`).
@@ -412,7 +403,7 @@ impl Object {
                 capacity,
             });
         }
-        check_indices(region, live, self.vertex_count, self.topology)?;
+        check_indices(region, live, self.vertex_count, self.strips())?;
 
         let kept = live.len().min(self.lengths[region] as usize);
         self.mirror.write(range.start, kept as u32, |i| live[i]);
@@ -463,7 +454,7 @@ impl Object {
             let old = self.lengths[region];
             if live > old {
                 let source = self.runtime_span(region, span.start, old..live);
-                check_indices(region, &indices[source], self.vertex_count, self.topology)?;
+                check_indices(region, &indices[source], self.vertex_count, self.strips())?;
             }
         }
         for range in &dirty.ranges {
@@ -479,7 +470,7 @@ impl Object {
             }
             let copied = clip(range.start..range.end, live);
             let source = self.runtime_span(region, span.start, copied);
-            check_indices(region, &indices[source], self.vertex_count, self.topology)?;
+            check_indices(region, &indices[source], self.vertex_count, self.strips())?;
         }
         // Apply pass: nothing below can fail.
         for range in &dirty.ranges {
@@ -557,7 +548,8 @@ impl Object {
         pipeline: &MorphPipeline,
         targets: &[Vec<[f32; 3]>],
     ) -> Result<(), GpuError> {
-        self.pose.set_targets(device, pipeline, targets, &[])
+        self.pose
+            .set_targets(device, pipeline, targets, &[], self.asset.surface())
     }
 
     /// As [`set_targets`](Self::set_targets), with each target's normal deltas (`normals`
@@ -571,7 +563,8 @@ impl Object {
         targets: &[Vec<[f32; 3]>],
         normals: &[Vec<[f32; 3]>],
     ) -> Result<(), GpuError> {
-        self.pose.set_targets(device, pipeline, targets, normals)
+        self.pose
+            .set_targets(device, pipeline, targets, normals, self.asset.surface())
     }
 
     /// Sets the pose at animation time `t` (clamped to `[0, 1]`; NaN is
@@ -625,7 +618,7 @@ impl Object {
 
     /// Whether the object was made with a surface (normals, UVs, material).
     pub fn has_surface(&self) -> bool {
-        self.pose.surface().is_some()
+        self.asset.has_surface()
     }
 
     /// Sets how far apart (in bytes of one buffer) two changed spans may lie and still be sent
@@ -663,7 +656,7 @@ impl Object {
         upload.uniform_bytes = pose.uniform_bytes;
         upload.offset_bytes = pose.offset_bytes;
         upload.offset_writes = pose.offset_writes;
-        upload.texture_bytes = pose.texture_bytes;
+        upload.texture_bytes = self.asset.upload(queue);
         upload
     }
 
@@ -675,13 +668,20 @@ impl Object {
     pub fn render(&self, pass: &mut (impl RenderCommands + ?Sized)) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, self.pose.bind_group());
-        pass.set_vertex_buffer(0, &self.v0);
-        pass.set_vertex_buffer(1, &self.v1);
-        if let Some(surface) = self.pose.surface() {
+        pass.set_vertex_buffer(0, self.asset.v0());
+        pass.set_vertex_buffer(1, self.asset.v1());
+        if let Some(surface) = self.asset.surface() {
             pass.set_vertex_buffer(2, &surface.buffer);
         }
         pass.set_index_buffer(&self.index_buffer, wgpu::IndexFormat::Uint32);
         pass.multi_draw_indexed_indirect(&self.indirect_buffer, 0, self.records.args.len() as u32);
+    }
+}
+
+impl Object {
+    /// Whether the object draws strips (where [`RESTART`] is a valid index).
+    fn strips(&self) -> bool {
+        self.topology == Topology::Strip
     }
 }
 
@@ -690,34 +690,5 @@ fn separator_slots(topology: Topology) -> u32 {
     match topology {
         Topology::Strip => 1,
         Topology::List => 0,
-    }
-}
-
-pub(super) fn check_size(what: &'static str, bytes: u64, max: u64) -> Result<(), GpuError> {
-    if bytes > max {
-        return Err(GpuError::BufferTooLarge { what, bytes, max });
-    }
-    Ok(())
-}
-
-fn check_indices(
-    region: usize,
-    indices: &[u32],
-    vertices: u32,
-    topology: Topology,
-) -> Result<(), GpuError> {
-    let restart_allowed = topology == Topology::Strip;
-    let bad = indices
-        .iter()
-        .position(|&i| i >= vertices && !(restart_allowed && i == RESTART));
-    match bad {
-        Some(position) => Err(GpuError::IndexOutOfRange {
-            region,
-            position,
-            index: indices[position],
-            vertices,
-            restart_allowed,
-        }),
-        None => Ok(()),
     }
 }

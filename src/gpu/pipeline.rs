@@ -6,8 +6,12 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// The WGSL source of the morph shader (`shaders/morph.wgsl`).
-pub const MORPH_WGSL: &str = include_str!("../../shaders/morph.wgsl");
+/// The WGSL source of the morph shader: `shaders/shade.wgsl` (the shading it shares with the
+/// crowd) followed by `shaders/morph.wgsl`.
+pub const MORPH_WGSL: &str = concat!(
+    include_str!("../../shaders/shade.wgsl"),
+    include_str!("../../shaders/morph.wgsl")
+);
 
 /// How fragments are coloured and lit.
 ///
@@ -35,7 +39,7 @@ pub enum ShadeMode {
 }
 
 impl ShadeMode {
-    fn shader_value(self) -> u32 {
+    pub(crate) fn shader_value(self) -> u32 {
         match self {
             ShadeMode::Faceted => 0,
             ShadeMode::StripColours => 1,

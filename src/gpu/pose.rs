@@ -4,12 +4,14 @@
 //! offset per vertex, uploaded as storage buffers), the surface (texture, sampler) and the
 //! bind group over all of them.
 
+use std::sync::Arc;
+
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
+use super::asset::TargetDeltas;
 use super::pipeline::{MorphPipeline, ShadeMode, Uniforms};
 use super::surface::GpuSurface;
 use super::GpuError;
-use crate::asset::MAX_TARGETS;
 use crate::morph::WeightTrack;
 
 /// The uniforms and morph targets of one object, with their GPU buffers.
@@ -25,7 +27,8 @@ pub(super) struct Pose {
     /// The same for the normal offsets (a zero buffer without a surface or normal deltas).
     normal_offset_buffer: wgpu::Buffer,
     targets: Targets,
-    surface: Option<GpuSurface>,
+    /// Whether the object's asset has a surface (normal deltas need one).
+    has_surface: bool,
     bind_group: wgpu::BindGroup,
 }
 
@@ -35,7 +38,6 @@ pub(super) struct PoseUpload {
     /// Position and normal offsets.
     pub(super) offset_bytes: u64,
     pub(super) offset_writes: usize,
-    pub(super) texture_bytes: u64,
 }
 
 impl Pose {
@@ -45,14 +47,14 @@ impl Pose {
         device: &wgpu::Device,
         pipeline: &MorphPipeline,
         vertex_count: u32,
-        surface: Option<GpuSurface>,
+        surface: Option<&GpuSurface>,
     ) -> Self {
         let mut uniforms = Uniforms::new();
         uniforms.encode_srgb = u32::from(pipeline.encodes_srgb());
-        if let Some(surface) = &surface {
+        if let Some(surface) = surface {
             uniforms.base_color = surface.base_color;
         }
-        uniforms.set_mode(default_mode(surface.as_ref()));
+        uniforms.set_mode(default_mode(surface));
         let uniform_buffer = device.create_buffer_init(&BufferInitDescriptor {
             label: Some("morphlod uniforms"),
             contents: bytemuck::bytes_of(&uniforms),
@@ -70,33 +72,29 @@ impl Pose {
                 &uniform_buffer,
                 &offset_buffer,
                 &normal_offset_buffer,
-                surface.as_ref(),
+                surface,
             ),
             uniform_buffer,
             offset_buffer,
             normal_offset_buffer,
             targets: Targets::default(),
-            surface,
+            has_surface: surface.is_some(),
         }
     }
 
-    /// The mode an object starts in.
-    pub(super) fn default_mode(&self) -> ShadeMode {
-        default_mode(self.surface.as_ref())
-    }
-
-    pub(super) fn surface(&self) -> Option<&GpuSurface> {
-        self.surface.as_ref()
-    }
-
-    fn rebind(&mut self, device: &wgpu::Device, pipeline: &MorphPipeline) {
+    fn rebind(
+        &mut self,
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        surface: Option<&GpuSurface>,
+    ) {
         self.bind_group = bind_group(
             device,
             pipeline,
             &self.uniform_buffer,
             &self.offset_buffer,
             &self.normal_offset_buffer,
-            self.surface.as_ref(),
+            surface,
         );
     }
 
@@ -104,8 +102,7 @@ impl Pose {
         &self.bind_group
     }
 
-    /// Writes the uniform block, the morph-target offsets and the texture when they changed
-    /// (the texture only the first time).
+    /// Writes the uniform block and the morph-target offsets when they changed.
     pub(super) fn upload(&mut self, queue: &wgpu::Queue) -> PoseUpload {
         let mut uniform_bytes = 0;
         if self.dirty {
@@ -128,12 +125,10 @@ impl Pose {
             }
             self.targets.dirty = false;
         }
-        let texture_bytes = self.surface.as_mut().map_or(0, |s| s.upload(queue));
         PoseUpload {
             uniform_bytes,
             offset_bytes,
             offset_writes,
-            texture_bytes,
         }
     }
 
@@ -149,64 +144,32 @@ impl Pose {
         self.dirty = true;
     }
 
+    /// Sets morph targets from deltas given by the caller (checked and uploaded as a
+    /// [`TargetDeltas`] of this object's own).
     pub(super) fn set_targets(
         &mut self,
         device: &wgpu::Device,
         pipeline: &MorphPipeline,
         targets: &[Vec<[f32; 3]>],
         normals: &[Vec<[f32; 3]>],
+        surface: Option<&GpuSurface>,
     ) -> Result<(), GpuError> {
         let vertices = self.vertex_count as usize;
-        if targets.len() > MAX_TARGETS {
-            return Err(GpuError::TargetCount {
-                targets: targets.len(),
-                max: MAX_TARGETS,
-            });
-        }
-        if !normals.is_empty() && (normals.len() != targets.len() || self.surface.is_none()) {
-            return Err(GpuError::InvalidParameter {
-                what: "normal deltas",
-                value: format!(
-                    "{} arrays for {} targets on an object {} a surface",
-                    normals.len(),
-                    targets.len(),
-                    if self.surface.is_some() {
-                        "with"
-                    } else {
-                        "without"
-                    }
-                ),
-                expected: "give none, or one per target on an object with a surface",
-            });
-        }
-        for (target, deltas) in targets.iter().chain(normals).enumerate() {
-            // Normal deltas are checked like the positions and named by their target.
-            let target = target % targets.len().max(1);
-            if deltas.len() != vertices {
-                return Err(GpuError::TargetLength {
-                    target,
-                    len: deltas.len(),
-                    vertices,
-                });
-            }
-            if let Some((vertex, &value)) = deltas
-                .iter()
-                .enumerate()
-                .find(|(_, d)| !d.iter().all(|c| c.is_finite()))
-            {
-                return Err(GpuError::NonFiniteDelta {
-                    target,
-                    vertex,
-                    value,
-                });
-            }
-        }
-        let bytes = (targets.len() * vertices * 12) as u64;
-        let limits = device.limits();
-        let max = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
-        super::object::check_size("morph-target", bytes, max)?;
+        let deltas = TargetDeltas::new(device, targets, normals, vertices, self.has_surface)?;
+        self.share_targets(device, pipeline, Arc::new(deltas), surface);
+        Ok(())
+    }
+
+    /// Sets the morph targets of a shared asset: the deltas stay the asset's, the object
+    /// holds its weights and the offsets it sums from them.
+    pub(super) fn share_targets(
+        &mut self,
+        device: &wgpu::Device,
+        pipeline: &MorphPipeline,
+        deltas: Arc<TargetDeltas>,
+        surface: Option<&GpuSurface>,
+    ) {
+        let vertices = self.vertex_count as usize;
         let offsets = |present: bool| {
             if present {
                 device.create_buffer(&wgpu::BufferDescriptor {
@@ -220,20 +183,19 @@ impl Pose {
                 no_targets(device)
             }
         };
-        let has_normals = !targets.is_empty() && !normals.is_empty();
-        self.offset_buffer = offsets(!targets.is_empty());
+        let has_targets = deltas.count > 0;
+        let has_normals = has_targets && !deltas.normals.is_empty();
+        self.offset_buffer = offsets(has_targets);
         self.normal_offset_buffer = offsets(has_normals);
-        self.rebind(device, pipeline);
+        self.rebind(device, pipeline, surface);
         let per_vertex = |present: bool| vec![[0.0; 3]; if present { vertices } else { 0 }];
         self.targets = Targets {
-            deltas: targets.iter().flatten().copied().collect(),
-            normal_deltas: normals.iter().flatten().copied().collect(),
-            weights: vec![0.0; targets.len()],
-            offsets: per_vertex(!targets.is_empty()),
+            weights: vec![0.0; deltas.count],
+            offsets: per_vertex(has_targets),
             normal_offsets: per_vertex(has_normals),
+            deltas: Some(deltas),
             dirty: false,
         };
-        Ok(())
     }
 
     pub(super) fn set_pose(&mut self, t: f32, track: Option<&WeightTrack>) -> Result<(), GpuError> {
@@ -321,10 +283,8 @@ pub(super) fn clamp_t(t: f32) -> Result<f32, GpuError> {
 /// (`shaders/morph.wgsl` says why the shader does not loop over them).
 #[derive(Default)]
 struct Targets {
-    /// Target k's delta for vertex i at `deltas[k n + i]`.
-    deltas: Vec<[f32; 3]>,
-    /// Target k's normal delta for vertex i at `normal_deltas[k n + i]` (empty without).
-    normal_deltas: Vec<[f32; 3]>,
+    /// The deltas (shared with the asset, or the object's own from `set_targets`).
+    deltas: Option<Arc<TargetDeltas>>,
     weights: Vec<f32>,
     /// `Σ_k weights[k] · deltas[k n + i]` for every vertex i (empty without targets).
     offsets: Vec<[f32; 3]>,
@@ -342,8 +302,11 @@ impl Targets {
             return;
         }
         self.weights.copy_from_slice(weights);
-        weighted_sum(&mut self.offsets, &self.deltas, weights);
-        weighted_sum(&mut self.normal_offsets, &self.normal_deltas, weights);
+        let Some(deltas) = &self.deltas else {
+            return;
+        };
+        weighted_sum(&mut self.offsets, &deltas.positions, weights);
+        weighted_sum(&mut self.normal_offsets, &deltas.normals, weights);
         self.dirty = true;
     }
 }
@@ -370,7 +333,7 @@ fn weighted_sum(sums: &mut [[f32; 3]], deltas: &[[f32; 3]], weights: &[f32]) {
 
 /// Textured when the surface has a texture, smooth with a surface without one, faceted
 /// without a surface.
-fn default_mode(surface: Option<&GpuSurface>) -> ShadeMode {
+pub(super) fn default_mode(surface: Option<&GpuSurface>) -> ShadeMode {
     match surface {
         Some(surface) if surface.textured => ShadeMode::Textured,
         Some(_) => ShadeMode::Smooth,

@@ -1,7 +1,6 @@
 //! An offscreen render target (colour + depth) and its readback into an image.
 
 use std::path::Path;
-use std::sync::mpsc;
 
 use super::{GpuError, Object};
 
@@ -167,21 +166,7 @@ impl RenderTarget {
         );
         queue.submit([encoder.finish()]);
 
-        let (sender, receiver) = mpsc::channel();
-        buffer.map_async(wgpu::MapMode::Read, .., move |result| {
-            // The receiver outlives the poll below; a failed send only means nobody waits.
-            let _ = sender.send(result);
-        });
-        device.poll(wgpu::PollType::wait_indefinitely())?;
-        match receiver.recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(error)) => return Err(GpuError::Map(error.to_string())),
-            Err(_) => {
-                return Err(GpuError::Map(
-                    "the map callback never ran after the device was polled".to_string(),
-                ))
-            }
-        }
+        super::readback::wait_mapped(device, &buffer)?;
         let mut pixels = Vec::with_capacity((row_bytes * self.height) as usize);
         {
             let view = buffer

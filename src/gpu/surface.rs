@@ -32,8 +32,10 @@ pub(super) struct GpuSurface {
     /// Whether the material has a texture (a 1x1 white one stands in otherwise).
     pub(super) textured: bool,
     texture: wgpu::Texture,
-    /// Decoded texels waiting for the first upload; `None` once uploaded.
-    pending: Option<image::RgbaImage>,
+    /// Decoded texels waiting for the first upload; `None` once uploaded. Behind a mutex
+    /// because the surface is shared ([`super::GpuAsset`]) and whichever user prepares first
+    /// uploads it.
+    pending: std::sync::Mutex<Option<image::RgbaImage>>,
 }
 
 impl GpuSurface {
@@ -62,11 +64,12 @@ impl GpuSurface {
         let interleaved = interleave(surface, vertex_count);
         let bytes: &[u8] = bytemuck::cast_slice(&interleaved);
         let limits = device.limits();
-        super::object::check_size("surface", bytes.len() as u64, limits.max_buffer_size)?;
+        super::checks::check_size("surface", bytes.len() as u64, limits.max_buffer_size)?;
         let buffer = device.create_buffer_init(&BufferInitDescriptor {
             label: Some("morphlod surface"),
             contents: bytes,
-            usage: wgpu::BufferUsages::VERTEX,
+            // STORAGE: a crowd pulls the attributes by vertex index (`shaders/crowd.wgsl`).
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
         });
 
         let (texels, sampler) = match &surface.material.texture {
@@ -101,13 +104,16 @@ impl GpuSurface {
             base_color,
             textured: surface.material.texture.is_some(),
             texture,
-            pending: Some(texels),
+            pending: std::sync::Mutex::new(Some(texels)),
         })
     }
 
     /// Uploads the texture the first time; returns the bytes written (0 afterwards).
-    pub(super) fn upload(&mut self, queue: &wgpu::Queue) -> u64 {
-        let Some(texels) = self.pending.take() else {
+    pub(super) fn upload(&self, queue: &wgpu::Queue) -> u64 {
+        // A poisoned lock only means another thread panicked while uploading; the texels
+        // are still whatever it left.
+        let mut pending = self.pending.lock().unwrap_or_else(|p| p.into_inner());
+        let Some(texels) = pending.take() else {
             return 0;
         };
         queue.write_texture(
@@ -126,6 +132,14 @@ impl GpuSurface {
             extent(&texels),
         );
         texels.as_raw().len() as u64
+    }
+}
+
+impl GpuSurface {
+    /// GPU bytes: the attribute buffer and the texture (RGBA8, one level).
+    pub(super) fn gpu_bytes(&self) -> u64 {
+        let size = self.texture.size();
+        self.buffer.size() + 4 * u64::from(size.width) * u64::from(size.height)
     }
 }
 

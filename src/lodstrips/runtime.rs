@@ -129,6 +129,21 @@ impl StripsState {
         &self.region_offsets
     }
 
+    /// Bytes this state holds on the heap (its buffers' capacities): what one more instance
+    /// of a model costs, which a crowd's memory budget adds up.
+    pub fn heap_bytes(&self) -> usize {
+        let words = self.region_offsets.capacity()
+            + self.indices.capacity()
+            + self.lens.capacity()
+            + self.dirty_lo.capacity()
+            + self.dirty_hi.capacity()
+            + self.dirty_strips.capacity()
+            + self.len_strips.capacity()
+            + self.group_strips.capacity()
+            + self.anc.capacity();
+        words * 4 + self.len_changed.capacity() + self.scratch.capacity() * size_of::<usize>()
+    }
+
     /// Total live indices over all strips.
     pub fn index_count(&self) -> usize {
         self.lens.iter().map(|&l| l as usize).sum()

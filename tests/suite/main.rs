@@ -8,7 +8,7 @@
 //! A new area goes here as `mod area;`; a new top-level tests/*.rs file is a binary of its own.
 
 #[path = "../common/mod.rs"]
-use crate::common;
+mod common;
 
 mod asset_file;
 mod asset_golden;
@@ -26,6 +26,8 @@ mod simplify_quality;
 mod soup;
 mod supermesh;
 
+#[cfg(feature = "gpu")]
+mod crowd;
 #[cfg(feature = "gpu")]
 mod gpu_buffers;
 #[cfg(feature = "gpu")]

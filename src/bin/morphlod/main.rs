@@ -188,6 +188,14 @@ struct BenchArgs {
     /// a file that would need more is refused before it is decoded.
     #[arg(long = "memory-budget", value_name = "MB", default_value_t = DEFAULT_MAX_BYTES >> 20)]
     memory_budget: u64,
+    /// Instead of the sweeps, a crowd of N instances on a grid (LOD by 1 px of screen error
+    /// and full detail), each at its own phase; `--frames` frames per mode, 1920x1080 unless
+    /// `--size` is given, `--json` writes the report.
+    #[arg(long, value_name = "N")]
+    crowd: Option<u32>,
+    /// Render frames per loop of the animation in the crowd bench.
+    #[arg(long, default_value_t = 120)]
+    period: usize,
 }
 
 #[derive(Args)]
@@ -827,6 +835,9 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     // The model holds what the runtime needs of the sequences; the bench reads the poses only.
     asset.release_frames();
     let context = Context::headless().map_err(|e| e.to_string())?;
+    if let Some(instances) = args.crowd {
+        return crowd_bench(args, instances, &context, &asset, model);
+    }
     let info = context.adapter_info();
     println!(
         "bench on {} ({:?}, {:?}): {} frames per sweep, {}x{} target",
@@ -847,6 +858,33 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     if let Some(path) = &args.plot {
         plot::write_plot(&report, path)?;
         println!("plot written to {}", path.display());
+    }
+    Ok(())
+}
+
+/// `bench --crowd N`: the crowd benchmark ([`morphlod::gpu::run_crowd_bench`]).
+fn crowd_bench(
+    args: &BenchArgs,
+    instances: u32,
+    context: &Context,
+    asset: &Asset,
+    model: Arc<DeformingModel>,
+) -> Result<(), String> {
+    let size_given = args.size != 512;
+    let options = morphlod::gpu::CrowdBenchOptions {
+        instances,
+        frames: args.frames,
+        period: args.period,
+        width: if size_given { args.size } else { 1920 },
+        height: if size_given { args.size } else { 1080 },
+        ..Default::default()
+    };
+    let report = morphlod::gpu::run_crowd_bench(context, asset, model, &options)
+        .map_err(|e| e.to_string())?;
+    print!("{}", report.summary());
+    if let Some(path) = &args.json {
+        std::fs::write(path, report.to_json()).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("report written to {}", path.display());
     }
     Ok(())
 }

@@ -1,0 +1,276 @@
+//! What every instance of one asset shares on the GPU, uploaded once: the poses `V(0)` and
+//! `V(1)`, the surface (normals, UVs, colours, the base-colour texture) and the morph targets'
+//! position and normal deltas. [`Object`](super::Object)s and a [`Crowd`](super::Crowd) hold it
+//! through an [`Arc`], so N instances of a body cost one copy of its vertex data, and only their
+//! index slots, draw records and per-instance data are theirs.
+//!
+//! The buffers are made for both ways of drawing: the poses and the surface are vertex buffers
+//! (an [`Object`](super::Object) reads them as attributes) and storage buffers (a crowd pulls
+//! vertices by index, see `shaders/crowd.wgsl`); the target deltas are a storage buffer the
+//! crowd's vertex stage reads, and their CPU copy is what an [`Object`](super::Object) sums
+//! with its weights.
+
+use std::sync::Arc;
+
+use wgpu::util::{BufferInitDescriptor, DeviceExt};
+
+use super::checks::check_size;
+use super::surface::GpuSurface;
+use super::GpuError;
+use crate::asset::{Asset, Surface, MAX_TARGETS};
+use crate::morph::WeightTrack;
+
+/// One asset's vertex data on one device, shared by every object and crowd instance drawing it.
+pub struct GpuAsset {
+    /// The device the buffers live on (an instance on another device is refused).
+    device: wgpu::Device,
+    vertex_count: u32,
+    v0: wgpu::Buffer,
+    v1: wgpu::Buffer,
+    surface: Option<GpuSurface>,
+    targets: Option<Arc<TargetDeltas>>,
+    /// The weight animation of an asset made from one (its targets' weights over time).
+    track: Option<WeightTrack>,
+}
+
+/// The morph targets of an asset: CPU deltas (what an object sums on the CPU) and the same
+/// deltas on the GPU (what the crowd's vertex stage sums).
+pub(super) struct TargetDeltas {
+    pub(super) count: usize,
+    /// Target k's delta for vertex i at `positions[k n + i]`.
+    pub(super) positions: Vec<[f32; 3]>,
+    /// Target k's normal delta for vertex i at `normals[k n + i]` (empty without).
+    pub(super) normals: Vec<[f32; 3]>,
+    pub(super) position_buffer: wgpu::Buffer,
+    /// A 16-byte zero buffer without normal deltas.
+    pub(super) normal_buffer: wgpu::Buffer,
+}
+
+impl GpuAsset {
+    /// Uploads two poses (one vertex each per mesh vertex, at least 1 and fewer than
+    /// `0xFFFFFFFF` vertices) and, when given, a surface (one finite entry per vertex:
+    /// [`GpuError::SurfaceLength`], [`GpuError::NonFiniteAttribute`]; a texture that decodes:
+    /// [`GpuError::TextureDecode`]).
+    pub fn new(
+        device: &wgpu::Device,
+        (v0, v1): (&[[f32; 3]], &[[f32; 3]]),
+        surface: Option<&Surface>,
+    ) -> Result<GpuAsset, GpuError> {
+        if v0.len() != v1.len() {
+            return Err(GpuError::PoseSizeMismatch {
+                v0: v0.len(),
+                v1: v1.len(),
+            });
+        }
+        // RESTART itself must never be a vertex number.
+        let max_vertices = super::RESTART as usize;
+        if v0.is_empty() || v0.len() >= max_vertices {
+            return Err(GpuError::VertexCount {
+                count: v0.len(),
+                max: max_vertices - 1,
+            });
+        }
+        let limits = device.limits();
+        let pose_max = limits
+            .max_buffer_size
+            .min(limits.max_storage_buffer_binding_size);
+        check_size("vertex", v0.len() as u64 * 12, pose_max)?;
+        let surface = surface
+            .map(|surface| GpuSurface::new(device, surface, v0.len()))
+            .transpose()?;
+        let pose_buffer = |label, pose: &[[f32; 3]]| {
+            device.create_buffer_init(&BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(pose),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
+            })
+        };
+        Ok(GpuAsset {
+            device: device.clone(),
+            vertex_count: v0.len() as u32,
+            v0: pose_buffer("morphlod V(0)", v0),
+            v1: pose_buffer("morphlod V(1)", v1),
+            surface,
+            targets: None,
+            track: None,
+        })
+    }
+
+    /// `asset`'s poses, surface and morph targets (position and normal deltas) with its weight
+    /// track: what [`super::LodObject`] and a crowd draw an asset with. A track that does not
+    /// drive exactly the asset's targets is [`GpuError::TrackMismatch`].
+    pub fn from_asset(device: &wgpu::Device, asset: &Asset) -> Result<Arc<GpuAsset>, GpuError> {
+        let poses = (asset.v0.as_slice(), asset.v1.as_slice());
+        let surface = asset.surface.as_ref();
+        let mut gpu = GpuAsset::new(device, poses, surface)?;
+        if let Some(blend) = &asset.blend {
+            if blend.track.targets() != blend.deltas.len() {
+                return Err(GpuError::TrackMismatch {
+                    track: blend.track.targets(),
+                    targets: blend.deltas.len(),
+                });
+            }
+            let normals = surface.map_or(&[][..], |s| s.normal_deltas.as_slice());
+            gpu.targets = Some(Arc::new(TargetDeltas::new(
+                device,
+                &blend.deltas,
+                normals,
+                gpu.vertex_count as usize,
+                gpu.surface.is_some(),
+            )?));
+            gpu.track = Some(blend.track.clone());
+        }
+        Ok(Arc::new(gpu))
+    }
+
+    /// Number of vertices of each pose.
+    pub fn vertex_count(&self) -> u32 {
+        self.vertex_count
+    }
+
+    /// Whether the asset has a surface (normals, UVs, material).
+    pub fn has_surface(&self) -> bool {
+        self.surface.is_some()
+    }
+
+    /// Number of morph targets (0 without).
+    pub fn target_count(&self) -> usize {
+        self.targets.as_ref().map_or(0, |t| t.count)
+    }
+
+    /// The weight track of an asset made from a weight animation.
+    pub fn track(&self) -> Option<&WeightTrack> {
+        self.track.as_ref()
+    }
+
+    /// Whether the buffers live on `device`. wgpu numbers devices per `wgpu::Instance`, so this
+    /// tells apart the devices of one instance, not devices of two instances.
+    pub fn is_on(&self, device: &wgpu::Device) -> bool {
+        self.device == *device
+    }
+
+    /// GPU bytes the asset holds: poses, surface buffer and texture, target deltas.
+    pub fn gpu_bytes(&self) -> u64 {
+        let targets = self
+            .targets
+            .as_ref()
+            .map_or(0, |t| t.position_buffer.size() + t.normal_buffer.size());
+        let surface = self.surface.as_ref().map_or(0, GpuSurface::gpu_bytes);
+        self.v0.size() + self.v1.size() + surface + targets
+    }
+
+    pub(super) fn v0(&self) -> &wgpu::Buffer {
+        &self.v0
+    }
+
+    pub(super) fn v1(&self) -> &wgpu::Buffer {
+        &self.v1
+    }
+
+    pub(super) fn surface(&self) -> Option<&GpuSurface> {
+        self.surface.as_ref()
+    }
+
+    pub(super) fn targets(&self) -> Option<&Arc<TargetDeltas>> {
+        self.targets.as_ref()
+    }
+
+    /// Uploads the texture the first time any user of the asset prepares; the bytes written
+    /// (0 afterwards).
+    pub(super) fn upload(&self, queue: &wgpu::Queue) -> u64 {
+        self.surface.as_ref().map_or(0, |s| s.upload(queue))
+    }
+}
+
+impl TargetDeltas {
+    /// Checks and uploads `targets` (one delta per vertex each, finite, at most
+    /// [`MAX_TARGETS`]) and `normals` (none, or one array per target on an asset with a
+    /// surface).
+    pub(super) fn new(
+        device: &wgpu::Device,
+        targets: &[Vec<[f32; 3]>],
+        normals: &[Vec<[f32; 3]>],
+        vertices: usize,
+        has_surface: bool,
+    ) -> Result<TargetDeltas, GpuError> {
+        if targets.len() > MAX_TARGETS {
+            return Err(GpuError::TargetCount {
+                targets: targets.len(),
+                max: MAX_TARGETS,
+            });
+        }
+        if !normals.is_empty() && (normals.len() != targets.len() || !has_surface) {
+            return Err(GpuError::InvalidParameter {
+                what: "normal deltas",
+                value: format!(
+                    "{} arrays for {} targets on an object {} a surface",
+                    normals.len(),
+                    targets.len(),
+                    if has_surface { "with" } else { "without" }
+                ),
+                expected: "give none, or one per target on an object with a surface",
+            });
+        }
+        for (target, deltas) in targets.iter().chain(normals).enumerate() {
+            // Normal deltas are checked like the positions and named by their target.
+            let target = target % targets.len().max(1);
+            if deltas.len() != vertices {
+                return Err(GpuError::TargetLength {
+                    target,
+                    len: deltas.len(),
+                    vertices,
+                });
+            }
+            if let Some((vertex, &value)) = deltas
+                .iter()
+                .enumerate()
+                .find(|(_, d)| !d.iter().all(|c| c.is_finite()))
+            {
+                return Err(GpuError::NonFiniteDelta {
+                    target,
+                    vertex,
+                    value,
+                });
+            }
+        }
+        let bytes = (targets.len() * vertices * 12) as u64;
+        let limits = device.limits();
+        let max = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        check_size("morph-target", bytes, max)?;
+        let positions: Vec<[f32; 3]> = targets.iter().flatten().copied().collect();
+        let normals: Vec<[f32; 3]> = if targets.is_empty() {
+            Vec::new()
+        } else {
+            normals.iter().flatten().copied().collect()
+        };
+        Ok(TargetDeltas {
+            count: targets.len(),
+            position_buffer: storage_or_zero(device, "morphlod target deltas", &positions),
+            normal_buffer: storage_or_zero(device, "morphlod target normal deltas", &normals),
+            positions,
+            normals,
+        })
+    }
+}
+
+/// `values` in a read-only storage buffer, or a 16-byte zero buffer when there are none (a
+/// binding cannot be empty; WebGPU defines an out-of-range storage read to return a value from
+/// inside the buffer or zero, so every read gives 0).
+pub(super) fn storage_or_zero(
+    device: &wgpu::Device,
+    label: &'static str,
+    values: &[[f32; 3]],
+) -> wgpu::Buffer {
+    let contents: &[u8] = if values.is_empty() {
+        &[0; 16]
+    } else {
+        bytemuck::cast_slice(values)
+    };
+    device.create_buffer_init(&BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}

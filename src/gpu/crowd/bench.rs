@@ -1,0 +1,323 @@
+//! The crowd benchmark (`morphlod bench --crowd N`): N instances of one asset on a grid seen
+//! from above and in front, each playing the asset's animation at its own phase, drawn by one
+//! [`Crowd`] in one pass per frame; the same instances with LOD by screen error and at full
+//! detail, in the same run.
+//!
+//! Per frame it times the CPU `set`, `prepare` and the recording of the pass, and the GPU as
+//! submit + wait (the wall time from `queue.submit` to the end of `device.poll(wait)`: what a
+//! frame costs when the CPU waits for it; no timestamp queries, so it includes the submission),
+//! and counts bytes uploaded, triangles drawn and frame switches. Figures are for benchmarks,
+//! never for tests.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::{Mat4, Vec3};
+
+use super::{Crowd, CrowdError, InstanceId};
+use crate::asset::Asset;
+use crate::deform::{DeformingModel, Lod};
+use crate::gpu::camera::{fit_to_bounds, Projection};
+use crate::gpu::{Context, GpuAsset, RenderTarget};
+
+/// What the crowd benchmark runs.
+#[derive(Clone, Debug)]
+pub struct CrowdBenchOptions {
+    /// Instances on the grid.
+    pub instances: u32,
+    /// Frames measured per mode (after 3 warm-up frames).
+    pub frames: usize,
+    /// Render frames per loop of the animation (120: one loop per 2 s at 60 fps).
+    pub period: usize,
+    /// Offscreen target size.
+    pub width: u32,
+    pub height: u32,
+    /// Screen-space error of the LOD mode, in pixels.
+    pub pixels: f32,
+}
+
+impl Default for CrowdBenchOptions {
+    fn default() -> Self {
+        CrowdBenchOptions {
+            instances: 100,
+            frames: 60,
+            period: 120,
+            width: 1920,
+            height: 1080,
+            pixels: 1.0,
+        }
+    }
+}
+
+/// Mean and 95th percentile of one figure over the measured frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stat {
+    pub mean: f64,
+    pub p95: f64,
+}
+
+impl Stat {
+    fn of(mut values: Vec<f64>) -> Stat {
+        if values.is_empty() {
+            return Stat::default();
+        }
+        values.sort_by(f64::total_cmp);
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        let at = ((values.len() as f64 * 0.95).ceil() as usize).clamp(1, values.len()) - 1;
+        Stat {
+            mean,
+            p95: values[at],
+        }
+    }
+}
+
+/// Per-frame figures of one mode.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ModeFigures {
+    /// `lod` (screen error) or `full` (full detail).
+    pub mode: &'static str,
+    /// Milliseconds.
+    pub set_ms: Stat,
+    pub prepare_ms: Stat,
+    pub record_ms: Stat,
+    /// Submit + wait, milliseconds.
+    pub gpu_ms: Stat,
+    pub uploaded_bytes: Stat,
+    pub writes: Stat,
+    pub triangles: Stat,
+    /// Instances whose frame changed.
+    pub frame_switches: Stat,
+}
+
+/// What [`run_crowd_bench`] measured.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CrowdBenchReport {
+    pub adapter: String,
+    pub instances: u32,
+    pub vertices: u32,
+    pub frames_sampled: usize,
+    /// How GPU time was taken.
+    pub gpu_timing: &'static str,
+    /// Host bytes per instance (runtime, lengths, record and block mirrors).
+    pub host_bytes_per_instance: f64,
+    /// GPU bytes per instance (index slots, record, block).
+    pub gpu_bytes_per_instance: f64,
+    /// GPU bytes of the shared asset.
+    pub shared_gpu_bytes: u64,
+    pub modes: Vec<ModeFigures>,
+}
+
+/// Runs the crowd benchmark of `asset` (with `model` made from it) on `ctx`.
+pub fn run_crowd_bench(
+    ctx: &Context,
+    asset: &Asset,
+    model: Arc<DeformingModel>,
+    options: &CrowdBenchOptions,
+) -> Result<CrowdBenchReport, CrowdError> {
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let gpu = GpuAsset::from_asset(device, asset)?;
+    let vertices = gpu.vertex_count();
+    let target = RenderTarget::new(device, options.width, options.height, wgpu::Color::BLACK)?;
+    let mut crowd = Crowd::new(
+        device,
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+    );
+    let id = crowd.add_asset(device, gpu, Arc::clone(&model), options.instances.max(1))?;
+
+    // The grid: columns along x, rows along z, one asset's size plus a tenth apart.
+    let both: Vec<[f32; 3]> = asset.v0.iter().chain(&asset.v1).copied().collect();
+    let (lo, hi) = crate::mesh::bounds(&both).ok_or(crate::gpu::GpuError::NoVertices)?;
+    let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
+    let size = hi - lo;
+    let spacing = size.max_element() * 1.1;
+    let side = (f64::from(options.instances).sqrt().ceil() as u32).max(1);
+    let grid_max = lo + Vec3::new(spacing * side as f32, size.y, spacing * side as f32);
+    let fov = 0.8;
+    let aspect = options.width as f32 / options.height as f32;
+    let camera = fit_to_bounds(
+        lo.into(),
+        grid_max.into(),
+        Vec3::new(0.0, -0.45, -1.0),
+        aspect,
+        Projection::Perspective { vertical_fov: fov },
+    )?;
+    let eye = camera.view.inverse().transform_point3(Vec3::ZERO);
+    crowd.set_view_proj(camera.view_proj());
+    let mut ids: Vec<InstanceId> = Vec::new();
+    let mut distances = Vec::new();
+    for i in 0..options.instances {
+        let place = Vec3::new(
+            (i % side) as f32 * spacing,
+            0.0,
+            (i / side) as f32 * spacing,
+        );
+        ids.push(crowd.add(id, Mat4::from_translation(place))?);
+        distances.push((place + (lo + hi) * 0.5 - eye).length());
+    }
+    let stats = crowd.stats();
+    let mut report = CrowdBenchReport {
+        adapter: format!(
+            "{} ({:?})",
+            ctx.adapter_info().name,
+            ctx.adapter_info().backend
+        ),
+        instances: options.instances,
+        vertices,
+        frames_sampled: model.frame_count(),
+        gpu_timing: "submit + wait",
+        gpu_bytes_per_instance: stats.instance_gpu_bytes as f64
+            / f64::from(options.instances.max(1)),
+        shared_gpu_bytes: stats.shared_gpu_bytes,
+        ..Default::default()
+    };
+
+    let warm = 3;
+    let mut moves = Vec::with_capacity(ids.len());
+    for mode in ["lod", "full"] {
+        let mut rows: [Vec<f64>; 8] = Default::default();
+        for f in 0..options.frames + warm {
+            let before: Vec<usize> = frames_of(&crowd, &ids);
+            moves.clear();
+            for (i, &instance) in ids.iter().enumerate() {
+                // Each instance at its own phase (a golden-ratio spread).
+                let phase = (i as f32 * 0.618_034).fract();
+                let t = (f as f32 / options.period.max(1) as f32 + phase).fract();
+                let lod = match mode {
+                    "full" => Lod::Steps(0),
+                    _ => {
+                        Lod::screen_error(options.pixels, distances[i], fov, options.height as f32)
+                    }
+                };
+                moves.push((instance, t, lod));
+            }
+            let a = Instant::now();
+            crowd.set(&moves)?;
+            let b = Instant::now();
+            let upload = crowd.prepare(device, queue);
+            let c = Instant::now();
+            let mut encoder = device.create_command_encoder(&Default::default());
+            {
+                let mut pass = target.begin_pass(&mut encoder);
+                crowd.render(&mut pass);
+            }
+            let commands = encoder.finish();
+            let d = Instant::now();
+            queue.submit([commands]);
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(crate::gpu::GpuError::from)?;
+            let e = Instant::now();
+            if f < warm {
+                continue;
+            }
+            let after = frames_of(&crowd, &ids);
+            let switches = before.iter().zip(&after).filter(|(p, q)| p != q).count();
+            let ms = |x: Instant, y: Instant| (y - x).as_secs_f64() * 1e3;
+            let values = [
+                ms(a, b),
+                ms(b, c),
+                ms(c, d),
+                ms(d, e),
+                upload.bytes as f64,
+                upload.writes as f64,
+                crowd.stats().triangles as f64,
+                switches as f64,
+            ];
+            for (row, value) in rows.iter_mut().zip(values) {
+                row.push(value);
+            }
+        }
+        let [set, prepare, record, gpu, bytes, writes, triangles, switches] = rows.map(Stat::of);
+        report.modes.push(ModeFigures {
+            mode,
+            set_ms: set,
+            prepare_ms: prepare,
+            record_ms: record,
+            gpu_ms: gpu,
+            uploaded_bytes: bytes,
+            writes,
+            triangles,
+            frame_switches: switches,
+        });
+    }
+    report.host_bytes_per_instance =
+        crowd.stats().instance_host_bytes as f64 / f64::from(options.instances.max(1));
+    Ok(report)
+}
+
+fn frames_of(crowd: &Crowd, ids: &[InstanceId]) -> Vec<usize> {
+    ids.iter()
+        .map(|&id| crowd.state(id).map_or(usize::MAX, |s| s.frame()))
+        .collect()
+}
+
+impl CrowdBenchReport {
+    /// A table: one row per mode, mean and p95 of every figure.
+    pub fn summary(&self) -> String {
+        let mut out = format!(
+            "crowd of {} x {} vertices ({} sampled frames) on {}; GPU time: {}\n\
+             per instance: {:.1} KB host, {:.1} KB GPU; shared asset: {:.1} MB GPU\n\
+             mode  set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      upload KB (p95)   writes  triangles  frame switches\n",
+            self.instances,
+            self.vertices,
+            self.frames_sampled,
+            self.adapter,
+            self.gpu_timing,
+            self.host_bytes_per_instance / 1e3,
+            self.gpu_bytes_per_instance / 1e3,
+            self.shared_gpu_bytes as f64 / 1e6,
+        );
+        for m in &self.modes {
+            let pair = |s: Stat| format!("{:7.2} ({:6.2})", s.mean, s.p95);
+            out += &format!(
+                "{:5} {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1}\n",
+                m.mode,
+                pair(m.set_ms),
+                pair(m.prepare_ms),
+                pair(m.record_ms),
+                pair(m.gpu_ms),
+                m.uploaded_bytes.mean / 1e3,
+                m.uploaded_bytes.p95 / 1e3,
+                m.writes.mean,
+                m.triangles.mean,
+                m.frame_switches.mean,
+            );
+        }
+        out
+    }
+
+    /// The report as one JSON object.
+    pub fn to_json(&self) -> String {
+        let stat = |s: Stat| serde_json::json!({ "mean": s.mean, "p95": s.p95 });
+        let modes: Vec<serde_json::Value> = self
+            .modes
+            .iter()
+            .map(|m| {
+                serde_json::json!({
+                    "mode": m.mode,
+                    "set_ms": stat(m.set_ms),
+                    "prepare_ms": stat(m.prepare_ms),
+                    "record_ms": stat(m.record_ms),
+                    "gpu_ms": stat(m.gpu_ms),
+                    "uploaded_bytes": stat(m.uploaded_bytes),
+                    "writes": stat(m.writes),
+                    "triangles": stat(m.triangles),
+                    "frame_switches": stat(m.frame_switches),
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "adapter": self.adapter,
+            "instances": self.instances,
+            "vertices": self.vertices,
+            "frames_sampled": self.frames_sampled,
+            "gpu_timing": self.gpu_timing,
+            "host_bytes_per_instance": self.host_bytes_per_instance,
+            "gpu_bytes_per_instance": self.gpu_bytes_per_instance,
+            "shared_gpu_bytes": self.shared_gpu_bytes,
+            "modes": modes,
+        })
+        .to_string()
+    }
+}

@@ -1,0 +1,890 @@
+//! A crowd: any number of instances of any number of assets, each instance at its own time,
+//! LOD, transform and colour, drawn with one `multi_draw_indexed_indirect` per asset.
+//!
+//! What is shared and what is not (`docs/DESIGN.md`, "Crowds"):
+//! * per asset, once: the [`GpuAsset`] (poses, surface, texture, target deltas), the
+//!   [`DeformingModel`] (every frame's change lists), one index buffer with `capacity` ×
+//!   slots-per-instance slots, one indirect buffer with one record per slot, one instance
+//!   buffer with one [`InstanceBlock`](pipeline) per slot, and one bind group;
+//! * per instance: its [`DeformingState`] (the runtime, which holds the current strips), the
+//!   lengths the GPU holds, one record and one 192-byte block. No index mirror: the runtime's
+//!   dirty log says what to upload.
+//!
+//! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon);
+//! [`prepare`](Crowd::prepare) gathers per asset the index patches of every moved instance
+//! (O(changed indices), in parallel), uploads them with one write and applies them with one
+//! compute dispatch, and writes the changed records and instance blocks as one contiguous
+//! range each; [`render`](Crowd::render) binds each asset and issues its one multi-draw. The
+//! caller owns device, queue and pass, as with an [`Object`](super::Object).
+//!
+//! The instance of a vertex reaches the shader through `base_vertex` (slot × vertex count),
+//! not `first_instance`, which lavapipe drops in indirect draws (`shaders/crowd.wgsl`). Weight
+//! animations are summed on the GPU from 8 weights per instance (the largest of the frame):
+//! exact for assets of at most 8 targets, see [`WEIGHT_SLOTS`].
+
+mod bench;
+mod pipeline;
+mod slots;
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use thiserror::Error;
+use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
+
+pub use self::bench::{run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, ModeFigures, Stat};
+use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, SCATTER_GROUP};
+pub use self::pipeline::{CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
+use self::slots::SlotLayout;
+use super::asset::GpuAsset;
+use super::commands::RenderCommands;
+use super::pose::{clamp_t, default_mode};
+use super::records::ARGS_BYTES;
+use super::GpuError;
+use crate::deform::{DeformingModel, DeformingState, Lod, SetError};
+
+/// Why a crowd call was refused; nothing changed.
+#[derive(Debug, Error)]
+pub enum CrowdError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// A NaN time or LOD.
+    #[error(transparent)]
+    Set(#[from] SetError),
+    /// An asset number this crowd never gave out.
+    #[error("asset {0} is not in this crowd; use the AssetId that add_asset returned")]
+    UnknownAsset(u32),
+    /// An instance that was removed, or never existed.
+    #[error("instance {0:?} is not in the crowd (removed, or of another crowd)")]
+    UnknownInstance(InstanceId),
+    /// Every slot of the asset holds an instance.
+    #[error("asset {asset} holds its capacity of {capacity} instances; remove one or add the asset again with a larger capacity")]
+    Full { asset: u32, capacity: u32 },
+    /// A transform or colour with a NaN or infinite entry.
+    #[error("the {what} {value} is not finite; pass finite numbers")]
+    NonFinite { what: &'static str, value: String },
+    /// A model that was not made from the GPU asset's poses.
+    #[error(
+        "the model has {model} vertices but the GPU asset {asset}; make both from the same asset"
+    )]
+    ModelMismatch { model: usize, asset: u32 },
+    /// A capacity of 0, or one whose slots or vertex numbers do not fit the device or `u32`.
+    #[error("a capacity of {capacity} instances does not fit: {why}")]
+    Capacity { capacity: u32, why: String },
+}
+
+/// An asset of a crowd.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct AssetId(u32);
+
+/// An instance of a crowd: its asset, its slot, and the slot's generation (a removed
+/// instance's id stays invalid when the slot is reused).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct InstanceId {
+    asset: u32,
+    slot: u32,
+    generation: u32,
+}
+
+impl InstanceId {
+    /// The instance's slot in its asset's buffers (index slots `slot × per_instance ..`, record
+    /// `slot`, instance block `slot`).
+    pub fn slot(&self) -> u32 {
+        self.slot
+    }
+
+    /// Its asset.
+    pub fn asset(&self) -> AssetId {
+        AssetId(self.asset)
+    }
+}
+
+/// What one [`Crowd::prepare`] sent to the GPU.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CrowdUpload {
+    /// Index slots patched (by the scatter), over all assets.
+    pub patches: u64,
+    /// Bytes written: patches (8 per patch, padded to whole workgroups), new instances' `S0`,
+    /// records, instance blocks, the scene block and textures.
+    pub bytes: u64,
+    /// `queue.write_buffer` and `write_texture` calls.
+    pub writes: usize,
+    /// Scatter dispatches (one per asset with patches; more when a frame's patches pass a
+    /// binding's size limit).
+    pub dispatches: usize,
+}
+
+impl CrowdUpload {
+    /// Writes `bytes` at `offset` of `buffer` and counts them.
+    fn write(&mut self, queue: &wgpu::Queue, buffer: &wgpu::Buffer, offset: u64, bytes: &[u8]) {
+        if !bytes.is_empty() {
+            queue.write_buffer(buffer, offset, bytes);
+            self.bytes += bytes.len() as u64;
+            self.writes += 1;
+        }
+    }
+}
+
+/// Figures of a crowd, for budgets and benchmarks.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CrowdStats {
+    pub instances: usize,
+    /// Triangles the instances draw.
+    pub triangles: usize,
+    /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
+    /// summed over assets' slots in use.
+    pub instance_gpu_bytes: u64,
+    /// GPU bytes shared per asset (the [`GpuAsset`]s), summed.
+    pub shared_gpu_bytes: u64,
+    /// Host bytes the instances hold: runtimes, GPU-side lengths, and their record and block
+    /// mirrors.
+    pub instance_host_bytes: u64,
+}
+
+/// Instances of several assets drawn together: `add`/`remove` at run time, `set` per frame,
+/// `prepare`, `render`.
+pub struct Crowd {
+    pipeline: CrowdPipeline,
+    scene: SceneBlock,
+    scene_buffer: wgpu::Buffer,
+    scene_dirty: bool,
+    /// What assets without a texture bind: a white texel and a sampler.
+    white: (wgpu::Texture, wgpu::TextureView, wgpu::Sampler),
+    white_pending: bool,
+    assets: Vec<CrowdAsset>,
+}
+
+/// One asset of a crowd and its instances.
+struct CrowdAsset {
+    gpu: Arc<GpuAsset>,
+    model: Arc<DeformingModel>,
+    layout: SlotLayout,
+    capacity: u32,
+    index_buffer: wgpu::Buffer,
+    indirect_buffer: wgpu::Buffer,
+    instance_buffer: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    /// The patch list's GPU buffer and the scatter's bind group over it; grown on demand.
+    patch_buffer: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// Instance of each slot (`None`: free).
+    members: Vec<Option<Member>>,
+    /// Generation of each slot, bumped when its instance is removed.
+    generations: Vec<u32>,
+    /// Free slots, reused lowest first.
+    free: Vec<u32>,
+    /// Records drawn: one past the highest slot in use.
+    drawn: u32,
+    records: Vec<DrawIndexedIndirectArgs>,
+    blocks: Vec<InstanceBlock>,
+    dirty_records: Span,
+    dirty_blocks: Span,
+    /// Scratch of prepare: the frame's patches.
+    patches: Vec<[u32; 2]>,
+}
+
+/// One instance: its runtime and what its slots on the GPU hold.
+struct Member {
+    state: DeformingState,
+    /// Live length of every region as the GPU holds it.
+    uploaded: Vec<u32>,
+    /// A move asked by `set`, applied by its parallel pass.
+    pending: Option<(f32, Lod)>,
+    /// Moved since the last prepare: its dirty log has not been uploaded.
+    moved: bool,
+    /// Added since the last prepare: its slots need `S0`.
+    fresh: bool,
+}
+
+impl Member {
+    /// Heap bytes of the instance: its runtime and lengths, and itself.
+    fn heap_bytes(&self) -> usize {
+        size_of::<Member>() + self.state.heap_bytes() + self.uploaded.capacity() * 4
+    }
+}
+
+/// A range of slots changed since the last upload (empty: `start >= end`).
+#[derive(Clone, Copy, Debug)]
+struct Span {
+    start: u32,
+    end: u32,
+}
+
+impl Span {
+    const EMPTY: Span = Span {
+        start: u32::MAX,
+        end: 0,
+    };
+
+    fn add(&mut self, slot: u32) {
+        self.start = self.start.min(slot);
+        self.end = self.end.max(slot + 1);
+    }
+
+    fn take(&mut self) -> Option<std::ops::Range<u32>> {
+        let span = std::mem::replace(self, Span::EMPTY);
+        (span.start < span.end).then_some(span.start..span.end)
+    }
+}
+
+impl Crowd {
+    /// An empty crowd drawing into passes of `color_format` and `depth_format` (as
+    /// [`super::MorphPipeline::new`]), back faces culled.
+    pub fn new(
+        device: &wgpu::Device,
+        color_format: wgpu::TextureFormat,
+        depth_format: Option<wgpu::TextureFormat>,
+    ) -> Crowd {
+        let pipeline =
+            CrowdPipeline::new(device, color_format, depth_format, Some(wgpu::Face::Back));
+        let uniforms = super::Uniforms::new();
+        let scene = SceneBlock {
+            view_proj: uniforms.view_proj,
+            light: uniforms.light,
+            encode_srgb: u32::from(!color_format.is_srgb()),
+            _pad: [0; 3],
+        };
+        let scene_buffer = device.create_buffer_init(&BufferInitDescriptor {
+            label: Some("crowd scene"),
+            contents: bytemuck::bytes_of(&scene),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let white = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("crowd white texel"),
+            size: wgpu::Extent3d {
+                width: 1,
+                height: 1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let view = white.create_view(&Default::default());
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor::default());
+        Crowd {
+            pipeline,
+            scene,
+            scene_buffer,
+            scene_dirty: false,
+            white: (white, view, sampler),
+            white_pending: true,
+            assets: Vec::new(),
+        }
+    }
+
+    /// Adds an asset with room for `capacity` instances: its index buffer (`capacity` × the
+    /// slots of `S0` plus one separator per strip), indirect and instance buffers are made
+    /// now. `model` must be made from the asset `gpu` was uploaded from
+    /// ([`CrowdError::ModelMismatch`]), `gpu` on `device` ([`GpuError::OtherDevice`]).
+    pub fn add_asset(
+        &mut self,
+        device: &wgpu::Device,
+        gpu: Arc<GpuAsset>,
+        model: Arc<DeformingModel>,
+        capacity: u32,
+    ) -> Result<AssetId, CrowdError> {
+        if !gpu.is_on(device) {
+            return Err(GpuError::OtherDevice.into());
+        }
+        let n = gpu.vertex_count();
+        if model.layout().vertex_count() != n as usize {
+            return Err(CrowdError::ModelMismatch {
+                model: model.layout().vertex_count(),
+                asset: n,
+            });
+        }
+        let layout = SlotLayout::new(&model);
+        let per = u64::from(layout.per_instance().max(1));
+        let limits = device.limits();
+        let refuse = |why: String| Err(CrowdError::Capacity { capacity, why });
+        if capacity == 0 {
+            return refuse("give room for at least one instance".into());
+        }
+        // base_vertex (an i32) is slot × n, and slot × n + index is the vertex_index (a u32).
+        if u64::from(capacity) * u64::from(n) > i32::MAX as u64 {
+            return refuse(format!(
+                "{n} vertices times the capacity passes 2^31 (base_vertex)"
+            ));
+        }
+        let index_bytes = u64::from(capacity) * per * 4;
+        if u64::from(capacity) * per > u64::from(u32::MAX)
+            || index_bytes
+                > limits
+                    .max_buffer_size
+                    .min(limits.max_storage_buffer_binding_size)
+        {
+            return refuse(format!(
+                "{index_bytes} bytes of index slots pass the device's buffer limit"
+            ));
+        }
+        let block_bytes = u64::from(capacity) * size_of::<InstanceBlock>() as u64;
+        if block_bytes > limits.max_storage_buffer_binding_size {
+            return refuse(format!(
+                "{block_bytes} bytes of instance blocks pass the device's binding limit"
+            ));
+        }
+
+        let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("crowd indices"),
+            size: index_bytes,
+            // STORAGE: the scatter writes the patches; COPY_SRC: tests read the slots back.
+            usage: wgpu::BufferUsages::INDEX
+                | wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        // Zeroed records draw nothing (index and instance counts 0).
+        let indirect_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("crowd records"),
+            size: u64::from(capacity) * ARGS_BYTES,
+            usage: wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let instance_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("crowd instances"),
+            size: block_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mode = default_mode(gpu.surface());
+        let mesh = MeshBlock {
+            base_color: gpu.surface().map_or([1.0; 4], |s| s.base_color),
+            vertex_count: n,
+            mode: mode.shader_value(),
+            _pad: [0; 2],
+        };
+        let mesh_buffer = device.create_buffer_init(&BufferInitDescriptor {
+            label: Some("crowd mesh"),
+            contents: bytemuck::bytes_of(&mesh),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let bind_group = self.bind_group(device, &gpu, &mesh_buffer, &instance_buffer);
+        let id = self.assets.len() as u32;
+        self.assets.push(CrowdAsset {
+            gpu,
+            model,
+            layout,
+            capacity,
+            index_buffer,
+            indirect_buffer,
+            instance_buffer,
+            bind_group,
+            patch_buffer: None,
+            members: (0..capacity).map(|_| None).collect(),
+            generations: vec![0; capacity as usize],
+            free: (0..capacity).rev().collect(),
+            drawn: 0,
+            records: vec![DrawIndexedIndirectArgs::default(); capacity as usize],
+            blocks: vec![InstanceBlock::new(glam::Mat4::IDENTITY); capacity as usize],
+            dirty_records: Span::EMPTY,
+            dirty_blocks: Span::EMPTY,
+            patches: Vec::new(),
+        });
+        Ok(AssetId(id))
+    }
+
+    fn bind_group(
+        &self,
+        device: &wgpu::Device,
+        gpu: &GpuAsset,
+        mesh: &wgpu::Buffer,
+        instances: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let zero = || super::asset::storage_or_zero(device, "crowd zero", &[]);
+        let (deltas, normal_deltas) = match gpu.targets() {
+            Some(t) => (t.position_buffer.clone(), t.normal_buffer.clone()),
+            None => (zero(), zero()),
+        };
+        let surface = gpu.surface();
+        let attributes = surface.map_or_else(zero, |s| s.buffer.clone());
+        let (view, sampler) = match surface {
+            Some(s) => (&s.view, &s.sampler),
+            None => (&self.white.1, &self.white.2),
+        };
+        let buffers = [
+            &self.scene_buffer,
+            mesh,
+            instances,
+            gpu.v0(),
+            gpu.v1(),
+            &deltas,
+            &attributes,
+            &normal_deltas,
+        ];
+        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 8,
+            resource: wgpu::BindingResource::TextureView(view),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 9,
+            resource: wgpu::BindingResource::Sampler(sampler),
+        });
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("crowd asset"),
+            layout: &self.pipeline.layout,
+            entries: &entries,
+        })
+    }
+
+    /// Adds an instance of `asset` at full detail, time 0, with transform `model` (finite),
+    /// in the lowest free slot; drawn from the next prepare.
+    pub fn add(&mut self, asset: AssetId, model: glam::Mat4) -> Result<InstanceId, CrowdError> {
+        check_finite("transform", &model.to_cols_array())?;
+        let a = self
+            .assets
+            .get_mut(asset.0 as usize)
+            .ok_or(CrowdError::UnknownAsset(asset.0))?;
+        let slot = a.free.pop().ok_or(CrowdError::Full {
+            asset: asset.0,
+            capacity: a.capacity,
+        })?;
+        let state = DeformingState::new(&a.model);
+        let uploaded = a.layout.s0_lengths();
+        a.records[slot as usize] = DrawIndexedIndirectArgs {
+            index_count: a.layout.record_count(&uploaded),
+            instance_count: 1,
+            first_index: slot * a.layout.per_instance(),
+            base_vertex: (slot * a.gpu.vertex_count()) as i32,
+            first_instance: 0,
+        };
+        a.blocks[slot as usize] = InstanceBlock::new(model);
+        a.dirty_records.add(slot);
+        a.dirty_blocks.add(slot);
+        a.members[slot as usize] = Some(Member {
+            state,
+            uploaded,
+            pending: None,
+            moved: false,
+            fresh: true,
+        });
+        a.drawn = a.drawn.max(slot + 1);
+        Ok(InstanceId {
+            asset: asset.0,
+            slot,
+            generation: a.generations[slot as usize],
+        })
+    }
+
+    /// Removes an instance: its record draws nothing from the next prepare and its slot is
+    /// reused by a later [`add`](Self::add); its id is refused from now on.
+    pub fn remove(&mut self, id: InstanceId) -> Result<(), CrowdError> {
+        let a = self.member_asset(id)?;
+        let slot = id.slot as usize;
+        a.members[slot] = None;
+        a.generations[slot] = a.generations[slot].wrapping_add(1);
+        a.records[slot] = DrawIndexedIndirectArgs::default();
+        a.dirty_records.add(id.slot);
+        // Lowest slot reused first: keeps the drawn records dense.
+        let at = a.free.partition_point(|&s| s > id.slot);
+        a.free.insert(at, id.slot);
+        while a.drawn > 0 && a.members[a.drawn as usize - 1].is_none() {
+            a.drawn -= 1;
+        }
+        Ok(())
+    }
+
+    /// The asset of a live instance, checked.
+    fn member_asset(&mut self, id: InstanceId) -> Result<&mut CrowdAsset, CrowdError> {
+        let a = self
+            .assets
+            .get_mut(id.asset as usize)
+            .ok_or(CrowdError::UnknownInstance(id))?;
+        let live = a.generations.get(id.slot as usize) == Some(&id.generation)
+            && a.members[id.slot as usize].is_some();
+        if live {
+            Ok(a)
+        } else {
+            Err(CrowdError::UnknownInstance(id))
+        }
+    }
+
+    /// Moves every instance of `moves` to its `(t, lod)` (as [`DeformingState::set`]: `t` and
+    /// LOD clamped, NaN refused), all in parallel, and sets its pose: `mix(V(0), V(1), t)`, or
+    /// for an asset with a weight animation the track's weights at `t` (the 8 largest, see
+    /// [`WEIGHT_SLOTS`]). Everything is checked first: on error nothing moved. An instance
+    /// named twice takes its last move.
+    pub fn set(&mut self, moves: &[(InstanceId, f32, Lod)]) -> Result<(), CrowdError> {
+        for &(id, t, lod) in moves {
+            let a = self.member_asset(id)?;
+            let k = a.model.frame_at(t)?;
+            a.model.resolve(k, lod)?;
+        }
+        for &(id, t, lod) in moves {
+            let a = &mut self.assets[id.asset as usize];
+            if let Some(member) = &mut a.members[id.slot as usize] {
+                member.pending = Some((t, lod));
+            }
+            a.dirty_blocks.add(id.slot);
+        }
+        for a in &mut self.assets {
+            let (model, track) = (&a.model, a.gpu.track());
+            a.members
+                .par_iter_mut()
+                .zip(a.blocks.par_iter_mut())
+                .for_each(|(member, block)| {
+                    let Some(member) = member else { return };
+                    let Some((t, lod)) = member.pending.take() else {
+                        return;
+                    };
+                    // Checked above: neither can fail.
+                    member.state.set(model, t, lod).expect("checked move");
+                    member.moved = true;
+                    let t = clamp_t(t).expect("checked time");
+                    match track {
+                        Some(track) => {
+                            let mut weights = Vec::with_capacity(track.targets());
+                            track.offsets_at(t, &mut weights);
+                            block.set_weights(&weights);
+                            block.t = 0.0;
+                        }
+                        None => block.t = t,
+                    }
+                });
+        }
+        Ok(())
+    }
+
+    /// Sets an instance's object-to-world transform (finite).
+    pub fn set_transform(&mut self, id: InstanceId, model: glam::Mat4) -> Result<(), CrowdError> {
+        check_finite("transform", &model.to_cols_array())?;
+        let a = self.member_asset(id)?;
+        a.blocks[id.slot as usize].set_model(model);
+        a.dirty_blocks.add(id.slot);
+        Ok(())
+    }
+
+    /// Sets an instance's colour (faceted and smooth modes; finite).
+    pub fn set_color(&mut self, id: InstanceId, color: [f32; 4]) -> Result<(), CrowdError> {
+        check_finite("colour", &color)?;
+        let a = self.member_asset(id)?;
+        a.blocks[id.slot as usize].color = color;
+        a.dirty_blocks.add(id.slot);
+        Ok(())
+    }
+
+    /// Sets projection * view for every instance.
+    pub fn set_view_proj(&mut self, view_proj: glam::Mat4) {
+        self.scene.view_proj = view_proj.to_cols_array_2d();
+        self.scene_dirty = true;
+    }
+
+    /// The runtime of an instance: frame, LOD, triangles, strips.
+    pub fn state(&self, id: InstanceId) -> Result<&DeformingState, CrowdError> {
+        let a = self
+            .assets
+            .get(id.asset as usize)
+            .ok_or(CrowdError::UnknownInstance(id))?;
+        match (
+            a.generations.get(id.slot as usize),
+            a.members.get(id.slot as usize),
+        ) {
+            (Some(&g), Some(Some(member))) if g == id.generation => Ok(&member.state),
+            _ => Err(CrowdError::UnknownInstance(id)),
+        }
+    }
+
+    /// Uploads what changed since the last call: per asset the new instances' `S0` (one write
+    /// each), the moved instances' index patches (one write and one scatter dispatch,
+    /// submitted here on `queue`), the changed records and instance blocks (one contiguous
+    /// write each); the scene block and textures. Call before submitting the pass that
+    /// renders the crowd.
+    pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> CrowdUpload {
+        let mut upload = CrowdUpload::default();
+        if std::mem::take(&mut self.white_pending) {
+            queue.write_texture(
+                self.white.0.as_image_copy(),
+                &[255; 4],
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(4),
+                    rows_per_image: Some(1),
+                },
+                self.white.0.size(),
+            );
+        }
+        if std::mem::take(&mut self.scene_dirty) {
+            upload.write(
+                queue,
+                &self.scene_buffer,
+                0,
+                bytemuck::bytes_of(&self.scene),
+            );
+        }
+        for a in &mut self.assets {
+            let texture = a.gpu.upload(queue);
+            upload.bytes += texture;
+            upload.writes += usize::from(texture > 0);
+            // New instances: their slots get S0.
+            let per = a.layout.per_instance();
+            for (slot, member) in a.members.iter_mut().enumerate() {
+                if let Some(member) = member.as_mut().filter(|m| m.fresh) {
+                    member.fresh = false;
+                    let offset = u64::from(slot as u32 * per) * 4;
+                    upload.write(
+                        queue,
+                        &a.index_buffer,
+                        offset,
+                        bytemuck::cast_slice(a.layout.s0()),
+                    );
+                }
+            }
+            // Moved instances: their patches and records, in parallel; then one list.
+            let layout = &a.layout;
+            let moved: Vec<(u32, Vec<[u32; 2]>)> = a
+                .members
+                .par_iter_mut()
+                .zip(a.records.par_iter_mut())
+                .enumerate()
+                .filter_map(|(slot, (member, record))| {
+                    let member = member.as_mut().filter(|m| m.moved)?;
+                    member.moved = false;
+                    let dirty = member.state.take_dirty();
+                    let mut patches = Vec::new();
+                    let base = slot as u32 * per;
+                    layout.patches(
+                        base,
+                        &member.state,
+                        &dirty,
+                        &mut member.uploaded,
+                        &mut patches,
+                    );
+                    record.index_count = layout.record_count(&member.uploaded);
+                    Some((slot as u32, patches))
+                })
+                .collect();
+            a.patches.clear();
+            for (slot, patches) in moved {
+                // Its record may have changed length.
+                a.dirty_records.add(slot);
+                a.patches.extend_from_slice(&patches);
+            }
+            if let Some(&last) = a.patches.last() {
+                upload.patches += a.patches.len() as u64;
+                // Whole workgroups: the last patch repeated (same slot, same value).
+                let padded = a.patches.len().next_multiple_of(SCATTER_GROUP as usize);
+                a.patches.resize(padded, last);
+                // A frame that moves many instances far (the first LOD frame of a crowd)
+                // can pass one binding's or one dispatch's limit: then it goes in chunks, each
+                // written and submitted before the next reuses the buffer.
+                let limits = device.limits();
+                let by_binding = limits.max_storage_buffer_binding_size / 8;
+                let by_dispatch = u64::from(limits.max_compute_workgroups_per_dimension)
+                    * u64::from(SCATTER_GROUP);
+                let chunk = (by_binding.min(by_dispatch) as usize / SCATTER_GROUP as usize).max(1)
+                    * SCATTER_GROUP as usize;
+                let patches = std::mem::take(&mut a.patches);
+                for part in patches.chunks(chunk) {
+                    let size = std::mem::size_of_val(part) as u64;
+                    let group = a.patch_group(device, &self.pipeline, size);
+                    let buffer = &a.patch_buffer.as_ref().expect("made above").0;
+                    upload.write(queue, buffer, 0, bytemuck::cast_slice(part));
+                    let mut encoder = device.create_command_encoder(&Default::default());
+                    {
+                        let mut pass = encoder.begin_compute_pass(&Default::default());
+                        pass.set_pipeline(&self.pipeline.scatter);
+                        pass.set_bind_group(0, &group, &[]);
+                        pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
+                    }
+                    queue.submit([encoder.finish()]);
+                    upload.dispatches += 1;
+                }
+                a.patches = patches;
+            }
+            if let Some(range) = a.dirty_records.take() {
+                let records = &a.records[range.start as usize..range.end as usize];
+                let offset = u64::from(range.start) * ARGS_BYTES;
+                upload.write(
+                    queue,
+                    &a.indirect_buffer,
+                    offset,
+                    bytemuck::cast_slice(records),
+                );
+            }
+            if let Some(range) = a.dirty_blocks.take() {
+                let blocks = &a.blocks[range.start as usize..range.end as usize];
+                let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
+                upload.write(
+                    queue,
+                    &a.instance_buffer,
+                    offset,
+                    bytemuck::cast_slice(blocks),
+                );
+            }
+        }
+        upload
+    }
+
+    /// Draws every asset's instances: per asset one bind group, its index buffer and exactly
+    /// one `multi_draw_indexed_indirect` over its records (one per slot up to the highest in
+    /// use; free slots draw nothing). Sets its own pipeline.
+    pub fn render(&self, pass: &mut (impl RenderCommands + ?Sized)) {
+        pass.set_pipeline(&self.pipeline.render);
+        for a in self.assets.iter().filter(|a| a.drawn > 0) {
+            pass.set_bind_group(0, &a.bind_group);
+            pass.set_index_buffer(&a.index_buffer, wgpu::IndexFormat::Uint32);
+            pass.multi_draw_indexed_indirect(&a.indirect_buffer, 0, a.drawn);
+        }
+    }
+
+    /// The index buffer of `asset` (`COPY_SRC`): instance slot `s` owns indices
+    /// `s × slots_per_instance ..`.
+    pub fn index_buffer(&self, asset: AssetId) -> Option<&wgpu::Buffer> {
+        self.assets.get(asset.0 as usize).map(|a| &a.index_buffer)
+    }
+
+    /// The indirect buffer of `asset` (`COPY_SRC`): record `s` draws slot `s`.
+    pub fn indirect_buffer(&self, asset: AssetId) -> Option<&wgpu::Buffer> {
+        self.assets
+            .get(asset.0 as usize)
+            .map(|a| &a.indirect_buffer)
+    }
+
+    /// Records `render` draws for `asset` (one past its highest slot in use).
+    pub fn drawn_records(&self, asset: AssetId) -> u32 {
+        self.assets.get(asset.0 as usize).map_or(0, |a| a.drawn)
+    }
+
+    /// Index slots per instance of `asset`.
+    pub fn slots_per_instance(&self, asset: AssetId) -> u32 {
+        self.assets
+            .get(asset.0 as usize)
+            .map_or(0, |a| a.layout.per_instance())
+    }
+
+    /// Live instances, triangles drawn and bytes, over all assets.
+    pub fn stats(&self) -> CrowdStats {
+        let mut stats = CrowdStats::default();
+        for a in &self.assets {
+            let live = a.members.iter().flatten();
+            let count = a.members.iter().flatten().count();
+            stats.instances += count;
+            stats.triangles += live.map(|m| m.state.triangle_count()).sum::<usize>();
+            let per_slot = u64::from(a.layout.per_instance()) * 4
+                + ARGS_BYTES
+                + size_of::<InstanceBlock>() as u64;
+            stats.instance_gpu_bytes += per_slot * count as u64;
+            let mirrors = (ARGS_BYTES as usize + size_of::<InstanceBlock>()) * count;
+            let members: usize = a.members.iter().flatten().map(Member::heap_bytes).sum();
+            stats.instance_host_bytes += (members + mirrors) as u64;
+            stats.shared_gpu_bytes += a.gpu.gpu_bytes();
+        }
+        stats
+    }
+
+    /// The positions the vertex stage blends for an instance (object space, before its
+    /// transform), computed on the GPU by the same WGSL function (`local_position`) and read
+    /// back: how a test checks the GPU weight sum against the CPU. Uses the blocks as of the
+    /// last [`prepare`](Self::prepare).
+    pub fn blended_positions(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        id: InstanceId,
+    ) -> Result<Vec<[f32; 3]>, CrowdError> {
+        self.state(id)?;
+        let a = &self.assets[id.asset as usize];
+        let n = a.gpu.vertex_count();
+        let bytes = u64::from(n) * 12;
+        let probed = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("crowd probe"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let probe = device.create_buffer_init(&BufferInitDescriptor {
+            label: Some("crowd probe slot"),
+            contents: bytemuck::bytes_of(&[id.slot, 0, 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("crowd probe"),
+            layout: &self.pipeline.probe_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: probe.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: probed.as_entire_binding(),
+                },
+            ],
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline.probe);
+            pass.set_bind_group(0, &a.bind_group, &[]);
+            pass.set_bind_group(1, &group, &[]);
+            pass.dispatch_workgroups(n.div_ceil(64), 1, 1);
+        }
+        let floats = super::readback::read_back(device, queue, encoder, &probed)?;
+        Ok(bytemuck::cast_slice::<u8, [f32; 3]>(&floats).to_vec())
+    }
+}
+
+impl CrowdAsset {
+    /// The scatter's bind group over a patch buffer of at least `bytes`, growing it (to the
+    /// next power of two) when it is smaller.
+    fn patch_group(
+        &mut self,
+        device: &wgpu::Device,
+        pipeline: &CrowdPipeline,
+        bytes: u64,
+    ) -> wgpu::BindGroup {
+        if let Some((buffer, group)) = &self.patch_buffer {
+            if buffer.size() >= bytes {
+                return group.clone();
+            }
+        }
+        // The caller keeps `bytes` within the binding limit; so does the rounding.
+        let max = device.limits().max_storage_buffer_binding_size;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("crowd patches"),
+            size: bytes.next_power_of_two().min(max).max(bytes),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("crowd scatter"),
+            layout: &pipeline.scatter_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.index_buffer.as_entire_binding(),
+                },
+            ],
+        });
+        self.patch_buffer = Some((buffer, group.clone()));
+        group
+    }
+}
+
+fn check_finite(what: &'static str, values: &[f32]) -> Result<(), CrowdError> {
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(CrowdError::NonFinite {
+            what,
+            value: format!("{values:?}"),
+        })
+    }
+}

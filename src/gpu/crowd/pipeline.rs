@@ -1,0 +1,371 @@
+//! The crowd's GPU programs and the blocks they read: the render pipeline of
+//! `shaders/crowd.wgsl` (strips, vertex pulling), the scatter that applies a frame's index
+//! patches (`shaders/scatter.wgsl`), the probe that writes an instance's blended positions
+//! back, and the byte layouts of the scene, mesh and instance blocks.
+
+use bytemuck::{Pod, Zeroable};
+
+/// The WGSL source of the crowd shader: `shaders/shade.wgsl` followed by `shaders/crowd.wgsl`.
+pub const CROWD_WGSL: &str = concat!(
+    include_str!("../../../shaders/shade.wgsl"),
+    include_str!("../../../shaders/crowd.wgsl")
+);
+
+/// The WGSL source of the index scatter (`shaders/scatter.wgsl`).
+pub const SCATTER_WGSL: &str = include_str!("../../../shaders/scatter.wgsl");
+
+/// Patches one scatter workgroup applies (`@workgroup_size` in `scatter.wgsl`).
+pub(super) const SCATTER_GROUP: u32 = 64;
+
+/// The scene block (`Scene` in `crowd.wgsl`): camera and light, shared by every asset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub(super) struct SceneBlock {
+    pub(super) view_proj: [[f32; 4]; 4],
+    pub(super) light: [f32; 4],
+    pub(super) encode_srgb: u32,
+    pub(super) _pad: [u32; 3],
+}
+
+/// The per-asset block (`Mesh` in `crowd.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub(super) struct MeshBlock {
+    pub(super) base_color: [f32; 4],
+    pub(super) vertex_count: u32,
+    pub(super) mode: u32,
+    pub(super) _pad: [u32; 2],
+}
+
+/// Target slots per instance: the weights summed by the vertex stage.
+pub const WEIGHT_SLOTS: usize = 8;
+
+/// One instance's block (`Instance` in `crowd.wgsl`), what a frame uploads per moved
+/// instance: 192 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub(super) struct InstanceBlock {
+    pub(super) model: [[f32; 4]; 4],
+    pub(super) normal_model: [[f32; 4]; 4],
+    pub(super) color: [f32; 4],
+    pub(super) weights: [f32; WEIGHT_SLOTS],
+    /// One target number per byte, slot 0 in the low byte of `targets[0]`.
+    pub(super) targets: [u32; 2],
+    pub(super) t: f32,
+    pub(super) _pad: u32,
+}
+
+impl InstanceBlock {
+    /// Identity-free default: `model` as given, grey, `t = 0`, no weights.
+    pub(super) fn new(model: glam::Mat4) -> InstanceBlock {
+        let mut block = InstanceBlock::zeroed();
+        block.set_model(model);
+        block.color = [0.8, 0.8, 0.8, 1.0];
+        block
+    }
+
+    /// Sets `model` and its normal matrix (the rule of [`super::super::Uniforms`]).
+    pub(super) fn set_model(&mut self, model: glam::Mat4) {
+        let mut uniforms = super::super::Uniforms::new();
+        uniforms.set_model(model);
+        self.model = uniforms.model;
+        self.normal_model = uniforms.normal_model;
+    }
+
+    /// Fills the weight slots with the `WEIGHT_SLOTS` weights of largest magnitude of
+    /// `weights` (one per target), in ascending target order, the rest at weight 0.
+    pub(super) fn set_weights(&mut self, weights: &[f32]) {
+        let mut order: Vec<u32> = (0..weights.len() as u32)
+            .filter(|&k| weights[k as usize] != 0.0)
+            .collect();
+        if order.len() > WEIGHT_SLOTS {
+            // Largest magnitude first, lower target first on ties: deterministic.
+            order.sort_by(|&a, &b| {
+                let (wa, wb) = (weights[a as usize].abs(), weights[b as usize].abs());
+                wb.total_cmp(&wa).then(a.cmp(&b))
+            });
+            order.truncate(WEIGHT_SLOTS);
+        }
+        order.sort_unstable();
+        self.weights = [0.0; WEIGHT_SLOTS];
+        self.targets = [0; 2];
+        for (slot, &k) in order.iter().enumerate() {
+            self.weights[slot] = weights[k as usize];
+            self.targets[slot / 4] |= k << (8 * (slot % 4));
+        }
+    }
+}
+
+/// The pipelines and layouts a crowd draws and edits with.
+pub(super) struct CrowdPipeline {
+    pub(super) layout: wgpu::BindGroupLayout,
+    pub(super) render: wgpu::RenderPipeline,
+    pub(super) scatter_layout: wgpu::BindGroupLayout,
+    pub(super) scatter: wgpu::ComputePipeline,
+    pub(super) probe_layout: wgpu::BindGroupLayout,
+    pub(super) probe: wgpu::ComputePipeline,
+}
+
+impl CrowdPipeline {
+    pub(super) fn new(
+        device: &wgpu::Device,
+        color: wgpu::TextureFormat,
+        depth: Option<wgpu::TextureFormat>,
+        cull_mode: Option<wgpu::Face>,
+    ) -> CrowdPipeline {
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("crowd.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(CROWD_WGSL.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("crowd asset"),
+            entries: &crowd_entries(),
+        });
+        let render_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("crowd"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let render = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("crowd strips"),
+            layout: Some(&render_layout),
+            vertex: wgpu::VertexState {
+                module: &shader,
+                entry_point: Some("vs_crowd"),
+                compilation_options: Default::default(),
+                // Vertex pulling: no vertex buffers (crowd.wgsl says why).
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleStrip,
+                strip_index_format: Some(wgpu::IndexFormat::Uint32),
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode,
+                ..Default::default()
+            },
+            depth_stencil: depth.map(|format| wgpu::DepthStencilState {
+                format,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some("fs_crowd"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: color,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let storage = |binding, read_only, size| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(size),
+            },
+            count: None,
+        };
+        // Patches are [slot, value] pairs: 8 bytes each.
+        let scatter_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("crowd scatter"),
+            entries: &[storage(0, true, 8), storage(1, false, 4)],
+        });
+        let scatter_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("scatter.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(SCATTER_WGSL.into()),
+        });
+        let scatter = compute(
+            device,
+            "crowd scatter",
+            &[&scatter_layout],
+            &scatter_module,
+            "scatter",
+        );
+
+        let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("crowd probe"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(4),
+                    },
+                    count: None,
+                },
+                storage(1, false, 4),
+            ],
+        });
+        let probe = compute(
+            device,
+            "crowd probe",
+            &[&layout, &probe_layout],
+            &shader,
+            "cs_positions",
+        );
+        CrowdPipeline {
+            layout,
+            render,
+            scatter_layout,
+            scatter,
+            probe_layout,
+            probe,
+        }
+    }
+}
+
+fn compute(
+    device: &wgpu::Device,
+    label: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    module: &wgpu::ShaderModule,
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().copied().map(Some).collect();
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &layouts,
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+/// Bindings 0..10 of `crowd.wgsl`'s group 0.
+fn crowd_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let all =
+        wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+    let pulled = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
+    let uniform = |binding, size: usize| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: all,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(size as u64),
+        },
+        count: None,
+    };
+    // The smallest binding is one element: an instance block, or one f32.
+    let storage = |binding, size: usize| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: pulled,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(size as u64),
+        },
+        count: None,
+    };
+    let mut entries = vec![
+        uniform(0, size_of::<SceneBlock>()),
+        uniform(1, size_of::<MeshBlock>()),
+        storage(2, size_of::<InstanceBlock>()),
+    ];
+    entries.extend((3..8).map(|binding| storage(binding, 4)));
+    entries.extend([
+        wgpu::BindGroupLayoutEntry {
+            binding: 8,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        },
+        wgpu::BindGroupLayoutEntry {
+            binding: 9,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        },
+    ]);
+    entries
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn module(source: &str) -> naga::Module {
+        let module = match naga::front::wgsl::parse_str(source) {
+            Ok(module) => module,
+            Err(error) => panic!("{}", error.emit_to_string(source)),
+        };
+        let mut validator = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        );
+        if let Err(error) = validator.validate(&module) {
+            panic!("the shader does not validate: {error:?}");
+        }
+        module
+    }
+
+    /// Both crowd shaders parse and validate without a GPU, and the Rust blocks have the
+    /// WGSL structs' sizes.
+    #[test]
+    fn crowd_wgsl_validates_and_blocks_match() {
+        let crowd = module(CROWD_WGSL);
+        module(SCATTER_WGSL);
+        let size = |name: &str| {
+            let (_, ty) = crowd
+                .types
+                .iter()
+                .find(|(_, ty)| ty.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("crowd.wgsl has no struct {name}"));
+            match ty.inner {
+                naga::TypeInner::Struct { span, .. } => span as usize,
+                _ => panic!("{name} is not a struct"),
+            }
+        };
+        assert_eq!(size("Scene"), size_of::<SceneBlock>());
+        assert_eq!(size("Mesh"), size_of::<MeshBlock>());
+        assert_eq!(size("Instance"), size_of::<InstanceBlock>());
+        assert!(size_of::<InstanceBlock>() <= 256);
+    }
+
+    #[test]
+    fn weight_slots_keep_the_largest_in_target_order() {
+        let mut block = InstanceBlock::new(glam::Mat4::IDENTITY);
+        block.set_weights(&[0.0, 0.5, 0.0, -0.25]);
+        assert_eq!(block.weights[..3], [0.5, -0.25, 0.0]);
+        assert_eq!(block.targets, [1 | (3 << 8), 0]);
+        // Ten targets: the two smallest magnitudes (targets 0 and 9) are dropped.
+        let weights: Vec<f32> = (0..10)
+            .map(|k| match k {
+                0 => 0.01,
+                9 => -0.02,
+                k => k as f32,
+            })
+            .collect();
+        block.set_weights(&weights);
+        assert_eq!(block.weights, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+        assert_eq!(
+            block.targets,
+            [
+                1 | 2 << 8 | 3 << 16 | 4 << 24,
+                5 | 6 << 8 | 7 << 16 | 8 << 24
+            ]
+        );
+    }
+}
