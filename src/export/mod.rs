@@ -58,7 +58,7 @@ mod tests;
 
 use crate::build::{BuildError, Builder, Sequences, MAX_FRAMES};
 use crate::io::gltf::SourceScene;
-use crate::morph::{Morph, Weights};
+use crate::morph::Morph;
 use crate::seams::StepBoundaries;
 use crate::simplify::{PoseError, SimplifyOptions, DISTANCE_WEIGHT};
 use levels::{compact, diagonal, step_for, step_for_error};
@@ -182,8 +182,9 @@ pub struct Export {
 }
 
 /// Exports `morph` and its LODs (module docs). The animation written is the morph's weight
-/// track ([`Weights::Animated`]); a two-pose morph gets a LINEAR 0 → 1 → 0 animation over
-/// two seconds (the weights of `t = 0`, `t = 1`, `t = 0`), so a viewer plays it.
+/// track ([`Weights::Animated`](crate::morph::Weights::Animated)); a two-pose morph gets a
+/// LINEAR 0 → 1 → 0 animation over two seconds (the weights of `t = 0`, `t = 1`, `t = 0`),
+/// so a viewer plays it.
 pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, ExportError> {
     match &options.lods {
         LodSteps::Fractions(f) => check_fractions(f)?,

@@ -2,7 +2,7 @@ use super::mesh::written_names;
 use super::*;
 use crate::io::gltf::write::FLOAT;
 use crate::io::gltf::{NodeTransform, RawAttribute};
-use crate::morph::MorphTarget;
+use crate::morph::{MorphTarget, Weights};
 
 /// Two triangles per cell of an `n × n` vertex grid, row by row.
 fn grid_triangles(n: u32) -> Vec<[u32; 3]> {
