@@ -86,7 +86,11 @@ impl std::ops::Mul for C {
 impl std::ops::Div for C {
     type Output = C;
     fn div(self, o: C) -> C {
-        self * o.inv()
+        let n = o.norm2();
+        C::new(
+            (self.re * o.re + self.im * o.im) / n,
+            (self.im * o.re - self.re * o.im) / n,
+        )
     }
 }
 
@@ -123,7 +127,8 @@ impl Mobius {
     /// `m` scaled to determinant 1; `None` when singular.
     fn normalised(m: [[C; 2]; 2]) -> Option<Mobius> {
         let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-        if !(det.norm2() > 1e-300) || !det.norm2().is_finite() {
+        let size = det.norm2();
+        if size.is_nan() || size <= 1e-300 || !size.is_finite() {
             return None;
         }
         let s = det.sqrt().inv();
