@@ -4,12 +4,15 @@
 //! The two meshes have different connectivity (17,495 and 9,770 vertices): the morph runs over
 //! their supermesh (`morphlod::morph::supermesh`), one triangulation with a pose on each. The
 //! man's file is z-up, the camel's y-up: the demo stands the man up (y is the viewer's up), so
-//! the morph does not also rotate him through 90 degrees.
+//! the morph does not also rotate him through 90 degrees. The correspondence comes from the
+//! shipped landmark pairs `assets/man_camel.landmarks` (a rotation changes no vertex index, so
+//! they serve the stood-up man as well).
 //!
 //! ```sh
 //! cargo run --release --example man_to_camel              # window; headless without a display
 //! cargo run --release --example man_to_camel -- --headless --frames 24
 //! cargo run --release --example man_to_camel -- --landmarks pairs.txt
+//! cargo run --release --example man_to_camel -- --no-landmarks   # automatic correspondence
 //! ```
 //!
 //! The asset (supermesh and per-frame LOD) is built on first use and cached in
@@ -27,11 +30,13 @@ use std::time::Instant;
 use clap::Parser;
 use common::{CommonArgs, Demo, DemoError, MorphSpec, NamedMorph};
 use morphlod::io::{load_mesh, LoadOptions};
-use morphlod::morph::supermesh::{parse_landmarks, Supermesh, SupermeshOptions};
+use morphlod::morph::supermesh::{parse_landmarks, Landmarks, Supermesh, SupermeshOptions};
 use morphlod::IndexedMesh;
 
 const MAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/man.off");
 const CAMEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/camel.off");
+/// The shipped landmark pairs man ↔ camel (head, hands → front feet, feet → hind feet, …).
+const LANDMARKS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/man_camel.landmarks");
 
 const DEMO: Demo = Demo {
     name: "man_to_camel",
@@ -45,8 +50,12 @@ struct Args {
     #[command(flatten)]
     common: CommonArgs,
     /// Landmark pairs for the supermesh: one `vertex_in_man vertex_in_camel` a line
-    #[arg(long, value_name = "PAIRS.txt")]
+    /// (default: the shipped assets/man_camel.landmarks)
+    #[arg(long, value_name = "PAIRS.txt", conflicts_with = "no_landmarks")]
     landmarks: Option<PathBuf>,
+    /// The automatic correspondence, without landmark pairs
+    #[arg(long)]
+    no_landmarks: bool,
 }
 
 fn main() -> ExitCode {
@@ -55,8 +64,14 @@ fn main() -> ExitCode {
 }
 
 fn run(args: &Args) -> Result<(), DemoError> {
-    let landmarks = match &args.landmarks {
-        None => Vec::new(),
+    // The shipped pairs unless the user gives others or none.
+    let path = match (&args.landmarks, args.no_landmarks) {
+        (_, true) => None,
+        (Some(path), false) => Some(path.clone()),
+        (None, false) => Some(PathBuf::from(LANDMARKS)),
+    };
+    let landmarks = match &path {
+        None => Landmarks::default(),
         Some(path) => {
             let text = std::fs::read_to_string(path).map_err(|source| DemoError::Io {
                 path: path.clone(),
@@ -67,7 +82,7 @@ fn run(args: &Args) -> Result<(), DemoError> {
         }
     };
     let options = SupermeshOptions {
-        landmarks,
+        landmarks: landmarks.pairs.clone(),
         ..SupermeshOptions::default()
     };
     // The algorithm's version and the options' Debug form (landmarks, seed, perturbation,
@@ -85,7 +100,7 @@ fn run(args: &Args) -> Result<(), DemoError> {
             .map_err(|e| DemoError::Morphlod(e.into()))?;
         let start = Instant::now();
         let (supermesh, report) = Supermesh::build(&man, &camel, &options)
-            .map_err(|e| DemoError::Supermesh(e.to_string()))?;
+            .map_err(|e| DemoError::Supermesh(landmarks.explain(&e)))?;
         println!(
             "man_to_camel: supermesh built in {:.0} ms\n{report}",
             start.elapsed().as_secs_f64() * 1e3

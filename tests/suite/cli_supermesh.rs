@@ -353,8 +353,9 @@ fn bad_landmarks_name_the_line() {
         dir.join("s.glb").to_str().unwrap(),
     ]);
     assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        String::from_utf8_lossy(&out.stderr).contains("out of range"),
+        stderr.contains("out of range") && stderr.contains("line 1"),
         "{}",
         text(&out)
     );

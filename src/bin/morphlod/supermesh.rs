@@ -14,7 +14,7 @@ use morphlod::io::{load_mesh, LoadOptions};
 use morphlod::mesh::IndexedMesh;
 use morphlod::metrics::hausdorff;
 use morphlod::morph::supermesh::{
-    parse_landmarks, Stage, Supermesh, SupermeshOptions, SupermeshReport,
+    parse_landmarks, Landmarks, Stage, Supermesh, SupermeshOptions, SupermeshReport,
 };
 
 #[derive(Args)]
@@ -35,20 +35,21 @@ pub struct SupermeshArgs {
 }
 
 /// Reads and parses a landmarks file; errors name the file and the line.
-pub fn read_landmarks(path: Option<&Path>) -> Result<Vec<(u32, u32)>, String> {
+pub fn read_landmarks(path: Option<&Path>) -> Result<Landmarks, String> {
     let Some(path) = path else {
-        return Ok(Vec::new());
+        return Ok(Landmarks::default());
     };
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     parse_landmarks(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Builds the supermesh of `a` and `b` with a progress bar per stage (or a line per
-/// finished stage when stderr is not a terminal).
+/// finished stage when stderr is not a terminal). An error about a landmark pair names
+/// its line in the landmarks file.
 pub fn build_supermesh(
     a: &IndexedMesh,
     b: &IndexedMesh,
-    landmarks: Vec<(u32, u32)>,
+    landmarks: &Landmarks,
 ) -> Result<(Supermesh, SupermeshReport), String> {
     let terminal = std::io::stderr().is_terminal();
     let multi = MultiProgress::new();
@@ -88,7 +89,7 @@ pub fn build_supermesh(
         }
     };
     let options = SupermeshOptions {
-        landmarks,
+        landmarks: landmarks.pairs.clone(),
         progress: Some(&progress),
         ..SupermeshOptions::default()
     };
@@ -96,7 +97,7 @@ pub fn build_supermesh(
     for (_, bar) in &bars {
         bar.finish_and_clear();
     }
-    built.map_err(|e| e.to_string())
+    built.map_err(|e| landmarks.explain(&e))
 }
 
 /// The Hausdorff distance of the supermesh at t = 0 to A and at t = 1 to B, each as a
@@ -148,7 +149,7 @@ pub fn supermesh(args: &SupermeshArgs) -> Result<(), String> {
     let options = LoadOptions::default();
     let a = load_mesh(&args.a, &options).map_err(|e| e.to_string())?;
     let b = load_mesh(&args.b, &options).map_err(|e| e.to_string())?;
-    let (supermesh, report) = build_supermesh(&a, &b, landmarks)?;
+    let (supermesh, report) = build_supermesh(&a, &b, &landmarks)?;
     println!(
         "supermesh of {} and {}\n{report}",
         args.a.display(),

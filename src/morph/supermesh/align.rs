@@ -1,22 +1,24 @@
 //! Aligning B's sphere embedding with A's, so that equal sphere points carry
-//! similar parts of the two shapes.
+//! similar parts of the two shapes (issue 25).
 //!
-//! 1. [`Frame`]: both shapes are normalised for position (area-weighted
-//!    centroid), scale (RMS distance to it) and orientation (principal axes,
-//!    each signed by its third moment, right-handed);
-//! 2. [`search_rotation`]: the rotation `R` of B's sphere that minimises the
-//!    mean distance between A's normalised vertices and B's normalised surface
-//!    at the same sphere point. Candidates: the first-order guesses
-//!    [`moment_candidates`] (each embedding's best rotation from sphere to
-//!    shape, composed with the 24 rotations of the cube for the principal
-//!    axes' order and signs), and the 24 rotations of the cube each also
+//! 1. Möbius normalisation of both embeddings ([`super::mobius::centre`]):
+//!    each surface's area centroid, carried to its sphere, goes to the
+//!    sphere's centre, so the two differ by about a rotation;
+//! 2. [`Frame`]: both shapes centred and scaled to unit RMS radius, as the
+//!    correspondence measure does ([`super::measure`]);
+//! 3. without landmarks, [`search_rotation`]: the rotation `R` of B's sphere
+//!    that minimises the measure's objective `D = Σ w ‖q_A − q_B‖²` over A's
+//!    area-weighted vertex samples and B's normalised surface at the same
+//!    sphere point. Candidates: the first-order guesses [`moment_candidates`]
+//!    (each embedding's best rotation from sphere to shape, composed with the
+//!    24 rotations of the cube), and the 24 rotations of the cube each also
 //!    turned by 0°, 40° and 80° about z; then a local descent with halving
-//!    angles (20° down to 0.1°) from the best six. With two or more
-//!    landmark pairs the rotation is instead the Kabsch fit of B's landmark
-//!    sphere points onto A's ([`landmark_rotation`]);
-//! 3. [`pull_landmarks`] (with landmarks): each B landmark's sphere point
-//!    walks onto its A partner's, dragging a cap of its neighbours along by
-//!    a smooth field of fold-rejecting moves.
+//!    angles (20° down to 0.1°) from the best six;
+//! 4. with landmarks, the least-squares Möbius map of B's landmark sphere
+//!    points onto A's ([`super::mobius::Mobius::fit`], exact for three), then
+//!    [`pull_landmarks`]: each B landmark walks the rest of the way onto its
+//!    A partner, dragging a cap of its neighbours along by fold-rejecting
+//!    moves, and lands on exactly its partner's point.
 //!
 //! B's surface at a sphere point is read from a cube map of its projective
 //! barycentric interpolation ([`SurfaceLookup`]), so one candidate costs one
@@ -33,13 +35,14 @@ pub struct Residual {
     pub max: f64,
 }
 
-/// A shape's normalising similarity: `q = axes · (p − centroid) / scale`.
+/// A shape's normalisation, as in the correspondence measure
+/// ([`super::measure`]): `q = (p − centroid) / scale`, centred on its
+/// area-weighted centroid and scaled to unit RMS radius, not rotated (D
+/// counts orientation as placed).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Frame {
     centroid: DVec3,
     scale: f64,
-    /// Rows are the principal axes, largest variance first.
-    axes: DMat3,
 }
 
 fn d(p: [f32; 3]) -> DVec3 {
@@ -47,59 +50,33 @@ fn d(p: [f32; 3]) -> DVec3 {
 }
 
 impl Frame {
-    pub fn new(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Frame {
-        // Area-weighted moments over the triangles (vertex averages of each).
-        let mut area_sum = 0.0;
-        let mut centroid = DVec3::ZERO;
-        for t in triangles {
-            let [a, b, c] = t.map(|v| d(positions[v as usize]));
-            let area = 0.5 * (b - a).cross(c - a).length();
-            area_sum += area;
-            centroid += area * (a + b + c) / 3.0;
+    /// From each vertex's surface area `mass` (a third of its triangles').
+    pub fn new(positions: &[[f32; 3]], mass: &[f64]) -> Frame {
+        let total: f64 = mass.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return Frame {
+                centroid: DVec3::ZERO,
+                scale: 1.0,
+            };
         }
-        let weight = |a: f64| if area_sum > 0.0 { a / area_sum } else { 0.0 };
-        if area_sum > 0.0 {
-            centroid /= area_sum;
-        }
-        let mut cov = [[0.0f64; 3]; 3];
-        let mut sq = 0.0;
-        for t in triangles {
-            let [a, b, c] = t.map(|v| d(positions[v as usize]) - centroid);
-            let w = weight(0.5 * (b - a).cross(c - a).length()) / 3.0;
-            for p in [a, b, c] {
-                let p = p.to_array();
-                for (r, row) in cov.iter_mut().enumerate() {
-                    for (s, x) in row.iter_mut().enumerate() {
-                        *x += w * p[r] * p[s];
-                    }
-                }
-                sq += w * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-            }
-        }
+        let centroid = positions
+            .iter()
+            .zip(mass)
+            .map(|(&p, &m)| d(p) * m)
+            .sum::<DVec3>()
+            / total;
+        let sq: f64 = positions
+            .iter()
+            .zip(mass)
+            .map(|(&p, &m)| m * (d(p) - centroid).length_squared())
+            .sum::<f64>()
+            / total;
         let scale = if sq > 0.0 { sq.sqrt() } else { 1.0 };
-        let mut axes = principal_axes(cov);
-        // Sign each axis by the third moment, so mirror-images agree.
-        for axis in axes.iter_mut().take(2) {
-            let mut third = 0.0;
-            for t in triangles {
-                for &v in t {
-                    third += (d(positions[v as usize]) - centroid).dot(*axis).powi(3);
-                }
-            }
-            if third < 0.0 {
-                *axis = -*axis;
-            }
-        }
-        axes[2] = axes[0].cross(axes[1]);
-        Frame {
-            centroid,
-            scale,
-            axes: DMat3::from_cols(axes[0], axes[1], axes[2]).transpose(),
-        }
+        Frame { centroid, scale }
     }
 
     pub fn apply(&self, p: [f32; 3]) -> DVec3 {
-        self.axes * (d(p) - self.centroid) / self.scale
+        (d(p) - self.centroid) / self.scale
     }
 }
 
@@ -204,20 +181,38 @@ impl SurfaceLookup {
     }
 }
 
-/// Sample points of A: sphere point and normalised position.
-pub(crate) fn samples(sphere: &[DVec3], normalised: &[DVec3], max: usize) -> Vec<(DVec3, DVec3)> {
+/// One sample of A: sphere point, normalised position, weight (its share
+/// of the surface, the samples' summing to 1).
+pub(crate) type Sample = (DVec3, DVec3, f64);
+
+/// Up to `max` samples of A (every k-th vertex), weighted by surface area.
+pub(crate) fn samples(
+    sphere: &[DVec3],
+    normalised: &[DVec3],
+    mass: &[f64],
+    max: usize,
+) -> Vec<Sample> {
     let step = sphere.len().div_ceil(max.max(1)).max(1);
-    (0..sphere.len())
+    let mut out: Vec<Sample> = (0..sphere.len())
         .step_by(step)
-        .map(|v| (sphere[v], normalised[v]))
-        .collect()
+        .map(|v| (sphere[v], normalised[v], mass[v]))
+        .collect();
+    let total: f64 = out.iter().map(|s| s.2).sum();
+    for s in &mut out {
+        s.2 = if total > 0.0 {
+            s.2 / total
+        } else {
+            1.0 / step as f64
+        };
+    }
+    out
 }
 
 /// Distances between A's samples and B's surface at `rotation`ᵀ of their sphere points.
-pub(crate) fn residual(samples: &[(DVec3, DVec3)], b: &SurfaceLookup, rotation: DMat3) -> Residual {
+pub(crate) fn residual(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3) -> Residual {
     let inverse = rotation.transpose();
     let mut out = Residual::default();
-    for &(s, q) in samples {
+    for &(s, q, _) in samples {
         let dist = (q - b.at(inverse * s)).length();
         out.mean += dist;
         out.max = out.max.max(dist);
@@ -226,8 +221,19 @@ pub(crate) fn residual(samples: &[(DVec3, DVec3)], b: &SurfaceLookup, rotation: 
     out
 }
 
-fn cost(samples: &[(DVec3, DVec3)], b: &SurfaceLookup, rotation: DMat3) -> f64 {
-    residual(samples, b, rotation).mean
+/// The correspondence objective `D = Σ w ‖q_A − q_B‖²` over A's samples
+/// (see [`super::measure`]), B read at `back(x)` for each sample's point `x`.
+pub(crate) fn cost_by(samples: &[Sample], b: &SurfaceLookup, back: impl Fn(DVec3) -> DVec3) -> f64 {
+    samples
+        .iter()
+        .map(|&(s, q, w)| w * (q - b.at(back(s))).length_squared())
+        .sum()
+}
+
+/// [`cost_by`] with B's sphere turned by `rotation`.
+fn cost(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3) -> f64 {
+    let inverse = rotation.transpose();
+    cost_by(samples, b, |x| inverse * x)
 }
 
 /// The 24 proper rotations of the cube (signed axis permutations).
@@ -270,22 +276,12 @@ fn correlation(pairs: impl Iterator<Item = (DVec3, DVec3)>) -> DMat3 {
     m
 }
 
-/// The rotation of B's sphere that best takes B's landmarks onto A's
-/// (Kabsch on the sphere points); `None` for fewer than two pairs.
-pub(crate) fn landmark_rotation(a: &[DVec3], b: &[DVec3], pairs: &[(u32, u32)]) -> Option<DMat3> {
-    (pairs.len() >= 2).then(|| {
-        nearest_rotation(correlation(pairs.iter().map(|&(la, lb)| {
-            (a[la as usize].normalize(), b[lb as usize].normalize())
-        })))
-    })
-}
-
 /// First-order guesses: each shape's best rotation from sphere to shape
 /// (`U`, nearest to `Σ q sᵀ`), so `R = U_Aᵀ C U_B` for each rotation `C` of
 /// the cube (the principal axes' order and signs may differ).
-pub(crate) fn moment_candidates(a: &[(DVec3, DVec3)], b: &[(DVec3, DVec3)]) -> Vec<DMat3> {
-    let ua = nearest_rotation(correlation(a.iter().map(|&(s, q)| (q, s))));
-    let ub = nearest_rotation(correlation(b.iter().map(|&(s, q)| (q, s))));
+pub(crate) fn moment_candidates(a: &[Sample], b: &[Sample]) -> Vec<DMat3> {
+    let ua = nearest_rotation(correlation(a.iter().map(|&(s, q, w)| (q * w, s))));
+    let ub = nearest_rotation(correlation(b.iter().map(|&(s, q, w)| (q * w, s))));
     cube_rotations()
         .into_iter()
         .map(|c| ua.transpose() * c * ub)
@@ -325,11 +321,7 @@ fn candidates() -> Vec<DMat3> {
 }
 
 /// The rotation of B's sphere that best matches the shapes (see module docs).
-pub(crate) fn search_rotation(
-    samples: &[(DVec3, DVec3)],
-    b: &SurfaceLookup,
-    extra: &[DMat3],
-) -> DMat3 {
+pub(crate) fn search_rotation(samples: &[Sample], b: &SurfaceLookup, extra: &[DMat3]) -> DMat3 {
     let mut scored: Vec<(f64, DMat3)> = candidates()
         .into_iter()
         .chain(extra.iter().copied())
@@ -345,12 +337,7 @@ pub(crate) fn search_rotation(
         .unwrap_or(DMat3::IDENTITY)
 }
 
-fn descend(
-    samples: &[(DVec3, DVec3)],
-    b: &SurfaceLookup,
-    mut r: DMat3,
-    mut c: f64,
-) -> (f64, DMat3) {
+fn descend(samples: &[Sample], b: &SurfaceLookup, mut r: DMat3, mut c: f64) -> (f64, DMat3) {
     let mut angle = 20f64.to_radians();
     while angle > 0.1f64.to_radians() {
         let mut improved = false;
@@ -415,16 +402,18 @@ pub(crate) fn pull_landmarks(
     let mut cap: Vec<u32> = Vec::new();
     let mut free: Vec<u32> = Vec::new();
     for _ in 0..iterations {
-        let mut remaining = 0.0f64;
+        let mut remaining = false;
         for (k, &(la, lb)) in pairs.iter().enumerate() {
-            let goal = a[la as usize].normalize();
-            let at = b[lb as usize].normalize();
-            let angle = at.angle_between(goal);
-            remaining = remaining.max(angle);
-            if angle < 1e-12 {
+            // The partner's point itself, so the pair ends on one point exactly.
+            let target = a[la as usize];
+            if b[lb as usize] == target {
                 continue;
             }
-            if angle <= LANDMARK_STEP && super::embed::move_vertex(rings, b, lb, goal) {
+            remaining = true;
+            let goal = target.normalize();
+            let at = b[lb as usize].normalize();
+            let angle = at.angle_between(goal);
+            if angle <= LANDMARK_STEP && super::embed::move_vertex(rings, b, lb, target) {
                 continue;
             }
             let step = angle.min(LANDMARK_STEP);
@@ -489,7 +478,7 @@ pub(crate) fn pull_landmarks(
             free.extend(cap.iter().copied().filter(|&v| !pinned[v as usize]));
             super::embed::relax(mass, rings, b, &free, 2);
         }
-        if remaining < 1e-12 {
+        if !remaining {
             break;
         }
     }
@@ -533,7 +522,7 @@ mod tests {
     }
 
     #[test]
-    fn nearest_rotation_recovers_a_rotation_and_kabsch() {
+    fn nearest_rotation_recovers_a_rotation() {
         let r = DMat3::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 2.0);
         let n = nearest_rotation(r * DMat3::from_diagonal(DVec3::new(3.0, 2.0, 0.5)));
         assert!(
@@ -541,10 +530,6 @@ mod tests {
             "{n} {r}"
         );
         assert_eq!(cube_rotations().len(), 24);
-        let b = vec![DVec3::X, DVec3::Y, DVec3::new(0.3, 0.4, 0.8).normalize()];
-        let a: Vec<DVec3> = b.iter().map(|&p| r * p).collect();
-        let k = landmark_rotation(&a, &b, &[(0, 0), (1, 1), (2, 2)]).unwrap();
-        assert!(k.abs_diff_eq(r, 1e-9), "{k} {r}");
     }
 
     #[test]

@@ -640,15 +640,17 @@ fn area_target(mass: &[f64], rings: &[Vec<u32>], points: &[DVec3], v: u32) -> Op
     target.is_finite().then_some(target)
 }
 
-/// Moves `v` to `target`, or a half or a quarter of the way there (along the
+/// Moves `v` to `target` (kept as given, so a vertex can land on exactly
+/// another mesh's point), or a half or a quarter of the way there (along the
 /// chord), whichever first keeps its fan strictly positive. Returns whether
 /// it moved.
 pub(crate) fn move_vertex(rings: &[Vec<u32>], points: &mut [DVec3], v: u32, target: DVec3) -> bool {
     let ring = &rings[v as usize];
     let old = points[v as usize];
-    let Some(mut candidate) = target.try_normalize() else {
+    if !target.is_finite() || target.try_normalize().is_none() {
         return false;
-    };
+    }
+    let mut candidate = target;
     for _ in 0..3 {
         if fan_positive(points, candidate, ring) {
             points[v as usize] = candidate;

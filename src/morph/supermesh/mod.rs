@@ -39,6 +39,8 @@
 mod align;
 mod check;
 mod embed;
+mod measure;
+mod mobius;
 mod overlay;
 mod positions;
 mod sphere;
@@ -51,6 +53,7 @@ use thiserror::Error;
 
 pub use align::Residual;
 pub use embed::EmbeddingQuality;
+pub use measure::{measure, Correspondence, Distortion, MEASURED_T};
 
 use crate::mesh::clean::Cleaned;
 use crate::mesh::{IndexedMesh, MeshError};
@@ -60,9 +63,10 @@ use overlay::{Node, OverlayError};
 use sphere::SphereMesh;
 
 /// The supermesh algorithm's version: raised whenever the same inputs and options give a
-/// different supermesh (2: the embedding rework with umbrella weight 1.0). Caches of built
+/// different supermesh (2: the embedding rework with umbrella weight 1.0; 3: Möbius
+/// normalisation, rotation scored by D, Möbius landmark fit). Caches of built
 /// supermesh morphs put it in their key.
-pub const ALGORITHM_VERSION: u32 = 2;
+pub const ALGORITHM_VERSION: u32 = 3;
 
 /// How many random rotations the overlay tries before giving up on input
 /// that stays degenerate.
@@ -187,14 +191,24 @@ impl fmt::Debug for SupermeshOptions<'_> {
 
 /// Alignment quality: distances between A's normalised vertices and B's
 /// normalised surface at the same sphere point (units: the RMS radius of each
-/// normalised shape), before any rotation and as overlaid; for landmarks, the
-/// angles (radians) between each pair's sphere points, before any rotation
-/// and after the pull (before the overlay's tiny random rotation).
+/// normalised shape), after the Möbius normalisation and as overlaid; for
+/// landmarks, the angles (radians) between each pair's sphere points before
+/// any alignment, after the Möbius fit, and as overlaid (0: every pair on
+/// one sphere point, one supermesh vertex).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AlignmentReport {
     pub before: Residual,
     pub after: Residual,
+    /// Distance of A's area centroid on the sphere from its centre, before
+    /// and after the Möbius normalisation (0 when not normalised).
+    pub centroid_a: (f64, f64),
+    pub centroid_b: (f64, f64),
     pub landmarks_before: Option<Residual>,
+    /// After the least-squares Möbius fit, before the pull.
+    pub landmarks_fit: Option<Residual>,
+    /// Fraction `s` of the fitted map `Mˢ` applied (1 unless the full map
+    /// would fold a triangle of B's embedding).
+    pub mobius_fraction: Option<f64>,
     pub landmarks_after: Option<Residual>,
 }
 
@@ -221,6 +235,8 @@ pub struct SupermeshReport {
     pub alignment: AlignmentReport,
     /// Evenness of A's and B's sphere embeddings.
     pub embedding: [EmbeddingQuality; 2],
+    /// How good the correspondence is ([`measure`] of `V(0)`, `V(1)`).
+    pub correspondence: Correspondence,
     /// Wall time of each stage in seconds (the two embeddings run at once).
     pub stage_seconds: Vec<(Stage, f64)>,
 }
@@ -277,13 +293,26 @@ impl fmt::Display for SupermeshReport {
             "  alignment         mean {:.4} max {:.4} before, mean {:.4} max {:.4} after (RMS radius units)",
             a.before.mean, a.before.max, a.after.mean, a.after.max
         )?;
+        writeln!(
+            f,
+            "  Möbius centring   area centroid A {:.2e} → {:.2e}, B {:.2e} → {:.2e}",
+            a.centroid_a.0, a.centroid_a.1, a.centroid_b.0, a.centroid_b.1
+        )?;
         if let (Some(b), Some(c)) = (a.landmarks_before, a.landmarks_after) {
+            let fit = a.landmarks_fit.unwrap_or_default();
             writeln!(
                 f,
-                "  landmarks         mean {:.4} max {:.4} rad before, mean {:.4} max {:.4} rad after",
-                b.mean, b.max, c.mean, c.max
+                "  landmarks         residual mean {:.4} max {:.4} rad before, {:.4} / {:.4} after the Möbius fit (M^{:.3}), {:.2e} / {:.2e} as overlaid",
+                b.mean,
+                b.max,
+                fit.mean,
+                fit.max,
+                a.mobius_fraction.unwrap_or(0.0),
+                c.mean,
+                c.max
             )?;
         }
+        writeln!(f, "{}", self.correspondence)?;
         write!(f, "  stages           ")?;
         for (stage, s) in &self.stage_seconds {
             write!(f, " {} {:.3} s,", stage.name(), s)?;
@@ -335,12 +364,15 @@ pub enum SupermeshError {
         mesh: Side,
         vertex: u32,
     },
-    #[error("landmark pairs {first} and {second} use B vertex {vertex} twice; each vertex can be pulled toward one place only")]
+    #[error("landmark pairs {first} and {second} use {mesh} vertex {vertex} twice; a vertex can correspond to one vertex of the other mesh only: drop or fix one of the pairs")]
     LandmarkRepeated {
         first: usize,
         second: usize,
+        mesh: Side,
         vertex: u32,
     },
+    #[error("landmark pair {pair} could not be brought onto its partner without folding B's embedding (still {angle:.3} rad apart on the sphere): the pairs contradict each other (their order around a neighbouring pair differs between the meshes, or two pairs are swapped); check this pair and its neighbours, or drop it")]
+    LandmarkUnreached { pair: usize, angle: f64 },
     #[error(
         "the spherical embedding of mesh {mesh} failed ({what}); please report this with the mesh"
     )]
@@ -351,19 +383,57 @@ pub enum SupermeshError {
     Overlay { a_face: u32, b_face: u32 },
 }
 
-/// A line of a landmarks file that is not `vertex_in_a vertex_in_b`.
-#[derive(Debug, Error, Clone, PartialEq, Eq)]
-#[error("landmarks line {line}: expected two vertex indices `vertex_in_a vertex_in_b` (non-negative integers, `#` starts a comment), found {found:?}")]
-pub struct LandmarkParseError {
-    /// 1-based line number.
-    pub line: usize,
-    pub found: String,
+impl SupermeshError {
+    /// The landmark pair (0-based, in the order given) an error is about.
+    pub fn landmark_pair(&self) -> Option<usize> {
+        match *self {
+            SupermeshError::LandmarkOutOfRange { pair, .. }
+            | SupermeshError::LandmarkUnused { pair, .. }
+            | SupermeshError::LandmarkUnreached { pair, .. } => Some(pair),
+            SupermeshError::LandmarkRepeated { second, .. } => Some(second),
+            _ => None,
+        }
+    }
 }
 
-/// Parses a landmarks file: one pair `vertex_in_a vertex_in_b` a line,
-/// whitespace-separated; blank lines and everything after `#` are ignored.
-pub fn parse_landmarks(text: &str) -> Result<Vec<(u32, u32)>, LandmarkParseError> {
-    let mut pairs = Vec::new();
+/// A landmarks file that cannot be read.
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+pub enum LandmarkParseError {
+    #[error("landmarks line {line}: expected two vertex indices `vertex_in_a vertex_in_b` (non-negative integers, `#` starts a comment), found {found:?}")]
+    Line {
+        /// 1-based line number.
+        line: usize,
+        found: String,
+    },
+    #[error("the landmarks file has no pairs (only blank lines and comments): give at least one `vertex_in_a vertex_in_b` line, or leave the landmarks out")]
+    Empty,
+}
+
+/// Landmark pairs read from a file, with the line each came from.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Landmarks {
+    /// `(vertex of A, vertex of B)`, 0-based in each file's vertex order.
+    pub pairs: Vec<(u32, u32)>,
+    /// The 1-based line of each pair.
+    pub lines: Vec<usize>,
+}
+
+impl Landmarks {
+    /// `error`, prefixed with the line of the landmark pair it is about.
+    pub fn explain(&self, error: &SupermeshError) -> String {
+        match error.landmark_pair().and_then(|p| self.lines.get(p)) {
+            Some(line) => format!("landmarks line {line}: {error}"),
+            None => error.to_string(),
+        }
+    }
+}
+
+/// Parses a landmarks file (format in docs/DESIGN.md, "Landmarks"): one pair
+/// `vertex_in_a vertex_in_b` a line, whitespace-separated, 0-based indices in
+/// each mesh file's vertex order; blank lines and everything after `#` are
+/// ignored; at least one pair.
+pub fn parse_landmarks(text: &str) -> Result<Landmarks, LandmarkParseError> {
+    let mut out = Landmarks::default();
     for (k, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
         if line.is_empty() {
@@ -375,16 +445,22 @@ pub fn parse_landmarks(text: &str) -> Result<Vec<(u32, u32)>, LandmarkParseError
             _ => None,
         };
         match parsed {
-            Some(pair) => pairs.push(pair),
+            Some(pair) => {
+                out.pairs.push(pair);
+                out.lines.push(k + 1);
+            }
             None => {
-                return Err(LandmarkParseError {
+                return Err(LandmarkParseError::Line {
                     line: k + 1,
                     found: raw.trim().to_string(),
                 })
             }
         }
     }
-    Ok(pairs)
+    if out.pairs.is_empty() {
+        return Err(LandmarkParseError::Empty);
+    }
+    Ok(out)
 }
 
 /// One triangulation with a pose on A and a pose on B.
@@ -441,14 +517,25 @@ impl Supermesh {
             seconds: Vec::new(),
         };
         let (ca, cb, landmarks) = stages.run(Stage::Check, || check_inputs(a, b, options))?;
-        let embedded = embed_both(&ca, &cb, options, &mut stages.seconds)?;
+        let mut embedded = embed_both(&ca, &cb, options, &mut stages.seconds)?;
         let (b_aligned, mut alignment) = stages.run(Stage::Align, || {
-            align_b(&ca.mesh, &cb.mesh, &embedded, &landmarks, options)
+            align_b(&ca.mesh, &cb.mesh, &mut embedded, &landmarks, options)
         })?;
         let (overlay, b_sphere, attempts) = stages.run(Stage::Overlay, || {
-            overlay_with_retries(&ca.mesh, &embedded.a, &cb.mesh, b_aligned, options)
+            overlay_with_retries(
+                &ca.mesh,
+                &embedded.a,
+                &cb.mesh,
+                b_aligned,
+                !landmarks.is_empty(),
+                options,
+            )
         })?;
         alignment.after = final_residual(&ca.mesh, &cb.mesh, &embedded.a, &b_sphere);
+        if !landmarks.is_empty() {
+            alignment.landmarks_after =
+                Some(align::landmark_angles(&embedded.a, &b_sphere, &landmarks));
+        }
         let supermesh = stages.run(Stage::Positions, || {
             assemble(&ca, &cb, &embedded.a, &b_sphere, &overlay)
         });
@@ -471,6 +558,7 @@ impl Supermesh {
                 embed::quality(&embedded.a, &ca.mesh.positions, &ca.mesh.triangles),
                 embed::quality(&embedded.b, &cb.mesh.positions, &cb.mesh.triangles),
             ],
+            correspondence: measure(&supermesh.triangles, &supermesh.v0, &supermesh.v1),
             stage_seconds: stages.seconds,
         };
         Ok((supermesh, report))
@@ -513,7 +601,7 @@ fn map_landmarks(
     };
     let (ia, ib) = (inverse(a.0, a.1), inverse(b.0, b.1));
     let mut out = Vec::with_capacity(pairs.len());
-    let mut used_b: std::collections::HashMap<u32, usize> = Default::default();
+    let mut used: [std::collections::HashMap<u32, usize>; 2] = Default::default();
     for (pair, &(va, vb)) in pairs.iter().enumerate() {
         let mut mapped = [0u32; 2];
         for (k, (side, v, map)) in [(Side::A, va, &ia), (Side::B, vb, &ib)]
@@ -537,14 +625,21 @@ fn map_landmarks(
             }
             mapped[k] = m;
         }
-        if let Some(&first) = used_b.get(&vb) {
-            return Err(SupermeshError::LandmarkRepeated {
-                first,
-                second: pair,
-                vertex: vb,
-            });
+        for (used, mesh, v) in used
+            .iter_mut()
+            .zip([(Side::A, va), (Side::B, vb)])
+            .map(|(u, (m, v))| (u, m, v))
+        {
+            if let Some(&first) = used.get(&v) {
+                return Err(SupermeshError::LandmarkRepeated {
+                    first,
+                    second: pair,
+                    mesh,
+                    vertex: v,
+                });
+            }
+            used.insert(v, pair);
         }
-        used_b.insert(vb, pair);
         out.push((mapped[0], mapped[1]));
     }
     Ok(out)
@@ -596,57 +691,117 @@ fn embed_both(
     Ok(Embedded { a: a?, b: b? })
 }
 
-fn normalised(mesh: &IndexedMesh) -> Vec<DVec3> {
-    let frame = align::Frame::new(&mesh.positions, &mesh.triangles);
+fn normalised(mesh: &IndexedMesh, mass: &[f64]) -> Vec<DVec3> {
+    let frame = align::Frame::new(&mesh.positions, mass);
     mesh.positions.iter().map(|&p| frame.apply(p)).collect()
 }
 
-/// Stage 3: B's sphere rotated (and its landmarks pulled) to match A's.
+/// Stage 3: both embeddings Möbius-normalised, then B's sphere rotated to
+/// the smallest `D`, or with landmarks mapped by their least-squares Möbius
+/// fit and its landmarks pulled exactly onto A's (see `align.rs`).
 fn align_b(
     a: &IndexedMesh,
     b: &IndexedMesh,
-    embedded: &Embedded,
+    embedded: &mut Embedded,
     landmarks: &[(u32, u32)],
     options: &SupermeshOptions,
 ) -> Result<(Vec<DVec3>, AlignmentReport), SupermeshError> {
-    let (qa, qb) = (normalised(a), normalised(b));
-    let samples = align::samples(&embedded.a, &qa, 4000);
+    let (mass_a, mass_b) = (
+        embed::vertex_masses(&a.positions, &a.triangles),
+        embed::vertex_masses(&b.positions, &b.triangles),
+    );
+    let mut report = AlignmentReport::default();
+    // Centring moves shared points of radial embeddings apart: kept as they are.
+    if options.align && !options.radial {
+        report.centroid_a = mobius::centre(&mut embedded.a, &mass_a, &a.triangles);
+        report.centroid_b = mobius::centre(&mut embedded.b, &mass_b, &b.triangles);
+    }
+    let (qa, qb) = (normalised(a, &mass_a), normalised(b, &mass_b));
+    let samples = align::samples(&embedded.a, &qa, &mass_a, 4000);
     let lookup = align::SurfaceLookup::new(&SphereMesh::new(&embedded.b, &b.triangles), &qb);
-    let before = align::residual(&samples, &lookup, DMat3::IDENTITY);
-    let landmark_rotation = align::landmark_rotation(&embedded.a, &embedded.b, landmarks);
-    let rotation = match (options.align, landmark_rotation) {
-        (false, _) => DMat3::IDENTITY,
-        (true, Some(r)) => r,
-        (true, None) => {
-            let b_samples = align::samples(&embedded.b, &qb, 4000);
-            let extra = align::moment_candidates(&samples, &b_samples);
-            align::search_rotation(&samples, &lookup, &extra)
-        }
-    };
+    report.before = align::residual(&samples, &lookup, DMat3::IDENTITY);
+    report.after = report.before;
     let mut points = embedded.b.clone();
+    let rotation = if options.align {
+        let b_samples = align::samples(&embedded.b, &qb, &mass_b, 4000);
+        let extra = align::moment_candidates(&samples, &b_samples);
+        align::search_rotation(&samples, &lookup, &extra)
+    } else {
+        DMat3::IDENTITY
+    };
     if !align::rotate(&mut points, &b.triangles, rotation) {
         return Err(SupermeshError::Embedding {
             mesh: Side::B,
             what: "rounding of the alignment rotation folded a triangle".into(),
         });
     }
-    let mut report = AlignmentReport {
-        before,
-        after: before,
-        ..AlignmentReport::default()
-    };
-    if !landmarks.is_empty() {
-        report.landmarks_before = Some(align::landmark_angles(&embedded.a, &embedded.b, landmarks));
-        let rings = embed::build_rings(points.len(), &b.triangles).map_err(|e| {
-            SupermeshError::Embedding {
-                mesh: Side::B,
-                what: format!("{e:?}"),
-            }
-        })?;
-        let mass = embed::vertex_masses(&b.positions, &b.triangles);
-        align::pull_landmarks(&mass, &rings, &mut points, &embedded.a, landmarks, 400);
-        report.landmarks_after = Some(align::landmark_angles(&embedded.a, &points, landmarks));
+    if landmarks.is_empty() {
+        return Ok((points, report));
     }
+    // Landmarks: from the automatic alignment, the fraction of the landmarks'
+    // least-squares Möbius map with the smallest D, then the drag.
+    report.landmarks_before = Some(align::landmark_angles(&embedded.a, &points, landmarks));
+    let (from, to): (Vec<DVec3>, Vec<DVec3>) = landmarks
+        .iter()
+        .map(|&(la, lb)| (points[lb as usize], embedded.a[la as usize]))
+        .unzip();
+    let fit = mobius::Mobius::fit(&from, &to);
+    let lookup = align::SurfaceLookup::new(&SphereMesh::new(&points, &b.triangles), &qb);
+    let (fraction, _) = [0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0]
+        .into_iter()
+        .map(|f| {
+            let back = fit.power(f).inverse();
+            (f, align::cost_by(&samples, &lookup, |x| back.apply(x)))
+        })
+        .min_by(|x, y| x.1.total_cmp(&y.1))
+        .unwrap_or((0.0, 0.0));
+    let rings =
+        embed::build_rings(points.len(), &b.triangles).map_err(|e| SupermeshError::Embedding {
+            mesh: Side::B,
+            what: format!("{e:?}"),
+        })?;
+    mobius::warp(&rings, &mut points, &fit.power(fraction), 32, 4);
+    report.mobius_fraction = Some(fraction);
+    report.landmarks_fit = Some(align::landmark_angles(&embedded.a, &points, landmarks));
+    // The pairs meet halfway (each embedding dragged half as far), then
+    // whatever is left is closed from B's side, then from A's.
+    let rings_a = embed::build_rings(embedded.a.len(), &a.triangles).map_err(|e| {
+        SupermeshError::Embedding {
+            mesh: Side::A,
+            what: format!("{e:?}"),
+        }
+    })?;
+    let goals: Vec<DVec3> = landmarks
+        .iter()
+        .map(|&(la, lb)| {
+            let (x, y) = (embedded.a[la as usize], points[lb as usize]);
+            (x.normalize() + y.normalize()).normalize_or(x)
+        })
+        .collect();
+    let index = |side: usize| -> Vec<(u32, u32)> {
+        landmarks
+            .iter()
+            .enumerate()
+            .map(|(k, &p)| (k as u32, if side == 0 { p.0 } else { p.1 }))
+            .collect()
+    };
+    let (pairs_a, pairs_b) = (index(0), index(1));
+    align::pull_landmarks(&mass_a, &rings_a, &mut embedded.a, &goals, &pairs_a, 400);
+    align::pull_landmarks(&mass_b, &rings, &mut points, &goals, &pairs_b, 400);
+    align::pull_landmarks(&mass_b, &rings, &mut points, &embedded.a, landmarks, 400);
+    let swapped: Vec<(u32, u32)> = landmarks.iter().map(|&(la, lb)| (lb, la)).collect();
+    align::pull_landmarks(&mass_a, &rings_a, &mut embedded.a, &points, &swapped, 400);
+    if let Some((pair, &(la, lb))) = landmarks
+        .iter()
+        .enumerate()
+        .find(|(_, &(la, lb))| points[lb as usize] != embedded.a[la as usize])
+    {
+        return Err(SupermeshError::LandmarkUnreached {
+            pair,
+            angle: points[lb as usize].angle_between(embedded.a[la as usize]),
+        });
+    }
+    report.landmarks_after = Some(align::landmark_angles(&embedded.a, &points, landmarks));
     Ok((points, report))
 }
 
@@ -657,6 +812,7 @@ fn overlay_with_retries(
     a_sphere: &[DVec3],
     b: &IndexedMesh,
     b_sphere: Vec<DVec3>,
+    landmarks: bool,
     options: &SupermeshOptions,
 ) -> Result<(overlay::Overlay, Vec<DVec3>, usize), SupermeshError> {
     let ma = SphereMesh::new(a_sphere, &a.triangles);
@@ -668,7 +824,9 @@ fn overlay_with_retries(
     };
     for attempt in 0..attempts {
         let mut points = b_sphere.clone();
-        if options.perturb {
+        // Landmark pairs sit on exactly one sphere point each: the first try
+        // keeps them there (the overlay merges them), later tries perturb.
+        if options.perturb && !(landmarks && attempt == 0) {
             let r = align::random_rotation(options.seed.wrapping_add(attempt as u64), PERTURBATION);
             if !align::rotate(&mut points, &b.triangles, r) {
                 continue;
@@ -693,8 +851,12 @@ fn final_residual(
     a_sphere: &[DVec3],
     b_sphere: &[DVec3],
 ) -> Residual {
-    let (qa, qb) = (normalised(a), normalised(b));
-    let samples = align::samples(a_sphere, &qa, 4000);
+    let (mass_a, mass_b) = (
+        embed::vertex_masses(&a.positions, &a.triangles),
+        embed::vertex_masses(&b.positions, &b.triangles),
+    );
+    let (qa, qb) = (normalised(a, &mass_a), normalised(b, &mass_b));
+    let samples = align::samples(a_sphere, &qa, &mass_a, 4000);
     let lookup = align::SurfaceLookup::new(&SphereMesh::new(b_sphere, &b.triangles), &qb);
     align::residual(&samples, &lookup, DMat3::IDENTITY)
 }
@@ -751,11 +913,147 @@ mod tests {
     #[test]
     fn landmarks_parse_with_comments_and_name_the_bad_line() {
         let text = "# pairs\n0 5\n\n  12\t7  # nose\n";
-        assert_eq!(parse_landmarks(text).unwrap(), vec![(0, 5), (12, 7)]);
+        let parsed = parse_landmarks(text).unwrap();
+        assert_eq!(parsed.pairs, vec![(0, 5), (12, 7)]);
+        assert_eq!(parsed.lines, vec![2, 4]);
+        let e = SupermeshError::LandmarkUnused {
+            pair: 1,
+            mesh: Side::A,
+            vertex: 12,
+        };
+        assert!(
+            parsed.explain(&e).starts_with("landmarks line 4: "),
+            "{}",
+            parsed.explain(&e)
+        );
         let err = parse_landmarks("0 5\n1 x\n").unwrap_err();
-        assert_eq!(err.line, 2);
+        assert!(matches!(err, LandmarkParseError::Line { line: 2, .. }));
         assert!(err.to_string().contains("line 2"), "{err}");
+        assert_eq!(
+            parse_landmarks("# none\n\n"),
+            Err(LandmarkParseError::Empty)
+        );
         assert!(parse_landmarks("1 2 3").is_err());
         assert!(parse_landmarks("-1 2").is_err());
+    }
+
+    /// A star-shaped blob: an icosphere (4 → 1 splits) pushed in and out.
+    fn blob(level: u32, seed: u64) -> IndexedMesh {
+        let phi = (1.0 + 5f64.sqrt()) / 2.0;
+        let mut p: Vec<DVec3> = [
+            [-1.0, phi, 0.0],
+            [1.0, phi, 0.0],
+            [-1.0, -phi, 0.0],
+            [1.0, -phi, 0.0],
+            [0.0, -1.0, phi],
+            [0.0, 1.0, phi],
+            [0.0, -1.0, -phi],
+            [0.0, 1.0, -phi],
+            [phi, 0.0, -1.0],
+            [phi, 0.0, 1.0],
+            [-phi, 0.0, -1.0],
+            [-phi, 0.0, 1.0],
+        ]
+        .map(|c| DVec3::from_array(c).normalize())
+        .to_vec();
+        let mut t: Vec<[u32; 3]> = vec![
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        for _ in 0..level {
+            let mut mid = std::collections::HashMap::new();
+            let mut next = Vec::new();
+            for tri in &t {
+                let m = [0, 1, 2].map(|i| {
+                    let (a, b) = (tri[i].min(tri[(i + 1) % 3]), tri[i].max(tri[(i + 1) % 3]));
+                    *mid.entry((a, b)).or_insert_with(|| {
+                        p.push((p[a as usize] + p[b as usize]).normalize());
+                        p.len() as u32 - 1
+                    })
+                });
+                next.push([tri[0], m[0], m[2]]);
+                next.push([m[0], tri[1], m[1]]);
+                next.push([m[2], m[1], tri[2]]);
+                next.push(m);
+            }
+            t = next;
+        }
+        let mut state = seed;
+        let positions = p
+            .iter()
+            .map(|&q| {
+                let r = 1.0 + 0.3 * (sphere::next_unit(&mut state) - 0.5);
+                (q * r * DVec3::new(2.0, 1.0, 0.6)).as_vec3().to_array()
+            })
+            .collect();
+        IndexedMesh::new(positions, t)
+    }
+
+    /// A mesh and a scaled, moved copy whose sphere embedding is the mesh's
+    /// under a Möbius warp and a rotation: the alignment recovers the
+    /// identity correspondence (each vertex on its twin, D ≈ 0).
+    #[test]
+    fn alignment_recovers_the_identity_under_a_mobius_warp_and_rotation() {
+        let a = blob(3, 5);
+        let mut b = a.clone();
+        for p in &mut b.positions {
+            *p = p.map(|c| 3.0 * c + 1.5);
+        }
+        let sphere = embed::embed(&a.positions, &a.triangles, &mut |_| {}).unwrap();
+        for (k, boost) in [
+            [0.2, 0.1, -0.3, 0.2, 0.1, 0.0],
+            [0.0, 0.5, 0.3, -0.1, 0.2, 0.4],
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let warp = mobius::Mobius::small(boost);
+            let mut warped = sphere.clone();
+            let rings = embed::build_rings(warped.len(), &b.triangles).unwrap();
+            assert_eq!(mobius::warp(&rings, &mut warped, &warp, 8, 4), 0);
+            let rotation = align::random_rotation(k as u64, 1.0);
+            assert!(align::rotate(&mut warped, &b.triangles, rotation));
+            let mut embedded = Embedded {
+                a: sphere.clone(),
+                b: warped,
+            };
+            let before: f64 = embedded
+                .a
+                .iter()
+                .zip(&embedded.b)
+                .map(|(x, y)| x.angle_between(*y))
+                .sum::<f64>()
+                / sphere.len() as f64;
+            let (points, _) =
+                align_b(&a, &b, &mut embedded, &[], &SupermeshOptions::default()).unwrap();
+            let after: f64 = embedded
+                .a
+                .iter()
+                .zip(&points)
+                .map(|(x, y)| x.angle_between(*y))
+                .sum::<f64>()
+                / sphere.len() as f64;
+            println!("mean angle between twins {before:.4} -> {after:.4} rad");
+            assert!(before > 0.3, "{before}");
+            assert!(after < 0.01, "{before} -> {after}");
+        }
     }
 }

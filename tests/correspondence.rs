@@ -1,0 +1,350 @@
+//! Correspondence of the supermesh (issue 25): the measure
+//! (`morph::supermesh::measure`, definitions in docs/DESIGN.md), landmarks
+//! that close exactly without folds, bad landmark files, and man → camel with
+//! the shipped landmarks.
+
+use std::path::Path;
+
+use glam::DVec3;
+use morphlod::io::{load_mesh, LoadOptions};
+use morphlod::mesh::IndexedMesh;
+use morphlod::morph::supermesh::{
+    measure, parse_landmarks, Origin, Side, Supermesh, SupermeshError, SupermeshOptions,
+};
+use proptest::prelude::*;
+
+// ---------------------------------------------------------------- generators
+
+struct Rng(u64);
+
+impl Rng {
+    fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A UV sphere `rings × segments` pushed in and out by radial noise and
+/// stretched: a closed genus-0 mesh of any density.
+fn blob(rings: u32, segments: u32, noise: f64, stretch: [f64; 3], seed: u64) -> IndexedMesh {
+    let mut rng = Rng(seed);
+    let mut p = vec![[0.0, 0.0, 1.0]];
+    for i in 1..rings {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = std::f64::consts::TAU * j as f64 / segments as f64;
+            p.push([
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            ]);
+        }
+    }
+    p.push([0.0, 0.0, -1.0]);
+    let south = p.len() as u32 - 1;
+    let id = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
+    let mut t = Vec::new();
+    for j in 0..segments {
+        t.push([0, id(1, j), id(1, j + 1)]);
+        t.push([south, id(rings - 1, j + 1), id(rings - 1, j)]);
+    }
+    for i in 1..rings - 1 {
+        for j in 0..segments {
+            t.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            t.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let positions = p
+        .iter()
+        .map(|&q| {
+            let r = 1.0 + noise * (rng.unit() - 0.5);
+            (DVec3::from_array(q) * r * DVec3::from_array(stretch))
+                .as_vec3()
+                .to_array()
+        })
+        .collect();
+    IndexedMesh::new(positions, t)
+}
+
+fn asset(name: &str) -> IndexedMesh {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
+    load_mesh(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+// ---------------------------------------------------------------- the measure
+
+/// The oracle of the measure, straight from its definition (docs/DESIGN.md):
+/// `s(t)` with the fixed weights, about the weighted centroid, at any `t`.
+fn s_oracle(tris: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]], t: f64) -> f64 {
+    let d = |p: [f32; 3]| DVec3::from_array(p.map(f64::from));
+    let shares = |v: &[[f32; 3]]| {
+        let mut w = vec![0.0; v.len()];
+        let mut total = 0.0;
+        for tri in tris {
+            let [a, b, c] = tri.map(|i| d(v[i as usize]));
+            let area = 0.5 * (b - a).cross(c - a).length();
+            total += area;
+            for &i in tri {
+                w[i as usize] += area / 3.0;
+            }
+        }
+        w.iter().map(|x| x / total).collect::<Vec<f64>>()
+    };
+    let (w0, w1) = (shares(v0), shares(v1));
+    let w: Vec<f64> = w0.iter().zip(&w1).map(|(a, b)| 0.5 * (a + b)).collect();
+    let rms = |p: &[DVec3]| {
+        let c: DVec3 = p.iter().zip(&w).map(|(&x, &w)| x * w).sum();
+        p.iter()
+            .zip(&w)
+            .map(|(&x, &w)| w * (x - c).length_squared())
+            .sum::<f64>()
+            .sqrt()
+    };
+    let p0: Vec<DVec3> = v0.iter().map(|&p| d(p)).collect();
+    let p1: Vec<DVec3> = v1.iter().map(|&p| d(p)).collect();
+    let pt: Vec<DVec3> = p0.iter().zip(&p1).map(|(&a, &b)| a.lerp(b, t)).collect();
+    rms(&pt) / ((1.0 - t) * rms(&p0) + t * rms(&p1))
+}
+
+#[test]
+fn measure_matches_its_definition() {
+    let a = blob(8, 12, 0.3, [1.0, 2.0, 0.5], 3);
+    // A shuffled copy: the wrong correspondence shrinks the in-between.
+    let mut b = a.clone();
+    let n = b.positions.len();
+    for i in 0..n / 2 {
+        b.positions.swap(i, (i * 7 + 3) % n);
+    }
+    let m = measure(&a.triangles, &a.positions, &b.positions);
+    for (k, t) in [0.25, 0.5, 0.75].into_iter().enumerate() {
+        let o = s_oracle(&a.triangles, &a.positions, &b.positions, t);
+        assert!(
+            (m.s_placed[k] - o).abs() < 1e-9,
+            "{k}: {} vs {o}",
+            m.s_placed[k]
+        );
+    }
+    assert!(m.s[1] < 0.9, "{m:?}");
+    assert!((m.s[1] - (1.0 - m.d / 4.0).sqrt()).abs() < 1e-9, "{m:?}");
+    // A scaled, moved copy under the identity: s = 1, D = 0, no distortion.
+    let c: Vec<[f32; 3]> = a
+        .positions
+        .iter()
+        .map(|p| p.map(|x| 4.0 * x - 2.0))
+        .collect();
+    let m = measure(&a.triangles, &a.positions, &c);
+    assert!(m.d < 1e-10, "{m:?}");
+    assert!(m.s.iter().all(|s| (s - 1.0).abs() < 1e-6), "{m:?}");
+    assert!((m.distortion.angle[1] - 1.0).abs() < 1e-4, "{m:?}");
+    assert!(m.d_placed > 1.0, "{m:?}");
+}
+
+// ---------------------------------------------------------------- alignment
+
+/// A mesh and a scaled, moved copy of it with its vertices shuffled (so
+/// indices do not give the answer): the automatic alignment recovers about
+/// the identity (s ≈ 1, D ≈ 0).
+#[test]
+fn a_mesh_and_its_shuffled_scaled_copy_correspond() {
+    let a = blob(16, 24, 0.2, [2.0, 1.0, 0.6], 9);
+    let n = a.positions.len() as u32;
+    let order: Vec<u32> = (0..n).map(|i| (i * 37 + 11) % n).collect();
+    let mut inverse = vec![0u32; n as usize];
+    for (new, &old) in order.iter().enumerate() {
+        inverse[old as usize] = new as u32;
+    }
+    let b = IndexedMesh::new(
+        order
+            .iter()
+            .map(|&old| a.positions[old as usize].map(|x| 2.5 * x + 1.0))
+            .collect(),
+        a.triangles
+            .iter()
+            .map(|t| t.map(|v| inverse[v as usize]))
+            .collect(),
+    );
+    let (_, r) = Supermesh::build(&a, &b, &SupermeshOptions::default()).unwrap();
+    println!("{r}");
+    let c = r.correspondence;
+    assert!(c.s.iter().all(|&s| s > 0.98), "{c:?}");
+    assert!(c.d < 0.05, "{c:?}");
+    assert_eq!(r.fold_overs, 0);
+}
+
+// ---------------------------------------------------------------- landmarks
+
+fn random_pairs(rng: &mut Rng, k: usize, na: usize, nb: usize) -> Vec<(u32, u32)> {
+    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    while pairs.len() < k {
+        let (a, b) = (
+            (rng.unit() * na as f64) as u32,
+            (rng.unit() * nb as f64) as u32,
+        );
+        if pairs.iter().all(|&(x, y)| x != a && y != b) {
+            pairs.push((a, b));
+        }
+    }
+    pairs
+}
+
+/// `k` random vertices of A, each paired with the vertex of B in the most
+/// similar direction from the centre (both blobs are star-shaped about it):
+/// pairs that agree with each other, as a user's would.
+fn consistent_pairs(rng: &mut Rng, k: usize, a: &IndexedMesh, b: &IndexedMesh) -> Vec<(u32, u32)> {
+    let dir = |p: [f32; 3]| DVec3::from_array(p.map(f64::from)).normalize();
+    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    while pairs.len() < k {
+        let va = (rng.unit() * a.vertex_count() as f64) as u32;
+        let d = dir(a.positions[va as usize]);
+        let vb = (0..b.vertex_count() as u32)
+            .max_by(|&x, &y| {
+                d.dot(dir(b.positions[x as usize]))
+                    .total_cmp(&d.dot(dir(b.positions[y as usize])))
+            })
+            .unwrap();
+        if pairs.iter().all(|&(x, y)| x != va && y != vb) {
+            pairs.push((va, vb));
+        }
+    }
+    pairs
+}
+
+fn check_closed(
+    s: &Supermesh,
+    r: &morphlod::morph::supermesh::SupermeshReport,
+    pairs: &[(u32, u32)],
+) {
+    assert_eq!(r.fold_overs, 0);
+    assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0, "{r}");
+    for &(la, lb) in pairs {
+        assert!(
+            s.origins.contains(&Origin::Both { a: la, b: lb }),
+            "({la}, {lb}) not merged"
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+
+    /// Landmark pairs that agree with each other, on two different blobs
+    /// (one rotated and stretched): every pair ends on one sphere point
+    /// (residual 0, one supermesh vertex of both meshes), no triangle folds.
+    #[test]
+    fn consistent_landmarks_close_exactly_without_folds(seed in any::<u64>(), k in 1usize..6) {
+        let a = blob(10, 16, 0.3, [1.0, 1.0, 1.0], seed);
+        let b = blob(7, 11, 0.2, [2.0, 1.0, 0.5], seed ^ 0x5eed);
+        let pairs = consistent_pairs(&mut Rng(seed), k, &a, &b);
+        let options = SupermeshOptions { landmarks: pairs.clone(), seed, ..SupermeshOptions::default() };
+        let (s, r) = Supermesh::build(&a, &b, &options).unwrap_or_else(|e| panic!("{pairs:?}: {e}"));
+        check_closed(&s, &r, &pairs);
+    }
+
+    /// Random pairs (which may contradict each other): either every pair
+    /// closes exactly without folds, or a typed error names the pair the
+    /// fold-rejecting drag could not close; never a half-closed result.
+    #[test]
+    fn random_landmarks_close_or_name_the_pair(seed in any::<u64>(), k in 1usize..6) {
+        let a = blob(10, 16, 0.3, [1.0, 1.0, 1.0], seed);
+        let b = blob(7, 11, 0.2, [2.0, 1.0, 0.5], seed ^ 0x5eed);
+        let pairs = random_pairs(&mut Rng(seed), k, a.vertex_count(), b.vertex_count());
+        let options = SupermeshOptions { landmarks: pairs.clone(), seed, ..SupermeshOptions::default() };
+        match Supermesh::build(&a, &b, &options) {
+            Ok((s, r)) => check_closed(&s, &r, &pairs),
+            Err(e) => {
+                prop_assert!(matches!(e, SupermeshError::LandmarkUnreached { .. }), "{}", e);
+                prop_assert!(e.landmark_pair().unwrap() < pairs.len());
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_landmarks_are_typed_errors_naming_the_pair() {
+    let a = blob(6, 8, 0.2, [1.0, 1.0, 1.0], 1);
+    let b = blob(5, 7, 0.2, [1.0, 1.0, 1.0], 2);
+    let build = |pairs: Vec<(u32, u32)>| {
+        let options = SupermeshOptions {
+            landmarks: pairs,
+            ..SupermeshOptions::default()
+        };
+        Supermesh::build(&a, &b, &options).map(|_| ()).unwrap_err()
+    };
+    let text = "# pairs\n0 0\n\n5 9999   # out of range\n";
+    let parsed = parse_landmarks(text).unwrap();
+    let e = build(parsed.pairs.clone());
+    assert!(
+        matches!(
+            e,
+            SupermeshError::LandmarkOutOfRange {
+                pair: 1,
+                mesh: Side::B,
+                vertex: 9999,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(
+        parsed.explain(&e).starts_with("landmarks line 4: "),
+        "{}",
+        parsed.explain(&e)
+    );
+    for (pairs, mesh) in [
+        (vec![(0, 1), (2, 3), (0, 4)], Side::A),
+        (vec![(0, 1), (2, 3), (4, 3)], Side::B),
+    ] {
+        let e = build(pairs);
+        assert!(
+            matches!(e, SupermeshError::LandmarkRepeated { first: 0, second: 2, mesh: m, .. } if m == mesh)
+                || matches!(e, SupermeshError::LandmarkRepeated { first: 1, second: 2, mesh: m, .. } if m == mesh),
+            "{e}"
+        );
+        assert_eq!(e.landmark_pair(), Some(2));
+    }
+    assert!(parse_landmarks("# nothing\n").is_err());
+}
+
+// ---------------------------------------------------------------- man → camel
+
+/// The man's file is z-up: stood up as the demo does (`(x, y, z)` → `(x, z, −y)`).
+fn stood_up(mut mesh: IndexedMesh) -> IndexedMesh {
+    for p in &mut mesh.positions {
+        *p = [p[0], p[2], -p[1]];
+    }
+    mesh
+}
+
+/// man → camel with the shipped landmarks: the in-betweens keep their size
+/// (s ≥ 0.88 at ¼, ½, ¾: 0.924, 0.897, 0.924 measured; 0.737, 0.626, 0.737
+/// with the alignment before issue 25; the issue's goal of 0.9 is not met
+/// yet), every pair on one point, no fold-overs.
+#[test]
+fn man_to_camel_with_the_shipped_landmarks() {
+    let man = stood_up(asset("man.off"));
+    let camel = asset("camel.off");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/man_camel.landmarks"),
+    )
+    .unwrap();
+    let landmarks = parse_landmarks(&text).unwrap();
+    let options = SupermeshOptions {
+        landmarks: landmarks.pairs.clone(),
+        ..SupermeshOptions::default()
+    };
+    let (s, r) = Supermesh::build(&man, &camel, &options)
+        .unwrap_or_else(|e| panic!("{}", landmarks.explain(&e)));
+    println!("{r}");
+    let c = r.correspondence;
+    assert!(c.s.iter().all(|&s| s >= 0.88), "{c:?}");
+    assert_eq!(r.fold_overs, 0);
+    assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0);
+    for &(la, lb) in &landmarks.pairs {
+        assert!(s.origins.contains(&Origin::Both { a: la, b: lb }));
+    }
+}
