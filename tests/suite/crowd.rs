@@ -581,7 +581,6 @@ fn bad_input_is_refused_and_changes_nothing() -> Result<()> {
 /// vertices); the head's instances are checked against it and against what they must hold.
 const HOST_BYTES_PER_INSTANCE: f64 = 200_000.0;
 
-
 /// What an instance must hold, with slack: its runtime's index buffer (4 bytes per `S0`
 /// index), the survivor table a rebuild uses (4 per vertex), about 30 bytes per strip of
 /// bookkeeping, its 192-byte block and 20-byte record, 4 KB for the state's own fields. An index

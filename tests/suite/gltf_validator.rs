@@ -84,7 +84,11 @@ fn a_missing_harness_fails_under_any_ci_value() {
         ("false", false),
     ] {
         let out = Command::new(std::env::current_exe().unwrap())
-            .args(["gltf_validator::missing_harness_probe", "--exact", "--ignored"])
+            .args([
+                "gltf_validator::missing_harness_probe",
+                "--exact",
+                "--ignored",
+            ])
             .env("CI", ci)
             .output()
             .expect("the test binary runs");

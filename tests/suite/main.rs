@@ -15,6 +15,7 @@ mod asset_golden;
 mod attribute_quality;
 mod bad_input;
 mod clean_attributes;
+mod correspondence;
 mod deform_quality;
 mod oracle;
 mod oracle_deform;

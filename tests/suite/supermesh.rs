@@ -581,6 +581,7 @@ fn origins_and_landmarks_use_the_input_indices() {
             SupermeshError::LandmarkRepeated {
                 first: 0,
                 second: 2,
+                mesh: Side::B,
                 vertex: 5
             }
         ),
