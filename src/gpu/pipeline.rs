@@ -395,6 +395,24 @@ fn bind_group_entries(layout: Layout) -> Vec<wgpu::BindGroupLayoutEntry> {
     entries
 }
 
+/// `source` parsed and validated by naga, for the shader tests of the object and the crowd
+/// pipelines (a broken shader fails `cargo test` without a GPU); panics with naga's message.
+#[cfg(test)]
+pub(crate) fn validated_wgsl(source: &str) -> naga::Module {
+    let module = match naga::front::wgsl::parse_str(source) {
+        Ok(module) => module,
+        Err(error) => panic!("{}", error.emit_to_string(source)),
+    };
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    );
+    if let Err(error) = validator.validate(&module) {
+        panic!("the shader does not validate: {error:?}");
+    }
+    module
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -403,17 +421,7 @@ mod tests {
     /// on any machine instead of only where an adapter exists.
     #[test]
     fn morph_wgsl_validates_with_naga() {
-        let module = match naga::front::wgsl::parse_str(MORPH_WGSL) {
-            Ok(module) => module,
-            Err(error) => panic!("{}", error.emit_to_string(MORPH_WGSL)),
-        };
-        let mut validator = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::empty(),
-        );
-        if let Err(error) = validator.validate(&module) {
-            panic!("morph.wgsl does not validate: {error:?}");
-        }
+        let module = validated_wgsl(MORPH_WGSL);
         let entry_points: Vec<&str> = module
             .entry_points
             .iter()
@@ -429,10 +437,7 @@ mod tests {
     /// would fail validation (min_binding_size) or read garbage.
     #[test]
     fn uniforms_match_wgsl_layout() {
-        let module = match naga::front::wgsl::parse_str(MORPH_WGSL) {
-            Ok(module) => module,
-            Err(error) => panic!("{}", error.emit_to_string(MORPH_WGSL)),
-        };
+        let module = validated_wgsl(MORPH_WGSL);
         let uniforms = module
             .types
             .iter()

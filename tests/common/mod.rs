@@ -52,6 +52,15 @@ pub fn skip_outside_ci(why: &str) {
     );
 }
 
+/// A mesh of `assets/` (any format `load_mesh` reads), cleaned with the default options.
+pub fn load_asset_mesh(name: &str) -> morphlod::IndexedMesh {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(name);
+    morphlod::io::load_mesh(&path, &morphlod::io::LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
 /// SplitMix64: small, seedable, good enough to drive random walks.
 pub struct Rng(pub u64);
 

@@ -3,10 +3,10 @@
 //! that close exactly without folds, bad landmark files, and man → camel with
 //! the shipped landmarks.
 
+use crate::common;
 use std::path::Path;
 
 use glam::DVec3;
-use morphlod::io::{load_mesh, LoadOptions};
 use morphlod::mesh::IndexedMesh;
 use morphlod::morph::supermesh::{
     measure, parse_landmarks, Origin, Side, Supermesh, SupermeshError, SupermeshOptions,
@@ -70,10 +70,7 @@ fn blob(rings: u32, segments: u32, noise: f64, stretch: [f64; 3], seed: u64) -> 
 }
 
 fn asset(name: &str) -> IndexedMesh {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets")
-        .join(name);
-    load_mesh(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
+    common::load_asset_mesh(name)
 }
 
 // ---------------------------------------------------------------- the measure

@@ -11,11 +11,10 @@
 //! the surface at `t = 0` is A (same area, Hausdorff ≤ 1e-6 of the diagonal) and at
 //! `t = 1` is B.
 
+use crate::common;
 use std::collections::HashMap;
-use std::path::Path;
 
 use glam::{DMat3, DVec3};
-use morphlod::io::{load_mesh, LoadOptions};
 use morphlod::mesh::IndexedMesh;
 use morphlod::metrics::hausdorff;
 use morphlod::morph::supermesh::{
@@ -766,10 +765,7 @@ fn bad_input_gets_typed_errors() {
 // ---------------------------------------------------------------- bundled pairs
 
 fn asset(name: &str) -> IndexedMesh {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets")
-        .join(name);
-    load_mesh(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
+    common::load_asset_mesh(name)
 }
 
 fn pair(a: &str, b: &str) {

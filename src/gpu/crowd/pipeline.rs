@@ -305,28 +305,14 @@ fn crowd_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn module(source: &str) -> naga::Module {
-        let module = match naga::front::wgsl::parse_str(source) {
-            Ok(module) => module,
-            Err(error) => panic!("{}", error.emit_to_string(source)),
-        };
-        let mut validator = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::empty(),
-        );
-        if let Err(error) = validator.validate(&module) {
-            panic!("the shader does not validate: {error:?}");
-        }
-        module
-    }
+    use crate::gpu::pipeline::validated_wgsl;
 
     /// Both crowd shaders parse and validate without a GPU, and the Rust blocks have the
     /// WGSL structs' sizes.
     #[test]
     fn crowd_wgsl_validates_and_blocks_match() {
-        let crowd = module(CROWD_WGSL);
-        module(SCATTER_WGSL);
+        let crowd = validated_wgsl(CROWD_WGSL);
+        validated_wgsl(SCATTER_WGSL);
         let size = |name: &str| {
             let (_, ty) = crowd
                 .types
