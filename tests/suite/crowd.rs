@@ -16,8 +16,8 @@
 //! * `bad_input_is_refused_and_changes_nothing`: NaN transform or colour, NaN time in a batch,
 //!   removed and unknown instances, a full asset, a model of another asset, an asset of another
 //!   device: typed errors, and the buffers and states are as before.
-//! * `host_memory_per_instance_is_bounded`: resident memory per added head instance stays
-//!   below [`HOST_BYTES_PER_INSTANCE`].
+//! * `host_memory_per_instance_is_bounded`: the host bytes each added head instance holds (the
+//!   crowd's own accounting) stay below what it must hold and below [`HOST_BYTES_PER_INSTANCE`].
 
 use crate::common;
 
