@@ -227,7 +227,7 @@ fn check_closed(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
 
     /// Landmark pairs that agree with each other, on two different blobs
     /// (one rotated and stretched): every pair ends on one sphere point
@@ -343,5 +343,25 @@ fn man_to_camel_with_the_shipped_landmarks() {
     assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0);
     for &(la, lb) in &landmarks.pairs {
         assert!(s.origins.contains(&Origin::Both { a: la, b: lb }));
+    }
+}
+
+/// Inputs the proptests above once failed on (pair 0 left 0.066 and 0.043
+/// rad short): two landmarks close on a coarse mesh each dragged the other
+/// back in its own turn. Kept as named cases so they run on every seed.
+#[test]
+fn near_landmarks_do_not_pull_each_other_back() {
+    for (seed, k) in [(12568329709619157204u64, 4), (12650222338893363106, 5)] {
+        let a = blob(10, 16, 0.3, [1.0, 1.0, 1.0], seed);
+        let b = blob(7, 11, 0.2, [2.0, 1.0, 0.5], seed ^ 0x5eed);
+        let pairs = consistent_pairs(&mut Rng(seed), k, &a, &b);
+        let options = SupermeshOptions {
+            landmarks: pairs.clone(),
+            seed,
+            ..SupermeshOptions::default()
+        };
+        let (s, r) =
+            Supermesh::build(&a, &b, &options).unwrap_or_else(|e| panic!("{pairs:?}: {e}"));
+        check_closed(&s, &r, &pairs);
     }
 }

@@ -379,9 +379,10 @@ const LANDMARK_STEP: f64 = 0.04;
 /// less out to the cap's rim, front first), every vertex by a fold-rejecting
 /// move, then relaxes the cap (area-proportional, landmarks pinned). The cap
 /// (the landmark's two rings and whatever lies within 0.8 of the way to the
-/// nearest other landmark) may carry other landmarks along; they are pulled
-/// back in their own turn. When the straight way is blocked the landmark
-/// veers off by up to ±1.2 rad.
+/// nearest other landmark) fades to nothing at the other landmarks, which
+/// stay put: two near pairs moved in turn would otherwise drag each other
+/// back and forth without ever closing. When the straight way is blocked the
+/// landmark veers off by up to ±1.2 rad.
 pub(crate) fn pull_landmarks(
     mass: &[f64],
     rings: &[Vec<u32>],
@@ -427,6 +428,12 @@ pub(crate) fn pull_landmarks(
                 .map(|(_, p)| at.angle_between(b[p.1 as usize]))
                 .fold(f64::INFINITY, f64::min);
             let radius = (2.0 * angle).clamp(0.3, 1.2).min(0.8 * nearest);
+            let others: Vec<DVec3> = pairs
+                .iter()
+                .enumerate()
+                .filter(|&(j, p)| j != k && p.1 != lb)
+                .map(|(_, p)| b[p.1 as usize])
+                .collect();
             // The cap: the landmark's two rings and the vertices within
             // `radius` of it, by a walk.
             stamp += 1;
@@ -467,6 +474,15 @@ pub(crate) fn pull_landmarks(
                         let x = ((r - 0.4) / 0.6).min(1.0);
                         1.0 - x * x * (3.0 - 2.0 * x)
                     };
+                    // Other landmarks stay where they are, and the field fades
+                    // toward them, so two near pairs do not pull each other
+                    // back and forth.
+                    let other = others
+                        .iter()
+                        .map(|&o| b[v as usize].angle_between(o))
+                        .fold(f64::INFINITY, f64::min);
+                    let x = (other / (0.5 * nearest)).min(1.0);
+                    let falloff = falloff * x * x * (3.0 - 2.0 * x);
                     let turn = DMat3::from_axis_angle(axis, step * falloff);
                     super::embed::move_vertex(rings, b, v, turn * b[v as usize]);
                 }
