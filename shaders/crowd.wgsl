@@ -143,7 +143,20 @@ fn local_position(inst: Instance, v: u32) -> vec3<f32> {
 @vertex
 fn vs_crowd(@builtin(vertex_index) index: u32) -> CrowdOut {
     let slot = index / mesh.vertex_count;
-    let v = index - slot * mesh.vertex_count;
+    return instance_vertex(slot, index - slot * mesh.vertex_count);
+}
+
+// The discrete-LOD renderer (gpu::crowd::discrete, the crowd bench's comparison): one
+// instanced draw per level over triangle lists of the asset's own vertices, base_vertex 0, the
+// instance's block number in instance_index. Direct draws keep first_instance on every device
+// (lavapipe drops it in indirect draws only).
+@vertex
+fn vs_levels(@builtin(vertex_index) v: u32, @builtin(instance_index) slot: u32) -> CrowdOut {
+    return instance_vertex(slot, v);
+}
+
+// Vertex v of the instance whose block is instances[slot].
+fn instance_vertex(slot: u32, v: u32) -> CrowdOut {
     let inst = instances[slot];
     let world = inst.model * vec4<f32>(local_position(inst, v), 1.0);
     let s = 12u * v;

@@ -23,6 +23,7 @@
 //! exact for assets of at most 8 targets, see [`WEIGHT_SLOTS`].
 
 mod bench;
+mod discrete;
 mod pipeline;
 mod slots;
 
@@ -32,7 +33,11 @@ use rayon::prelude::*;
 use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
-pub use self::bench::{run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, ModeFigures, Stat};
+pub use self::bench::{
+    run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, FrameFigures, LevelFigures, ModeFigures,
+    Stat,
+};
+pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
 use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, SCATTER_GROUP};
 pub use self::pipeline::{CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
 use self::slots::SlotLayout;
@@ -352,18 +357,7 @@ impl Crowd {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mode = default_mode(gpu.surface());
-        let mesh = MeshBlock {
-            base_color: gpu.surface().map_or([1.0; 4], |s| s.base_color),
-            vertex_count: n,
-            mode: mode.shader_value(),
-            _pad: [0; 2],
-        };
-        let mesh_buffer = device.create_buffer_init(&BufferInitDescriptor {
-            label: Some("crowd mesh"),
-            contents: bytemuck::bytes_of(&mesh),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let mesh_buffer = mesh_buffer(device, &gpu);
         let bind_group = self.bind_group(device, &gpu, &mesh_buffer, &instance_buffer);
         let id = self.assets.len() as u32;
         self.assets.push(CrowdAsset {
@@ -543,16 +537,7 @@ impl Crowd {
                     // Checked above: neither can fail.
                     member.state.set(model, t, lod).expect("checked move");
                     member.moved = true;
-                    let t = clamp_t(t).expect("checked time");
-                    match track {
-                        Some(track) => {
-                            let mut weights = Vec::with_capacity(track.targets());
-                            track.offsets_at(t, &mut weights);
-                            block.set_weights(&weights);
-                            block.t = 0.0;
-                        }
-                        None => block.t = t,
-                    }
+                    block.set_pose(track, clamp_t(t).expect("checked time"));
                 });
         }
         Ok(())
@@ -876,6 +861,21 @@ impl CrowdAsset {
         self.patch_buffer = Some((buffer, group.clone()));
         group
     }
+}
+
+/// The asset's block (`Mesh` in `crowd.wgsl`): base colour, vertex count, shade mode.
+fn mesh_buffer(device: &wgpu::Device, gpu: &GpuAsset) -> wgpu::Buffer {
+    let mesh = MeshBlock {
+        base_color: gpu.surface().map_or([1.0; 4], |s| s.base_color),
+        vertex_count: gpu.vertex_count(),
+        mode: default_mode(gpu.surface()).shader_value(),
+        _pad: [0; 2],
+    };
+    device.create_buffer_init(&BufferInitDescriptor {
+        label: Some("crowd mesh"),
+        contents: bytemuck::bytes_of(&mesh),
+        usage: wgpu::BufferUsages::UNIFORM,
+    })
 }
 
 fn check_finite(what: &'static str, values: &[f32]) -> Result<(), CrowdError> {

@@ -72,6 +72,20 @@ impl InstanceBlock {
         self.normal_model = uniforms.normal_model;
     }
 
+    /// Sets the pose at time `t` (clamped, not NaN): for an asset with a weight `track`, its
+    /// weights at `t` in the slots and `t = 0`; else `t` and no weights.
+    pub(super) fn set_pose(&mut self, track: Option<&crate::morph::WeightTrack>, t: f32) {
+        match track {
+            Some(track) => {
+                let mut weights = Vec::with_capacity(track.targets());
+                track.offsets_at(t, &mut weights);
+                self.set_weights(&weights);
+                self.t = 0.0;
+            }
+            None => self.t = t,
+        }
+    }
+
     /// Fills the weight slots with the `WEIGHT_SLOTS` weights of largest magnitude of
     /// `weights` (one per target), in ascending target order, the rest at weight 0.
     pub(super) fn set_weights(&mut self, weights: &[f32]) {
@@ -99,6 +113,10 @@ impl InstanceBlock {
 /// The pipelines and layouts a crowd draws and edits with.
 pub(super) struct CrowdPipeline {
     pub(super) layout: wgpu::BindGroupLayout,
+    render_layout: wgpu::PipelineLayout,
+    shader: wgpu::ShaderModule,
+    /// Colour and depth formats and culling every render pipeline of this crowd uses.
+    formats: Formats,
     pub(super) render: wgpu::RenderPipeline,
     pub(super) scatter_layout: wgpu::BindGroupLayout,
     pub(super) scatter: wgpu::ComputePipeline,
@@ -126,44 +144,14 @@ impl CrowdPipeline {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let render = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("crowd strips"),
-            layout: Some(&render_layout),
-            vertex: wgpu::VertexState {
-                module: &shader,
-                entry_point: Some("vs_crowd"),
-                compilation_options: Default::default(),
-                // Vertex pulling: no vertex buffers (crowd.wgsl says why).
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleStrip,
-                strip_index_format: Some(wgpu::IndexFormat::Uint32),
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode,
-                ..Default::default()
-            },
-            depth_stencil: depth.map(|format| wgpu::DepthStencilState {
-                format,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some("fs_crowd"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: color,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let render = render_pipeline(
+            device,
+            &render_layout,
+            &shader,
+            "vs_crowd",
+            wgpu::PrimitiveTopology::TriangleStrip,
+            (color, depth, cull_mode),
+        );
 
         let storage = |binding, read_only, size| wgpu::BindGroupLayoutEntry {
             binding,
@@ -217,6 +205,9 @@ impl CrowdPipeline {
         );
         CrowdPipeline {
             layout,
+            render_layout,
+            shader,
+            formats: (color, depth, cull_mode),
             render,
             scatter_layout,
             scatter,
@@ -224,6 +215,79 @@ impl CrowdPipeline {
             probe,
         }
     }
+}
+
+/// Colour format, depth format and face culling of a crowd's passes.
+type Formats = (
+    wgpu::TextureFormat,
+    Option<wgpu::TextureFormat>,
+    Option<wgpu::Face>,
+);
+
+impl CrowdPipeline {
+    /// The discrete-LOD renderer's pipeline (`vs_levels`): the crowd's shader, bind group
+    /// layout and formats, triangle lists, the instance from `instance_index`.
+    pub(super) fn levels_pipeline(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        render_pipeline(
+            device,
+            &self.render_layout,
+            &self.shader,
+            "vs_levels",
+            wgpu::PrimitiveTopology::TriangleList,
+            self.formats,
+        )
+    }
+}
+
+/// A render pipeline of `crowd.wgsl`: vertex entry `entry` (vertex pulling, no vertex
+/// buffers), `fs_crowd`, depth test `Less` when there is a depth format.
+fn render_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    shader: &wgpu::ShaderModule,
+    entry: &str,
+    topology: wgpu::PrimitiveTopology,
+    (color, depth, cull_mode): Formats,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(entry),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: shader,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            // Vertex pulling: no vertex buffers (crowd.wgsl says why).
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology,
+            strip_index_format: (topology == wgpu::PrimitiveTopology::TriangleStrip)
+                .then_some(wgpu::IndexFormat::Uint32),
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode,
+            ..Default::default()
+        },
+        depth_stencil: depth.map(|format| wgpu::DepthStencilState {
+            format,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: shader,
+            entry_point: Some("fs_crowd"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: color,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 fn compute(
