@@ -196,12 +196,16 @@ struct BenchArgs {
     /// Render frames per loop of the animation in the crowd bench.
     #[arg(long, default_value_t = 120)]
     period: usize,
-    /// The crowd bench's discrete LODs (full, 1/2, 1/4, 1/10 of the triangles, as `morphlod
-    /// export`) are cut from this asset's one shared sequence: a build of the same source with
+    /// The crowd bench's discrete LODs (full detail and `--levels`, as `morphlod export
+    /// --lods`) are cut from this asset's one shared sequence: a build of the same source with
     /// `--sequence shared`. Without it they are cut from the benchmarked asset when it was
     /// built so, and not run otherwise.
     #[arg(long, value_name = "SHARED.mlod")]
     levels_from: Option<PathBuf>,
+    /// Triangle fractions of the crowd bench's discrete levels below full detail, in (0, 1),
+    /// strictly decreasing (the default is `morphlod export`'s).
+    #[arg(long, value_delimiter = ',', default_value = "0.5,0.25,0.1")]
+    levels: Vec<f32>,
     /// Leave out the crowd bench's full-detail mode (slow with many instances on a software
     /// rasteriser).
     #[arg(long)]
@@ -884,9 +888,9 @@ fn discrete_levels(
     asset: &Asset,
     budget: &AssetLoadOptions,
 ) -> Result<Option<DiscreteLevels>, String> {
-    let fractions = DiscreteLevels::FRACTIONS;
+    let fractions = &args.levels;
     let Some(path) = &args.levels_from else {
-        return match DiscreteLevels::from_asset(asset, &fractions) {
+        return match DiscreteLevels::from_asset(asset, fractions) {
             Ok(levels) => Ok(Some(levels)),
             Err(e @ LevelsError::NotShared { .. }) => {
                 println!("discrete LODs not run: {e}, and pass it with --levels-from");
@@ -905,7 +909,7 @@ fn discrete_levels(
             args.asset.display()
         ));
     }
-    DiscreteLevels::from_asset(&source, &fractions)
+    DiscreteLevels::from_asset(&source, fractions)
         .map(Some)
         .map_err(|e| format!("{}: {e}", path.display()))
 }

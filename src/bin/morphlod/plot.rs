@@ -194,7 +194,8 @@ pub fn write_crowd_plot(report: &CrowdBenchReport, path: &Path) -> Result<(), St
         let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
         let panels = root.split_evenly((CROWD_PANELS.len(), 1));
         for (panel, &(label, value)) in panels.iter().zip(&CROWD_PANELS) {
-            draw_crowd_panel(panel, report, label, value).map_err(|e| format!("plot: {e}"))?;
+            let label = label.replace("GPU time", &format!("GPU time ({})", report.gpu_timing));
+            draw_crowd_panel(panel, report, &label, value).map_err(|e| format!("plot: {e}"))?;
         }
         root.present().map_err(|e| format!("plot: {e}"))?;
     }
@@ -218,13 +219,18 @@ fn draw_crowd_panel(
         .max()
         .unwrap_or(0);
     let values = || report.modes.iter().flat_map(|m| m.frames.iter().map(value));
-    // A log axis needs positive bounds; a zero (no triangles) is drawn at the bottom.
+    // A log axis needs positive bounds (a zero is drawn at the bottom); whole decades, so
+    // the axis has labels however narrow the figures' range.
     let low = values().filter(|&v| v > 0.0).fold(f64::MAX, f64::min);
-    let low = if low == f64::MAX { 1e-3 } else { low * 0.8 };
-    let high = values().fold(low, f64::max) * 1.25;
+    let low = if low == f64::MAX { 1e-3 } else { low };
+    let high = values().fold(low, f64::max);
+    let (low, high) = (
+        10f64.powf(low.log10().floor()),
+        10f64.powf((high.log10() + 1e-9).ceil()),
+    );
     let caption = format!(
-        "crowd of {} x {} vertices on {}: {label} ({})",
-        report.instances, report.vertices, report.adapter, report.gpu_timing
+        "crowd of {} x {} vertices on {}: {label}",
+        report.instances, report.vertices, report.adapter
     );
     let mut chart = ChartBuilder::on(area)
         .caption(caption, (FAMILY, 16))
@@ -237,7 +243,12 @@ fn draw_crowd_panel(
         .x_desc("measured frame")
         .y_desc(label)
         .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_label_formatter(&|y| format!("{y:.3}"))
+        .y_label_formatter(&|&y| match y {
+            y if y >= 1e6 => format!("{:.0}M", y / 1e6),
+            y if y >= 1e3 => format!("{:.0}k", y / 1e3),
+            y if y >= 1.0 => format!("{y:.0}"),
+            y => format!("{y:.3}"),
+        })
         .label_style((FAMILY, 13))
         .axis_desc_style((FAMILY, 14))
         .light_line_style(RGBColor(235, 235, 235))

@@ -94,6 +94,8 @@ pub struct ModeFigures {
     pub uploaded_bytes: Stat,
     pub writes: Stat,
     pub triangles: Stat,
+    /// Indices the draws read (the crowd's records include restarts and region tails).
+    pub indices: Stat,
     /// Instances whose frame changed (none in discrete LODs: one connectivity for all).
     pub frame_switches: Stat,
     /// Draw calls (multi-draws, or instanced draws of discrete levels).
@@ -238,7 +240,7 @@ pub fn run_crowd_bench(
     let warm = 3;
     let mut moves = Vec::with_capacity(ids.len());
     for mode in modes {
-        let mut rows: [Vec<f64>; 9] = Default::default();
+        let mut rows: [Vec<f64>; 10] = Default::default();
         let mut frames = Vec::with_capacity(options.frames);
         let mut renderer = match (mode, discrete.as_mut()) {
             ("discrete", Some(d)) => Renderer::Discrete(d),
@@ -292,6 +294,7 @@ pub fn run_crowd_bench(
                 renderer.triangles() as f64,
                 switches as f64,
                 renderer.draws() as f64,
+                renderer.indices() as f64,
             ];
             if let Renderer::Discrete(d) = &renderer {
                 for &l in d.instance_levels() {
@@ -307,7 +310,7 @@ pub fn run_crowd_bench(
                 triangles: values[6],
             });
         }
-        let [set, prepare, record, gpu, bytes, writes, triangles, switches, draws] =
+        let [set, prepare, record, gpu, bytes, writes, triangles, switches, draws, indices] =
             rows.map(Stat::of);
         report.modes.push(ModeFigures {
             mode,
@@ -320,6 +323,7 @@ pub fn run_crowd_bench(
             triangles,
             frame_switches: switches,
             draws,
+            indices,
             frames,
         });
     }
@@ -382,6 +386,13 @@ impl Renderer<'_> {
         }
     }
 
+    fn indices(&self) -> u64 {
+        match self {
+            Renderer::Crowd(c) => c.stats().indices,
+            Renderer::Discrete(d) => 3 * d.triangles() as u64,
+        }
+    }
+
     /// One multi-draw per asset, or one draw per level in use.
     fn draws(&self) -> usize {
         match self {
@@ -408,7 +419,7 @@ impl CrowdBenchReport {
         let mut out = format!(
             "crowd of {} x {} vertices ({} sampled frames) on {}; GPU time: {}\n\
              per instance: {:.1} KB host, {:.1} KB GPU; shared asset: {:.1} MB GPU\n\
-             mode      set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      upload KB (p95)   writes  triangles  frame switches  draws\n",
+             mode      set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      upload KB (p95)   writes  triangles  frame switches  draws  indices\n",
             self.instances,
             self.vertices,
             self.frames_sampled,
@@ -421,7 +432,7 @@ impl CrowdBenchReport {
         for m in &self.modes {
             let pair = |s: Stat| format!("{:7.2} ({:6.2})", s.mean, s.p95);
             out += &format!(
-                "{:9} {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1} {:14.1}\n",
+                "{:9} {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1} {:14.1} {:8.0}\n",
                 m.mode,
                 pair(m.set_ms),
                 pair(m.prepare_ms),
@@ -433,6 +444,7 @@ impl CrowdBenchReport {
                 m.triangles.mean,
                 m.frame_switches.mean,
                 m.draws.mean,
+                m.indices.mean,
             );
         }
         for (l, level) in self.levels.iter().enumerate() {
@@ -462,6 +474,7 @@ impl CrowdBenchReport {
                     "triangles": stat(m.triangles),
                     "frame_switches": stat(m.frame_switches),
                     "draws": stat(m.draws),
+                    "indices": stat(m.indices),
                     "frames": m
                         .frames
                         .iter()

@@ -136,6 +136,9 @@ pub struct CrowdStats {
     pub instances: usize,
     /// Triangles the instances draw.
     pub triangles: usize,
+    /// Indices the records read, restarts and region tails before the last live index
+    /// included (as of the last prepare).
+    pub indices: u64,
     /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
     /// summed over assets' slots in use.
     pub instance_gpu_bytes: u64,
@@ -758,6 +761,10 @@ impl Crowd {
             let count = a.members.iter().flatten().count();
             stats.instances += count;
             stats.triangles += live.map(|m| m.state.triangle_count()).sum::<usize>();
+            stats.indices += a.records[..a.drawn as usize]
+                .iter()
+                .map(|r| u64::from(r.index_count))
+                .sum::<u64>();
             let per_slot = u64::from(a.layout.per_instance()) * 4
                 + ARGS_BYTES
                 + size_of::<InstanceBlock>() as u64;
