@@ -174,8 +174,11 @@ fn mode_colour(mode: &str) -> RGBColor {
     }
 }
 
+/// A figure of a crowd frame.
+type Figure = fn(&FrameFigures) -> f64;
+
 /// The crowd bench's panels: what each plots of a frame.
-const CROWD_PANELS: [(&str, fn(&FrameFigures) -> f64); 3] = [
+const CROWD_PANELS: [(&str, Figure); 3] = [
     ("CPU set + prepare + record, ms", |f| f.cpu_ms),
     ("GPU time, ms", |f| f.gpu_ms),
     ("triangles drawn", |f| f.triangles),
@@ -210,7 +213,7 @@ fn draw_crowd_panel(
     area: &DrawingArea<BitMapBackend<'_>, Shift>,
     report: &CrowdBenchReport,
     label: &str,
-    value: fn(&FrameFigures) -> f64,
+    value: Figure,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let frames = report
         .modes
