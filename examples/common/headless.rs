@@ -120,7 +120,7 @@ pub fn run_headless(
 
 /// Deletes the `frame_NNNN.png` files of an earlier run, so a shorter sequence does not leave
 /// a longer one's tail behind it. Nothing else in `out` is touched.
-fn remove_old_frames(out: &Path) -> Result<(), DemoError> {
+pub fn remove_old_frames(out: &Path) -> Result<(), DemoError> {
     let io = |source| DemoError::Io {
         path: out.to_path_buf(),
         source,
@@ -140,7 +140,7 @@ fn remove_old_frames(out: &Path) -> Result<(), DemoError> {
 }
 
 /// The process's resident set in MB (`/proc/self/statm`, 4 KiB pages), or `None` off Linux.
-fn resident_mb() -> Option<f64> {
+pub fn resident_mb() -> Option<f64> {
     let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
     let pages: f64 = statm.split_whitespace().nth(1)?.parse().ok()?;
     Some(pages * 4096.0 / 1e6)

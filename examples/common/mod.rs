@@ -13,10 +13,10 @@
 //! * `scene` — objects, view state, camera, readout text;
 //! * `headless` — the PNG frame sequence; `window` — the winit window.
 
-mod cache;
-mod headless;
-mod scene;
-mod window;
+pub mod cache;
+pub mod headless;
+pub mod scene;
+pub mod window;
 
 use std::path::{Path, PathBuf};
 
@@ -33,7 +33,7 @@ use scene::Command;
 use window::{run_window, WindowOutcome};
 
 /// Background: the contact sheets' dark grey, which no lit surface colour matches.
-const CLEAR: wgpu::Color = wgpu::Color {
+pub const CLEAR: wgpu::Color = wgpu::Color {
     r: 0.08,
     g: 0.08,
     b: 0.1,
@@ -45,6 +45,9 @@ const CLEAR: wgpu::Color = wgpu::Color {
 pub enum DemoError {
     #[error(transparent)]
     Morphlod(#[from] morphlod::Error),
+    /// A crowd refused a call (only the crowd demo makes one).
+    #[error(transparent)]
+    Crowd(#[from] morphlod::gpu::CrowdError),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -71,7 +74,7 @@ pub enum DemoError {
 }
 
 impl DemoError {
-    fn lib(error: impl Into<morphlod::Error>) -> DemoError {
+    pub fn lib(error: impl Into<morphlod::Error>) -> DemoError {
         DemoError::Morphlod(error.into())
     }
 }
@@ -122,7 +125,7 @@ fn parse_key(name: &str) -> Result<Command, String> {
     }
 }
 
-fn parse_size(text: &str) -> Result<(u32, u32), String> {
+pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let parsed = text
         .split_once(['x', 'X'])
         .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)));

@@ -455,7 +455,7 @@ impl<'a> Scene<'a> {
 }
 
 /// The on-screen text: glyphon's atlas and renderer with the embedded font only.
-struct Readout {
+pub struct Readout {
     font_system: FontSystem,
     swash_cache: SwashCache,
     viewport: Viewport,
@@ -465,7 +465,7 @@ struct Readout {
 }
 
 impl Readout {
-    fn new(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat) -> Readout {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat) -> Readout {
         let mut db = glyphon::fontdb::Database::new();
         db.load_font_data(FONT.to_vec());
         // No system fonts are loaded: the text looks the same everywhere, and works where none
@@ -507,7 +507,9 @@ impl Readout {
         }
     }
 
-    fn prepare(
+    /// Lays out `text` at the top left of a `width` x `height` frame, `scale` times the
+    /// font's size.
+    pub fn prepare(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -557,7 +559,8 @@ impl Readout {
             .map_err(|e| DemoError::Text(e.to_string()))
     }
 
-    fn draw(&mut self, pass: &mut wgpu::RenderPass<'_>) -> Result<(), DemoError> {
+    /// Records the text into `pass` (which has the depth buffer the demos draw with).
+    pub fn draw(&mut self, pass: &mut wgpu::RenderPass<'_>) -> Result<(), DemoError> {
         self.renderer
             .render(&self.atlas, &self.viewport, pass)
             .map_err(|e| DemoError::Text(e.to_string()))?;

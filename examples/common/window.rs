@@ -28,18 +28,8 @@ pub fn run_window(
     args: &CommonArgs,
     library: &Library,
 ) -> Result<WindowOutcome, DemoError> {
-    // winit would say the same, prefixed with its source location; this reads better.
-    if cfg!(all(
-        unix,
-        not(target_os = "macos"),
-        not(target_os = "android")
-    )) && ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
-        .iter()
-        .all(|name| std::env::var_os(name).is_none_or(|value| value.is_empty()))
-    {
-        return Ok(WindowOutcome::NoWindow(
-            "DISPLAY and WAYLAND_DISPLAY are not set".into(),
-        ));
+    if let Some(reason) = no_display() {
+        return Ok(WindowOutcome::NoWindow(reason));
     }
     let event_loop = match EventLoop::new() {
         Ok(event_loop) => event_loop,
@@ -60,6 +50,21 @@ pub fn run_window(
             Err(error) => Err(DemoError::Window(error.to_string())),
         },
     }
+}
+
+/// Why no window can be opened here, when that is known before trying: on Unix other than
+/// macOS and Android, no `DISPLAY` or `WAYLAND_DISPLAY`. (winit would say the same, prefixed
+/// with its source location; this reads better.)
+pub fn no_display() -> Option<String> {
+    let unix = cfg!(all(
+        unix,
+        not(target_os = "macos"),
+        not(target_os = "android")
+    ));
+    let unset = ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
+        .iter()
+        .all(|name| std::env::var_os(name).is_none_or(|value| value.is_empty()));
+    (unix && unset).then(|| "DISPLAY and WAYLAND_DISPLAY are not set".into())
 }
 
 struct App<'a> {
@@ -87,7 +92,7 @@ impl ApplicationHandler for App<'_> {
         }
         match WindowState::new(event_loop, self.demo, self.args, self.library) {
             Ok(state) => {
-                state.window.request_redraw();
+                state.presenter.window.request_redraw();
                 self.window = Some(state);
             }
             // Nothing was shown yet: the headless path can still do the job.
@@ -107,7 +112,7 @@ impl ApplicationHandler for App<'_> {
                 self.window = None;
                 event_loop.exit();
             }
-            WindowEvent::Resized(size) => state.resize(size),
+            WindowEvent::Resized(size) => state.presenter.resize(size),
             WindowEvent::ScaleFactorChanged { scale_factor, .. } => {
                 state.scene.text_scale = (scale_factor as f32).clamp(0.5, 4.0);
             }
@@ -176,41 +181,34 @@ enum KeyAction {
     Fail(DemoError),
 }
 
-/// Everything that lives as long as the window. Fields drop in declaration order: the surface
-/// before the window it draws into.
-struct WindowState<'a> {
-    scene: Scene<'a>,
-    surface: wgpu::Surface<'static>,
-    config: wgpu::SurfaceConfiguration,
-    depth: wgpu::TextureView,
-    device: wgpu::Device,
-    queue: wgpu::Queue,
-    name: &'static str,
-    last_frame: Instant,
-    /// Frames and seconds counted since the fps figure was last updated.
-    fps_window: (u32, Duration),
-    fps: f32,
-    frame_ms: f32,
-    dragging: bool,
-    cursor: Option<(f32, f32)>,
-    window: Arc<Window>,
+/// A window with a wgpu surface in a linear format, a depth buffer, and the device and queue
+/// that draw into it: what every demo window presents with. Fields drop in declaration order:
+/// the surface before the window it draws into.
+pub struct Presenter {
+    pub surface: wgpu::Surface<'static>,
+    pub config: wgpu::SurfaceConfiguration,
+    pub depth: wgpu::TextureView,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter: wgpu::AdapterInfo,
+    pub window: Arc<Window>,
 }
 
-impl<'a> WindowState<'a> {
-    fn new(
+impl Presenter {
+    /// Opens a window titled `title` of `(width, height)` pixels and a device that presents to
+    /// it; `Err`: why not (no display, surface, adapter or device), for a headless fallback.
+    pub fn open(
         event_loop: &ActiveEventLoop,
-        demo: &Demo,
-        args: &CommonArgs,
-        library: &'a Library,
-    ) -> Result<WindowState<'a>, Setup> {
-        let (width, height) = args.size;
+        title: &str,
+        (width, height): (u32, u32),
+    ) -> Result<Presenter, String> {
         let attributes = Window::default_attributes()
-            .with_title(format!("morphlod {}", demo.name))
+            .with_title(title)
             .with_inner_size(PhysicalSize::new(width, height));
         let window = Arc::new(
             event_loop
                 .create_window(attributes)
-                .map_err(|e| Setup::NoWindow(format!("creating the window failed: {e}")))?,
+                .map_err(|e| format!("creating the window failed: {e}"))?,
         );
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(
@@ -218,12 +216,12 @@ impl<'a> WindowState<'a> {
             ));
         let surface = instance
             .create_surface(Arc::clone(&window))
-            .map_err(|e| Setup::NoWindow(format!("creating a surface failed: {e}")))?;
+            .map_err(|e| format!("creating a surface failed: {e}"))?;
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             compatible_surface: Some(&surface),
             ..Default::default()
         }))
-        .map_err(|e| Setup::NoWindow(format!("no adapter can present to the window: {e}")))?;
+        .map_err(|e| format!("no adapter can present to the window: {e}"))?;
         // As the headless context: strip colouring needs a nonzero first_instance per draw.
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("morphlod demo device"),
@@ -232,11 +230,11 @@ impl<'a> WindowState<'a> {
             ..Default::default()
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
-            .map_err(|e| Setup::NoWindow(format!("the adapter could not create a device: {e}")))?;
+            .map_err(|e| format!("the adapter could not create a device: {e}"))?;
         let size = window.inner_size();
         let mut config = surface
             .get_default_config(&adapter, size.width.max(1), size.height.max(1))
-            .ok_or_else(|| Setup::NoWindow("the surface does not work with this adapter".into()))?;
+            .ok_or_else(|| "the surface does not work with this adapter".to_string())?;
         // A linear format, like the offscreen target: the shader's colours are stored as is,
         // so the window shows what the headless PNGs show.
         let capabilities = surface.get_capabilities(&adapter);
@@ -246,43 +244,19 @@ impl<'a> WindowState<'a> {
         config.present_mode = wgpu::PresentMode::AutoVsync;
         surface.configure(&device, &config);
         let depth = depth_view(&device, config.width, config.height);
-        let mut scene = Scene::new(
-            &device,
-            &queue,
-            &adapter.get_info(),
-            config.format,
-            library,
-            args,
-        )
-        .map_err(Setup::Failed)?;
-        scene.text_scale = (window.scale_factor() as f32).clamp(0.5, 4.0);
-        println!(
-            "{}: window open on {} ({:?}), surface {:?}",
-            demo.name,
-            adapter.get_info().name,
-            adapter.get_info().backend,
-            config.format
-        );
-        Ok(WindowState {
-            scene,
+        Ok(Presenter {
             surface,
             config,
             depth,
             device,
             queue,
-            name: demo.name,
-            last_frame: Instant::now(),
-            fps_window: (0, Duration::ZERO),
-            fps: 0.0,
-            frame_ms: 0.0,
-            dragging: false,
-            cursor: None,
+            adapter: adapter.get_info(),
             window,
         })
     }
 
-    fn resize(&mut self, size: PhysicalSize<u32>) {
-        // A minimised window has size 0, which a surface cannot have: keep the old one.
+    /// Follows the window's new size (a minimised window's size 0 keeps the old one).
+    pub fn resize(&mut self, size: PhysicalSize<u32>) {
         if size.width == 0 || size.height == 0 {
             return;
         }
@@ -291,6 +265,149 @@ impl<'a> WindowState<'a> {
         self.surface.configure(&self.device, &self.config);
         self.depth = depth_view(&self.device, size.width, size.height);
         self.window.request_redraw();
+    }
+
+    /// The surface texture to draw this frame into, or `None` when there is none now (the
+    /// surface was reconfigured or is hidden; a redraw is requested).
+    pub fn frame(&mut self) -> Result<Option<wgpu::SurfaceTexture>, DemoError> {
+        match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(frame)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(frame) => Ok(Some(frame)),
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
+                self.window.request_redraw();
+                Ok(None)
+            }
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&self.device, &self.config);
+                self.window.request_redraw();
+                Ok(None)
+            }
+            wgpu::CurrentSurfaceTexture::Validation => Err(DemoError::Window(
+                "the surface texture failed validation".into(),
+            )),
+        }
+    }
+
+    /// The frame's pass: `view` cleared to the demos' background, the depth buffer cleared.
+    pub fn begin_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+    ) -> wgpu::RenderPass<'e> {
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("demo frame"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(CLEAR),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Presents `frame` and asks for the next redraw: the demos redraw continuously, so the
+    /// animation plays and the fps figure measures real frames.
+    pub fn present(&self, frame: wgpu::SurfaceTexture) {
+        self.window.pre_present_notify();
+        self.queue.present(frame);
+        self.window.request_redraw();
+    }
+}
+
+/// Frames per second and milliseconds per frame of a window's redraws, averaged over half a
+/// second.
+pub struct FrameClock {
+    last_frame: Instant,
+    /// Frames and seconds counted since the figures were last updated.
+    window: (u32, Duration),
+    pub fps: f32,
+    pub frame_ms: f32,
+}
+
+impl FrameClock {
+    pub fn new() -> FrameClock {
+        FrameClock {
+            last_frame: Instant::now(),
+            window: (0, Duration::ZERO),
+            fps: 0.0,
+            frame_ms: 0.0,
+        }
+    }
+
+    /// Counts a frame; returns the seconds since the last one.
+    pub fn tick(&mut self) -> f32 {
+        let now = Instant::now();
+        let elapsed = now - self.last_frame;
+        self.last_frame = now;
+        self.window.0 += 1;
+        self.window.1 += elapsed;
+        if self.window.1 >= Duration::from_millis(500) {
+            let seconds = self.window.1.as_secs_f32();
+            self.fps = self.window.0 as f32 / seconds;
+            self.frame_ms = seconds * 1e3 / self.window.0 as f32;
+            self.window = (0, Duration::ZERO);
+        }
+        elapsed.as_secs_f32()
+    }
+}
+
+/// Everything that lives as long as the window. Fields drop in declaration order: the scene's
+/// GPU resources before the device and surface.
+struct WindowState<'a> {
+    scene: Scene<'a>,
+    presenter: Presenter,
+    name: &'static str,
+    clock: FrameClock,
+    dragging: bool,
+    cursor: Option<(f32, f32)>,
+}
+
+impl<'a> WindowState<'a> {
+    fn new(
+        event_loop: &ActiveEventLoop,
+        demo: &Demo,
+        args: &CommonArgs,
+        library: &'a Library,
+    ) -> Result<WindowState<'a>, Setup> {
+        let presenter = Presenter::open(event_loop, &format!("morphlod {}", demo.name), args.size)
+            .map_err(Setup::NoWindow)?;
+        let (device, queue) = (&presenter.device, &presenter.queue);
+        let mut scene = Scene::new(
+            device,
+            queue,
+            &presenter.adapter,
+            presenter.config.format,
+            library,
+            args,
+        )
+        .map_err(Setup::Failed)?;
+        scene.text_scale = (presenter.window.scale_factor() as f32).clamp(0.5, 4.0);
+        println!(
+            "{}: window open on {} ({:?}), surface {:?}",
+            demo.name, presenter.adapter.name, presenter.adapter.backend, presenter.config.format
+        );
+        Ok(WindowState {
+            scene,
+            presenter,
+            name: demo.name,
+            clock: FrameClock::new(),
+            dragging: false,
+            cursor: None,
+        })
     }
 
     fn key(&mut self, key: &Key) -> KeyAction {
@@ -306,91 +423,36 @@ impl<'a> WindowState<'a> {
         match Command::for_key(name) {
             Some(Command::Quit) => return KeyAction::Quit,
             Some(command) => {
-                if let Err(error) = self.scene.apply(&self.device, command) {
+                if let Err(error) = self.scene.apply(&self.presenter.device, command) {
                     return KeyAction::Fail(error);
                 }
             }
             None => {}
         }
-        self.window.request_redraw();
+        self.presenter.window.request_redraw();
         KeyAction::Continue
     }
 
     fn redraw(&mut self) -> Result<(), DemoError> {
-        let now = Instant::now();
-        let elapsed = now - self.last_frame;
-        self.last_frame = now;
-        self.scene.view.advance(elapsed.as_secs_f32());
-        self.fps_window.0 += 1;
-        self.fps_window.1 += elapsed;
-        if self.fps_window.1 >= Duration::from_millis(500) {
-            let seconds = self.fps_window.1.as_secs_f32();
-            self.fps = self.fps_window.0 as f32 / seconds;
-            self.frame_ms = seconds * 1e3 / self.fps_window.0 as f32;
-            self.fps_window = (0, Duration::ZERO);
-        }
-
-        let frame = match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(frame)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(frame) => frame,
-            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
-                self.window.request_redraw();
-                return Ok(());
-            }
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                self.surface.configure(&self.device, &self.config);
-                self.window.request_redraw();
-                return Ok(());
-            }
-            wgpu::CurrentSurfaceTexture::Validation => {
-                return Err(DemoError::Window(
-                    "the surface texture failed validation".into(),
-                ))
-            }
+        self.scene.view.advance(self.clock.tick());
+        let Some(frame) = self.presenter.frame()? else {
+            return Ok(());
         };
+        let (width, height) = (self.presenter.config.width, self.presenter.config.height);
         let status = format!(
-            "{}  {:.1} fps  {:.2} ms/frame  {}x{}",
-            self.name, self.fps, self.frame_ms, self.config.width, self.config.height
+            "{}  {:.1} fps  {:.2} ms/frame  {width}x{height}",
+            self.name, self.clock.fps, self.clock.frame_ms
         );
-        self.scene.update(
-            &self.device,
-            &self.queue,
-            (self.config.width, self.config.height),
-            &status,
-        )?;
+        let (device, queue) = (&self.presenter.device, &self.presenter.queue);
+        self.scene.update(device, queue, (width, height), &status)?;
         let view = frame.texture.create_view(&Default::default());
-        let mut encoder = self.device.create_command_encoder(&Default::default());
+        let mut encoder = device.create_command_encoder(&Default::default());
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("demo frame"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(CLEAR),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = self.presenter.begin_pass(&mut encoder, &view);
             self.scene.draw(&mut pass)?;
         }
-        self.queue.submit([encoder.finish()]);
-        self.window.pre_present_notify();
-        self.queue.present(frame);
-        // Continuous redraw: the animation plays and the fps figure measures real frames.
-        self.window.request_redraw();
+        queue.submit([encoder.finish()]);
+        self.presenter.present(frame);
         Ok(())
     }
 }

@@ -56,8 +56,14 @@ pub struct StripsState {
     scratch: Vec<usize>,
     /// Strips of the current step's rewrite groups (resizes name strips by group).
     group_strips: Vec<u32>,
-    /// Survivors, scratch of [`StripsState::rebuild`].
-    anc: Vec<u32>,
+}
+
+thread_local! {
+    /// The survivor table of [`StripsState::rebuild`] (4 bytes per vertex), one per thread
+    /// rather than one per state: it lives only during a rebuild, so the states a thread moves
+    /// (a crowd's instances, moved in parallel) share it, and an instance's footprint is its
+    /// index buffer and per-strip bookkeeping only.
+    static SURVIVORS: std::cell::Cell<Vec<u32>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 impl StripsState {
@@ -89,7 +95,6 @@ impl StripsState {
             len_strips: Vec::new(),
             scratch: Vec::new(),
             group_strips: Vec::new(),
-            anc: Vec::new(),
         }
     }
 
@@ -139,8 +144,7 @@ impl StripsState {
             + self.dirty_hi.capacity()
             + self.dirty_strips.capacity()
             + self.len_strips.capacity()
-            + self.group_strips.capacity()
-            + self.anc.capacity();
+            + self.group_strips.capacity();
         words * 4 + self.len_changed.capacity() + self.scratch.capacity() * size_of::<usize>()
     }
 
@@ -183,11 +187,14 @@ impl StripsState {
     /// Every live strip is marked dirty.
     pub(crate) fn rebuild(&mut self, layout: &StripLayout, frame: &FrameChanges, lod: usize) {
         let lod = lod.min(frame.max_lod());
-        self.anc.clear();
-        self.anc.extend(0..layout.vertex_count);
+        // Taken out of the thread's slot for the rebuild and put back after: no borrow is
+        // held across the pass, and the allocation is reused by the thread's next rebuild.
+        let mut anc = SURVIVORS.take();
+        anc.clear();
+        anc.extend(0..layout.vertex_count);
         for step in (0..lod).rev() {
             let (u, w) = frame.collapse(step);
-            self.anc[u as usize] = self.anc[w as usize];
+            anc[u as usize] = anc[w as usize];
         }
         let l = lod as u32;
         let copies = frame.copy_count();
@@ -215,14 +222,14 @@ impl StripsState {
                 };
                 for slot in p..stop {
                     if frame.death.get(slot) > l {
-                        self.indices[q] = self.anc[layout.s0[slot] as usize];
+                        self.indices[q] = anc[layout.s0[slot] as usize];
                         q += 1;
                     }
                 }
                 p = stop;
                 while next_after == stop - 1 {
                     if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
-                        self.indices[q] = self.anc[frame.copy_value.get(ci) as usize];
+                        self.indices[q] = anc[frame.copy_value.get(ci) as usize];
                         q += 1;
                     }
                     ci += 1;
@@ -236,6 +243,7 @@ impl StripsState {
             }
             self.mark(s, 0, live);
         }
+        SURVIVORS.set(anc);
         self.lod = lod;
         (self.cursor, self.triangles) = frame.seek(lod);
     }
