@@ -205,6 +205,8 @@ struct Field {
     radius: f32,
     pixels: f32,
     readout: Readout,
+    /// The window's scale factor: the readout keeps its size in logical pixels.
+    text_scale: f32,
     adapter: String,
     last: Figures,
     moves: Vec<(InstanceId, f32, Lod)>,
@@ -309,6 +311,7 @@ impl Field {
             radius: half.length().max(1.0),
             pixels: args.pixels,
             readout: Readout::new(device, queue, color_format),
+            text_scale: 1.0,
             adapter: format!("{} ({:?})", adapter.name, adapter.backend),
             last: Figures::default(),
             moves: Vec::new(),
@@ -365,7 +368,7 @@ impl Field {
         };
         let text = self.readout_text(status);
         self.readout
-            .prepare(device, queue, (width, height), 1.0, &text)
+            .prepare(device, queue, (width, height), self.text_scale, &text)
     }
 
     /// Records the crowd (one multi-draw per asset) and the readout.
@@ -596,7 +599,8 @@ impl ApplicationHandler for App<'_> {
             self.args,
         );
         match field {
-            Ok(field) => {
+            Ok(mut field) => {
+                field.text_scale = (presenter.window.scale_factor() as f32).clamp(0.5, 4.0);
                 println!(
                     "crowd: window open on {} ({:?}), {} instances",
                     presenter.adapter.name, presenter.adapter.backend, self.args.instances
@@ -624,6 +628,9 @@ impl ApplicationHandler for App<'_> {
                 event_loop.exit();
             }
             WindowEvent::Resized(size) => state.presenter.resize(size),
+            WindowEvent::ScaleFactorChanged { scale_factor, .. } => {
+                state.field.text_scale = (scale_factor as f32).clamp(0.5, 4.0);
+            }
             WindowEvent::KeyboardInput {
                 event:
                     KeyEvent {
