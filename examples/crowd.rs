@@ -200,8 +200,7 @@ struct Field {
     crowd: Crowd,
     kinds: Vec<Kind>,
     members: Vec<Member>,
-    centre: Vec3,
-    /// Half the field's diagonal: the camera keeps outside it.
+    /// Half the field's diagonal (the field is centred on the origin).
     radius: f32,
     pixels: f32,
     readout: Readout,
@@ -307,7 +306,6 @@ impl Field {
             crowd,
             kinds,
             members,
-            centre: Vec3::ZERO,
             radius: half.length().max(1.0),
             pixels: args.pixels,
             readout: Readout::new(device, queue, color_format),
@@ -325,8 +323,8 @@ impl Field {
         let r = self.radius * 0.85;
         // Always above the heads (1.67 units), lowest twice a turn.
         let height = 3.2 + 1.3 * (angle * 2.0).sin();
-        let eye = self.centre + Vec3::new(r * angle.cos(), height, r * angle.sin());
-        let look = self.centre + Vec3::new(-0.3 * r * angle.sin(), 0.0, 0.3 * r * angle.cos());
+        let eye = Vec3::new(r * angle.cos(), height, r * angle.sin());
+        let look = Vec3::new(-0.3 * r * angle.sin(), 0.0, 0.3 * r * angle.cos());
         let view = glam::camera::rh::view::look_at_mat4(eye, look, Vec3::Y);
         let far = 3.0 * self.radius + 10.0;
         let proj = glam::camera::rh::proj::directx::perspective(FOV_Y, aspect, 0.05, far);
