@@ -9,7 +9,8 @@ use std::path::Path;
 use glam::DVec3;
 use morphlod::mesh::IndexedMesh;
 use morphlod::morph::supermesh::{
-    measure, parse_landmarks, Origin, Side, Supermesh, SupermeshError, SupermeshOptions,
+    measure, parse_landmarks, Connectivity, Origin, Side, Supermesh, SupermeshError,
+    SupermeshOptions,
 };
 use proptest::prelude::*;
 
@@ -171,6 +172,108 @@ fn a_mesh_and_its_shuffled_scaled_copy_correspond() {
     assert!(c.s.iter().all(|&s| s > 0.98), "{c:?}");
     assert!(c.d < 0.05, "{c:?}");
     assert_eq!(r.fold_overs, 0);
+}
+
+// ------------------------------------- a mesh and a deformed copy of itself
+
+/// `mesh` with each vertex moved by `f` (same indices).
+fn deformed(mesh: &IndexedMesh, f: impl Fn(DVec3) -> DVec3) -> IndexedMesh {
+    let positions = mesh
+        .positions
+        .iter()
+        .map(|&p| f(DVec3::from_array(p.map(f64::from))).as_vec3().to_array())
+        .collect();
+    IndexedMesh::new(positions, mesh.triangles.clone())
+}
+
+/// `mesh` with its vertices renumbered at random (the same surface), so
+/// indices do not give the correspondence.
+fn shuffled(mesh: &IndexedMesh, seed: u64) -> IndexedMesh {
+    let n = mesh.vertex_count();
+    let mut rng = Rng(seed);
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        order.swap(i, (rng.unit() * (i + 1) as f64) as usize % (i + 1));
+    }
+    let mut inverse = vec![0u32; n];
+    for (new, &old) in order.iter().enumerate() {
+        inverse[old as usize] = new as u32;
+    }
+    IndexedMesh::new(
+        order
+            .iter()
+            .map(|&old| mesh.positions[old as usize])
+            .collect(),
+        mesh.triangles
+            .iter()
+            .map(|t| t.map(|v| inverse[v as usize]))
+            .collect(),
+    )
+}
+
+/// An elongated blob along z (z in about ±3): a limb-like closed mesh.
+fn rod(seed: u64) -> IndexedMesh {
+    blob(20, 24, 0.1, [0.8, 0.6, 3.0], seed)
+}
+
+/// Twisted by up to ±90° about the long axis (z).
+fn twist(p: DVec3) -> DVec3 {
+    let (s, c) = (p.z * std::f64::consts::FRAC_PI_6).sin_cos();
+    DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
+}
+
+/// Two poses of one mesh (same vertex order and triangles): the supermesh
+/// is that connectivity, `V(0) = A` and `V(1) = B` bit for bit, and the
+/// report says so.
+#[test]
+fn two_poses_of_one_mesh_use_their_connectivity() {
+    let a = rod(4);
+    let b = deformed(&a, twist);
+    // Landmarks that pair a vertex with itself agree with the connectivity.
+    let options = SupermeshOptions {
+        landmarks: vec![(0, 0), (5, 5)],
+        ..SupermeshOptions::default()
+    };
+    let (s, r) = Supermesh::build(&a, &b, &options).unwrap();
+    println!("{r}");
+    assert_eq!(r.connectivity, Connectivity::Same);
+    assert!(r.to_string().contains("the same"), "{r}");
+    assert_eq!(s.triangles, a.triangles);
+    assert_eq!(s.v0, a.positions);
+    assert_eq!(s.v1, b.positions);
+    assert!(s.origins.iter().enumerate().all(|(i, &o)| o
+        == Origin::Both {
+            a: i as u32,
+            b: i as u32
+        }));
+    assert_eq!((r.vertices, r.crossings), (a.vertex_count(), 0));
+    assert_eq!(
+        r.correspondence,
+        measure(&a.triangles, &a.positions, &b.positions)
+    );
+    // A triangle starting at another corner is the same triangle.
+    let mut c = b.clone();
+    c.triangles[3].rotate_left(1);
+    let (s, r) = Supermesh::build(&a, &c, &SupermeshOptions::default()).unwrap();
+    assert_eq!(r.connectivity, Connectivity::Same);
+    assert_eq!(s.triangles, a.triangles);
+    // Landmarks that ask for another correspondence, or the option off: overlaid.
+    for options in [
+        SupermeshOptions {
+            landmarks: vec![(0, 0), (30, 31)],
+            ..SupermeshOptions::default()
+        },
+        SupermeshOptions {
+            reuse_connectivity: false,
+            ..SupermeshOptions::default()
+        },
+    ] {
+        let (_, r) = Supermesh::build(&a, &b, &options).unwrap();
+        assert_eq!(r.connectivity, Connectivity::Overlaid);
+    }
+    // Shuffled, it is not the same connectivity: a full supermesh is built.
+    let (_, r) = Supermesh::build(&a, &shuffled(&b, 1), &SupermeshOptions::default()).unwrap();
+    assert_eq!(r.connectivity, Connectivity::Overlaid);
 }
 
 // ---------------------------------------------------------------- landmarks

@@ -3,7 +3,12 @@
 //! `V(1)` that is exactly B's, so that a [`Morph`] can blend them (paper 004,
 //! section 3.1; Kent et al. 1992, Alexa 1999).
 //!
-//! [`Supermesh::build`] runs these stages, each in its own file:
+//! When A and B share their connectivity (the same vertex count and the same
+//! triangles, as two poses of one mesh: [`crate::morph::same_connectivity`]),
+//! [`Supermesh::build`] uses it directly: the supermesh is A's triangulation
+//! with `V(0) = A` and `V(1) = B` bit for bit, every vertex
+//! [`Origin::Both`] with itself, and [`SupermeshReport::connectivity`] says
+//! so ([`Connectivity::Same`]). Otherwise it runs these stages, each in its own file:
 //!
 //! 1. [`Stage::Check`] (`check.rs`): clean each mesh and require one closed,
 //!    manifold, genus-0 surface; anything else is a typed [`SupermeshError`]
@@ -57,16 +62,17 @@ pub use measure::{measure, Correspondence, Distortion, MEASURED_T};
 
 use crate::mesh::clean::Cleaned;
 use crate::mesh::{IndexedMesh, MeshError};
-use crate::morph::{Morph, MorphError};
+use crate::morph::{same_connectivity, Morph, MorphError};
 
 use overlay::{Node, OverlayError};
 use sphere::SphereMesh;
 
 /// The supermesh algorithm's version: raised whenever the same inputs and options give a
 /// different supermesh (2: the embedding rework with umbrella weight 1.0; 3: Möbius
-/// normalisation, rotation scored by D, Möbius landmark fit). Caches of built
-/// supermesh morphs put it in their key.
-pub const ALGORITHM_VERSION: u32 = 3;
+/// normalisation, rotation scored by D, Möbius landmark fit; 4: a shared
+/// connectivity used directly). Caches of built supermesh morphs put it in
+/// their key.
+pub const ALGORITHM_VERSION: u32 = 4;
 
 /// How many random rotations the overlay tries before giving up on input
 /// that stays degenerate.
@@ -151,6 +157,11 @@ pub struct SupermeshOptions<'a> {
     pub perturb: bool,
     /// Whether B's sphere is rotated to match the shapes (on by default).
     pub align: bool,
+    /// Whether a connectivity that A and B share is used as it is instead
+    /// of overlaying their embeddings (on by default; see
+    /// [`Connectivity::Same`]). Off, the overlay runs anyway (its own tests
+    /// overlay a mesh on itself).
+    pub reuse_connectivity: bool,
     /// Embed each mesh by central projection from the origin instead of
     /// the collapse-and-split embedding (off by default): for meshes that
     /// are star-shaped about the origin (every triangle positive seen from
@@ -170,6 +181,7 @@ impl Default for SupermeshOptions<'_> {
             seed: 0x6d6f_7270_686c_6f64,
             perturb: true,
             align: true,
+            reuse_connectivity: true,
             radial: false,
             progress: None,
         }
@@ -183,6 +195,7 @@ impl fmt::Debug for SupermeshOptions<'_> {
             .field("seed", &self.seed)
             .field("perturb", &self.perturb)
             .field("align", &self.align)
+            .field("reuse_connectivity", &self.reuse_connectivity)
             .field("radial", &self.radial)
             .field("progress", &self.progress.is_some())
             .finish()
@@ -212,9 +225,24 @@ pub struct AlignmentReport {
     pub landmarks_after: Option<Residual>,
 }
 
+/// How the supermesh's triangulation was made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Connectivity {
+    /// A and B differ: the overlay of their embeddings.
+    #[default]
+    Overlaid,
+    /// A and B have the same vertex count and triangles, and every landmark
+    /// pair (if any) is a vertex with itself: A's triangulation is used
+    /// directly (no check, embedding, alignment or overlay ran, and the
+    /// sphere fields are empty or zero).
+    Same,
+}
+
 /// What [`Supermesh::build`] made and how long each stage took.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SupermeshReport {
+    /// Whether the supermesh is an overlay or A's own connectivity.
+    pub connectivity: Connectivity,
     pub a_vertices: usize,
     pub a_triangles: usize,
     pub b_vertices: usize,
@@ -268,6 +296,14 @@ impl fmt::Display for SupermeshReport {
             self.triangles,
             self.estimated_vertices()
         )?;
+        if self.connectivity == Connectivity::Same {
+            writeln!(
+                f,
+                "  connectivity      the same: A's triangulation used directly, V(0) = A, V(1) = B (no embedding, alignment or overlay)"
+            )?;
+            writeln!(f, "{}", self.correspondence)?;
+            return write!(f, "  stages            none");
+        }
         writeln!(
             f,
             "  crossings         {} (coincident vertices merged: {})",
@@ -472,7 +508,8 @@ pub struct Supermesh {
     /// Positions on B (`t = 1`).
     pub v1: Vec<[f32; 3]>,
     pub origins: Vec<Origin>,
-    /// Each vertex's point on the sphere (A's embedding; B's as overlaid).
+    /// Each vertex's point on the sphere (A's embedding; B's as overlaid);
+    /// empty when A and B share their connectivity (nothing is embedded).
     pub sphere: Vec<DVec3>,
 }
 
@@ -506,12 +543,19 @@ struct Embedded {
 }
 
 impl Supermesh {
-    /// Builds the supermesh of `a` and `b` (see the module docs for the stages).
+    /// Builds the supermesh of `a` and `b` (see the module docs for the
+    /// stages), or takes their shared connectivity as it is.
     pub fn build(
         a: &IndexedMesh,
         b: &IndexedMesh,
         options: &SupermeshOptions,
     ) -> Result<(Supermesh, SupermeshReport), SupermeshError> {
+        if options.reuse_connectivity
+            && options.landmarks.iter().all(|&(la, lb)| la == lb)
+            && same_connectivity(a, b).is_ok()
+        {
+            return Supermesh::shared(a, b);
+        }
         let mut stages = Stages {
             progress: options.progress,
             seconds: Vec::new(),
@@ -542,6 +586,7 @@ impl Supermesh {
         let (fold_overs, sphere_area) =
             sphere::check_embedding(&supermesh.sphere, &supermesh.triangles);
         let report = SupermeshReport {
+            connectivity: Connectivity::Overlaid,
             a_vertices: ca.mesh.vertex_count(),
             a_triangles: ca.mesh.triangle_count(),
             b_vertices: cb.mesh.vertex_count(),
@@ -560,6 +605,38 @@ impl Supermesh {
             ],
             correspondence: measure(&supermesh.triangles, &supermesh.v0, &supermesh.v1),
             stage_seconds: stages.seconds,
+        };
+        Ok((supermesh, report))
+    }
+
+    /// Two poses of one connectivity: A's triangles, `V(0) = A`, `V(1) = B`.
+    fn shared(
+        a: &IndexedMesh,
+        b: &IndexedMesh,
+    ) -> Result<(Supermesh, SupermeshReport), SupermeshError> {
+        for (mesh, side) in [(a, Side::A), (b, Side::B)] {
+            mesh.validate()
+                .map_err(|source| SupermeshError::InvalidMesh { mesh: side, source })?;
+        }
+        let n = a.vertex_count() as u32;
+        let supermesh = Supermesh {
+            triangles: a.triangles.clone(),
+            v0: a.positions.clone(),
+            v1: b.positions.clone(),
+            origins: (0..n).map(|v| Origin::Both { a: v, b: v }).collect(),
+            sphere: Vec::new(),
+        };
+        let report = SupermeshReport {
+            connectivity: Connectivity::Same,
+            a_vertices: a.vertex_count(),
+            a_triangles: a.triangle_count(),
+            b_vertices: b.vertex_count(),
+            b_triangles: b.triangle_count(),
+            vertices: a.vertex_count(),
+            triangles: a.triangle_count(),
+            coincident: a.vertex_count(),
+            correspondence: measure(&supermesh.triangles, &supermesh.v0, &supermesh.v1),
+            ..SupermeshReport::default()
         };
         Ok((supermesh, report))
     }
