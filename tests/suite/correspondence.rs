@@ -145,28 +145,18 @@ fn measure_matches_its_definition() {
 // ---------------------------------------------------------------- alignment
 
 /// A mesh and a scaled, moved copy of it with its vertices shuffled (so
-/// indices do not give the answer): the automatic alignment recovers about
-/// the identity (s ≈ 1, D ≈ 0).
+/// indices do not give the answer), overlaid: the automatic alignment
+/// recovers about the identity (s ≈ 1, D ≈ 0).
 #[test]
 fn a_mesh_and_its_shuffled_scaled_copy_correspond() {
     let a = blob(16, 24, 0.2, [2.0, 1.0, 0.6], 9);
-    let n = a.positions.len() as u32;
-    let order: Vec<u32> = (0..n).map(|i| (i * 37 + 11) % n).collect();
-    let mut inverse = vec![0u32; n as usize];
-    for (new, &old) in order.iter().enumerate() {
-        inverse[old as usize] = new as u32;
-    }
-    let b = IndexedMesh::new(
-        order
-            .iter()
-            .map(|&old| a.positions[old as usize].map(|x| 2.5 * x + 1.0))
-            .collect(),
-        a.triangles
-            .iter()
-            .map(|t| t.map(|v| inverse[v as usize]))
-            .collect(),
-    );
-    let (_, r) = Supermesh::build(&a, &b, &SupermeshOptions::default()).unwrap();
+    let (b, _) = shuffled(&deformed(&a, |p| 2.5 * p + 1.0), 5);
+    // The overlay, so the alignment is under test, not the renumbering.
+    let options = SupermeshOptions {
+        reuse_connectivity: false,
+        ..SupermeshOptions::default()
+    };
+    let (_, r) = Supermesh::build(&a, &b, &options).unwrap();
     println!("{r}");
     let c = r.correspondence;
     assert!(c.s.iter().all(|&s| s > 0.98), "{c:?}");
@@ -187,8 +177,8 @@ fn deformed(mesh: &IndexedMesh, f: impl Fn(DVec3) -> DVec3) -> IndexedMesh {
 }
 
 /// `mesh` with its vertices renumbered at random (the same surface), so
-/// indices do not give the correspondence.
-fn shuffled(mesh: &IndexedMesh, seed: u64) -> IndexedMesh {
+/// indices do not give the correspondence; new vertex `i` is old `order[i]`.
+fn shuffled(mesh: &IndexedMesh, seed: u64) -> (IndexedMesh, Vec<u32>) {
     let n = mesh.vertex_count();
     let mut rng = Rng(seed);
     let mut order: Vec<u32> = (0..n as u32).collect();
@@ -199,27 +189,67 @@ fn shuffled(mesh: &IndexedMesh, seed: u64) -> IndexedMesh {
     for (new, &old) in order.iter().enumerate() {
         inverse[old as usize] = new as u32;
     }
-    IndexedMesh::new(
-        order
-            .iter()
-            .map(|&old| mesh.positions[old as usize])
-            .collect(),
-        mesh.triangles
-            .iter()
-            .map(|t| t.map(|v| inverse[v as usize]))
-            .collect(),
-    )
+    let positions = order
+        .iter()
+        .map(|&old| mesh.positions[old as usize])
+        .collect();
+    let triangles = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| inverse[v as usize]))
+        .collect();
+    (IndexedMesh::new(positions, triangles), order)
 }
 
-/// An elongated blob along z (z in about ±3): a limb-like closed mesh.
+/// Flips the edge `t[1] → t[2]` of triangle `t` (with the triangle across it).
+fn flip(mesh: &mut IndexedMesh, t: usize) {
+    let [p, q, w] = mesh.triangles[t];
+    let k = mesh
+        .triangles
+        .iter()
+        .position(|u| (0..3).any(|j| u[j] == w && u[(j + 1) % 3] == q))
+        .unwrap();
+    let x = mesh.triangles[k]
+        .into_iter()
+        .find(|&v| v != w && v != q)
+        .unwrap();
+    mesh.triangles[t] = [p, q, x];
+    mesh.triangles[k] = [p, x, w];
+}
+
+/// An elongated blob along z (z in about ±3): a limb-like closed mesh, with
+/// a few quads' diagonals flipped so its triangulation has no symmetry (the
+/// uv sphere's has 48, and a twist can make a turned one closer in D).
 fn rod(seed: u64) -> IndexedMesh {
-    blob(20, 24, 0.1, [0.8, 0.6, 3.0], seed)
+    let segments = 24;
+    let mut mesh = blob(20, segments, 0.1, [0.8, 0.6, 3.0], seed);
+    for quad in (0..18 * segments as usize).step_by(37) {
+        // The quad's first triangle [a, b, c] has its diagonal at c → a.
+        let t = 2 * segments as usize + 2 * quad;
+        mesh.triangles[t].rotate_left(1);
+        flip(&mut mesh, t);
+    }
+    mesh
 }
 
 /// Twisted by up to ±90° about the long axis (z).
 fn twist(p: DVec3) -> DVec3 {
     let (s, c) = (p.z * std::f64::consts::FRAC_PI_6).sin_cos();
     DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
+}
+
+/// Bent by 90° in the xz plane (the axis onto a quarter circle).
+fn bend(p: DVec3) -> DVec3 {
+    let radius = 6.0 / std::f64::consts::FRAC_PI_2;
+    let theta = p.z / radius;
+    let r = radius - p.x;
+    DVec3::new(radius - r * theta.cos(), p.y, r * theta.sin())
+}
+
+/// Inflated in the middle (up to 1.6× thicker) and thinned at the ends.
+fn inflate(p: DVec3) -> DVec3 {
+    let k = 0.7 + 0.9 * (1.0 - (p.z / 3.0).powi(2)).max(0.0);
+    DVec3::new(k * p.x, k * p.y, p.z)
 }
 
 /// Two poses of one mesh (same vertex order and triangles): the supermesh
@@ -260,7 +290,7 @@ fn two_poses_of_one_mesh_use_their_connectivity() {
     // Landmarks that ask for another correspondence, or the option off: overlaid.
     for options in [
         SupermeshOptions {
-            landmarks: vec![(0, 0), (30, 31)],
+            landmarks: vec![(0, 0), (30, 300)],
             ..SupermeshOptions::default()
         },
         SupermeshOptions {
@@ -271,9 +301,64 @@ fn two_poses_of_one_mesh_use_their_connectivity() {
         let (_, r) = Supermesh::build(&a, &b, &options).unwrap();
         assert_eq!(r.connectivity, Connectivity::Overlaid);
     }
-    // Shuffled, it is not the same connectivity: a full supermesh is built.
-    let (_, r) = Supermesh::build(&a, &shuffled(&b, 1), &SupermeshOptions::default()).unwrap();
+    // Shuffled, it is not the same connectivity (but see the next test).
+    let (_, r) = Supermesh::build(&a, &shuffled(&b, 1).0, &SupermeshOptions::default()).unwrap();
+    assert_ne!(r.connectivity, Connectivity::Same);
+}
+
+/// A limb-like mesh and a twisted, a bent and an inflated copy of itself
+/// with the vertices shuffled: the alignment leads to the renumbering, so
+/// the supermesh is the mesh itself (1× the input, not the ≈ 8.6× of an
+/// overlay) and every vertex is blended with its own twin (s ≥ 0.95).
+#[test]
+fn a_mesh_and_its_deformed_shuffled_copy_correspond() {
+    let a = rod(7);
+    for (name, f) in [
+        ("twisted", twist as fn(DVec3) -> DVec3),
+        ("bent", bend),
+        ("inflated", inflate),
+    ] {
+        let (b, order) = shuffled(&deformed(&a, f), 11);
+        let (s, r) = Supermesh::build(&a, &b, &SupermeshOptions::default()).unwrap();
+        println!("{name}:\n{r}");
+        let c = r.correspondence;
+        assert!(c.s.iter().all(|&s| s >= 0.95), "{name}: {c:?}");
+        assert_eq!(r.connectivity, Connectivity::Renumbered, "{name}");
+        assert_eq!((r.vertices, r.fold_overs), (a.vertex_count(), 0), "{name}");
+        assert_eq!(s.triangles, a.triangles);
+        assert_eq!(s.v0, a.positions);
+        for (i, &o) in s.origins.iter().enumerate() {
+            let Origin::Both { a: va, b: vb } = o else {
+                panic!("{name}: vertex {i} is {o:?}");
+            };
+            assert_eq!((va, order[vb as usize]), (i as u32, i as u32), "{name}");
+            assert_eq!(s.v1[i], b.positions[vb as usize]);
+        }
+    }
+    // Landmarks seed the renumbering (the twin of a vertex, and one that is not).
+    let (b, order) = shuffled(&deformed(&a, twist), 3);
+    let twin = |v: u32| order.iter().position(|&o| o == v).unwrap() as u32;
+    let options = SupermeshOptions {
+        landmarks: vec![(10, twin(10)), (200, twin(200))],
+        ..SupermeshOptions::default()
+    };
+    let (s, r) = Supermesh::build(&a, &b, &options).unwrap();
+    assert_eq!(r.connectivity, Connectivity::Renumbered);
+    assert!(s.origins.contains(&Origin::Both {
+        a: 200,
+        b: twin(200)
+    }));
+    let options = SupermeshOptions {
+        landmarks: vec![(10, twin(10)), (200, twin(201))],
+        ..SupermeshOptions::default()
+    };
+    let (_, r) = Supermesh::build(&a, &b, &options).unwrap();
     assert_eq!(r.connectivity, Connectivity::Overlaid);
+    // One edge flipped: the same counts, not the same triangles: overlaid.
+    let mut c = b.clone();
+    flip(&mut c, 100);
+    let (_, r) = Supermesh::build(&a, &c, &SupermeshOptions::default()).unwrap();
+    assert_eq!((r.connectivity, r.fold_overs), (Connectivity::Overlaid, 0));
 }
 
 // ---------------------------------------------------------------- landmarks

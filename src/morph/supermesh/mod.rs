@@ -8,7 +8,10 @@
 //! [`Supermesh::build`] uses it directly: the supermesh is A's triangulation
 //! with `V(0) = A` and `V(1) = B` bit for bit, every vertex
 //! [`Origin::Both`] with itself, and [`SupermeshReport::connectivity`] says
-//! so ([`Connectivity::Same`]). Otherwise it runs these stages, each in its own file:
+//! so ([`Connectivity::Same`]). The same triangles in another vertex order
+//! are found after the alignment (`renumbered.rs`,
+//! [`Connectivity::Renumbered`]). Otherwise it runs these stages, each in
+//! its own file:
 //!
 //! 1. [`Stage::Check`] (`check.rs`): clean each mesh and require one closed,
 //!    manifold, genus-0 surface; anything else is a typed [`SupermeshError`]
@@ -48,6 +51,7 @@ mod measure;
 mod mobius;
 mod overlay;
 mod positions;
+mod renumbered;
 mod sphere;
 
 use std::fmt;
@@ -157,10 +161,11 @@ pub struct SupermeshOptions<'a> {
     pub perturb: bool,
     /// Whether B's sphere is rotated to match the shapes (on by default).
     pub align: bool,
-    /// Whether a connectivity that A and B share is used as it is instead
-    /// of overlaying their embeddings (on by default; see
-    /// [`Connectivity::Same`]). Off, the overlay runs anyway (its own tests
-    /// overlay a mesh on itself).
+    /// Whether triangles that A and B share (the same, or the same up to a
+    /// renumbering of B's vertices) are used as they are instead of
+    /// overlaying the embeddings (on by default; see [`Connectivity::Same`]
+    /// and [`Connectivity::Renumbered`]). Off, the overlay runs anyway (its
+    /// own tests overlay a mesh on itself).
     pub reuse_connectivity: bool,
     /// Embed each mesh by central projection from the origin instead of
     /// the collapse-and-split embedding (off by default): for meshes that
@@ -236,6 +241,12 @@ pub enum Connectivity {
     /// directly (no check, embedding, alignment or overlay ran, and the
     /// sphere fields are empty or zero).
     Same,
+    /// A and B have the same triangles up to a renumbering of B's vertices
+    /// (a posed copy written in another vertex order), found from the
+    /// aligned embeddings (or the landmarks, which it must agree with) and
+    /// checked triangle by triangle: A's triangulation is used with B's
+    /// vertices renumbered, the exact identity map (no overlay ran).
+    Renumbered,
 }
 
 /// What [`Supermesh::build`] made and how long each stage took.
@@ -321,6 +332,12 @@ impl fmt::Display for SupermeshReport {
                 f,
                 "  embedding {side}       min triangle {:.2e} sr (mean {:.2e}), area distortion p5 {:.3} p50 {:.3} p95 {:.3}",
                 q.min_area, q.mean_area, q.distortion[0], q.distortion[1], q.distortion[2]
+            )?;
+        }
+        if self.connectivity == Connectivity::Renumbered {
+            writeln!(
+                f,
+                "  connectivity      the same up to B's vertex order: A's triangulation used with B's vertices renumbered (no overlay)"
             )?;
         }
         let a = &self.alignment;
@@ -562,9 +579,44 @@ impl Supermesh {
         };
         let (ca, cb, landmarks) = stages.run(Stage::Check, || check_inputs(a, b, options))?;
         let mut embedded = embed_both(&ca, &cb, options, &mut stages.seconds)?;
+        // The same triangles in another vertex order: the renumbering, from
+        // the landmarks, or else from the aligned embeddings.
+        let same_size = options.reuse_connectivity
+            && ca.mesh.vertex_count() == cb.mesh.vertex_count()
+            && ca.mesh.triangle_count() == cb.mesh.triangle_count();
+        let agrees = |map: &Vec<u32>| landmarks.iter().all(|&(la, lb)| map[la as usize] == lb);
+        if same_size && !landmarks.is_empty() {
+            let seeds: Vec<(u32, Vec<u32>)> =
+                landmarks.iter().map(|&(la, lb)| (la, vec![lb])).collect();
+            if let Some(map) = renumbered::find(&ca.mesh, &cb.mesh, &seeds).filter(agrees) {
+                let alignment = AlignmentReport::default();
+                return Ok(renumbered_supermesh(
+                    &ca,
+                    &cb,
+                    &embedded,
+                    &map,
+                    alignment,
+                    stages.seconds,
+                ));
+            }
+        }
         let (b_aligned, mut alignment) = stages.run(Stage::Align, || {
             align_b(&ca.mesh, &cb.mesh, &mut embedded, &landmarks, options)
         })?;
+        if same_size && landmarks.is_empty() {
+            let seeds = renumbered::sphere_seeds(&embedded.a, &b_aligned);
+            if let Some(map) = renumbered::find(&ca.mesh, &cb.mesh, &seeds) {
+                alignment.after = final_residual(&ca.mesh, &cb.mesh, &embedded.a, &b_aligned);
+                return Ok(renumbered_supermesh(
+                    &ca,
+                    &cb,
+                    &embedded,
+                    &map,
+                    alignment,
+                    stages.seconds,
+                ));
+            }
+        }
         let (overlay, b_sphere, attempts) = stages.run(Stage::Overlay, || {
             overlay_with_retries(
                 &ca.mesh,
@@ -583,28 +635,13 @@ impl Supermesh {
         let supermesh = stages.run(Stage::Positions, || {
             assemble(&ca, &cb, &embedded.a, &b_sphere, &overlay)
         });
-        let (fold_overs, sphere_area) =
-            sphere::check_embedding(&supermesh.sphere, &supermesh.triangles);
         let report = SupermeshReport {
-            connectivity: Connectivity::Overlaid,
-            a_vertices: ca.mesh.vertex_count(),
-            a_triangles: ca.mesh.triangle_count(),
-            b_vertices: cb.mesh.vertex_count(),
-            b_triangles: cb.mesh.triangle_count(),
-            vertices: supermesh.v0.len(),
-            triangles: supermesh.triangles.len(),
             crossings: overlay.crossings,
             coincident: overlay.coincident,
-            fold_overs,
-            sphere_area,
             overlay_attempts: attempts,
             alignment,
-            embedding: [
-                embed::quality(&embedded.a, &ca.mesh.positions, &ca.mesh.triangles),
-                embed::quality(&embedded.b, &cb.mesh.positions, &cb.mesh.triangles),
-            ],
-            correspondence: measure(&supermesh.triangles, &supermesh.v0, &supermesh.v1),
             stage_seconds: stages.seconds,
+            ..report(&ca, &cb, &embedded, &supermesh)
         };
         Ok((supermesh, report))
     }
@@ -649,6 +686,69 @@ impl Supermesh {
     pub fn to_morph(&self) -> Result<Morph, MorphError> {
         Morph::from_poses(self.triangles.clone(), self.v0.clone(), self.v1.clone())
     }
+}
+
+/// The report's fields that follow from the inputs, the embeddings and the
+/// supermesh (the overlay's counts, the alignment and the times left at 0).
+fn report(
+    ca: &Cleaned,
+    cb: &Cleaned,
+    embedded: &Embedded,
+    supermesh: &Supermesh,
+) -> SupermeshReport {
+    let (fold_overs, sphere_area) =
+        sphere::check_embedding(&supermesh.sphere, &supermesh.triangles);
+    SupermeshReport {
+        a_vertices: ca.mesh.vertex_count(),
+        a_triangles: ca.mesh.triangle_count(),
+        b_vertices: cb.mesh.vertex_count(),
+        b_triangles: cb.mesh.triangle_count(),
+        vertices: supermesh.v0.len(),
+        triangles: supermesh.triangles.len(),
+        fold_overs,
+        sphere_area,
+        embedding: [
+            embed::quality(&embedded.a, &ca.mesh.positions, &ca.mesh.triangles),
+            embed::quality(&embedded.b, &cb.mesh.positions, &cb.mesh.triangles),
+        ],
+        correspondence: measure(&supermesh.triangles, &supermesh.v0, &supermesh.v1),
+        ..SupermeshReport::default()
+    }
+}
+
+/// A's triangulation with B's vertices renumbered by `map` (A vertex `i` is
+/// B vertex `map[i]`, cleaned indices): `V(0) = A`, `V(1) = B` bit for bit,
+/// every vertex of both ([`Origin::Both`]), on A's sphere embedding.
+fn renumbered_supermesh(
+    ca: &Cleaned,
+    cb: &Cleaned,
+    embedded: &Embedded,
+    map: &[u32],
+    alignment: AlignmentReport,
+    stage_seconds: Vec<(Stage, f64)>,
+) -> (Supermesh, SupermeshReport) {
+    let supermesh = Supermesh {
+        triangles: ca.mesh.triangles.clone(),
+        v0: ca.mesh.positions.clone(),
+        v1: map.iter().map(|&m| cb.mesh.positions[m as usize]).collect(),
+        origins: map
+            .iter()
+            .enumerate()
+            .map(|(i, &m)| Origin::Both {
+                a: ca.vertex_map[i],
+                b: cb.vertex_map[m as usize],
+            })
+            .collect(),
+        sphere: embedded.a.clone(),
+    };
+    let report = SupermeshReport {
+        connectivity: Connectivity::Renumbered,
+        coincident: map.len(),
+        alignment,
+        stage_seconds,
+        ..report(ca, cb, embedded, &supermesh)
+    };
+    (supermesh, report)
 }
 
 /// Stage 1: both meshes cleaned and checked, landmarks mapped to cleaned indices.
