@@ -604,7 +604,8 @@ impl Supermesh {
             align_b(&ca.mesh, &cb.mesh, &mut embedded, &landmarks, options)
         })?;
         if same_size && landmarks.is_empty() {
-            let seeds = renumbered::sphere_seeds(&embedded.a, &b_aligned);
+            let mut seeds = renumbered::colour_seeds(&ca.mesh, &cb.mesh);
+            seeds.extend(renumbered::sphere_seeds(&embedded.a, &b_aligned));
             if let Some(map) = renumbered::find(&ca.mesh, &cb.mesh, &seeds) {
                 alignment.after = final_residual(&ca.mesh, &cb.mesh, &embedded.a, &b_aligned);
                 return Ok(renumbered_supermesh(

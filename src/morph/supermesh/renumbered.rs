@@ -10,8 +10,10 @@
 //! `x → y`) fixes the map of the triangle on its left, and each triangle's
 //! map fixes its neighbours', so one seed decides the whole map in one pass
 //! over A's directed edges, or fails at the first triangle with no image.
-//! Seeds come from the aligned sphere embeddings (B's vertices nearest to
-//! a few of A's), and among the maps found (a symmetric triangulation has
+//! Seeds come from the connectivity (a few of A's vertices of the rarest
+//! colours under Weisfeiler–Lehman refinement, each with every B vertex of
+//! its colour) and from the aligned sphere embeddings (B's vertices nearest
+//! to a few of A's), and among the maps found (a symmetric triangulation has
 //! several) the one with the smallest `D` is kept.
 
 use std::collections::HashMap;
@@ -116,6 +118,87 @@ fn propagate(
         }
     }
     map.iter().all(|&m| m != u32::MAX).then_some(map)
+}
+
+/// Rounds of colour refinement in [`colour_seeds`].
+const COLOUR_ROUNDS: usize = 4;
+
+/// Seed vertices from colour classes, and the largest class tried.
+const COLOUR_SEEDS: usize = 4;
+const MAX_CLASS: usize = 64;
+
+fn mix(h: u64, x: u64) -> u64 {
+    let mut z = (h ^ x).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Each vertex's colour after rounds of Weisfeiler–Lehman refinement
+/// (degree, then the colour with the sorted colours of the neighbours): a
+/// renumbering keeps every colour, so a twin has its vertex's colour.
+fn colours(n: usize, triangles: &[[u32; 3]]) -> Vec<u64> {
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for t in triangles {
+        for k in 0..3 {
+            neighbours[t[k] as usize].push(t[(k + 1) % 3]);
+        }
+    }
+    let mut colour: Vec<u64> = neighbours.iter().map(|r| r.len() as u64).collect();
+    let mut around = Vec::new();
+    for _ in 0..COLOUR_ROUNDS {
+        colour = (0..n)
+            .map(|v| {
+                around.clear();
+                around.extend(neighbours[v].iter().map(|&u| colour[u as usize]));
+                around.sort_unstable();
+                around.iter().fold(mix(0, colour[v]), |h, &c| mix(h, c))
+            })
+            .collect();
+    }
+    colour
+}
+
+/// Seeds from the connectivity alone: the A vertices of the rarest colours
+/// (see [`colours`]), each with every B vertex of its colour; none when the
+/// colour counts differ (then no renumbering exists).
+pub(crate) fn colour_seeds(a: &IndexedMesh, b: &IndexedMesh) -> Vec<(u32, Vec<u32>)> {
+    if a.vertex_count() != b.vertex_count() {
+        return Vec::new();
+    }
+    let (ca, cb) = (
+        colours(a.vertex_count(), &a.triangles),
+        colours(b.vertex_count(), &b.triangles),
+    );
+    let mut class_a: HashMap<u64, u32> = HashMap::new();
+    for &c in &ca {
+        *class_a.entry(c).or_default() += 1;
+    }
+    let mut class_b: HashMap<u64, Vec<u32>> = HashMap::new();
+    for (v, &c) in cb.iter().enumerate() {
+        class_b.entry(c).or_default().push(v as u32);
+    }
+    if class_a.len() != class_b.len()
+        || class_a
+            .iter()
+            .any(|(c, &k)| class_b.get(c).map(Vec::len) != Some(k as usize))
+    {
+        return Vec::new();
+    }
+    let mut order: Vec<u32> = (0..a.vertex_count() as u32).collect();
+    order.sort_by_key(|&v| (class_a[&ca[v as usize]], v));
+    let mut seen = Vec::new();
+    order
+        .into_iter()
+        .filter(|&v| {
+            let c = ca[v as usize];
+            let fresh = !seen.contains(&c) && class_b[&c].len() <= MAX_CLASS;
+            seen.push(c);
+            fresh
+        })
+        .take(COLOUR_SEEDS)
+        .map(|v| (v, class_b[&ca[v as usize]].clone()))
+        .collect()
 }
 
 /// Seeds from the aligned embeddings: a few of A's vertices, spread over
