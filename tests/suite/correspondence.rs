@@ -506,9 +506,10 @@ fn stood_up(mut mesh: IndexedMesh) -> IndexedMesh {
 }
 
 /// man → camel with the shipped landmarks: the in-betweens keep their size
-/// (s ≥ 0.88 at ¼, ½, ¾: 0.924, 0.897, 0.924 measured; 0.737, 0.626, 0.737
-/// with the alignment before issue 25; the issue's goal of 0.9 is not met
-/// yet), every pair on one point, no fold-overs.
+/// (s ≥ 0.9 at ¼, ½, ¾, the issue's goal: 0.930, 0.905, 0.930 measured;
+/// 0.924, 0.897, 0.924 before the embeddings were relaxed after the drag;
+/// 0.737, 0.626, 0.737 with the alignment before issue 25), every pair on
+/// one point, no fold-overs.
 #[test]
 fn man_to_camel_with_the_shipped_landmarks() {
     let man = stood_up(asset("man.off"));
@@ -526,7 +527,7 @@ fn man_to_camel_with_the_shipped_landmarks() {
         .unwrap_or_else(|e| panic!("{}", landmarks.explain(&e)));
     println!("{r}");
     let c = r.correspondence;
-    assert!(c.s.iter().all(|&s| s >= 0.88), "{c:?}");
+    assert!(c.s.iter().all(|&s| s >= 0.9), "{c:?}");
     assert_eq!(r.fold_overs, 0);
     assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0);
     for &(la, lb) in &landmarks.pairs {
