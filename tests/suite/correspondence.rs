@@ -140,6 +140,33 @@ fn measure_matches_its_definition() {
     assert!(m.s.iter().all(|s| (s - 1.0).abs() < 1e-6), "{m:?}");
     assert!((m.distortion.angle[1] - 1.0).abs() < 1e-4, "{m:?}");
     assert!(m.d_placed > 1.0, "{m:?}");
+    // Its placement: not turned, scaled ×4, moved; placed differently.
+    let p = m.placement;
+    assert!(
+        p.turn_degrees < 0.01 && (p.scale - 4.0).abs() < 1e-4,
+        "{p:?}"
+    );
+    assert!(p.offset > 0.5 && p.differs(m.d), "{p:?}");
+    // A copy turned by 30° about z: that turn, in place; itself: nothing.
+    let (sin, cos) = 30f32.to_radians().sin_cos();
+    let turned: Vec<[f32; 3]> = a
+        .positions
+        .iter()
+        .map(|p| [cos * p[0] - sin * p[1], sin * p[0] + cos * p[1], p[2]])
+        .collect();
+    let m = measure(&a.triangles, &a.positions, &turned);
+    let p = m.placement;
+    assert!(
+        (p.turn_degrees - 30.0).abs() < 0.01 && p.turned_d < 1e-9,
+        "{p:?}"
+    );
+    assert!((p.scale - 1.0).abs() < 1e-4 && p.differs(m.d), "{p:?}");
+    let m = measure(&a.triangles, &a.positions, &a.positions);
+    let p = m.placement;
+    assert!(
+        p.turn_degrees < 0.01 && p.offset < 1e-6 && !p.differs(m.d),
+        "{p:?}"
+    );
 }
 
 // ---------------------------------------------------------------- alignment
