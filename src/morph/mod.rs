@@ -138,6 +138,38 @@ pub enum MorphError {
     Mesh(#[from] MeshError),
 }
 
+/// Whether `a` and `b` share their connectivity, as [`Morph::from_meshes`]
+/// requires: the same vertex count and the same triangle list (same order,
+/// same orientation; a triangle may start at another corner). The error says
+/// what differs first.
+pub fn same_connectivity(a: &IndexedMesh, b: &IndexedMesh) -> Result<(), MorphError> {
+    if a.positions.len() != b.positions.len() {
+        return Err(MorphError::PoseSizeMismatch {
+            a: a.positions.len(),
+            b: b.positions.len(),
+        });
+    }
+    if a.triangles.len() != b.triangles.len() {
+        return Err(MorphError::TriangleCountMismatch {
+            a: a.triangles.len(),
+            b: b.triangles.len(),
+        });
+    }
+    match a
+        .triangles
+        .iter()
+        .zip(&b.triangles)
+        .position(|(&[p, q, r], &y)| y != [p, q, r] && y != [q, r, p] && y != [r, p, q])
+    {
+        Some(index) => Err(MorphError::TriangleMismatch {
+            index,
+            a: a.triangles[index],
+            b: b.triangles[index],
+        }),
+        None => Ok(()),
+    }
+}
+
 impl Morph {
     /// The general validated constructor: a base pose, targets and their weights.
     pub fn from_parts(
@@ -247,30 +279,7 @@ impl Morph {
     /// triangle may start at another corner, `[1, 2, 0]` for `[0, 1, 2]`).
     /// The triangles of `a` are used; `b` gives the pose `V(1)`.
     pub fn from_meshes(a: &IndexedMesh, b: &IndexedMesh) -> Result<Morph, MorphError> {
-        if a.positions.len() != b.positions.len() {
-            return Err(MorphError::PoseSizeMismatch {
-                a: a.positions.len(),
-                b: b.positions.len(),
-            });
-        }
-        if a.triangles.len() != b.triangles.len() {
-            return Err(MorphError::TriangleCountMismatch {
-                a: a.triangles.len(),
-                b: b.triangles.len(),
-            });
-        }
-        if let Some(index) = a
-            .triangles
-            .iter()
-            .zip(&b.triangles)
-            .position(|(&[p, q, r], &y)| y != [p, q, r] && y != [q, r, p] && y != [r, p, q])
-        {
-            return Err(MorphError::TriangleMismatch {
-                index,
-                a: a.triangles[index],
-                b: b.triangles[index],
-            });
-        }
+        same_connectivity(a, b)?;
         Morph::from_poses(
             a.triangles.clone(),
             a.positions.clone(),

@@ -319,6 +319,37 @@ fn build_takes_meshes_of_different_connectivity() {
     assert_eq!(loaded.frames.len(), 4);
 }
 
+/// Two poses of one mesh: `supermesh` says the connectivity is the same and
+/// writes it as it is (A's vertices and triangles, V(1) = B).
+#[test]
+fn supermesh_of_two_poses_uses_their_connectivity() {
+    let dir = temp_dir("same");
+    let (a, b) = (dir.join("round.off"), dir.join("flat.off"));
+    let (v, f) = uv_sphere(8, 12, 1.2, 1.0);
+    write_off(&a, &v, &f);
+    let (v, f) = uv_sphere(8, 12, 0.7, 0.4);
+    write_off(&b, &v, &f);
+    let glb = dir.join("s.glb");
+    let out = morphlod(&[
+        "supermesh",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        glb.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("connectivity      the same"),
+        "{}",
+        text(&out)
+    );
+    let options = LoadOptions::default();
+    let morph = load_morph(&glb, &options, &MorphSource::Target("0".into())).unwrap();
+    let ma = load_mesh(&a, &options).unwrap();
+    assert_eq!(morph.triangles(), ma.triangles.as_slice());
+    assert_eq!(morph.v0(), ma.positions);
+}
+
 #[test]
 fn bad_landmarks_name_the_line() {
     let dir = temp_dir("landmarks");

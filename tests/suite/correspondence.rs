@@ -9,7 +9,8 @@ use std::path::Path;
 use glam::DVec3;
 use morphlod::mesh::IndexedMesh;
 use morphlod::morph::supermesh::{
-    measure, parse_landmarks, Origin, Side, Supermesh, SupermeshError, SupermeshOptions,
+    measure, parse_landmarks, Connectivity, Origin, Side, Supermesh, SupermeshError,
+    SupermeshOptions,
 };
 use proptest::prelude::*;
 
@@ -139,38 +140,252 @@ fn measure_matches_its_definition() {
     assert!(m.s.iter().all(|s| (s - 1.0).abs() < 1e-6), "{m:?}");
     assert!((m.distortion.angle[1] - 1.0).abs() < 1e-4, "{m:?}");
     assert!(m.d_placed > 1.0, "{m:?}");
+    // Its placement: not turned, scaled ×4, moved; placed differently.
+    let p = m.placement;
+    assert!(
+        p.turn_degrees < 0.01 && (p.scale - 4.0).abs() < 1e-4,
+        "{p:?}"
+    );
+    assert!(p.offset > 0.5 && p.differs(m.d), "{p:?}");
+    // A copy turned by 30° about z: that turn, in place; itself: nothing.
+    let (sin, cos) = 30f32.to_radians().sin_cos();
+    let turned: Vec<[f32; 3]> = a
+        .positions
+        .iter()
+        .map(|p| [cos * p[0] - sin * p[1], sin * p[0] + cos * p[1], p[2]])
+        .collect();
+    let m = measure(&a.triangles, &a.positions, &turned);
+    let p = m.placement;
+    assert!(
+        (p.turn_degrees - 30.0).abs() < 0.01 && p.turned_d < 1e-9,
+        "{p:?}"
+    );
+    assert!((p.scale - 1.0).abs() < 1e-4 && p.differs(m.d), "{p:?}");
+    let m = measure(&a.triangles, &a.positions, &a.positions);
+    let p = m.placement;
+    assert!(
+        p.turn_degrees < 0.01 && p.offset < 1e-6 && !p.differs(m.d),
+        "{p:?}"
+    );
 }
 
 // ---------------------------------------------------------------- alignment
 
 /// A mesh and a scaled, moved copy of it with its vertices shuffled (so
-/// indices do not give the answer): the automatic alignment recovers about
-/// the identity (s ≈ 1, D ≈ 0).
+/// indices do not give the answer), overlaid: the automatic alignment
+/// recovers about the identity (s ≈ 1, D ≈ 0).
 #[test]
 fn a_mesh_and_its_shuffled_scaled_copy_correspond() {
     let a = blob(16, 24, 0.2, [2.0, 1.0, 0.6], 9);
-    let n = a.positions.len() as u32;
-    let order: Vec<u32> = (0..n).map(|i| (i * 37 + 11) % n).collect();
-    let mut inverse = vec![0u32; n as usize];
-    for (new, &old) in order.iter().enumerate() {
-        inverse[old as usize] = new as u32;
-    }
-    let b = IndexedMesh::new(
-        order
-            .iter()
-            .map(|&old| a.positions[old as usize].map(|x| 2.5 * x + 1.0))
-            .collect(),
-        a.triangles
-            .iter()
-            .map(|t| t.map(|v| inverse[v as usize]))
-            .collect(),
-    );
-    let (_, r) = Supermesh::build(&a, &b, &SupermeshOptions::default()).unwrap();
+    let (b, _) = shuffled(&deformed(&a, |p| 2.5 * p + 1.0), 5);
+    // The overlay, so the alignment is under test, not the renumbering.
+    let options = SupermeshOptions {
+        reuse_connectivity: false,
+        ..SupermeshOptions::default()
+    };
+    let (_, r) = Supermesh::build(&a, &b, &options).unwrap();
     println!("{r}");
     let c = r.correspondence;
     assert!(c.s.iter().all(|&s| s > 0.98), "{c:?}");
     assert!(c.d < 0.05, "{c:?}");
     assert_eq!(r.fold_overs, 0);
+}
+
+// ------------------------------------- a mesh and a deformed copy of itself
+
+/// `mesh` with each vertex moved by `f` (same indices).
+fn deformed(mesh: &IndexedMesh, f: impl Fn(DVec3) -> DVec3) -> IndexedMesh {
+    let positions = mesh
+        .positions
+        .iter()
+        .map(|&p| f(DVec3::from_array(p.map(f64::from))).as_vec3().to_array())
+        .collect();
+    IndexedMesh::new(positions, mesh.triangles.clone())
+}
+
+/// `mesh` with its vertices renumbered at random (the same surface), so
+/// indices do not give the correspondence; new vertex `i` is old `order[i]`.
+fn shuffled(mesh: &IndexedMesh, seed: u64) -> (IndexedMesh, Vec<u32>) {
+    let n = mesh.vertex_count();
+    let mut rng = Rng(seed);
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        order.swap(i, (rng.unit() * (i + 1) as f64) as usize % (i + 1));
+    }
+    let mut inverse = vec![0u32; n];
+    for (new, &old) in order.iter().enumerate() {
+        inverse[old as usize] = new as u32;
+    }
+    let positions = order
+        .iter()
+        .map(|&old| mesh.positions[old as usize])
+        .collect();
+    let triangles = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| inverse[v as usize]))
+        .collect();
+    (IndexedMesh::new(positions, triangles), order)
+}
+
+/// Flips the edge `t[1] → t[2]` of triangle `t` (with the triangle across it).
+fn flip(mesh: &mut IndexedMesh, t: usize) {
+    let [p, q, w] = mesh.triangles[t];
+    let k = mesh
+        .triangles
+        .iter()
+        .position(|u| (0..3).any(|j| u[j] == w && u[(j + 1) % 3] == q))
+        .unwrap();
+    let x = mesh.triangles[k]
+        .into_iter()
+        .find(|&v| v != w && v != q)
+        .unwrap();
+    mesh.triangles[t] = [p, q, x];
+    mesh.triangles[k] = [p, x, w];
+}
+
+/// An elongated blob along z (z in about ±3): a limb-like closed mesh, with
+/// a few quads' diagonals flipped so its triangulation has no symmetry (the
+/// uv sphere's has 48, and a twist can make a turned one closer in D).
+fn rod(seed: u64) -> IndexedMesh {
+    let segments = 24;
+    let mut mesh = blob(20, segments, 0.1, [0.8, 0.6, 3.0], seed);
+    for quad in (0..18 * segments as usize).step_by(37) {
+        // The quad's first triangle [a, b, c] has its diagonal at c → a.
+        let t = 2 * segments as usize + 2 * quad;
+        mesh.triangles[t].rotate_left(1);
+        flip(&mut mesh, t);
+    }
+    mesh
+}
+
+/// Twisted by up to ±90° about the long axis (z).
+fn twist(p: DVec3) -> DVec3 {
+    let (s, c) = (p.z * std::f64::consts::FRAC_PI_6).sin_cos();
+    DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
+}
+
+/// Bent by 90° in the xz plane (the axis onto a quarter circle).
+fn bend(p: DVec3) -> DVec3 {
+    let radius = 6.0 / std::f64::consts::FRAC_PI_2;
+    let theta = p.z / radius;
+    let r = radius - p.x;
+    DVec3::new(radius - r * theta.cos(), p.y, r * theta.sin())
+}
+
+/// Inflated in the middle (up to 1.6× thicker) and thinned at the ends.
+fn inflate(p: DVec3) -> DVec3 {
+    let k = 0.7 + 0.9 * (1.0 - (p.z / 3.0).powi(2)).max(0.0);
+    DVec3::new(k * p.x, k * p.y, p.z)
+}
+
+/// Two poses of one mesh (same vertex order and triangles): the supermesh
+/// is that connectivity, `V(0) = A` and `V(1) = B` bit for bit, and the
+/// report says so.
+#[test]
+fn two_poses_of_one_mesh_use_their_connectivity() {
+    let a = rod(4);
+    let b = deformed(&a, twist);
+    // Landmarks that pair a vertex with itself agree with the connectivity.
+    let options = SupermeshOptions {
+        landmarks: vec![(0, 0), (5, 5)],
+        ..SupermeshOptions::default()
+    };
+    let (s, r) = Supermesh::build(&a, &b, &options).unwrap();
+    println!("{r}");
+    assert_eq!(r.connectivity, Connectivity::Same);
+    assert!(r.to_string().contains("the same"), "{r}");
+    assert_eq!(s.triangles, a.triangles);
+    assert_eq!(s.v0, a.positions);
+    assert_eq!(s.v1, b.positions);
+    assert!(s.origins.iter().enumerate().all(|(i, &o)| o
+        == Origin::Both {
+            a: i as u32,
+            b: i as u32
+        }));
+    assert_eq!((r.vertices, r.crossings), (a.vertex_count(), 0));
+    assert_eq!(
+        r.correspondence,
+        measure(&a.triangles, &a.positions, &b.positions)
+    );
+    // A triangle starting at another corner is the same triangle.
+    let mut c = b.clone();
+    c.triangles[3].rotate_left(1);
+    let (s, r) = Supermesh::build(&a, &c, &SupermeshOptions::default()).unwrap();
+    assert_eq!(r.connectivity, Connectivity::Same);
+    assert_eq!(s.triangles, a.triangles);
+    // Landmarks that ask for another correspondence, or the option off: overlaid.
+    for options in [
+        SupermeshOptions {
+            landmarks: vec![(0, 0), (30, 300)],
+            ..SupermeshOptions::default()
+        },
+        SupermeshOptions {
+            reuse_connectivity: false,
+            ..SupermeshOptions::default()
+        },
+    ] {
+        let (_, r) = Supermesh::build(&a, &b, &options).unwrap();
+        assert_eq!(r.connectivity, Connectivity::Overlaid);
+    }
+    // Shuffled, it is not the same connectivity (but see the next test).
+    let (_, r) = Supermesh::build(&a, &shuffled(&b, 1).0, &SupermeshOptions::default()).unwrap();
+    assert_ne!(r.connectivity, Connectivity::Same);
+}
+
+/// A limb-like mesh and a twisted, a bent and an inflated copy of itself
+/// with the vertices shuffled: the alignment leads to the renumbering, so
+/// the supermesh is the mesh itself (1× the input, not the ≈ 8.6× of an
+/// overlay) and every vertex is blended with its own twin (s ≥ 0.95).
+#[test]
+fn a_mesh_and_its_deformed_shuffled_copy_correspond() {
+    let a = rod(7);
+    for (name, f) in [
+        ("twisted", twist as fn(DVec3) -> DVec3),
+        ("bent", bend),
+        ("inflated", inflate),
+    ] {
+        let (b, order) = shuffled(&deformed(&a, f), 11);
+        let (s, r) = Supermesh::build(&a, &b, &SupermeshOptions::default()).unwrap();
+        println!("{name}:\n{r}");
+        let c = r.correspondence;
+        assert!(c.s.iter().all(|&s| s >= 0.95), "{name}: {c:?}");
+        assert_eq!(r.connectivity, Connectivity::Renumbered, "{name}");
+        assert_eq!((r.vertices, r.fold_overs), (a.vertex_count(), 0), "{name}");
+        assert_eq!(s.triangles, a.triangles);
+        assert_eq!(s.v0, a.positions);
+        for (i, &o) in s.origins.iter().enumerate() {
+            let Origin::Both { a: va, b: vb } = o else {
+                panic!("{name}: vertex {i} is {o:?}");
+            };
+            assert_eq!((va, order[vb as usize]), (i as u32, i as u32), "{name}");
+            assert_eq!(s.v1[i], b.positions[vb as usize]);
+        }
+    }
+    // Landmarks seed the renumbering (the twin of a vertex, and one that is not).
+    let (b, order) = shuffled(&deformed(&a, twist), 3);
+    let twin = |v: u32| order.iter().position(|&o| o == v).unwrap() as u32;
+    let options = SupermeshOptions {
+        landmarks: vec![(10, twin(10)), (200, twin(200))],
+        ..SupermeshOptions::default()
+    };
+    let (s, r) = Supermesh::build(&a, &b, &options).unwrap();
+    assert_eq!(r.connectivity, Connectivity::Renumbered);
+    assert!(s.origins.contains(&Origin::Both {
+        a: 200,
+        b: twin(200)
+    }));
+    let options = SupermeshOptions {
+        landmarks: vec![(10, twin(10)), (200, twin(201))],
+        ..SupermeshOptions::default()
+    };
+    let (_, r) = Supermesh::build(&a, &b, &options).unwrap();
+    assert_eq!(r.connectivity, Connectivity::Overlaid);
+    // One edge flipped: the same counts, not the same triangles: overlaid.
+    let mut c = b.clone();
+    flip(&mut c, 100);
+    let (_, r) = Supermesh::build(&a, &c, &SupermeshOptions::default()).unwrap();
+    assert_eq!((r.connectivity, r.fold_overs), (Connectivity::Overlaid, 0));
 }
 
 // ---------------------------------------------------------------- landmarks
@@ -318,9 +533,10 @@ fn stood_up(mut mesh: IndexedMesh) -> IndexedMesh {
 }
 
 /// man → camel with the shipped landmarks: the in-betweens keep their size
-/// (s ≥ 0.88 at ¼, ½, ¾: 0.924, 0.897, 0.924 measured; 0.737, 0.626, 0.737
-/// with the alignment before issue 25; the issue's goal of 0.9 is not met
-/// yet), every pair on one point, no fold-overs.
+/// (s ≥ 0.9 at ¼, ½, ¾, the issue's goal: 0.930, 0.905, 0.930 measured;
+/// 0.924, 0.897, 0.924 before the embeddings were relaxed after the drag;
+/// 0.737, 0.626, 0.737 with the alignment before issue 25), every pair on
+/// one point, no fold-overs.
 #[test]
 fn man_to_camel_with_the_shipped_landmarks() {
     let man = stood_up(asset("man.off"));
@@ -338,7 +554,7 @@ fn man_to_camel_with_the_shipped_landmarks() {
         .unwrap_or_else(|e| panic!("{}", landmarks.explain(&e)));
     println!("{r}");
     let c = r.correspondence;
-    assert!(c.s.iter().all(|&s| s >= 0.88), "{c:?}");
+    assert!(c.s.iter().all(|&s| s >= 0.9), "{c:?}");
     assert_eq!(r.fold_overs, 0);
     assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0);
     for &(la, lb) in &landmarks.pairs {

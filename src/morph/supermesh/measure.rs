@@ -40,6 +40,38 @@ pub struct Distortion {
     pub degenerate: f64,
 }
 
+/// How B is placed against A under the correspondence: the similarity
+/// transform (turn, move, scale) that best takes A's end onto B's (weighted
+/// least squares over the corresponding points, centroids and RMS radii as
+/// in the measure). The normalised measure ignores it; the ends as placed,
+/// and so the morph, include it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Placement {
+    /// Angle (degrees) of the best rotation from A's normalised end to B's.
+    pub turn_degrees: f64,
+    /// `D` of the normalised ends with A's turned by that rotation (against
+    /// [`Correspondence::d`]: how much of the mismatch the turn explains).
+    pub turned_d: f64,
+    /// Distance between the weighted centroids over A's RMS radius.
+    pub offset: f64,
+    /// B's RMS radius over A's.
+    pub scale: f64,
+}
+
+impl Placement {
+    /// Whether B is placed differently from A, given `d` (the normalised
+    /// ends' [`Correspondence::d`]): turned by more than 20° where the turn
+    /// explains at least half of `d` (between different shapes the best
+    /// turn is mostly their difference, not their placement), moved by more
+    /// than half A's RMS radius, or scaled outside `[0.67, 1.5]`. The morph
+    /// then also turns, moves or scales the shape.
+    pub fn differs(&self, d: f64) -> bool {
+        (self.turn_degrees > 20.0 && self.turned_d < 0.5 * d)
+            || self.offset > 0.5
+            || !(0.67..=1.5).contains(&self.scale)
+    }
+}
+
 /// The correspondence measure (module docs) of two poses of one triangulation.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Correspondence {
@@ -58,6 +90,8 @@ pub struct Correspondence {
     /// RMS radius `√Iₖ` of each end as placed.
     pub rms_radius: [f64; 2],
     pub distortion: Distortion,
+    /// The similarity that best takes A's end onto B's.
+    pub placement: Placement,
 }
 
 fn d3(p: [f32; 3]) -> DVec3 {
@@ -151,6 +185,27 @@ pub fn measure(triangles: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]]) -> Corr
     };
     let (q0, r0) = normalise(&p0);
     let (q1, r1) = normalise(&p1);
+    let turn = super::align::nearest_rotation(
+        q0.iter()
+            .zip(&q1)
+            .zip(&w)
+            .map(|((&x, &y), &w)| {
+                glam::DMat3::from_cols(y * (w * x.x), y * (w * x.y), y * (w * x.z))
+            })
+            .fold(glam::DMat3::ZERO, |m, x| m + x),
+    );
+    let cosine = 0.5 * (turn.x_axis.x + turn.y_axis.y + turn.z_axis.z - 1.0);
+    let placement = Placement {
+        turn_degrees: cosine.clamp(-1.0, 1.0).acos().to_degrees(),
+        turned_d: q0
+            .iter()
+            .zip(&q1)
+            .zip(&w)
+            .map(|((&x, &y), &w)| w * (y - turn * x).length_squared())
+            .sum(),
+        offset: (moments(&p1, &w).0 - moments(&p0, &w).0).length() / r0,
+        scale: r1 / r0,
+    };
     let (s, d) = spread(&q0, &q1, &w);
     let mut used = vec![false; p0.len()];
     for t in triangles {
@@ -185,6 +240,7 @@ pub fn measure(triangles: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]]) -> Corr
         d_placed,
         rms_radius: [r0, r1],
         distortion: distortion(triangles, &q0, &q1),
+        placement,
     }
 }
 
@@ -289,6 +345,20 @@ impl std::fmt::Display for Correspondence {
             self.d_placed,
             self.rms_radius[0],
             self.rms_radius[1]
+        )?;
+        let p = &self.placement;
+        writeln!(
+            f,
+            "  placement         B is A turned {:.1}° (D {:.4} turned), moved {:.2} and scaled ×{:.3} (RMS radius units of A){}",
+            p.turn_degrees,
+            p.turned_d,
+            p.offset,
+            p.scale,
+            if p.differs(self.d) {
+                ": placed differently, so the morph also turns, moves or scales the shape; fit B onto A by this similarity (e.g. in a modeller) for a morph of the shape alone (V(1) stays B as given)"
+            } else {
+                ""
+            }
         )?;
         let d = &self.distortion;
         write!(
