@@ -1,4 +1,6 @@
-//! `gpu::Crowd` on a real adapter (lavapipe in CI), against `LodObject`s and the runtime.
+//! `gpu::Crowd` on a real adapter (lavapipe in CI), against `LodObject`s and the runtime. The
+//! drawing tests run on both paths ([`paths`]): first instance (vertex buffers) where the device
+//! has `INDIRECT_FIRST_INSTANCE`, and the base-vertex fallback (vertex pulling), forced.
 //!
 //! * `crowd_draws_the_pixels_of_lod_objects`: instances of three assets (two grids, and the
 //!   head with its surface and texture) at mixed times, LODs, transforms and colours draw pixel
@@ -8,14 +10,20 @@
 //! * `crowd_buffers_decode_to_each_instance_mesh`: over a walk with frame switches, LOD jumps,
 //!   removes and adds (freed slots reused, old ids refused), the index and indirect buffers read
 //!   back from the GPU draw, per live instance, exactly the triangles of its runtime's strips
-//!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), and free
-//!   records draw nothing.
+//!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), the records
+//!   carry the slot where the path says, and free records draw nothing.
+//! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, the head drawn by
+//!   the entry point without the target sum (uploaded without targets) and by the 8-slot one at
+//!   zero weights give the same pixels; the head with 4 of its targets (4-slot entry point) and
+//!   with all 8 but the other 4 zeroed (8-slot) give the same pixels mid-animation; and both
+//!   paths draw the same pixels there.
 //! * `gpu_weight_blending_equals_the_cpu_sum`: the head's weight animation (8 targets), the
 //!   positions the crowd's vertex stage blends (read back by the same WGSL function) equal the
 //!   CPU sum `V(0) + Σ c_k(t) D_k` within the bound of [`blend_bound`].
 //! * `bad_input_is_refused_and_changes_nothing`: NaN transform or colour, NaN time in a batch,
 //!   removed and unknown instances, a full asset, a model of another asset, an asset of another
-//!   device: typed errors, and the buffers and states are as before.
+//!   device, the first-instance path on a device without the feature: typed errors, and the
+//!   buffers and states are as before.
 //! * `host_memory_per_instance_is_bounded`: the host bytes each added head instance holds (the
 //!   crowd's own accounting) stay below what it must hold and below [`HOST_BYTES_PER_INSTANCE`].
 
@@ -27,7 +35,8 @@ use common::gpu::{draw_indexed_indirect, Call, Gpu, Recorder};
 use common::strip_draw;
 
 use morphlod::gpu::{
-    self, AssetId, Crowd, CrowdError, GpuAsset, GpuError, InstanceId, LodObject, RenderTarget,
+    self, AssetId, Crowd, CrowdError, CrowdPath, GpuAsset, GpuError, InstanceId, LodObject,
+    RenderTarget,
 };
 use morphlod::io::{LoadOptions, MorphSource};
 use morphlod::{Asset, Builder, DeformingModel, Lod};
@@ -99,6 +108,30 @@ impl Kind {
             * glam::Mat4::from_scale(glam::Vec3::splat(scale))
             * glam::Mat4::from_translation(-(lo + hi) * 0.5)
     }
+}
+
+/// The paths the drawing tests run on: first instance where the device has
+/// `INDIRECT_FIRST_INSTANCE` (lavapipe does), and the base-vertex fallback everywhere.
+fn paths(ctx: &Gpu) -> Vec<CrowdPath> {
+    let mut paths = vec![CrowdPath::BaseVertex];
+    if ctx.ctx.first_instance_enabled() {
+        paths.insert(0, CrowdPath::FirstInstance);
+    } else {
+        eprintln!("no INDIRECT_FIRST_INSTANCE: the first-instance path is not tested");
+    }
+    paths
+}
+
+/// An empty crowd on `path` drawing into a `RenderTarget`.
+fn crowd_on(ctx: &Gpu, path: CrowdPath) -> Result<Crowd> {
+    let crowd = Crowd::with_path(
+        ctx.device(),
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+        path,
+    )?;
+    assert_eq!(crowd.path(), path);
+    Ok(crowd)
 }
 
 /// The images and draw calls of one pass over `draw`.
@@ -177,17 +210,20 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
-    let (device, queue) = (ctx.device(), ctx.queue());
     let kinds = [
         Kind::new(&ctx, grid_asset(12, 5, 0.4))?,
         Kind::new(&ctx, grid_asset(9, 3, -0.3))?,
         Kind::new(&ctx, head_asset())?,
     ];
-    let mut crowd = Crowd::new(
-        device,
-        RenderTarget::COLOR_FORMAT,
-        Some(RenderTarget::DEPTH_FORMAT),
-    );
+    for path in paths(&ctx) {
+        draws_the_pixels_of_lod_objects(&ctx, &kinds, path)?;
+    }
+    Ok(())
+}
+
+fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -> Result<()> {
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let mut crowd = crowd_on(ctx, path)?;
     let assets: Vec<AssetId> = kinds
         .iter()
         .map(|k| crowd.add_asset(device, Arc::clone(&k.gpu), Arc::clone(&k.model), 4))
@@ -260,12 +296,12 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
         }
         crowd.set(&moves)?;
         crowd.prepare(device, queue);
-        let (expected, _) = render(&ctx, &target, |pass| {
+        let (expected, _) = render(ctx, &target, |pass| {
             for p in &placed {
                 p.object.render(pass);
             }
         });
-        let (image, calls) = render(&ctx, &target, |pass| crowd.render(pass));
+        let (image, calls) = render(ctx, &target, |pass| crowd.render(pass));
         assert_one_multi_draw_per_asset(&crowd, &assets, &calls);
         for p in &placed {
             assert_eq!(
@@ -274,12 +310,16 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
             );
         }
         if image != expected {
-            common::gpu::fail_with_images(&format!("crowd frame {frame}"), &image, &expected);
+            common::gpu::fail_with_images(
+                &format!("crowd frame {frame}, {path:?}"),
+                &image,
+                &expected,
+            );
         }
         let background = image.pixels().filter(|p| p.0 == [0, 0, 255, 255]).count();
         assert!(
             background < image.pixels().len() * 9 / 10,
-            "frame {frame}: the instances cover too little of the image to compare"
+            "frame {frame}, {path:?}: the instances cover too little of the image to compare"
         );
     }
     Ok(())
@@ -288,6 +328,11 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
 /// Per live instance, the triangles its record draws from the buffers read back, mapped back
 /// to the asset's vertex numbers; and every free record's triangle count.
 fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[u32; 3]>> {
+    // The slot's vertices: at slot × n on the base-vertex path, the asset's own on the other.
+    let base = |slot: usize| match crowd.path() {
+        CrowdPath::BaseVertex => slot as u32 * n,
+        CrowdPath::FirstInstance => 0,
+    };
     let indices = ctx.read_words(crowd.index_buffer(asset).expect("asset"));
     let words = ctx.read_words(crowd.indirect_buffer(asset).expect("asset"));
     let capacity = words.len() / 5;
@@ -296,16 +341,17 @@ fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[
             let r = &words[slot * 5..slot * 5 + 5];
             let record = [r[0], r[1], r[2], r[3], r[4]];
             if record[1] > 0 {
-                assert_eq!(
-                    record[3],
-                    slot as u32 * n,
-                    "slot {slot}: base_vertex names the slot"
-                );
+                assert_eq!(record[3], base(slot), "slot {slot}: base_vertex");
+                let first_instance = match crowd.path() {
+                    CrowdPath::BaseVertex => 0,
+                    CrowdPath::FirstInstance => slot as u32,
+                };
+                assert_eq!(record[4], first_instance, "slot {slot}: first_instance");
                 assert_eq!(record[2], slot as u32 * crowd.slots_per_instance(asset));
             }
             draw_indexed_indirect(&indices, &[record], n * capacity as u32)
                 .into_iter()
-                .map(|t| t.map(|v| v - slot as u32 * n))
+                .map(|t| t.map(|v| v - base(slot)))
                 .collect()
         })
         .collect()
@@ -316,16 +362,19 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
-    let (device, queue) = (ctx.device(), ctx.queue());
     let kinds = [
         Kind::new(&ctx, grid_asset(11, 6, 0.5))?,
         Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
     ];
-    let mut crowd = Crowd::new(
-        device,
-        RenderTarget::COLOR_FORMAT,
-        Some(RenderTarget::DEPTH_FORMAT),
-    );
+    for path in paths(&ctx) {
+        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path)?;
+    }
+    Ok(())
+}
+
+fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -> Result<()> {
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let mut crowd = crowd_on(ctx, path)?;
     let capacity = 5;
     let assets: Vec<AssetId> = kinds
         .iter()
@@ -381,7 +430,7 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
         }
         for (k, &asset) in assets.iter().enumerate() {
             let n = kinds[k].gpu.vertex_count();
-            let drawn = drawn_per_slot(&ctx, &crowd, asset, n);
+            let drawn = drawn_per_slot(ctx, &crowd, asset, n);
             let mut busy = vec![false; capacity as usize];
             for id in live.iter().filter(|id| id.asset() == asset) {
                 busy[id.slot() as usize] = true;
@@ -389,7 +438,11 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
                 let expected: Vec<[u32; 3]> = (0..state.lengths().len())
                     .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
                     .collect();
-                assert_eq!(drawn[id.slot() as usize], expected, "step {step}, {id:?}");
+                assert_eq!(
+                    drawn[id.slot() as usize],
+                    expected,
+                    "{path:?}, step {step}, {id:?}"
+                );
                 assert_eq!(expected.len(), state.triangle_count());
             }
             for (slot, triangles) in drawn.iter().enumerate() {
@@ -397,6 +450,120 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
                     assert!(triangles.is_empty(), "step {step}: free slot {slot} draws");
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// The head with only its first 4 targets (`four`), and with all 8 whose last 4 are zeroed
+/// (`zeroed`): mid-animation the 4-slot sum of the one and the 8-slot sum of the other add the
+/// same nonzero terms in the same order.
+fn head_halves(head: &Asset) -> (Asset, Asset) {
+    let mut four = head.clone();
+    let mut zeroed = head.clone();
+    if let Some(blend) = four.blend.as_mut() {
+        blend.deltas.truncate(4);
+        blend.track = blend.track.select(&[0, 1, 2, 3]);
+    }
+    if let Some(surface) = four.surface.as_mut() {
+        surface.normal_deltas.truncate(4);
+    }
+    if let Some(blend) = zeroed.blend.as_mut() {
+        blend.deltas[4..].iter_mut().for_each(|d| d.fill([0.0; 3]));
+    }
+    if let Some(surface) = zeroed.surface.as_mut() {
+        let normals = surface.normal_deltas.iter_mut().skip(4);
+        normals.for_each(|d| d.fill([0.0; 3]));
+    }
+    (four, zeroed)
+}
+
+#[test]
+fn fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let head = Kind::new(&ctx, head_asset())?;
+    assert_eq!(head.gpu.target_count(), 8);
+    // The same poses and surface without the targets: drawn without the sum.
+    let poses = (head.asset.v0.as_slice(), head.asset.v1.as_slice());
+    let plain = Arc::new(GpuAsset::new(device, poses, head.asset.surface.as_ref())?);
+    let (four, zeroed) = head_halves(&head.asset);
+    let (four, zeroed) = (
+        GpuAsset::from_asset(device, &four)?,
+        GpuAsset::from_asset(device, &zeroed)?,
+    );
+    assert_eq!((four.target_count(), zeroed.target_count()), (4, 8));
+    let view_proj = gpu::camera::fit_to_bounds(
+        [-0.8, -0.8, -0.5],
+        [0.8, 0.8, 0.5],
+        glam::Vec3::new(0.05, -0.08, -1.0),
+        1.0,
+        gpu::camera::Projection::Perspective { vertical_fov: 0.9 },
+    )?
+    .view_proj();
+    let target = ctx.target(128, 128, wgpu::Color::BLUE);
+    // Four heads at mixed LODs and angles, one per quadrant, all at time `t`: the image and
+    // the entry point that drew it.
+    let draw = |path: CrowdPath, gpu: &Arc<GpuAsset>, t: f32| -> Result<_> {
+        let mut crowd = crowd_on(&ctx, path)?;
+        let asset = crowd.add_asset(device, Arc::clone(gpu), Arc::clone(&head.model), 4)?;
+        crowd.set_view_proj(view_proj);
+        let mut moves = Vec::new();
+        for i in 0..4 {
+            let at = glam::Vec3::new(
+                if i % 2 == 0 { -0.45 } else { 0.45 },
+                if i < 2 { -0.45 } else { 0.45 },
+                0.0,
+            );
+            let id = crowd.add(asset, head.place(at, 0.4 * i as f32))?;
+            moves.push((id, t, Lod::Fraction(i as f32 / 4.0)));
+        }
+        crowd.set(&moves)?;
+        crowd.prepare(device, queue);
+        let (image, _) = render(&ctx, &target, |pass| crowd.render(pass));
+        Ok((image, crowd.vertex_entry_point(asset).expect("asset")))
+    };
+    let same = |what: &str,
+                (image, entry): (image::RgbaImage, &str),
+                (expected, by): (image::RgbaImage, &str)| {
+        assert_ne!(entry, by, "{what}: two entry points");
+        if image != expected {
+            common::gpu::fail_with_images(
+                &format!("{what}: {entry} against {by}"),
+                &image,
+                &expected,
+            );
+        }
+        image
+    };
+    let mut moving = Vec::new();
+    for path in paths(&ctx) {
+        // At t = 0 the head's weights are all 0: the 8-slot sum adds exact zeros.
+        let still = same(
+            "t = 0",
+            draw(path, &plain, 0.0)?,
+            draw(path, &head.gpu, 0.0)?,
+        );
+        let background = still.pixels().filter(|p| p.0 == [0, 0, 255, 255]).count();
+        assert!(
+            background < still.pixels().len() * 9 / 10,
+            "the heads cover too little"
+        );
+        let t = 0.45;
+        let mid = same("t = 0.45", draw(path, &four, t)?, draw(path, &zeroed, t)?);
+        assert_ne!(
+            mid, still,
+            "{path:?}: the first 4 targets' animation changed no pixel"
+        );
+        moving.push(draw(path, &head.gpu, t)?);
+    }
+    // At nonzero weights the two paths' 8-slot sums (same terms, same order) draw the same
+    // pixels.
+    if let [first, base] = moving.as_slice() {
+        if first.0 != base.0 {
+            common::gpu::fail_with_images("the head at t = 0.45, both paths", &first.0, &base.0);
         }
     }
     Ok(())
@@ -561,6 +728,15 @@ fn bad_input_is_refused_and_changes_nothing() -> Result<()> {
         required_limits: ctx.adapter.limits(),
         ..Default::default()
     }))?;
+    // Without INDIRECT_FIRST_INSTANCE (the second device asked for no feature) a crowd takes
+    // the base-vertex path, and refuses the first-instance one.
+    let formats = (RenderTarget::COLOR_FORMAT, Some(RenderTarget::DEPTH_FORMAT));
+    assert_eq!(
+        Crowd::new(&second, formats.0, formats.1).path(),
+        CrowdPath::BaseVertex
+    );
+    let refused = Crowd::with_path(&second, formats.0, formats.1, CrowdPath::FirstInstance);
+    assert!(matches!(refused, Err(CrowdError::NoFirstInstance)));
     let foreign = GpuAsset::from_asset(&second, &kind.asset)?;
     let error = crowd.add_asset(device, foreign, Arc::clone(&kind.model), 1);
     assert!(
@@ -649,6 +825,7 @@ fn crowd_bench_reports_both_modes() -> Result<()> {
         width: 96,
         height: 64,
         pixels: 4.0,
+        path: None,
     };
     let report = gpu::run_crowd_bench(&ctx.ctx, &asset, Arc::clone(&model), &options)?;
     let modes: Vec<&str> = report.modes.iter().map(|m| m.mode).collect();
@@ -660,5 +837,15 @@ fn crowd_bench_reports_both_modes() -> Result<()> {
     assert!(report.gpu_bytes_per_instance > 0.0 && report.host_bytes_per_instance > 0.0);
     let json: serde_json::Value = serde_json::from_str(&report.to_json())?;
     assert_eq!(json["modes"][1]["mode"], "full");
+    // GPU time from timestamps where the device has them, said in the report.
+    let timestamps = ctx
+        .device()
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    let timing = ["submit + wait", "timestamps (render pass)"][usize::from(timestamps)];
+    assert_eq!(json["gpu_timing"], timing);
+    assert!(report.modes.iter().all(|m| m.wait_ms.mean > 0.0));
+    let path = ["BaseVertex", "FirstInstance"][usize::from(ctx.ctx.first_instance_enabled())];
+    assert!(report.path.starts_with(path), "{}", report.path);
     Ok(())
 }

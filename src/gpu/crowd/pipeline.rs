@@ -1,9 +1,11 @@
-//! The crowd's GPU programs and the blocks they read: the render pipeline of
-//! `shaders/crowd.wgsl` (strips, vertex pulling), the scatter that applies a frame's index
+//! The crowd's GPU programs and the blocks they read: the render pipelines of
+//! `shaders/crowd.wgsl` (strips; one per vertex entry point in use), the scatter that applies a frame's index
 //! patches (`shaders/scatter.wgsl`), the probe that writes an instance's blended positions
 //! back, and the byte layouts of the scene, mesh and instance blocks.
 
 use bytemuck::{Pod, Zeroable};
+
+use crate::gpu::pipeline::vertex_buffers;
 
 /// The WGSL source of the crowd shader: `shaders/shade.wgsl` followed by `shaders/crowd.wgsl`.
 pub const CROWD_WGSL: &str = concat!(
@@ -96,10 +98,74 @@ impl InstanceBlock {
     }
 }
 
-/// The pipelines and layouts a crowd draws and edits with.
+/// How a crowd's vertex stage learns the instance of a vertex (`shaders/crowd.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CrowdPath {
+    /// Slot `s`'s record has `first_instance = s` and `base_vertex = 0`; the poses and the
+    /// surface attributes are vertex buffers (fixed-function fetch) and the instance block is
+    /// read by `instance_index`. Needs `wgpu::Features::INDIRECT_FIRST_INSTANCE` (without it
+    /// wgpu requires `first_instance = 0` in indirect draws).
+    FirstInstance,
+    /// Slot `s`'s record has `base_vertex = s × vertex count`; the vertex stage splits
+    /// `vertex_index` into slot and vertex and pulls poses and surface from storage buffers.
+    /// Any device; `capacity × vertex count` must stay below 2³¹.
+    BaseVertex,
+}
+
+/// Which vertex entry point of `crowd.wgsl` draws an asset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(super) struct Variant {
+    path: CrowdPath,
+    /// Fetches the surface attributes (first-instance path only: the base-vertex path pulls a
+    /// surface or reads zeros from the same binding).
+    surface: bool,
+    /// Weight slots summed: 0 (no targets), 4 (at most 4 targets), 8.
+    slots: u8,
+}
+
+impl Variant {
+    /// The variant of an asset with or without a surface and with `targets` morph targets.
+    /// An asset of at most 4 targets fills only slots 0..4 ([`InstanceBlock::set_weights`]
+    /// keeps the nonzero weights in ascending target order), so the first 4 slots are its
+    /// whole sum.
+    pub(super) fn new(path: CrowdPath, surface: bool, targets: usize) -> Variant {
+        Variant {
+            path,
+            surface: surface && path == CrowdPath::FirstInstance,
+            slots: match targets {
+                0 => 0,
+                1..=4 => 4,
+                _ => WEIGHT_SLOTS as u8,
+            },
+        }
+    }
+
+    pub(super) fn entry_point(self) -> &'static str {
+        use CrowdPath::{BaseVertex, FirstInstance};
+        match (self.path, self.surface, self.slots) {
+            (BaseVertex, _, 0) => "vs_pull",
+            (BaseVertex, _, 4) => "vs_pull_targets4",
+            (BaseVertex, _, _) => "vs_pull_targets8",
+            (FirstInstance, true, 0) => "vs_fetch_surface",
+            (FirstInstance, true, 4) => "vs_fetch_surface_targets4",
+            (FirstInstance, true, _) => "vs_fetch_surface_targets8",
+            (FirstInstance, false, 0) => "vs_fetch",
+            (FirstInstance, false, 4) => "vs_fetch_targets4",
+            (FirstInstance, false, _) => "vs_fetch_targets8",
+        }
+    }
+}
+
+/// The pipelines and layouts a crowd draws and edits with. Render pipelines are made when the
+/// first asset that needs their entry point is added.
 pub(super) struct CrowdPipeline {
     pub(super) layout: wgpu::BindGroupLayout,
-    pub(super) render: wgpu::RenderPipeline,
+    shader: wgpu::ShaderModule,
+    render_layout: wgpu::PipelineLayout,
+    color: wgpu::TextureFormat,
+    depth: Option<wgpu::TextureFormat>,
+    cull_mode: Option<wgpu::Face>,
+    renders: Vec<(Variant, wgpu::RenderPipeline)>,
     pub(super) scatter_layout: wgpu::BindGroupLayout,
     pub(super) scatter: wgpu::ComputePipeline,
     pub(super) probe_layout: wgpu::BindGroupLayout,
@@ -125,44 +191,6 @@ impl CrowdPipeline {
             label: Some("crowd"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
-        });
-        let render = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("crowd strips"),
-            layout: Some(&render_layout),
-            vertex: wgpu::VertexState {
-                module: &shader,
-                entry_point: Some("vs_crowd"),
-                compilation_options: Default::default(),
-                // Vertex pulling: no vertex buffers (crowd.wgsl says why).
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleStrip,
-                strip_index_format: Some(wgpu::IndexFormat::Uint32),
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode,
-                ..Default::default()
-            },
-            depth_stencil: depth.map(|format| wgpu::DepthStencilState {
-                format,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some("fs_crowd"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: color,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
         });
 
         let storage = |binding, read_only, size| wgpu::BindGroupLayoutEntry {
@@ -217,12 +245,74 @@ impl CrowdPipeline {
         );
         CrowdPipeline {
             layout,
-            render,
+            shader,
+            render_layout,
+            color,
+            depth,
+            cull_mode,
+            renders: Vec::new(),
             scatter_layout,
             scatter,
             probe_layout,
             probe,
         }
+    }
+
+    /// The number of `variant`'s render pipeline, made now if no asset used it before.
+    pub(super) fn render_for(&mut self, device: &wgpu::Device, variant: Variant) -> usize {
+        if let Some(at) = self.renders.iter().position(|(v, _)| *v == variant) {
+            return at;
+        }
+        // The first-instance path fetches the poses (and surface) as attributes; the
+        // base-vertex path has no vertex buffers (crowd.wgsl says why).
+        let buffers = match variant.path {
+            CrowdPath::FirstInstance => vertex_buffers(variant.surface),
+            CrowdPath::BaseVertex => Vec::new(),
+        };
+        let render = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(variant.entry_point()),
+            layout: Some(&self.render_layout),
+            vertex: wgpu::VertexState {
+                module: &self.shader,
+                entry_point: Some(variant.entry_point()),
+                compilation_options: Default::default(),
+                buffers: &buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleStrip,
+                strip_index_format: Some(wgpu::IndexFormat::Uint32),
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: self.cull_mode,
+                ..Default::default()
+            },
+            depth_stencil: self.depth.map(|format| wgpu::DepthStencilState {
+                format,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &self.shader,
+                entry_point: Some("fs_crowd"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: self.color,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        self.renders.push((variant, render));
+        self.renders.len() - 1
+    }
+
+    /// Render pipeline number `at` (from [`render_for`](Self::render_for)).
+    pub(super) fn render(&self, at: usize) -> &wgpu::RenderPipeline {
+        &self.renders[at].1
     }
 }
 
@@ -307,8 +397,8 @@ mod tests {
     use super::*;
     use crate::gpu::pipeline::validated_wgsl;
 
-    /// Both crowd shaders parse and validate without a GPU, and the Rust blocks have the
-    /// WGSL structs' sizes.
+    /// Both crowd shaders parse and validate without a GPU, the Rust blocks have the WGSL
+    /// structs' sizes, and every vertex entry point a crowd may pick is there.
     #[test]
     fn crowd_wgsl_validates_and_blocks_match() {
         let crowd = validated_wgsl(CROWD_WGSL);
@@ -328,6 +418,21 @@ mod tests {
         assert_eq!(size("Mesh"), size_of::<MeshBlock>());
         assert_eq!(size("Instance"), size_of::<InstanceBlock>());
         assert!(size_of::<InstanceBlock>() <= 256);
+        // Every variant's vertex entry point exists.
+        for path in [CrowdPath::FirstInstance, CrowdPath::BaseVertex] {
+            for surface in [false, true] {
+                for targets in [0, 3, 4, 5, 8] {
+                    let entry = Variant::new(path, surface, targets).entry_point();
+                    assert!(
+                        crowd
+                            .entry_points
+                            .iter()
+                            .any(|e| e.name == entry && e.stage == naga::ShaderStage::Vertex),
+                        "crowd.wgsl has no vertex entry point {entry}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
