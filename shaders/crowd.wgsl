@@ -3,27 +3,31 @@
 //
 // Which instance a vertex belongs to reaches the vertex stage one of two ways (gpu::CrowdPath):
 //
-// * First instance (vs_fetch*): the draw record of slot s has first_instance = s and
+// * First instance (vs_fetch_*): the draw record of slot s has first_instance = s and
 //   base_vertex = 0, so instance_index is the slot and vertex_index the asset's own vertex. The
 //   poses and surface attributes arrive as vertex buffers (fixed-function fetch); only the
 //   instance block (by instance_index) and the target deltas (by vertex_index) are storage
 //   reads. Needs INDIRECT_FIRST_INSTANCE: without it wgpu requires first_instance = 0.
-// * Base vertex (vs_pull*), any device: the record has base_vertex = s * vertex_count and its
+// * Base vertex (vs_pull_*), any device: the record has base_vertex = s * vertex_count and its
 //   indices name the asset's own vertices, so the vertex stage sees vertex_index = s * n + v and
 //   recovers both. Attribute fetch would add base_vertex to the address, so this path reads
 //   the poses and surface from storage buffers by v (vertex pulling). A restart index
 //   (0xFFFFFFFF) is compared before base_vertex is added, so strips restart as in an object's
 //   own buffer.
 //
+// An asset with a surface draws with the *_surface* entry points and fs_surface (normal, UV,
+// colour per vertex); one without with the *_plain* ones and fs_plain (faceted: position and
+// instance colour only).
+//
 // An asset with morph targets draws with the *_targets8 entry points: the weight animation is
-// summed here, per vertex, over a fixed 8 (target, weight) slots per instance: the instance's 8
-// largest weights, in ascending target order (the CPU sum's order), unused slots at weight 0.
-// Unrolled, no loop and no branch: on lavapipe a vertex stage with a loop over targets leaked
-// host memory on every draw (morph.wgsl, examples/driver_leak.rs). An asset of at most 4
-// targets fills only slots 0..4 and draws with *_targets4 (the first 4 slots, 24 storage loads
-// fewer per vertex); an asset without targets with the entry points without the sum (48
-// fewer). The slots left out hold weight 0 and would add exact zeros, so each draws the same
-// pixels as the 8-slot sum (tests/suite/crowd.rs).
+// summed here, per vertex, over a fixed 8 (target, weight) slots per instance: the instance's
+// 8 largest weights, in ascending target order (the CPU sum's order), unused slots at weight
+// 0. Unrolled, no loop and no branch: on lavapipe a vertex stage with a loop over targets
+// leaked host memory on every draw (morph.wgsl, examples/driver_leak.rs). An asset of at most
+// 4 targets fills only slots 0..4 and draws with *_targets4 (the first 4 slots: half the delta
+// loads); an asset without targets with the entry points without the sum. The slots left out
+// hold weight 0 and would add exact zeros, so each draws the same pixels as the 8-slot sum
+// (tests/suite/crowd.rs).
 
 struct Scene {
     // Projection * view, world to clip space.
@@ -180,8 +184,7 @@ fn crowd_vertex(
     return out;
 }
 
-// The surface attributes of vertex v, pulled (zeros for an asset without a surface, which
-// binds a 16-byte zero buffer: an out-of-range storage read gives a value inside it or zero).
+// The surface attributes of vertex v, pulled (an asset with a surface).
 struct Attributes {
     n0: vec3<f32>,
     n1: vec3<f32>,
@@ -199,7 +202,26 @@ fn attributes_at(v: u32) -> Attributes {
     );
 }
 
-// Base-vertex path: vertex v of an instance with the given offsets (position, normal).
+// What a mesh without a surface hands the fragment stage: faceted shading needs only the
+// world position and the instance's colour (3 + 4 varyings instead of CrowdOut's 16: llvmpipe
+// sets up every varying of every triangle).
+struct PlainOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) @interpolate(flat) tint: vec4<f32>,
+}
+
+fn plain_vertex(inst: Instance, position: vec3<f32>) -> PlainOut {
+    let world = inst.model * vec4<f32>(position, 1.0);
+    var out: PlainOut;
+    out.clip = scene.view_proj * world;
+    out.world = world.xyz;
+    out.tint = inst.color;
+    return out;
+}
+
+// Base-vertex path, an asset with a surface: vertex v of an instance with the given offsets
+// (position, normal).
 fn pulled(inst: Instance, v: u32, offset: vec3<f32>, normal_offset: vec3<f32>) -> CrowdOut {
     let a = attributes_at(v);
     let position = mix(pose0_at(v), pose1_at(v), inst.t) + offset;
@@ -207,16 +229,22 @@ fn pulled(inst: Instance, v: u32, offset: vec3<f32>, normal_offset: vec3<f32>) -
     return crowd_vertex(inst, position, normal, a.uv, a.color);
 }
 
-// The base-vertex path's entry points: without targets, with 4 and with 8 weight slots.
+// Base-vertex path, an asset without a surface.
+fn pulled_plain(inst: Instance, v: u32, offset: vec3<f32>) -> PlainOut {
+    return plain_vertex(inst, mix(pose0_at(v), pose1_at(v), inst.t) + offset);
+}
+
+// The base-vertex path's entry points: with and without a surface, each without targets, with
+// 4 and with 8 weight slots.
 @vertex
-fn vs_pull(@builtin(vertex_index) index: u32) -> CrowdOut {
+fn vs_pull_surface(@builtin(vertex_index) index: u32) -> CrowdOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
     return pulled(instances[slot], v, vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
 @vertex
-fn vs_pull_targets4(@builtin(vertex_index) index: u32) -> CrowdOut {
+fn vs_pull_surface_targets4(@builtin(vertex_index) index: u32) -> CrowdOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
     let inst = instances[slot];
@@ -224,11 +252,34 @@ fn vs_pull_targets4(@builtin(vertex_index) index: u32) -> CrowdOut {
 }
 
 @vertex
-fn vs_pull_targets8(@builtin(vertex_index) index: u32) -> CrowdOut {
+fn vs_pull_surface_targets8(@builtin(vertex_index) index: u32) -> CrowdOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
     let inst = instances[slot];
     return pulled(inst, v, target_offset(inst, v), normal_offset(inst, v));
+}
+
+@vertex
+fn vs_pull_plain(@builtin(vertex_index) index: u32) -> PlainOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    return pulled_plain(instances[slot], v, vec3<f32>(0.0));
+}
+
+@vertex
+fn vs_pull_plain_targets4(@builtin(vertex_index) index: u32) -> PlainOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    let inst = instances[slot];
+    return pulled_plain(inst, v, target_offset4(inst, v));
+}
+
+@vertex
+fn vs_pull_plain_targets8(@builtin(vertex_index) index: u32) -> PlainOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    let inst = instances[slot];
+    return pulled_plain(inst, v, target_offset(inst, v));
 }
 
 // First-instance path: the poses (buffer slots 0 and 1) and, for an asset with a surface, its
@@ -247,7 +298,7 @@ struct FetchedSurface {
 }
 
 // First-instance path, an asset with a surface: its vertex with the given offsets.
-fn fetched_surface(
+fn fetched(
     inst: Instance,
     p: Poses,
     s: FetchedSurface,
@@ -259,18 +310,11 @@ fn fetched_surface(
     return crowd_vertex(inst, position, normal, s.uv, s.color);
 }
 
-// First-instance path, an asset without a surface (faceted: no normal, UV or colour is used,
-// so neither the normal matrix nor normal deltas are read).
-fn fetched(inst: Instance, p: Poses, offset: vec3<f32>) -> CrowdOut {
-    let position = mix(p.v0, p.v1, inst.t) + offset;
-    return crowd_vertex(inst, position, vec3<f32>(0.0), vec2<f32>(0.0), vec4<f32>(0.0));
-}
-
 // The first-instance path's entry points: with and without a surface, each without targets,
 // with 4 and with 8 weight slots.
 @vertex
 fn vs_fetch_surface(p: Poses, s: FetchedSurface, @builtin(instance_index) slot: u32) -> CrowdOut {
-    return fetched_surface(instances[slot], p, s, vec3<f32>(0.0), vec3<f32>(0.0));
+    return fetched(instances[slot], p, s, vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
 @vertex
@@ -281,7 +325,7 @@ fn vs_fetch_surface_targets4(
     @builtin(instance_index) slot: u32,
 ) -> CrowdOut {
     let inst = instances[slot];
-    return fetched_surface(inst, p, s, target_offset4(inst, v), normal_offset4(inst, v));
+    return fetched(inst, p, s, target_offset4(inst, v), normal_offset4(inst, v));
 }
 
 @vertex
@@ -292,39 +336,48 @@ fn vs_fetch_surface_targets8(
     @builtin(instance_index) slot: u32,
 ) -> CrowdOut {
     let inst = instances[slot];
-    return fetched_surface(inst, p, s, target_offset(inst, v), normal_offset(inst, v));
+    return fetched(inst, p, s, target_offset(inst, v), normal_offset(inst, v));
 }
 
 @vertex
-fn vs_fetch(p: Poses, @builtin(instance_index) slot: u32) -> CrowdOut {
-    return fetched(instances[slot], p, vec3<f32>(0.0));
+fn vs_fetch_plain(p: Poses, @builtin(instance_index) slot: u32) -> PlainOut {
+    let inst = instances[slot];
+    return plain_vertex(inst, mix(p.v0, p.v1, inst.t));
 }
 
 @vertex
-fn vs_fetch_targets4(
+fn vs_fetch_plain_targets4(
     p: Poses,
     @builtin(vertex_index) v: u32,
     @builtin(instance_index) slot: u32,
-) -> CrowdOut {
+) -> PlainOut {
     let inst = instances[slot];
-    return fetched(inst, p, target_offset4(inst, v));
+    return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset4(inst, v));
 }
 
 @vertex
-fn vs_fetch_targets8(
+fn vs_fetch_plain_targets8(
     p: Poses,
     @builtin(vertex_index) v: u32,
     @builtin(instance_index) slot: u32,
-) -> CrowdOut {
+) -> PlainOut {
     let inst = instances[slot];
-    return fetched(inst, p, target_offset(inst, v));
+    return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset(inst, v));
 }
 
+// An asset with a surface: shaded by its mode (faceted, smooth or textured).
 @fragment
-fn fs_crowd(in: CrowdOut) -> @location(0) vec4<f32> {
+fn fs_surface(in: CrowdOut) -> @location(0) vec4<f32> {
     let texel = textureSample(base_texture, base_sampler, in.uv);
     let material = Material(mesh.mode, in.tint, mesh.base_color, scene.light, scene.encode_srgb);
     return shade_surface(in.world, 0u, in.normal, texel, in.color, material);
+}
+
+// An asset without a surface: faceted in the instance's colour, as an object's fs_main (the
+// arithmetic of shade_surface's faceted mode).
+@fragment
+fn fs_plain(in: PlainOut) -> @location(0) vec4<f32> {
+    return shade_plain(in.world, 0u, mesh.mode, in.tint, scene.light);
 }
 
 // The blended positions of one instance, written for checking (gpu::Crowd::blended_positions):

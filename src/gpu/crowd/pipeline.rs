@@ -112,12 +112,11 @@ pub enum CrowdPath {
     BaseVertex,
 }
 
-/// Which vertex entry point of `crowd.wgsl` draws an asset.
+/// Which entry points of `crowd.wgsl` draw an asset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) struct Variant {
     path: CrowdPath,
-    /// Fetches the surface attributes (first-instance path only: the base-vertex path pulls a
-    /// surface or reads zeros from the same binding).
+    /// Reads and interpolates the surface attributes (else faceted: position and colour only).
     surface: bool,
     /// Weight slots summed: 0 (no targets), 4 (at most 4 targets), 8.
     slots: u8,
@@ -131,7 +130,7 @@ impl Variant {
     pub(super) fn new(path: CrowdPath, surface: bool, targets: usize) -> Variant {
         Variant {
             path,
-            surface: surface && path == CrowdPath::FirstInstance,
+            surface,
             slots: match targets {
                 0 => 0,
                 1..=4 => 4,
@@ -140,18 +139,31 @@ impl Variant {
         }
     }
 
+    /// The vertex entry point.
     pub(super) fn entry_point(self) -> &'static str {
         use CrowdPath::{BaseVertex, FirstInstance};
         match (self.path, self.surface, self.slots) {
-            (BaseVertex, _, 0) => "vs_pull",
-            (BaseVertex, _, 4) => "vs_pull_targets4",
-            (BaseVertex, _, _) => "vs_pull_targets8",
+            (BaseVertex, true, 0) => "vs_pull_surface",
+            (BaseVertex, true, 4) => "vs_pull_surface_targets4",
+            (BaseVertex, true, _) => "vs_pull_surface_targets8",
+            (BaseVertex, false, 0) => "vs_pull_plain",
+            (BaseVertex, false, 4) => "vs_pull_plain_targets4",
+            (BaseVertex, false, _) => "vs_pull_plain_targets8",
             (FirstInstance, true, 0) => "vs_fetch_surface",
             (FirstInstance, true, 4) => "vs_fetch_surface_targets4",
             (FirstInstance, true, _) => "vs_fetch_surface_targets8",
-            (FirstInstance, false, 0) => "vs_fetch",
-            (FirstInstance, false, 4) => "vs_fetch_targets4",
-            (FirstInstance, false, _) => "vs_fetch_targets8",
+            (FirstInstance, false, 0) => "vs_fetch_plain",
+            (FirstInstance, false, 4) => "vs_fetch_plain_targets4",
+            (FirstInstance, false, _) => "vs_fetch_plain_targets8",
+        }
+    }
+
+    /// The fragment entry point.
+    fn fragment(self) -> &'static str {
+        if self.surface {
+            "fs_surface"
+        } else {
+            "fs_plain"
         }
     }
 }
@@ -295,7 +307,7 @@ impl CrowdPipeline {
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &self.shader,
-                entry_point: Some("fs_crowd"),
+                entry_point: Some(variant.fragment()),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: self.color,
@@ -398,7 +410,7 @@ mod tests {
     use crate::gpu::pipeline::validated_wgsl;
 
     /// Both crowd shaders parse and validate without a GPU, the Rust blocks have the WGSL
-    /// structs' sizes, and every vertex entry point a crowd may pick is there.
+    /// structs' sizes, and every entry point a crowd may pick is there.
     #[test]
     fn crowd_wgsl_validates_and_blocks_match() {
         let crowd = validated_wgsl(CROWD_WGSL);
@@ -422,14 +434,19 @@ mod tests {
         for path in [CrowdPath::FirstInstance, CrowdPath::BaseVertex] {
             for surface in [false, true] {
                 for targets in [0, 3, 4, 5, 8] {
-                    let entry = Variant::new(path, surface, targets).entry_point();
-                    assert!(
-                        crowd
-                            .entry_points
-                            .iter()
-                            .any(|e| e.name == entry && e.stage == naga::ShaderStage::Vertex),
-                        "crowd.wgsl has no vertex entry point {entry}"
-                    );
+                    let variant = Variant::new(path, surface, targets);
+                    for (entry, stage) in [
+                        (variant.entry_point(), naga::ShaderStage::Vertex),
+                        (variant.fragment(), naga::ShaderStage::Fragment),
+                    ] {
+                        assert!(
+                            crowd
+                                .entry_points
+                                .iter()
+                                .any(|e| e.name == entry && e.stage == stage),
+                            "crowd.wgsl has no {stage:?} entry point {entry}"
+                        );
+                    }
                 }
             }
         }
