@@ -2,8 +2,9 @@
 //! drawing tests run on both paths ([`paths`]): first instance (vertex buffers) where the device
 //! has `INDIRECT_FIRST_INSTANCE`, and the base-vertex fallback (vertex pulling), forced.
 //!
-//! * `crowd_draws_the_pixels_of_lod_objects`: instances of three assets (two grids, and the
-//!   head with its surface and texture) at mixed times, LODs, transforms and colours draw pixel
+//! * `crowd_draws_the_pixels_of_lod_objects`: instances of four assets (two grids, the head's
+//!   weight animation without a surface, the face's with its surface and texture; so every
+//!   path draws with and without a surface, without and with the 8-slot sum) at mixed times, LODs, transforms and colours draw pixel
 //!   for pixel what the same number of `LodObject`s draw (sharing one `GpuAsset` per asset),
 //!   over frames with moves, removes and adds; the `Recorder` sees exactly one multi-draw per
 //!   asset, of that asset's records, with its index buffer bound.
@@ -12,11 +13,13 @@
 //!   back from the GPU draw, per live instance, exactly the triangles of its runtime's strips
 //!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), the records
 //!   carry the slot where the path says, and free records draw nothing.
-//! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, the head drawn by
-//!   the entry point without the target sum (uploaded without targets) and by the 8-slot one at
-//!   zero weights give the same pixels; the head with 4 of its targets (4-slot entry point) and
-//!   with all 8 but the other 4 zeroed (8-slot) give the same pixels mid-animation; and both
-//!   paths draw the same pixels there.
+//! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, for the head and
+//!   for the face (without and with a surface): drawn by the entry point without the target
+//!   sum (uploaded without targets) and by the 8-slot one at zero weights they give the same
+//!   pixels; with the 4 targets of the largest weights (4-slot entry point) and with all
+//!   targets but those zeroed (8-slot) they give the same pixels mid-animation (those targets
+//!   exaggerated so that the sum moves pixels, checked); and both paths draw the same pixels
+//!   there.
 //! * `gpu_weight_blending_equals_the_cpu_sum`: the head's weight animation (8 targets), the
 //!   positions the crowd's vertex stage blends (read back by the same WGSL function) equal the
 //!   CPU sum `V(0) + Σ c_k(t) D_k` within the bound of [`blend_bound`].
@@ -57,18 +60,30 @@ fn grid_asset(side: u32, frames: usize, height: f32) -> Asset {
         .0
 }
 
-/// makehuman_head's weight animation (8 targets, a textured surface), built with 3 frames.
+/// makehuman_head's weight animation (8 targets, no surface), built with 3 frames.
 fn head_asset() -> Asset {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
-    let source = MorphSource::Animation("morph".into());
+    let asset = animation_asset("makehuman_head.glb", "morph");
+    assert!(asset.surface.is_none(), "the head is faceted");
+    asset
+}
+
+/// makehuman_face's weight animation (52 targets with normal deltas, a textured surface),
+/// built with 3 frames.
+fn face_asset() -> Asset {
+    let asset = animation_asset("makehuman_face.glb", "expressions");
+    assert!(asset.surface.is_some(), "the face has a surface");
+    asset
+}
+
+fn animation_asset(file: &str, animation: &str) -> Asset {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(file);
+    let source = MorphSource::Animation(animation.into());
     let morph =
-        morphlod::io::load_morph(&path, &LoadOptions::default(), &source).expect("head animation");
-    let asset = Builder::new(&morph)
-        .frames(3)
-        .build()
-        .expect("head builds")
-        .0;
-    assert!(asset.blend.is_some(), "the head keeps its targets");
+        morphlod::io::load_morph(&path, &LoadOptions::default(), &source).expect("animation");
+    let asset = Builder::new(&morph).frames(3).build().expect("builds").0;
+    assert!(asset.blend.is_some(), "{file} keeps its targets");
     asset
 }
 
@@ -214,6 +229,7 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
         Kind::new(&ctx, grid_asset(12, 5, 0.4))?,
         Kind::new(&ctx, grid_asset(9, 3, -0.3))?,
         Kind::new(&ctx, head_asset())?,
+        Kind::new(&ctx, face_asset())?,
     ];
     for path in paths(&ctx) {
         draws_the_pixels_of_lod_objects(&ctx, &kinds, path)?;
@@ -266,12 +282,12 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
         Ok(())
     };
     let mut placed = Vec::new();
-    for (at, kind) in [0, 1, 2, 0, 1, 2, 0, 1].into_iter().enumerate() {
+    for (at, kind) in [0, 1, 2, 3, 1, 2, 0, 3].into_iter().enumerate() {
         add(&mut crowd, &mut placed, kind, at)?;
     }
-    // Time and LOD per frame and instance; the head stays at t = 0, where its weights are 0 and
-    // the GPU sum equals the CPU's bit for bit (gpu_weight_blending_equals_the_cpu_sum bounds
-    // it elsewhere).
+    // Time and LOD per frame and instance; the head and the face stay at t = 0, where their
+    // weights are 0 and the GPU sum equals the CPU's bit for bit
+    // (gpu_weight_blending_equals_the_cpu_sum bounds it elsewhere).
     for frame in 0..5 {
         if frame == 2 {
             // Remove two, add one of another kind in the freed slot and one at a new cell.
@@ -284,7 +300,7 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
         }
         let mut moves = Vec::new();
         for (i, p) in placed.iter_mut().enumerate() {
-            p.t = if p.kind == 2 {
+            p.t = if p.kind >= 2 {
                 0.0
             } else {
                 ((frame * 3 + i) % 7) as f32 / 6.0
@@ -455,27 +471,60 @@ fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPa
     Ok(())
 }
 
-/// The head with only its first 4 targets (`four`), and with all 8 whose last 4 are zeroed
-/// (`zeroed`): mid-animation the 4-slot sum of the one and the 8-slot sum of the other add the
-/// same nonzero terms in the same order.
-fn head_halves(head: &Asset) -> (Asset, Asset) {
-    let mut four = head.clone();
+/// Three versions of a head at time `t`, its 4 largest weights' targets there exaggerated 16
+/// times (its expressions move it by less than a pixel of the test image): `four` has only
+/// those 4 targets, `zeroed` all with the others zeroed (at `t` its 8-slot sum holds those 4
+/// among its 8 largest weights and adds the same nonzero terms in the same order as the
+/// 4-slot sum of `four`), `still` all zeroed.
+fn head_versions(head: &Asset, t: f32) -> [Asset; 3] {
+    let blend = head.blend.as_ref().expect("targets");
+    let mut weights = Vec::new();
+    blend.track.offsets_at(t, &mut weights);
+    let mut keep: Vec<usize> = (0..blend.deltas.len()).collect();
+    // As the weight slots pick them: largest magnitude first, lower target first on ties.
+    keep.sort_by(|&a, &b| {
+        weights[b]
+            .abs()
+            .total_cmp(&weights[a].abs())
+            .then(a.cmp(&b))
+    });
+    keep.truncate(4);
+    // (Fewer than 4 may move at t: a zero weight takes no slot in either sum.)
+    assert!(weights[keep[0]] != 0.0, "a target moves at t");
+    keep.sort_unstable();
     let mut zeroed = head.clone();
+    let mut still = head.clone();
+    for (asset, scale) in [(&mut zeroed, 16.0f32), (&mut still, 0.0)] {
+        let kept = |k: usize| if keep.contains(&k) { scale } else { 0.0 };
+        let deltas = asset.blend.iter_mut().flat_map(|b| b.deltas.iter_mut());
+        for (k, target) in deltas.enumerate() {
+            let scale = kept(k);
+            target.iter_mut().flatten().for_each(|c| *c *= scale);
+        }
+        // Normal deltas kept as they are, zeroed with their targets.
+        let normals = asset
+            .surface
+            .iter_mut()
+            .flat_map(|s| s.normal_deltas.iter_mut());
+        for (k, target) in normals.enumerate() {
+            let scale = kept(k).min(1.0);
+            target.iter_mut().flatten().for_each(|c| *c *= scale);
+        }
+    }
+    let mut four = zeroed.clone();
     if let Some(blend) = four.blend.as_mut() {
-        blend.deltas.truncate(4);
-        blend.track = blend.track.select(&[0, 1, 2, 3]);
+        blend.deltas = keep.iter().map(|&k| blend.deltas[k].clone()).collect();
+        blend.track = blend.track.select(&keep);
     }
-    if let Some(surface) = four.surface.as_mut() {
-        surface.normal_deltas.truncate(4);
+    if let Some(surface) = four
+        .surface
+        .as_mut()
+        .filter(|s| !s.normal_deltas.is_empty())
+    {
+        let normals = keep.iter().map(|&k| surface.normal_deltas[k].clone());
+        surface.normal_deltas = normals.collect();
     }
-    if let Some(blend) = zeroed.blend.as_mut() {
-        blend.deltas[4..].iter_mut().for_each(|d| d.fill([0.0; 3]));
-    }
-    if let Some(surface) = zeroed.surface.as_mut() {
-        let normals = surface.normal_deltas.iter_mut().skip(4);
-        normals.for_each(|d| d.fill([0.0; 3]));
-    }
-    (four, zeroed)
+    [four, zeroed, still]
 }
 
 #[test]
@@ -483,18 +532,25 @@ fn fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
+    // The head without a surface (the _plain entry points), the face with one (_surface).
+    for asset in [head_asset(), face_asset()] {
+        fewer_slots_draw_the_pixels_of_8(&ctx, Kind::new(&ctx, asset)?)?;
+    }
+    Ok(())
+}
+
+fn fewer_slots_draw_the_pixels_of_8(ctx: &Gpu, head: Kind) -> Result<()> {
     let (device, queue) = (ctx.device(), ctx.queue());
-    let head = Kind::new(&ctx, head_asset())?;
-    assert_eq!(head.gpu.target_count(), 8);
+    assert!(head.gpu.target_count() >= 8);
     // The same poses and surface without the targets: drawn without the sum.
     let poses = (head.asset.v0.as_slice(), head.asset.v1.as_slice());
     let plain = Arc::new(GpuAsset::new(device, poses, head.asset.surface.as_ref())?);
-    let (four, zeroed) = head_halves(&head.asset);
-    let (four, zeroed) = (
-        GpuAsset::from_asset(device, &four)?,
-        GpuAsset::from_asset(device, &zeroed)?,
-    );
-    assert_eq!((four.target_count(), zeroed.target_count()), (4, 8));
+    let t = 0.45;
+    let [four, zeroed, still] = head_versions(&head.asset, t);
+    let four = GpuAsset::from_asset(device, &four)?;
+    let zeroed = GpuAsset::from_asset(device, &zeroed)?;
+    let still = GpuAsset::from_asset(device, &still)?;
+    assert_eq!(four.target_count(), 4);
     let view_proj = gpu::camera::fit_to_bounds(
         [-0.8, -0.8, -0.5],
         [0.8, 0.8, 0.5],
@@ -507,7 +563,7 @@ fn fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum() -> Result<()> {
     // Four heads at mixed LODs and angles, one per quadrant, all at time `t`: the image and
     // the entry point that drew it.
     let draw = |path: CrowdPath, gpu: &Arc<GpuAsset>, t: f32| -> Result<_> {
-        let mut crowd = crowd_on(&ctx, path)?;
+        let mut crowd = crowd_on(ctx, path)?;
         let asset = crowd.add_asset(device, Arc::clone(gpu), Arc::clone(&head.model), 4)?;
         crowd.set_view_proj(view_proj);
         let mut moves = Vec::new();
@@ -522,7 +578,7 @@ fn fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum() -> Result<()> {
         }
         crowd.set(&moves)?;
         crowd.prepare(device, queue);
-        let (image, _) = render(&ctx, &target, |pass| crowd.render(pass));
+        let (image, _) = render(ctx, &target, |pass| crowd.render(pass));
         Ok((image, crowd.vertex_entry_point(asset).expect("asset")))
     };
     let same = |what: &str,
@@ -539,31 +595,28 @@ fn fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum() -> Result<()> {
         image
     };
     let mut moving = Vec::new();
-    for path in paths(&ctx) {
+    for path in paths(ctx) {
         // At t = 0 the head's weights are all 0: the 8-slot sum adds exact zeros.
-        let still = same(
+        let rest = same(
             "t = 0",
             draw(path, &plain, 0.0)?,
             draw(path, &head.gpu, 0.0)?,
         );
-        let background = still.pixels().filter(|p| p.0 == [0, 0, 255, 255]).count();
+        let background = rest.pixels().filter(|p| p.0 == [0, 0, 255, 255]).count();
         assert!(
-            background < still.pixels().len() * 9 / 10,
+            background < rest.pixels().len() * 9 / 10,
             "the heads cover too little"
         );
-        let t = 0.45;
         let mid = same("t = 0.45", draw(path, &four, t)?, draw(path, &zeroed, t)?);
-        assert_ne!(
-            mid, still,
-            "{path:?}: the first 4 targets' animation changed no pixel"
-        );
-        moving.push(draw(path, &head.gpu, t)?);
+        let (unmoved, _) = draw(path, &still, t)?;
+        assert_ne!(mid, unmoved, "{path:?}: the 4 targets changed no pixel");
+        moving.push(draw(path, &zeroed, t)?);
     }
     // At nonzero weights the two paths' 8-slot sums (same terms, same order) draw the same
     // pixels.
     if let [first, base] = moving.as_slice() {
         if first.0 != base.0 {
-            common::gpu::fail_with_images("the head at t = 0.45, both paths", &first.0, &base.0);
+            common::gpu::fail_with_images("t = 0.45, both paths", &first.0, &base.0);
         }
     }
     Ok(())
