@@ -365,6 +365,16 @@ fn vs_fetch_plain_targets8(
     return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset(inst, v));
 }
 
+// The discrete-LOD renderer (gpu::crowd::discrete, the crowd bench's comparison): one
+// instanced draw per level over triangle lists of the asset's own vertices, base_vertex 0, the
+// instance's block number in instance_index (direct draws keep first_instance on every
+// device); pulled with the 8-slot sum and a surface (drawn with fs_surface).
+@vertex
+fn vs_levels(@builtin(vertex_index) v: u32, @builtin(instance_index) slot: u32) -> CrowdOut {
+    let inst = instances[slot];
+    return pulled(inst, v, target_offset(inst, v), normal_offset(inst, v));
+}
+
 // An asset with a surface: shaded by its mode (faceted, smooth or textured).
 @fragment
 fn fs_surface(in: CrowdOut) -> @location(0) vec4<f32> {

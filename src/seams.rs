@@ -456,6 +456,30 @@ impl StepBoundaries {
     }
 }
 
+/// The first step boundary whose reference mesh has at most `fraction` of `triangles`: the
+/// fewest collapses that reach `floor(fraction · triangles)` (binary search, the count never
+/// grows with the step), moved up to a boundary so no seam is torn. How `morphlod export`
+/// chooses its LODs, and the crowd bench its discrete levels.
+pub fn step_for_fraction(
+    sequence: &CollapseSequence,
+    boundaries: &StepBoundaries,
+    triangles: &[[u32; 3]],
+    fraction: f32,
+) -> usize {
+    let goal = (fraction as f64 * triangles.len() as f64).floor() as usize;
+    let count = |l: usize| sequence.reference_mesh(triangles, l).len();
+    let (mut lo, mut hi) = (0, sequence.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if count(mid) <= goal {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    boundaries.ceil(lo)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,7 +4,7 @@
 use super::{ExportError, Lod};
 use crate::collapse::CollapseSequence;
 use crate::io::gltf::write::bounds;
-use crate::seams::StepBoundaries;
+use crate::seams::{step_for_fraction, StepBoundaries};
 
 /// The length of the diagonal of `positions`' bounding box; 1 when that is 0 (one point, or
 /// none), so relative and absolute errors agree on a degenerate mesh.
@@ -27,28 +27,16 @@ pub(super) fn step_for_error(errors: &[f32], boundaries: &StepBoundaries, bound:
     boundaries.floor(within - 1)
 }
 
-/// The first step boundary whose reference mesh has at most `fraction` of the triangles:
-/// the fewest collapses that reach the count (binary search, the count never grows with the
-/// step), moved up to a boundary so no seam is torn.
+/// The first step boundary whose reference mesh has at most `fraction` of the triangles
+/// ([`step_for_fraction`]); a LOD with no triangle left is refused.
 pub(super) fn step_for(
     sequence: &CollapseSequence,
     boundaries: &StepBoundaries,
     triangles: &[[u32; 3]],
     fraction: f32,
 ) -> Result<usize, ExportError> {
-    let goal = (fraction as f64 * triangles.len() as f64).floor() as usize;
-    let count = |l: usize| sequence.reference_mesh(triangles, l).len();
-    let (mut lo, mut hi) = (0, sequence.len());
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if count(mid) <= goal {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
-    let step = boundaries.ceil(lo);
-    if count(step) == 0 {
+    let step = step_for_fraction(sequence, boundaries, triangles, fraction);
+    if sequence.reference_mesh(triangles, step).is_empty() {
         return Err(ExportError::Empty {
             fraction,
             triangles: triangles.len(),

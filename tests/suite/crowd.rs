@@ -29,6 +29,13 @@
 //!   buffers and states are as before.
 //! * `host_memory_per_instance_is_bounded`: the host bytes each added head instance holds (the
 //!   crowd's own accounting) stay below what it must hold and below [`HOST_BYTES_PER_INSTANCE`].
+//! * `discrete_lods_draw_each_instance_level`: the bench's discrete-LOD renderer (levels of one
+//!   shared sequence, one instanced draw per level): its index buffer read back holds each
+//!   level's reference mesh (recomputed here from the sequence, at the first step within the
+//!   level's fraction), and instances at mixed levels and times draw pixel for pixel what
+//!   crowd instances at those levels' steps draw.
+//! * `discrete_level_choice_is_monotone_in_distance`: by the same screen error, farther
+//!   instances never get a finer level, each level is the coarsest within the bound.
 
 use crate::common;
 
@@ -37,11 +44,14 @@ use std::sync::Arc;
 use common::gpu::{draw_indexed_indirect, Call, Gpu, Recorder};
 use common::strip_draw;
 
+use morphlod::build::Sequences;
+use morphlod::collapse::canonical_multiset;
 use morphlod::gpu::{
-    self, AssetId, Crowd, CrowdError, CrowdPath, GpuAsset, GpuError, InstanceId, LodObject,
-    RenderTarget,
+    self, AssetId, Crowd, CrowdError, CrowdPath, DiscreteCrowd, DiscreteLevels, GpuAsset, GpuError,
+    InstanceId, LodObject, RenderTarget,
 };
 use morphlod::io::{LoadOptions, MorphSource};
+use morphlod::simplify::PoseError;
 use morphlod::{Asset, Builder, DeformingModel, Lod};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
@@ -58,6 +68,23 @@ fn grid_asset(side: u32, frames: usize, height: f32) -> Asset {
         .build()
         .expect("grid asset builds")
         .0
+}
+
+/// A grid asset as [`grid_asset`] with one sequence shared by `poses` sampled poses (the
+/// export's), so every level is one connectivity for every `t`.
+fn shared_grid_asset(side: u32, poses: usize, height: f32) -> Asset {
+    let morph = common::grid_morph(side, |x, y| {
+        let (fx, fy) = (x as f32 / (side - 1) as f32, y as f32 / (side - 1) as f32);
+        height * (3.0 * fx).sin() * (2.0 * fy + 0.3).sin() + 0.1 * (7.0 * fx * fy).sin()
+    });
+    let asset = Builder::new(&morph)
+        .frames(poses)
+        .sequences(Sequences::Shared(PoseError::Max))
+        .build()
+        .expect("grid asset builds")
+        .0;
+    assert_eq!(asset.frames.len(), 1, "a shared build has one frame");
+    asset
 }
 
 /// makehuman_head's weight animation (8 targets, no surface), built with 3 frames.
@@ -878,7 +905,7 @@ fn crowd_bench_reports_both_modes() -> Result<()> {
         width: 96,
         height: 64,
         pixels: 4.0,
-        path: None,
+        ..Default::default()
     };
     let report = gpu::run_crowd_bench(&ctx.ctx, &asset, Arc::clone(&model), &options)?;
     let modes: Vec<&str> = report.modes.iter().map(|m| m.mode).collect();
@@ -900,5 +927,201 @@ fn crowd_bench_reports_both_modes() -> Result<()> {
     assert!(report.modes.iter().all(|m| m.wait_ms.mean > 0.0));
     let path = ["BaseVertex", "FirstInstance"][usize::from(ctx.ctx.first_instance_enabled())];
     assert!(report.path.starts_with(path), "{}", report.path);
+    Ok(())
+}
+
+/// Levels at the export's fractions of a shared grid, and the sequence's own reference meshes
+/// at the first step within each fraction (every step of a surface-free asset is a boundary).
+#[test]
+fn discrete_lods_draw_each_instance_level() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let kind = Kind::new(&ctx, shared_grid_asset(12, 3, 0.4))?;
+    let fractions = [0.5, 0.25, 0.1];
+    let levels = DiscreteLevels::from_asset(&kind.asset, &fractions)?;
+    let sequence = &kind.asset.frames[0];
+    let triangles = kind.asset.s0.triangles();
+    let count = |l: usize| sequence.reference_mesh(&triangles, l).len();
+    assert_eq!(levels.levels().len(), 4);
+    assert_eq!(levels.levels()[0].step, 0);
+    for (level, f) in levels.levels()[1..].iter().zip(fractions) {
+        let goal = (f64::from(f) * triangles.len() as f64).floor() as usize;
+        assert!(count(level.step) <= goal && count(level.step - 1) > goal);
+    }
+
+    // Nine instances on a 3 x 3 field, levels and times mixed.
+    let place = |i: usize| {
+        kind.place(
+            glam::Vec3::new((i % 3) as f32 - 1.0, (i / 3) as f32 - 1.0, 0.0),
+            0.4 * i as f32,
+        )
+    };
+    let transforms: Vec<glam::Mat4> = (0..9).map(place).collect();
+    let mut discrete = DiscreteCrowd::new(
+        device,
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+        Arc::clone(&kind.gpu),
+        levels.clone(),
+        &transforms,
+    )?;
+    let mut crowd = Crowd::new(
+        device,
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+    );
+    let asset = crowd.add_asset(device, Arc::clone(&kind.gpu), Arc::clone(&kind.model), 9)?;
+    let ids: Vec<InstanceId> = transforms
+        .iter()
+        .map(|&m| crowd.add(asset, m))
+        .collect::<std::result::Result<_, _>>()?;
+    let view_proj = gpu::camera::fit_to_bounds(
+        [-1.5, -1.5, -0.6],
+        [1.5, 1.5, 0.6],
+        glam::Vec3::new(0.05, -0.08, -1.0),
+        1.0,
+        gpu::camera::Projection::Perspective { vertical_fov: 0.9 },
+    )?
+    .view_proj();
+    crowd.set_view_proj(view_proj);
+    discrete.set_view_proj(view_proj);
+    let target = ctx.target(160, 160, wgpu::Color::BLUE);
+
+    // The index buffer holds each level's reference mesh.
+    let indices = ctx.read_words(discrete.index_buffer());
+    for (l, range) in discrete.level_ranges().iter().enumerate() {
+        let drawn: Vec<[u32; 3]> = indices[range.start as usize..range.end as usize]
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect();
+        let step = levels.levels()[l].step;
+        assert_eq!(
+            canonical_multiset(drawn),
+            canonical_multiset(sequence.reference_mesh(&triangles, step)),
+            "level {l}"
+        );
+    }
+
+    for frame in 0..3 {
+        let mut moves = Vec::new();
+        let mut discrete_moves = Vec::new();
+        for (i, &id) in ids.iter().enumerate() {
+            let level = (i + frame) % 4;
+            let t = ((i * 2 + frame) % 5) as f32 / 4.0;
+            let lod = Lod::Steps(levels.levels()[level].step);
+            moves.push((id, t, lod));
+            discrete_moves.push((t, lod));
+        }
+        crowd.set(&moves)?;
+        discrete.set(&discrete_moves)?;
+        let expected: Vec<usize> = (0..9).map(|i| (i + frame) % 4).collect();
+        assert_eq!(discrete.instance_levels(), expected);
+        assert_eq!(discrete.triangles(), crowd.stats().triangles);
+        assert_eq!(discrete.draws(), 4);
+        crowd.prepare(device, queue);
+        discrete.prepare(device, queue);
+        let (reference, _) = render(&ctx, &target, |pass| crowd.render(pass));
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = target.begin_pass(&mut encoder);
+            discrete.render(&mut pass);
+        }
+        queue.submit([encoder.finish()]);
+        let image = target.read_image(device, queue)?;
+        if image != reference {
+            common::gpu::fail_with_images(&format!("discrete frame {frame}"), &image, &reference);
+        }
+        let background = image.pixels().filter(|p| p.0 == [0, 0, 255, 255]).count();
+        assert!(background < image.pixels().len() * 9 / 10);
+    }
+    Ok(())
+}
+
+/// By one screen error, a farther instance never gets a finer level; each is the coarsest
+/// level within the bound the runtime computes (`Lod::screen_error`), as the crowd's LOD mode.
+#[test]
+fn discrete_level_choice_is_monotone_in_distance() -> Result<()> {
+    let asset = shared_grid_asset(10, 2, 0.3);
+    let levels = DiscreteLevels::from_asset(&asset, &DiscreteLevels::FRACTIONS)?;
+    let errors: Vec<f32> = levels.levels().iter().map(|l| l.error).collect();
+    assert!(errors.windows(2).all(|w| w[0] <= w[1]) && errors[0] == 0.0);
+    let mut last = 0;
+    let mut seen = Vec::new();
+    for i in 0..400 {
+        let distance = 0.01 * 1.04f32.powi(i);
+        let lod = Lod::screen_error(1.0, distance, 0.8, 1080.0);
+        let Lod::MaxError(bound) = lod else {
+            unreachable!("screen_error is a MaxError")
+        };
+        let level = levels.level_for(lod)?;
+        assert!(
+            level >= last,
+            "distance {distance}: level {level} after {last}"
+        );
+        assert!(errors[level] <= bound);
+        if let Some(&next) = errors.get(level + 1) {
+            assert!(
+                next > bound,
+                "level {level} is not the coarsest within {bound}"
+            );
+        }
+        last = level;
+        seen.push(level);
+    }
+    seen.dedup();
+    assert_eq!(seen.first(), Some(&0));
+    assert_eq!(seen.last(), Some(&(levels.levels().len() - 1)));
+    assert!(levels.level_for(Lod::MaxError(f32::NAN)).is_err());
+    // Per-frame sequences have no one connectivity: refused with a typed error.
+    let per_frame = grid_asset(10, 3, 0.3);
+    assert!(matches!(
+        DiscreteLevels::from_asset(&per_frame, &DiscreteLevels::FRACTIONS),
+        Err(gpu::LevelsError::NotShared { .. })
+    ));
+    Ok(())
+}
+
+/// The bench runs discrete LODs on the same instances, and leaves out full detail when asked.
+#[test]
+fn crowd_bench_runs_discrete_lods() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let asset = shared_grid_asset(10, 2, 0.4);
+    let model = Arc::new(DeformingModel::new(&asset)?);
+    let levels = DiscreteLevels::from_asset(&asset, &DiscreteLevels::FRACTIONS)?;
+    let options = gpu::CrowdBenchOptions {
+        instances: 9,
+        frames: 3,
+        period: 6,
+        width: 96,
+        height: 64,
+        pixels: 4.0,
+        full_detail: false,
+        discrete: Some(levels.clone()),
+        path: None,
+    };
+    let report = gpu::run_crowd_bench(&ctx.ctx, &asset, model, &options)?;
+    let modes: Vec<&str> = report.modes.iter().map(|m| m.mode).collect();
+    assert_eq!(modes, ["lod", "discrete"]);
+    let discrete = &report.modes[1];
+    assert_eq!(discrete.frames.len(), 3);
+    assert_eq!(discrete.frame_switches.mean, 0.0);
+    assert!(discrete.uploaded_bytes.mean > 0.0 && discrete.draws.mean >= 1.0);
+    // The triangles drawn are the levels' counts times the instances at each.
+    assert_eq!(report.levels.len(), levels.levels().len());
+    let instances: f64 = report.levels.iter().map(|l| l.instances).sum();
+    assert_eq!(instances, 9.0);
+    let triangles: f64 = report
+        .levels
+        .iter()
+        .map(|l| l.instances * l.triangles as f64)
+        .sum();
+    assert_eq!(discrete.triangles.mean, triangles);
+    let json: serde_json::Value = serde_json::from_str(&report.to_json())?;
+    assert_eq!(json["modes"][1]["mode"], "discrete");
+    assert_eq!(json["levels"].as_array().map(Vec::len), Some(4));
     Ok(())
 }

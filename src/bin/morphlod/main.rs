@@ -9,7 +9,7 @@ use morphlod::asset::{
 };
 use morphlod::build::{BuildReport, Builder, Progress, Sequences, DEFAULT_FRAMES};
 use morphlod::deform::{DeformingModel, Lod};
-use morphlod::gpu::{save_png, Context, ShadeMode};
+use morphlod::gpu::{save_png, Context, DiscreteLevels, LevelsError, ShadeMode};
 use morphlod::io::MorphSource;
 use morphlod::io::{
     load_attributed, load_mesh, morph_from_pair, AttributeSummary, Format, LoadError, LoadOptions,
@@ -200,6 +200,20 @@ struct BenchArgs {
     /// first-instance path where the device has it.
     #[arg(long = "crowd-path", value_name = "PATH", value_parser = ["first-instance", "base-vertex"])]
     crowd_path: Option<String>,
+    /// The crowd bench's discrete LODs (full detail and `--levels`, as `morphlod export
+    /// --lods`) are cut from this asset's one shared sequence: a build of the same source with
+    /// `--sequence shared`. Without it they are cut from the benchmarked asset when it was
+    /// built so, and not run otherwise.
+    #[arg(long, value_name = "SHARED.mlod")]
+    levels_from: Option<PathBuf>,
+    /// Triangle fractions of the crowd bench's discrete levels below full detail, in (0, 1),
+    /// strictly decreasing (the default is `morphlod export`'s).
+    #[arg(long, value_delimiter = ',', default_value = "0.5,0.25,0.1")]
+    levels: Vec<f32>,
+    /// Leave out the crowd bench's full-detail mode (slow with many instances on a software
+    /// rasteriser).
+    #[arg(long)]
+    skip_full: bool,
 }
 
 #[derive(Args)]
@@ -836,11 +850,15 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     drop(bytes);
     let model =
         Arc::new(DeformingModel::with_budget(&asset, budget.max_bytes).map_err(|e| e.to_string())?);
+    let levels = match args.crowd {
+        Some(_) => discrete_levels(args, &asset, &budget)?,
+        None => None,
+    };
     // The model holds what the runtime needs of the sequences; the bench reads the poses only.
     asset.release_frames();
     let context = Context::headless().map_err(|e| e.to_string())?;
     if let Some(instances) = args.crowd {
-        return crowd_bench(args, instances, &context, &asset, model);
+        return crowd_bench(args, instances, &context, &asset, model, levels);
     }
     let info = context.adapter_info();
     println!(
@@ -866,6 +884,40 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// The crowd bench's discrete levels: from `--levels-from` (checked to have the benchmarked
+/// asset's vertices), else from the asset when it has one shared sequence; `None` (with a
+/// note) when it has per-frame sequences.
+fn discrete_levels(
+    args: &BenchArgs,
+    asset: &Asset,
+    budget: &AssetLoadOptions,
+) -> Result<Option<DiscreteLevels>, String> {
+    let fractions = &args.levels;
+    let Some(path) = &args.levels_from else {
+        return match DiscreteLevels::from_asset(asset, fractions) {
+            Ok(levels) => Ok(Some(levels)),
+            Err(e @ LevelsError::NotShared { .. }) => {
+                println!("discrete LODs not run: {e}, and pass it with --levels-from");
+                Ok(None)
+            }
+            Err(e) => Err(format!("{}: {e}", args.asset.display())),
+        };
+    };
+    let bytes = read_asset(path, budget)?;
+    let source =
+        Asset::from_bytes_with(&bytes, budget).map_err(|e| format!("{}: {e}", path.display()))?;
+    if source.v0 != asset.v0 || source.v1 != asset.v1 {
+        return Err(format!(
+            "{}: its poses are not those of {}; build both from the same source",
+            path.display(),
+            args.asset.display()
+        ));
+    }
+    DiscreteLevels::from_asset(&source, fractions)
+        .map(Some)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// `bench --crowd N`: the crowd benchmark ([`morphlod::gpu::run_crowd_bench`]).
 fn crowd_bench(
     args: &BenchArgs,
@@ -873,6 +925,7 @@ fn crowd_bench(
     context: &Context,
     asset: &Asset,
     model: Arc<DeformingModel>,
+    discrete: Option<DiscreteLevels>,
 ) -> Result<(), String> {
     let size_given = args.size != 512;
     let options = morphlod::gpu::CrowdBenchOptions {
@@ -885,6 +938,8 @@ fn crowd_bench(
             "base-vertex" => morphlod::gpu::CrowdPath::BaseVertex,
             _ => morphlod::gpu::CrowdPath::FirstInstance,
         }),
+        full_detail: !args.skip_full,
+        discrete,
         ..Default::default()
     };
     let report = morphlod::gpu::run_crowd_bench(context, asset, model, &options)
@@ -893,6 +948,10 @@ fn crowd_bench(
     if let Some(path) = &args.json {
         std::fs::write(path, report.to_json()).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("report written to {}", path.display());
+    }
+    if let Some(path) = &args.plot {
+        plot::write_crowd_plot(&report, path)?;
+        println!("plot written to {}", path.display());
     }
     Ok(())
 }

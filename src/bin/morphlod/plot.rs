@@ -1,6 +1,8 @@
 //! `morphlod bench --plot`: the bench rows as a picture for the README — per sweep, GPU frame
 //! time of the LOD strips, the same LOD as a list and full detail (left axis), and the
-//! triangles the strips draw (right axis), over the sweep's frames.
+//! triangles the strips draw (right axis), over the sweep's frames. With `--crowd`, the crowd
+//! bench's modes (LOD, full detail, discrete LODs) per measured frame: CPU time, GPU time and
+//! triangles, one panel each on a log scale (the modes differ by orders of magnitude).
 //!
 //! plotters draws into an RGB buffer and `image` writes the PNG, so the two crates share one
 //! encoder; labels use the embedded font because CI machines have no system fonts.
@@ -8,6 +10,7 @@
 use std::path::Path;
 
 use crate::bench::{BenchReport, FrameRow, Sweep};
+use morphlod::gpu::{CrowdBenchReport, FrameFigures};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
@@ -161,6 +164,120 @@ fn draw_panel(
     Ok(())
 }
 
+/// Colours of the crowd bench's modes, by name; others grey.
+fn mode_colour(mode: &str) -> RGBColor {
+    match mode {
+        "lod" => RGBColor(31, 119, 180),
+        "full" => RGBColor(214, 39, 40),
+        "discrete" => RGBColor(44, 160, 44),
+        _ => RGBColor(127, 127, 127),
+    }
+}
+
+/// A figure of a crowd frame.
+type Figure = fn(&FrameFigures) -> f64;
+
+/// The crowd bench's panels: what each plots of a frame.
+const CROWD_PANELS: [(&str, Figure); 3] = [
+    ("CPU set + prepare + record, ms", |f| f.cpu_ms),
+    ("GPU time, ms", |f| f.gpu_ms),
+    ("triangles drawn", |f| f.triangles),
+];
+
+/// The crowd bench's modes per frame, one panel per figure, written as one PNG at `path`.
+pub fn write_crowd_plot(report: &CrowdBenchReport, path: &Path) -> Result<(), String> {
+    register_font(FAMILY, FontStyle::Normal, FONT)
+        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
+    if report.modes.iter().all(|m| m.frames.is_empty()) {
+        return Err("the crowd report has no frames to plot".into());
+    }
+    let height = PANEL_HEIGHT * CROWD_PANELS.len() as u32;
+    let mut pixels = vec![255u8; (WIDTH * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
+        let panels = root.split_evenly((CROWD_PANELS.len(), 1));
+        for (panel, &(label, value)) in panels.iter().zip(&CROWD_PANELS) {
+            let label = label.replace("GPU time", &format!("GPU time ({})", report.gpu_timing));
+            draw_crowd_panel(panel, report, &label, value).map_err(|e| format!("plot: {e}"))?;
+        }
+        root.present().map_err(|e| format!("plot: {e}"))?;
+    }
+    let image = image::RgbImage::from_raw(WIDTH, height, pixels)
+        .ok_or("plot: the pixel buffer does not match the image size")?;
+    image
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn draw_crowd_panel(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    report: &CrowdBenchReport,
+    label: &str,
+    value: Figure,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let frames = report
+        .modes
+        .iter()
+        .map(|m| m.frames.len())
+        .max()
+        .unwrap_or(0);
+    let values = || report.modes.iter().flat_map(|m| m.frames.iter().map(value));
+    // A log axis needs positive bounds (a zero is drawn at the bottom); whole decades, so
+    // the axis has labels however narrow the figures' range.
+    let low = values().filter(|&v| v > 0.0).fold(f64::MAX, f64::min);
+    let low = if low == f64::MAX { 1e-3 } else { low };
+    let high = values().fold(low, f64::max);
+    let (low, high) = (
+        10f64.powf(low.log10().floor()),
+        10f64.powf((high.log10() + 1e-9).ceil()),
+    );
+    let caption = format!(
+        "crowd of {} x {} vertices on {}: {label}",
+        report.instances, report.vertices, report.adapter
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (FAMILY, 16))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..(frames.max(2) - 1) as f64, (low..high).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("measured frame")
+        .y_desc(label)
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|&y| match y {
+            y if y >= 1e6 => format!("{:.0}M", y / 1e6),
+            y if y >= 1e3 => format!("{:.0}k", y / 1e3),
+            y if y >= 1.0 => format!("{y:.0}"),
+            y => format!("{y:.3}"),
+        })
+        .label_style((FAMILY, 13))
+        .axis_desc_style((FAMILY, 14))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()?;
+    for mode in &report.modes {
+        let points = mode
+            .frames
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (i as f64, value(f).max(low)));
+        let style = mode_colour(mode.mode).stroke_width(2);
+        chart
+            .draw_series(LineSeries::new(points, style))?
+            .label(mode.mode)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FAMILY, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -231,6 +348,44 @@ mod tests {
                         .any(|x| image.get_pixel(x, y).0 == [colour.0, colour.1, colour.2])
                 });
                 assert!(found, "colour {colour:?} missing in panel {half}");
+            }
+        }
+    }
+
+    #[test]
+    fn crowd_plot_draws_every_mode_in_every_panel() {
+        // Each mode apart from the others in every figure, so no line hides another.
+        let modes = [("lod", 1.0), ("full", 30.0), ("discrete", 3.0)].map(|(mode, scale)| {
+            morphlod::gpu::ModeFigures {
+                mode,
+                frames: (0..8)
+                    .map(|i| FrameFigures {
+                        cpu_ms: scale * (1.0 + 0.1 * i as f64),
+                        gpu_ms: scale * 20.0,
+                        triangles: scale * 1e4,
+                    })
+                    .collect(),
+                ..Default::default()
+            }
+        });
+        let report = CrowdBenchReport {
+            adapter: "test adapter".into(),
+            instances: 9,
+            modes: modes.to_vec(),
+            ..Default::default()
+        };
+        let path = std::env::temp_dir().join(format!("morphlod-crowd-{}.png", std::process::id()));
+        write_crowd_plot(&report, &path).unwrap();
+        let image = image::open(&path).unwrap().to_rgb8();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(image.dimensions(), (WIDTH, 3 * PANEL_HEIGHT));
+        for panel in 0..3 {
+            for mode in ["lod", "full", "discrete"] {
+                let c = mode_colour(mode);
+                let found = (panel * PANEL_HEIGHT..(panel + 1) * PANEL_HEIGHT).any(|y| {
+                    (0..WIDTH * 2 / 3).any(|x| image.get_pixel(x, y).0 == [c.0, c.1, c.2])
+                });
+                assert!(found, "mode {mode} missing in panel {panel}");
             }
         }
     }

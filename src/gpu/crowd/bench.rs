@@ -1,7 +1,9 @@
 //! The crowd benchmark (`morphlod bench --crowd N`): N instances of one asset on a grid seen
 //! from above and in front, each playing the asset's animation at its own phase, drawn by one
 //! [`Crowd`] in one pass per frame; the same instances with LOD by screen error and at full
-//! detail, in the same run.
+//! detail, in the same run; and, given the levels of a shared sequence, the same instances as
+//! discrete LODs ([`DiscreteCrowd`]: per instance the coarsest level within the same screen
+//! error, one instanced draw per level), the alternative a user would pick instead.
 //!
 //! Per frame it times the CPU `set`, `prepare` and the recording of the pass; the GPU with
 //! timestamp queries around the render pass where the device has `TIMESTAMP_QUERY` (the pass
@@ -16,7 +18,7 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 
-use super::{Crowd, CrowdError, CrowdPath, InstanceId};
+use super::{Crowd, CrowdError, CrowdPath, CrowdUpload, DiscreteCrowd, DiscreteLevels, InstanceId};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, Lod};
 use crate::gpu::camera::{fit_to_bounds, Projection};
@@ -36,6 +38,10 @@ pub struct CrowdBenchOptions {
     pub height: u32,
     /// Screen-space error of the LOD mode, in pixels.
     pub pixels: f32,
+    /// Also run full detail (slow on a software rasteriser with many instances).
+    pub full_detail: bool,
+    /// Also run discrete LODs with these levels (of the same asset's vertices).
+    pub discrete: Option<DiscreteLevels>,
     /// The crowd's path; `None`: what [`Crowd::new`] picks for the device.
     pub path: Option<CrowdPath>,
 }
@@ -49,6 +55,8 @@ impl Default for CrowdBenchOptions {
             width: 1920,
             height: 1080,
             pixels: 1.0,
+            full_detail: true,
+            discrete: None,
             path: None,
         }
     }
@@ -79,7 +87,8 @@ impl Stat {
 /// Per-frame figures of one mode.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ModeFigures {
-    /// `lod` (screen error) or `full` (full detail).
+    /// `lod` (screen error), `full` (full detail) or `discrete` (discrete LODs by the same
+    /// screen error).
     pub mode: &'static str,
     /// Milliseconds.
     pub set_ms: Stat,
@@ -93,8 +102,36 @@ pub struct ModeFigures {
     pub uploaded_bytes: Stat,
     pub writes: Stat,
     pub triangles: Stat,
-    /// Instances whose frame changed.
+    /// Indices the draws read (the crowd's records include restarts and region tails).
+    pub indices: Stat,
+    /// Instances whose frame changed (none in discrete LODs: one connectivity for all).
     pub frame_switches: Stat,
+    /// Draw calls (multi-draws, or instanced draws of discrete levels).
+    pub draws: Stat,
+    /// Every measured frame, in order (for plots).
+    pub frames: Vec<FrameFigures>,
+}
+
+/// One measured frame of a mode.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameFigures {
+    /// CPU `set` + `prepare` + record, milliseconds.
+    pub cpu_ms: f64,
+    /// GPU time as [`CrowdBenchReport::gpu_timing`] says, milliseconds.
+    pub gpu_ms: f64,
+    pub triangles: f64,
+}
+
+/// One level of the discrete mode.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LevelFigures {
+    /// Share of the full triangles asked.
+    pub fraction: f32,
+    pub triangles: usize,
+    /// Object-space error (a distance).
+    pub error: f32,
+    /// Instances drawing it, mean over the measured frames.
+    pub instances: f64,
 }
 
 /// What [`run_crowd_bench`] measured.
@@ -115,6 +152,8 @@ pub struct CrowdBenchReport {
     /// GPU bytes of the shared asset.
     pub shared_gpu_bytes: u64,
     pub modes: Vec<ModeFigures>,
+    /// The discrete mode's levels (empty when it did not run).
+    pub levels: Vec<LevelFigures>,
 }
 
 /// Runs the crowd benchmark of `asset` (with `model` made from it) on `ctx`.
@@ -126,6 +165,7 @@ pub fn run_crowd_bench(
 ) -> Result<CrowdBenchReport, CrowdError> {
     let (device, queue) = (&ctx.device, &ctx.queue);
     let gpu = GpuAsset::from_asset(device, asset)?;
+    let shared = Arc::clone(&gpu);
     let vertices = gpu.vertex_count();
     let target = RenderTarget::new(device, options.width, options.height, wgpu::Color::BLACK)?;
     let (color, depth) = (RenderTarget::COLOR_FORMAT, Some(RenderTarget::DEPTH_FORMAT));
@@ -157,15 +197,40 @@ pub fn run_crowd_bench(
     crowd.set_view_proj(camera.view_proj());
     let mut ids: Vec<InstanceId> = Vec::new();
     let mut distances = Vec::new();
+    let mut transforms = Vec::new();
     for i in 0..options.instances {
         let place = Vec3::new(
             (i % side) as f32 * spacing,
             0.0,
             (i / side) as f32 * spacing,
         );
+        transforms.push(Mat4::from_translation(place));
         ids.push(crowd.add(id, Mat4::from_translation(place))?);
         distances.push((place + (lo + hi) * 0.5 - eye).length());
     }
+    let mut discrete = match &options.discrete {
+        Some(levels) => {
+            let mut d = DiscreteCrowd::new(
+                device,
+                RenderTarget::COLOR_FORMAT,
+                Some(RenderTarget::DEPTH_FORMAT),
+                shared,
+                levels.clone(),
+                &transforms,
+            )?;
+            d.set_view_proj(camera.view_proj());
+            Some(d)
+        }
+        None => None,
+    };
+    let mut modes = vec!["lod"];
+    if options.full_detail {
+        modes.push("full");
+    }
+    if discrete.is_some() {
+        modes.push("discrete");
+    }
+    let mut per_level = vec![0usize; options.discrete.as_ref().map_or(0, |l| l.levels().len())];
     let stats = crowd.stats();
     let mut report = CrowdBenchReport {
         adapter: format!(
@@ -193,10 +258,15 @@ pub fn run_crowd_bench(
 
     let warm = 3;
     let mut moves = Vec::with_capacity(ids.len());
-    for mode in ["lod", "full"] {
-        let mut rows: [Vec<f64>; 9] = Default::default();
+    for mode in modes {
+        let mut rows: [Vec<f64>; 11] = Default::default();
+        let mut frames = Vec::with_capacity(options.frames);
+        let mut renderer = match (mode, discrete.as_mut()) {
+            ("discrete", Some(d)) => Renderer::Discrete(d),
+            _ => Renderer::Crowd(&mut crowd),
+        };
         for f in 0..options.frames + warm {
-            let before: Vec<usize> = frames_of(&crowd, &ids);
+            let before: Vec<usize> = renderer.frames(&ids);
             moves.clear();
             for (i, &instance) in ids.iter().enumerate() {
                 // Each instance at its own phase (a golden-ratio spread).
@@ -211,15 +281,15 @@ pub fn run_crowd_bench(
                 moves.push((instance, t, lod));
             }
             let a = Instant::now();
-            crowd.set(&moves)?;
+            renderer.set(&moves)?;
             let b = Instant::now();
-            let upload = crowd.prepare(device, queue);
+            let upload = renderer.prepare(device, queue);
             let c = Instant::now();
             let mut encoder = device.create_command_encoder(&Default::default());
             {
                 let writes = timer.as_ref().map(PassTimer::writes);
                 let mut pass = target.begin_timed_pass(&mut encoder, writes);
-                crowd.render(&mut pass);
+                renderer.render(&mut pass);
             }
             if let Some(timer) = &timer {
                 timer.resolve(&mut encoder);
@@ -238,7 +308,7 @@ pub fn run_crowd_bench(
             if f < warm {
                 continue;
             }
-            let after = frames_of(&crowd, &ids);
+            let after = renderer.frames(&ids);
             let switches = before.iter().zip(&after).filter(|(p, q)| p != q).count();
             let ms = |x: Instant, y: Instant| (y - x).as_secs_f64() * 1e3;
             let values = [
@@ -249,14 +319,26 @@ pub fn run_crowd_bench(
                 ms(d, e),
                 upload.bytes as f64,
                 upload.writes as f64,
-                crowd.stats().triangles as f64,
+                renderer.triangles() as f64,
                 switches as f64,
+                renderer.draws() as f64,
+                renderer.indices() as f64,
             ];
+            if let Renderer::Discrete(d) = &renderer {
+                for &l in d.instance_levels() {
+                    per_level[l] += 1;
+                }
+            }
             for (row, value) in rows.iter_mut().zip(values) {
                 row.push(value);
             }
+            frames.push(FrameFigures {
+                cpu_ms: values[0] + values[1] + values[2],
+                gpu_ms: values[3],
+                triangles: values[7],
+            });
         }
-        let [set, prepare, record, gpu, wait, bytes, writes, triangles, switches] =
+        let [set, prepare, record, gpu, wait, bytes, writes, triangles, switches, draws, indices] =
             rows.map(Stat::of);
         report.modes.push(ModeFigures {
             mode,
@@ -269,11 +351,95 @@ pub fn run_crowd_bench(
             writes,
             triangles,
             frame_switches: switches,
+            draws,
+            indices,
+            frames,
         });
+    }
+    if let Some(d) = &discrete {
+        let frames = options.frames.max(1) as f64;
+        report.levels = d
+            .levels()
+            .levels()
+            .iter()
+            .zip(&per_level)
+            .map(|(level, &count)| LevelFigures {
+                fraction: level.fraction,
+                triangles: level.triangles.len(),
+                error: level.error,
+                instances: count as f64 / frames,
+            })
+            .collect();
     }
     report.host_bytes_per_instance =
         crowd.stats().instance_host_bytes as f64 / f64::from(options.instances.max(1));
     Ok(report)
+}
+
+/// What one mode of the bench draws with: the crowd (LOD or full detail) or discrete LODs.
+enum Renderer<'a> {
+    Crowd(&'a mut Crowd),
+    Discrete(&'a mut DiscreteCrowd),
+}
+
+impl Renderer<'_> {
+    /// `moves` name the instances in order (the discrete renderer's order too).
+    fn set(&mut self, moves: &[(InstanceId, f32, Lod)]) -> Result<(), CrowdError> {
+        match self {
+            Renderer::Crowd(c) => c.set(moves),
+            Renderer::Discrete(d) => {
+                let moves: Vec<(f32, Lod)> = moves.iter().map(|&(_, t, lod)| (t, lod)).collect();
+                d.set(&moves)
+            }
+        }
+    }
+
+    fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> CrowdUpload {
+        match self {
+            Renderer::Crowd(c) => c.prepare(device, queue),
+            Renderer::Discrete(d) => d.prepare(device, queue),
+        }
+    }
+
+    fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
+        match self {
+            Renderer::Crowd(c) => c.render(pass),
+            Renderer::Discrete(d) => d.render(pass),
+        }
+    }
+
+    fn triangles(&self) -> usize {
+        match self {
+            Renderer::Crowd(c) => c.stats().triangles,
+            Renderer::Discrete(d) => d.triangles(),
+        }
+    }
+
+    fn indices(&self) -> u64 {
+        match self {
+            Renderer::Crowd(c) => c.stats().indices,
+            Renderer::Discrete(d) => 3 * d.triangles() as u64,
+        }
+    }
+
+    /// One multi-draw per asset, or one draw per level in use.
+    fn draws(&self) -> usize {
+        match self {
+            Renderer::Crowd(c) => usize::from(c.stats().instances > 0),
+            Renderer::Discrete(d) => d.draws(),
+        }
+    }
+
+    /// Each instance's frame (the discrete levels have none: every pose one connectivity).
+    fn frames(&self, ids: &[InstanceId]) -> Vec<usize> {
+        match self {
+            Renderer::Crowd(c) => ids
+                .iter()
+                .map(|&id| c.state(id).map_or(usize::MAX, |s| s.frame()))
+                .collect(),
+            Renderer::Discrete(_) => vec![0; ids.len()],
+        }
+    }
 }
 
 /// Two timestamps around the render pass, resolved and read back after each frame.
@@ -334,19 +500,13 @@ impl PassTimer {
     }
 }
 
-fn frames_of(crowd: &Crowd, ids: &[InstanceId]) -> Vec<usize> {
-    ids.iter()
-        .map(|&id| crowd.state(id).map_or(usize::MAX, |s| s.frame()))
-        .collect()
-}
-
 impl CrowdBenchReport {
     /// A table: one row per mode, mean and p95 of every figure.
     pub fn summary(&self) -> String {
         let mut out = format!(
             "crowd of {} x {} vertices ({} sampled frames) on {}; path {}; GPU time: {}\n\
              per instance: {:.1} KB host, {:.1} KB GPU; shared asset: {:.1} MB GPU\n\
-             mode  set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      wait ms (p95)     upload KB (p95)   writes  triangles  frame switches\n",
+             mode      set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      wait ms (p95)     upload KB (p95)   writes  triangles  frame switches  draws  indices\n",
             self.instances,
             self.vertices,
             self.frames_sampled,
@@ -360,7 +520,7 @@ impl CrowdBenchReport {
         for m in &self.modes {
             let pair = |s: Stat| format!("{:7.2} ({:6.2})", s.mean, s.p95);
             out += &format!(
-                "{:5} {}  {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1}\n",
+                "{:9} {}  {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1} {:14.1} {:8.0}\n",
                 m.mode,
                 pair(m.set_ms),
                 pair(m.prepare_ms),
@@ -372,6 +532,14 @@ impl CrowdBenchReport {
                 m.writes.mean,
                 m.triangles.mean,
                 m.frame_switches.mean,
+                m.draws.mean,
+                m.indices.mean,
+            );
+        }
+        for (l, level) in self.levels.iter().enumerate() {
+            out += &format!(
+                "discrete level {l}: {:.2} of the triangles asked, {} triangles, error {:.3e}, {:.1} instances\n",
+                level.fraction, level.triangles, level.error, level.instances
             );
         }
         out
@@ -395,6 +563,13 @@ impl CrowdBenchReport {
                     "writes": stat(m.writes),
                     "triangles": stat(m.triangles),
                     "frame_switches": stat(m.frame_switches),
+                    "draws": stat(m.draws),
+                    "indices": stat(m.indices),
+                    "frames": m
+                        .frames
+                        .iter()
+                        .map(|f| serde_json::json!([f.cpu_ms, f.gpu_ms, f.triangles]))
+                        .collect::<Vec<_>>(),
                 })
             })
             .collect();
@@ -408,7 +583,18 @@ impl CrowdBenchReport {
             "host_bytes_per_instance": self.host_bytes_per_instance,
             "gpu_bytes_per_instance": self.gpu_bytes_per_instance,
             "shared_gpu_bytes": self.shared_gpu_bytes,
+            "frame_columns": ["cpu_ms", "gpu_ms", "triangles"],
             "modes": modes,
+            "levels": self
+                .levels
+                .iter()
+                .map(|l| serde_json::json!({
+                    "fraction": l.fraction,
+                    "triangles": l.triangles,
+                    "error": l.error,
+                    "instances": l.instances,
+                }))
+                .collect::<Vec<_>>(),
         })
         .to_string()
     }

@@ -31,6 +31,7 @@
 //! path, see [`CrowdPath`]) and, for the benchmark's GPU times, `TIMESTAMP_QUERY`.
 
 mod bench;
+mod discrete;
 mod pipeline;
 mod slots;
 
@@ -40,7 +41,11 @@ use rayon::prelude::*;
 use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
-pub use self::bench::{run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, ModeFigures, Stat};
+pub use self::bench::{
+    run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, FrameFigures, LevelFigures, ModeFigures,
+    Stat,
+};
+pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant, SCATTER_GROUP};
 use self::slots::SlotLayout;
@@ -142,6 +147,9 @@ pub struct CrowdStats {
     pub instances: usize,
     /// Triangles the instances draw.
     pub triangles: usize,
+    /// Indices the records read, restarts and region tails before the last live index
+    /// included (as of the last prepare).
+    pub indices: u64,
     /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
     /// summed over assets' slots in use.
     pub instance_gpu_bytes: u64,
@@ -406,18 +414,7 @@ impl Crowd {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mode = default_mode(gpu.surface());
-        let mesh = MeshBlock {
-            base_color: gpu.surface().map_or([1.0; 4], |s| s.base_color),
-            vertex_count: n,
-            mode: mode.shader_value(),
-            _pad: [0; 2],
-        };
-        let mesh_buffer = device.create_buffer_init(&BufferInitDescriptor {
-            label: Some("crowd mesh"),
-            contents: bytemuck::bytes_of(&mesh),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let mesh_buffer = mesh_buffer(device, &gpu);
         let bind_group = self.bind_group(device, &gpu, &mesh_buffer, &instance_buffer);
         let variant = Variant::new(self.path, gpu.has_surface(), gpu.target_count());
         let render = self.pipeline.render_for(device, variant);
@@ -607,16 +604,7 @@ impl Crowd {
                     // Checked above: neither can fail.
                     member.state.set(model, t, lod).expect("checked move");
                     member.moved = true;
-                    let t = clamp_t(t).expect("checked time");
-                    match track {
-                        Some(track) => {
-                            let mut weights = Vec::with_capacity(track.targets());
-                            track.offsets_at(t, &mut weights);
-                            block.set_weights(&weights);
-                            block.t = 0.0;
-                        }
-                        None => block.t = t,
-                    }
+                    block.set_pose(track, clamp_t(t).expect("checked time"));
                 });
         }
         Ok(())
@@ -862,6 +850,10 @@ impl Crowd {
             let count = a.members.iter().flatten().count();
             stats.instances += count;
             stats.triangles += live.map(|m| m.state.triangle_count()).sum::<usize>();
+            stats.indices += a.records[..a.drawn as usize]
+                .iter()
+                .map(|r| u64::from(r.index_count))
+                .sum::<u64>();
             let per_slot = u64::from(a.layout.per_instance()) * 4
                 + ARGS_BYTES
                 + size_of::<InstanceBlock>() as u64;
@@ -965,6 +957,21 @@ impl CrowdAsset {
         self.patch_buffer = Some((buffer, group.clone()));
         group
     }
+}
+
+/// The asset's block (`Mesh` in `crowd.wgsl`): base colour, vertex count, shade mode.
+fn mesh_buffer(device: &wgpu::Device, gpu: &GpuAsset) -> wgpu::Buffer {
+    let mesh = MeshBlock {
+        base_color: gpu.surface().map_or([1.0; 4], |s| s.base_color),
+        vertex_count: gpu.vertex_count(),
+        mode: default_mode(gpu.surface()).shader_value(),
+        _pad: [0; 2],
+    };
+    device.create_buffer_init(&BufferInitDescriptor {
+        label: Some("crowd mesh"),
+        contents: bytemuck::bytes_of(&mesh),
+        usage: wgpu::BufferUsages::UNIFORM,
+    })
 }
 
 fn check_finite(what: &'static str, values: &[f32]) -> Result<(), CrowdError> {

@@ -74,6 +74,20 @@ impl InstanceBlock {
         self.normal_model = uniforms.normal_model;
     }
 
+    /// Sets the pose at time `t` (clamped, not NaN): for an asset with a weight `track`, its
+    /// weights at `t` in the slots and `t = 0`; else `t` and no weights.
+    pub(super) fn set_pose(&mut self, track: Option<&crate::morph::WeightTrack>, t: f32) {
+        match track {
+            Some(track) => {
+                let mut weights = Vec::with_capacity(track.targets());
+                track.offsets_at(t, &mut weights);
+                self.set_weights(&weights);
+                self.t = 0.0;
+            }
+            None => self.t = t,
+        }
+    }
+
     /// Fills the weight slots with the `WEIGHT_SLOTS` weights of largest magnitude of
     /// `weights` (one per target), in ascending target order, the rest at weight 0.
     pub(super) fn set_weights(&mut self, weights: &[f32]) {
@@ -172,11 +186,10 @@ impl Variant {
 /// first asset that needs their entry point is added.
 pub(super) struct CrowdPipeline {
     pub(super) layout: wgpu::BindGroupLayout,
-    shader: wgpu::ShaderModule,
     render_layout: wgpu::PipelineLayout,
-    color: wgpu::TextureFormat,
-    depth: Option<wgpu::TextureFormat>,
-    cull_mode: Option<wgpu::Face>,
+    shader: wgpu::ShaderModule,
+    /// Colour and depth formats and culling every render pipeline of this crowd uses.
+    formats: Formats,
     renders: Vec<(Variant, wgpu::RenderPipeline)>,
     pub(super) scatter_layout: wgpu::BindGroupLayout,
     pub(super) scatter: wgpu::ComputePipeline,
@@ -257,11 +270,9 @@ impl CrowdPipeline {
         );
         CrowdPipeline {
             layout,
-            shader,
             render_layout,
-            color,
-            depth,
-            cull_mode,
+            shader,
+            formats: (color, depth, cull_mode),
             renders: Vec::new(),
             scatter_layout,
             scatter,
@@ -281,43 +292,15 @@ impl CrowdPipeline {
             CrowdPath::FirstInstance => vertex_buffers(variant.surface),
             CrowdPath::BaseVertex => Vec::new(),
         };
-        let render = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(variant.entry_point()),
-            layout: Some(&self.render_layout),
-            vertex: wgpu::VertexState {
-                module: &self.shader,
-                entry_point: Some(variant.entry_point()),
-                compilation_options: Default::default(),
-                buffers: &buffers,
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleStrip,
-                strip_index_format: Some(wgpu::IndexFormat::Uint32),
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: self.cull_mode,
-                ..Default::default()
-            },
-            depth_stencil: self.depth.map(|format| wgpu::DepthStencilState {
-                format,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &self.shader,
-                entry_point: Some(variant.fragment()),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: self.color,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let render = render_pipeline(
+            device,
+            &self.render_layout,
+            &self.shader,
+            (variant.entry_point(), variant.fragment()),
+            &buffers,
+            wgpu::PrimitiveTopology::TriangleStrip,
+            self.formats,
+        );
         self.renders.push((variant, render));
         self.renders.len() - 1
     }
@@ -326,6 +309,80 @@ impl CrowdPipeline {
     pub(super) fn render(&self, at: usize) -> &wgpu::RenderPipeline {
         &self.renders[at].1
     }
+}
+
+/// Colour format, depth format and face culling of a crowd's passes.
+type Formats = (
+    wgpu::TextureFormat,
+    Option<wgpu::TextureFormat>,
+    Option<wgpu::Face>,
+);
+
+impl CrowdPipeline {
+    /// The discrete-LOD renderer's pipeline (`vs_levels`, `fs_surface`): the crowd's shader,
+    /// bind group layout and formats, triangle lists, the instance from `instance_index`.
+    pub(super) fn levels_pipeline(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        render_pipeline(
+            device,
+            &self.render_layout,
+            &self.shader,
+            ("vs_levels", "fs_surface"),
+            &[],
+            wgpu::PrimitiveTopology::TriangleList,
+            self.formats,
+        )
+    }
+}
+
+/// A render pipeline of `crowd.wgsl`: vertex and fragment entry points `entry` over the
+/// vertex `buffers` (none for vertex pulling), depth test `Less` when there is a depth format.
+fn render_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    shader: &wgpu::ShaderModule,
+    (entry, fragment): (&str, &str),
+    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+    topology: wgpu::PrimitiveTopology,
+    (color, depth, cull_mode): Formats,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(entry),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: shader,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            buffers,
+        },
+        primitive: wgpu::PrimitiveState {
+            topology,
+            strip_index_format: (topology == wgpu::PrimitiveTopology::TriangleStrip)
+                .then_some(wgpu::IndexFormat::Uint32),
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode,
+            ..Default::default()
+        },
+        depth_stencil: depth.map(|format| wgpu::DepthStencilState {
+            format,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: shader,
+            entry_point: Some(fragment),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: color,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 fn compute(
