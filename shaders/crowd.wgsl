@@ -1,21 +1,33 @@
 // morphlod: a crowd, many instances of one asset drawn by one multi-draw (gpu::Crowd).
 // Compiled after shade.wgsl (gpu::CROWD_WGSL).
 //
-// Which instance a vertex belongs to travels in the index arithmetic, not in instance_index:
-// every instance's draw record has base_vertex = slot * vertex_count and its indices name the
-// asset's own vertices, so the vertex stage sees vertex_index = slot * n + v and recovers both.
-// Why not first_instance: lavapipe (and any device without INDIRECT_FIRST_INSTANCE) drops a
-// nonzero first_instance of an indirect draw, and base_vertex is core everywhere. The vertex
-// stage therefore reads the poses and surface from storage buffers by v (vertex pulling), not
-// as vertex attributes: attribute fetch would add base_vertex to the address.
+// Which instance a vertex belongs to reaches the vertex stage one of two ways (gpu::CrowdPath):
 //
-// A restart index (0xFFFFFFFF) is compared before base_vertex is added, so strips restart as in
-// an object's own buffer.
+// * First instance (vs_fetch_*): the draw record of slot s has first_instance = s and
+//   base_vertex = 0, so instance_index is the slot and vertex_index the asset's own vertex. The
+//   poses and surface attributes arrive as vertex buffers (fixed-function fetch); only the
+//   instance block (by instance_index) and the target deltas (by vertex_index) are storage
+//   reads. Needs INDIRECT_FIRST_INSTANCE: without it wgpu requires first_instance = 0.
+// * Base vertex (vs_pull_*), any device: the record has base_vertex = s * vertex_count and its
+//   indices name the asset's own vertices, so the vertex stage sees vertex_index = s * n + v and
+//   recovers both. Attribute fetch would add base_vertex to the address, so this path reads
+//   the poses and surface from storage buffers by v (vertex pulling). A restart index
+//   (0xFFFFFFFF) is compared before base_vertex is added, so strips restart as in an object's
+//   own buffer.
 //
-// The weight animation is summed here, per vertex, over a fixed 8 (target, weight) slots per
-// instance: the instance's 8 largest weights, in ascending target order (the CPU sum's order),
-// unused slots at weight 0. Unrolled, no loop and no branch: on lavapipe a vertex stage with a
-// loop over targets leaked host memory on every draw (morph.wgsl, examples/driver_leak.rs).
+// An asset with a surface draws with the *_surface* entry points and fs_surface (normal, UV,
+// colour per vertex); one without with the *_plain* ones and fs_plain (faceted: position and
+// instance colour only).
+//
+// An asset with morph targets draws with the *_targets8 entry points: the weight animation is
+// summed here, per vertex, over a fixed 8 (target, weight) slots per instance: the instance's
+// 8 largest weights, in ascending target order (the CPU sum's order), unused slots at weight
+// 0. Unrolled, no loop and no branch: on lavapipe a vertex stage with a loop over targets
+// leaked host memory on every draw (morph.wgsl, examples/driver_leak.rs). An asset of at most
+// 4 targets fills only slots 0..4 and draws with *_targets4 (the first 4 slots: half the delta
+// loads); an asset without targets with the entry points without the sum. The slots left out
+// hold weight 0 and would add exact zeros, so each draws the same pixels as the 8-slot sum
+// (tests/suite/crowd.rs).
 
 struct Scene {
     // Projection * view, world to clip space.
@@ -105,33 +117,39 @@ fn slot_target(word: u32, j: u32) -> u32 {
     return (word >> (8u * j)) & 255u;
 }
 
-// sum_j w_j D_{k_j}(v) over the 8 slots, in slot order, as the CPU sums (left to right).
+// s + sum_j w_j D_{k_j}(v) over the 4 slots of one packed word (weights w), left to right
+// as the CPU sums. add_normal_deltas4 is the same over the normal deltas.
+fn add_deltas4(s: vec3<f32>, w: vec4<f32>, word: u32, v: u32) -> vec3<f32> {
+    var r = s + w.x * delta_at(slot_target(word, 0u), v);
+    r = r + w.y * delta_at(slot_target(word, 1u), v);
+    r = r + w.z * delta_at(slot_target(word, 2u), v);
+    return r + w.w * delta_at(slot_target(word, 3u), v);
+}
+
+fn add_normal_deltas4(s: vec3<f32>, w: vec4<f32>, word: u32, v: u32) -> vec3<f32> {
+    var r = s + w.x * normal_delta_at(slot_target(word, 0u), v);
+    r = r + w.y * normal_delta_at(slot_target(word, 1u), v);
+    r = r + w.z * normal_delta_at(slot_target(word, 2u), v);
+    return r + w.w * normal_delta_at(slot_target(word, 3u), v);
+}
+
+// The offsets over the first 4 slots: all an asset of at most 4 targets fills (its slots 4..8
+// hold weight 0, which would add exact zeros).
+fn target_offset4(inst: Instance, v: u32) -> vec3<f32> {
+    return add_deltas4(vec3<f32>(0.0), inst.weights_lo, inst.targets.x, v);
+}
+
+fn normal_offset4(inst: Instance, v: u32) -> vec3<f32> {
+    return add_normal_deltas4(vec3<f32>(0.0), inst.weights_lo, inst.targets.x, v);
+}
+
+// The offsets over all 8 slots, in slot order.
 fn target_offset(inst: Instance, v: u32) -> vec3<f32> {
-    let a = inst.targets.x;
-    let b = inst.targets.y;
-    var s = inst.weights_lo.x * delta_at(slot_target(a, 0u), v);
-    s = s + inst.weights_lo.y * delta_at(slot_target(a, 1u), v);
-    s = s + inst.weights_lo.z * delta_at(slot_target(a, 2u), v);
-    s = s + inst.weights_lo.w * delta_at(slot_target(a, 3u), v);
-    s = s + inst.weights_hi.x * delta_at(slot_target(b, 0u), v);
-    s = s + inst.weights_hi.y * delta_at(slot_target(b, 1u), v);
-    s = s + inst.weights_hi.z * delta_at(slot_target(b, 2u), v);
-    s = s + inst.weights_hi.w * delta_at(slot_target(b, 3u), v);
-    return s;
+    return add_deltas4(target_offset4(inst, v), inst.weights_hi, inst.targets.y, v);
 }
 
 fn normal_offset(inst: Instance, v: u32) -> vec3<f32> {
-    let a = inst.targets.x;
-    let b = inst.targets.y;
-    var s = inst.weights_lo.x * normal_delta_at(slot_target(a, 0u), v);
-    s = s + inst.weights_lo.y * normal_delta_at(slot_target(a, 1u), v);
-    s = s + inst.weights_lo.z * normal_delta_at(slot_target(a, 2u), v);
-    s = s + inst.weights_lo.w * normal_delta_at(slot_target(a, 3u), v);
-    s = s + inst.weights_hi.x * normal_delta_at(slot_target(b, 0u), v);
-    s = s + inst.weights_hi.y * normal_delta_at(slot_target(b, 1u), v);
-    s = s + inst.weights_hi.z * normal_delta_at(slot_target(b, 2u), v);
-    s = s + inst.weights_hi.w * normal_delta_at(slot_target(b, 3u), v);
-    return s;
+    return add_normal_deltas4(normal_offset4(inst, v), inst.weights_hi, inst.targets.y, v);
 }
 
 // The blended object-space position of vertex v of an instance: the rule of morph.wgsl's
@@ -140,44 +158,236 @@ fn local_position(inst: Instance, v: u32) -> vec3<f32> {
     return mix(pose0_at(v), pose1_at(v), inst.t) + target_offset(inst, v);
 }
 
-@vertex
-fn vs_crowd(@builtin(vertex_index) index: u32) -> CrowdOut {
-    let slot = index / mesh.vertex_count;
-    return instance_vertex(slot, index - slot * mesh.vertex_count);
+// The world-space unit normal of an instance's object-space (unnormalised) normal.
+fn world_normal(inst: Instance, normal: vec3<f32>) -> vec3<f32> {
+    let local_normal = unit_or_zero(normal);
+    return unit_or_zero((inst.normal_model * vec4<f32>(local_normal, 0.0)).xyz);
 }
 
-// The discrete-LOD renderer (gpu::crowd::discrete, the crowd bench's comparison): one
-// instanced draw per level over triangle lists of the asset's own vertices, base_vertex 0, the
-// instance's block number in instance_index. Direct draws keep first_instance on every device
-// (lavapipe drops it in indirect draws only).
-@vertex
-fn vs_levels(@builtin(vertex_index) v: u32, @builtin(instance_index) slot: u32) -> CrowdOut {
-    return instance_vertex(slot, v);
-}
-
-// Vertex v of the instance whose block is instances[slot].
-fn instance_vertex(slot: u32, v: u32) -> CrowdOut {
-    let inst = instances[slot];
-    let world = inst.model * vec4<f32>(local_position(inst, v), 1.0);
-    let s = 12u * v;
-    let n0 = vec3<f32>(surface[s], surface[s + 1u], surface[s + 2u]);
-    let n1 = vec3<f32>(surface[s + 3u], surface[s + 4u], surface[s + 5u]);
-    let local_normal = unit_or_zero(mix(n0, n1, inst.t) + normal_offset(inst, v));
+// What every entry point does once it has the vertex's object-space position and world-space
+// normal: the instance's transform, and the surface's UV and colour passed on.
+fn crowd_vertex(
+    inst: Instance,
+    position: vec3<f32>,
+    normal: vec3<f32>,
+    uv: vec2<f32>,
+    color: vec4<f32>,
+) -> CrowdOut {
+    let world = inst.model * vec4<f32>(position, 1.0);
     var out: CrowdOut;
     out.clip = scene.view_proj * world;
     out.world = world.xyz;
     out.tint = inst.color;
-    out.normal = unit_or_zero((inst.normal_model * vec4<f32>(local_normal, 0.0)).xyz);
-    out.uv = vec2<f32>(surface[s + 6u], surface[s + 7u]);
-    out.color = vec4<f32>(surface[s + 8u], surface[s + 9u], surface[s + 10u], surface[s + 11u]);
+    out.normal = normal;
+    out.uv = uv;
+    out.color = color;
     return out;
 }
 
+// The surface attributes of vertex v, pulled (an asset with a surface).
+struct Attributes {
+    n0: vec3<f32>,
+    n1: vec3<f32>,
+    uv: vec2<f32>,
+    color: vec4<f32>,
+}
+
+fn attributes_at(v: u32) -> Attributes {
+    let s = 12u * v;
+    return Attributes(
+        vec3<f32>(surface[s], surface[s + 1u], surface[s + 2u]),
+        vec3<f32>(surface[s + 3u], surface[s + 4u], surface[s + 5u]),
+        vec2<f32>(surface[s + 6u], surface[s + 7u]),
+        vec4<f32>(surface[s + 8u], surface[s + 9u], surface[s + 10u], surface[s + 11u]),
+    );
+}
+
+// What a mesh without a surface hands the fragment stage: faceted shading needs only the
+// world position and the instance's colour (3 + 4 varyings instead of CrowdOut's 16: llvmpipe
+// sets up every varying of every triangle).
+struct PlainOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) @interpolate(flat) tint: vec4<f32>,
+}
+
+fn plain_vertex(inst: Instance, position: vec3<f32>) -> PlainOut {
+    let world = inst.model * vec4<f32>(position, 1.0);
+    var out: PlainOut;
+    out.clip = scene.view_proj * world;
+    out.world = world.xyz;
+    out.tint = inst.color;
+    return out;
+}
+
+// Base-vertex path, an asset with a surface: vertex v of an instance with the given offsets
+// (position, normal).
+fn pulled(inst: Instance, v: u32, offset: vec3<f32>, normal_offset: vec3<f32>) -> CrowdOut {
+    let a = attributes_at(v);
+    let position = mix(pose0_at(v), pose1_at(v), inst.t) + offset;
+    let normal = world_normal(inst, mix(a.n0, a.n1, inst.t) + normal_offset);
+    return crowd_vertex(inst, position, normal, a.uv, a.color);
+}
+
+// Base-vertex path, an asset without a surface.
+fn pulled_plain(inst: Instance, v: u32, offset: vec3<f32>) -> PlainOut {
+    return plain_vertex(inst, mix(pose0_at(v), pose1_at(v), inst.t) + offset);
+}
+
+// The base-vertex path's entry points: with and without a surface, each without targets, with
+// 4 and with 8 weight slots.
+@vertex
+fn vs_pull_surface(@builtin(vertex_index) index: u32) -> CrowdOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    return pulled(instances[slot], v, vec3<f32>(0.0), vec3<f32>(0.0));
+}
+
+@vertex
+fn vs_pull_surface_targets4(@builtin(vertex_index) index: u32) -> CrowdOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    let inst = instances[slot];
+    return pulled(inst, v, target_offset4(inst, v), normal_offset4(inst, v));
+}
+
+@vertex
+fn vs_pull_surface_targets8(@builtin(vertex_index) index: u32) -> CrowdOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    let inst = instances[slot];
+    return pulled(inst, v, target_offset(inst, v), normal_offset(inst, v));
+}
+
+@vertex
+fn vs_pull_plain(@builtin(vertex_index) index: u32) -> PlainOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    return pulled_plain(instances[slot], v, vec3<f32>(0.0));
+}
+
+@vertex
+fn vs_pull_plain_targets4(@builtin(vertex_index) index: u32) -> PlainOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    let inst = instances[slot];
+    return pulled_plain(inst, v, target_offset4(inst, v));
+}
+
+@vertex
+fn vs_pull_plain_targets8(@builtin(vertex_index) index: u32) -> PlainOut {
+    let slot = index / mesh.vertex_count;
+    let v = index - slot * mesh.vertex_count;
+    let inst = instances[slot];
+    return pulled_plain(inst, v, target_offset(inst, v));
+}
+
+// First-instance path: the poses (buffer slots 0 and 1) and, for an asset with a surface, its
+// interleaved attributes (buffer slot 2, gpu::SURFACE_STRIDE), as morph.wgsl's vs_surface
+// reads them.
+struct Poses {
+    @location(0) v0: vec3<f32>,
+    @location(1) v1: vec3<f32>,
+}
+
+struct FetchedSurface {
+    @location(2) n0: vec3<f32>,
+    @location(3) n1: vec3<f32>,
+    @location(4) uv: vec2<f32>,
+    @location(5) color: vec4<f32>,
+}
+
+// First-instance path, an asset with a surface: its vertex with the given offsets.
+fn fetched(
+    inst: Instance,
+    p: Poses,
+    s: FetchedSurface,
+    offset: vec3<f32>,
+    normal_offset: vec3<f32>,
+) -> CrowdOut {
+    let position = mix(p.v0, p.v1, inst.t) + offset;
+    let normal = world_normal(inst, mix(s.n0, s.n1, inst.t) + normal_offset);
+    return crowd_vertex(inst, position, normal, s.uv, s.color);
+}
+
+// The first-instance path's entry points: with and without a surface, each without targets,
+// with 4 and with 8 weight slots.
+@vertex
+fn vs_fetch_surface(p: Poses, s: FetchedSurface, @builtin(instance_index) slot: u32) -> CrowdOut {
+    return fetched(instances[slot], p, s, vec3<f32>(0.0), vec3<f32>(0.0));
+}
+
+@vertex
+fn vs_fetch_surface_targets4(
+    p: Poses,
+    s: FetchedSurface,
+    @builtin(vertex_index) v: u32,
+    @builtin(instance_index) slot: u32,
+) -> CrowdOut {
+    let inst = instances[slot];
+    return fetched(inst, p, s, target_offset4(inst, v), normal_offset4(inst, v));
+}
+
+@vertex
+fn vs_fetch_surface_targets8(
+    p: Poses,
+    s: FetchedSurface,
+    @builtin(vertex_index) v: u32,
+    @builtin(instance_index) slot: u32,
+) -> CrowdOut {
+    let inst = instances[slot];
+    return fetched(inst, p, s, target_offset(inst, v), normal_offset(inst, v));
+}
+
+@vertex
+fn vs_fetch_plain(p: Poses, @builtin(instance_index) slot: u32) -> PlainOut {
+    let inst = instances[slot];
+    return plain_vertex(inst, mix(p.v0, p.v1, inst.t));
+}
+
+@vertex
+fn vs_fetch_plain_targets4(
+    p: Poses,
+    @builtin(vertex_index) v: u32,
+    @builtin(instance_index) slot: u32,
+) -> PlainOut {
+    let inst = instances[slot];
+    return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset4(inst, v));
+}
+
+@vertex
+fn vs_fetch_plain_targets8(
+    p: Poses,
+    @builtin(vertex_index) v: u32,
+    @builtin(instance_index) slot: u32,
+) -> PlainOut {
+    let inst = instances[slot];
+    return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset(inst, v));
+}
+
+// The discrete-LOD renderer (gpu::crowd::discrete, the crowd bench's comparison): one
+// instanced draw per level over triangle lists of the asset's own vertices, base_vertex 0, the
+// instance's block number in instance_index (direct draws keep first_instance on every
+// device); pulled with the 8-slot sum and a surface (drawn with fs_surface).
+@vertex
+fn vs_levels(@builtin(vertex_index) v: u32, @builtin(instance_index) slot: u32) -> CrowdOut {
+    let inst = instances[slot];
+    return pulled(inst, v, target_offset(inst, v), normal_offset(inst, v));
+}
+
+// An asset with a surface: shaded by its mode (faceted, smooth or textured).
 @fragment
-fn fs_crowd(in: CrowdOut) -> @location(0) vec4<f32> {
+fn fs_surface(in: CrowdOut) -> @location(0) vec4<f32> {
     let texel = textureSample(base_texture, base_sampler, in.uv);
     let material = Material(mesh.mode, in.tint, mesh.base_color, scene.light, scene.encode_srgb);
     return shade_surface(in.world, 0u, in.normal, texel, in.color, material);
+}
+
+// An asset without a surface: faceted in the instance's colour, as an object's fs_main (the
+// arithmetic of shade_surface's faceted mode).
+@fragment
+fn fs_plain(in: PlainOut) -> @location(0) vec4<f32> {
+    return shade_plain(in.world, 0u, mesh.mode, in.tint, scene.light);
 }
 
 // The blended positions of one instance, written for checking (gpu::Crowd::blended_positions):

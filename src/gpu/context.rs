@@ -16,20 +16,26 @@ pub struct Context {
 }
 
 impl Context {
+    /// The optional features the project's renderers use, requested where the adapter has them.
+    pub const FEATURES: wgpu::Features =
+        wgpu::Features::INDIRECT_FIRST_INSTANCE.union(wgpu::Features::TIMESTAMP_QUERY);
+
     /// Creates a device on the first adapter wgpu picks (the `WGPU_BACKEND` and
     /// `WGPU_ADAPTER_NAME` environment variables still apply).
     ///
-    /// Only features the adapter has are requested. `INDIRECT_FIRST_INSTANCE` is enabled when
-    /// available: it lets each region's indirect draw carry its region number as
-    /// `first_instance`, which the shader's strip colouring reads; without it wgpu zeroes the
-    /// field and every strip gets the same colour. Multi-draw indirect itself needs no feature.
+    /// Only features the adapter has are requested ([`Context::FEATURES`] where available).
+    /// `INDIRECT_FIRST_INSTANCE` lets each region's indirect draw carry its region number as
+    /// `first_instance`, which the shader's strip colouring reads (without it wgpu zeroes the
+    /// field and every strip gets the same colour), and puts a [`super::Crowd`] on its
+    /// first-instance path ([`super::CrowdPath`]). `TIMESTAMP_QUERY` lets the crowd benchmark
+    /// time the GPU with timestamps. Multi-draw indirect itself needs no feature.
     pub fn headless() -> Result<Context, GpuError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter =
             pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
                 .map_err(|source| GpuError::NoAdapter { source })?;
-        let required_features = adapter.features() & wgpu::Features::INDIRECT_FIRST_INSTANCE;
+        let required_features = adapter.features() & Context::FEATURES;
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("morphlod headless device"),
             required_features,

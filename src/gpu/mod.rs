@@ -71,9 +71,10 @@ pub use asset::GpuAsset;
 pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
 pub use crowd::{
-    run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdStats,
-    CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels, FrameFigures, InstanceId,
-    LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS,
+    run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdPath,
+    CrowdStats, CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels, FrameFigures,
+    InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL, SCATTER_WGSL,
+    WEIGHT_SLOTS,
 };
 pub use lod_object::{s0_regions, LodObject};
 pub use object::{Object, Topology};

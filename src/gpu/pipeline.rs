@@ -129,6 +129,34 @@ impl Default for Uniforms {
 /// (3 × f32 each), UV (2 × f32), colour (4 × f32).
 pub(crate) const SURFACE_STRIDE: u64 = 48;
 
+/// The vertex buffers of a mesh: `V(0)` in slot 0 (location 0) and `V(1)` in slot 1
+/// (location 1), and with `surface` the interleaved surface attributes in slot 2 (locations
+/// 2..6: n0, n1, uv, colour; [`SURFACE_STRIDE`]). An object and a crowd's first-instance path
+/// read them alike.
+///
+/// Two pose buffers, not one interleaved: V(0) and V(1) are uploaded once each and a
+/// pose-only update (a different morph target) rewrites one buffer. The surface attributes
+/// never change after upload, so they share one interleaved buffer.
+pub(crate) fn vertex_buffers(surface: bool) -> Vec<Option<wgpu::VertexBufferLayout<'static>>> {
+    const V0: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x3];
+    const V1: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![1 => Float32x3];
+    const SURFACE: [wgpu::VertexAttribute; 4] = wgpu::vertex_attr_array![
+        2 => Float32x3, 3 => Float32x3, 4 => Float32x2, 5 => Float32x4
+    ];
+    let buffer = |array_stride, attributes: &'static [wgpu::VertexAttribute]| {
+        Some(wgpu::VertexBufferLayout {
+            array_stride,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes,
+        })
+    };
+    let mut buffers = vec![buffer(12, &V0), buffer(12, &V1)];
+    if surface {
+        buffers.push(buffer(SURFACE_STRIDE, &SURFACE));
+    }
+    buffers
+}
+
 /// The morph render pipelines: for position-only objects and for objects with a surface, each
 /// for triangle strips and lists.
 pub struct MorphPipeline {
@@ -266,28 +294,7 @@ impl Variant {
             Layout::Plain => ("vs_main", "fs_main"),
             Layout::Surface => ("vs_surface", "fs_surface"),
         };
-        // Two buffers, not one interleaved: V(0) and V(1) are uploaded once each and a
-        // pose-only update (a different morph target) rewrites one buffer. The surface
-        // attributes never change after upload, so they share one interleaved buffer.
-        let pose_buffer = |location| wgpu::VertexBufferLayout {
-            array_stride: 12,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: match location {
-                0 => &wgpu::vertex_attr_array![0 => Float32x3],
-                _ => &wgpu::vertex_attr_array![1 => Float32x3],
-            },
-        };
-        let surface_buffer = wgpu::VertexBufferLayout {
-            array_stride: SURFACE_STRIDE,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![
-                2 => Float32x3, 3 => Float32x3, 4 => Float32x2, 5 => Float32x4
-            ],
-        };
-        let mut buffers = vec![Some(pose_buffer(0)), Some(pose_buffer(1))];
-        if let Layout::Surface = layout {
-            buffers.push(Some(surface_buffer));
-        }
+        let buffers = vertex_buffers(matches!(layout, Layout::Surface));
         let build = |label: &str, topology, strip_index_format| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),

@@ -81,6 +81,16 @@ impl RenderTarget {
 
     /// Begins a render pass on this target, clearing colour and depth (depth to 1.0).
     pub fn begin_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder) -> wgpu::RenderPass<'e> {
+        self.begin_timed_pass(encoder, None)
+    }
+
+    /// [`begin_pass`](Self::begin_pass) that also writes the pass's timestamps (the device
+    /// needs `TIMESTAMP_QUERY`): how benchmarks time the GPU.
+    pub fn begin_timed_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> wgpu::RenderPass<'e> {
         encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("morphlod target pass"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -100,7 +110,7 @@ impl RenderTarget {
                 }),
                 stencil_ops: None,
             }),
-            timestamp_writes: None,
+            timestamp_writes,
             occlusion_query_set: None,
             multiview_mask: None,
         })

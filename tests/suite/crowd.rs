@@ -1,15 +1,25 @@
-//! `gpu::Crowd` on a real adapter (lavapipe in CI), against `LodObject`s and the runtime.
+//! `gpu::Crowd` on a real adapter (lavapipe in CI), against `LodObject`s and the runtime. The
+//! drawing tests run on both paths ([`paths`]): first instance (vertex buffers) where the device
+//! has `INDIRECT_FIRST_INSTANCE`, and the base-vertex fallback (vertex pulling), forced.
 //!
-//! * `crowd_draws_the_pixels_of_lod_objects`: instances of three assets (two grids, and the
-//!   head with its surface and texture) at mixed times, LODs, transforms and colours draw pixel
+//! * `crowd_draws_the_pixels_of_lod_objects`: instances of four assets (two grids, the head's
+//!   weight animation without a surface, the face's with its surface and texture; so every
+//!   path draws with and without a surface, without and with the 8-slot sum) at mixed times, LODs, transforms and colours draw pixel
 //!   for pixel what the same number of `LodObject`s draw (sharing one `GpuAsset` per asset),
 //!   over frames with moves, removes and adds; the `Recorder` sees exactly one multi-draw per
 //!   asset, of that asset's records, with its index buffer bound.
 //! * `crowd_buffers_decode_to_each_instance_mesh`: over a walk with frame switches, LOD jumps,
 //!   removes and adds (freed slots reused, old ids refused), the index and indirect buffers read
 //!   back from the GPU draw, per live instance, exactly the triangles of its runtime's strips
-//!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), and free
-//!   records draw nothing.
+//!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), the records
+//!   carry the slot where the path says, and free records draw nothing.
+//! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, for the head and
+//!   for the face (without and with a surface): drawn by the entry point without the target
+//!   sum (uploaded without targets) and by the 8-slot one at zero weights they give the same
+//!   pixels; with the 4 targets of the largest weights (4-slot entry point) and with all
+//!   targets but those zeroed (8-slot) they give the same pixels mid-animation (those targets
+//!   exaggerated so that the sum moves pixels, checked); and both paths draw the same pixels
+//!   there.
 //! * `gpu_weight_blending_equals_the_cpu_sum`: the head's weight animation (8 targets) and the
 //!   face's (10 driven targets, one active at a time), the positions the crowd's vertex stage
 //!   blends (read back by the same WGSL function) equal the CPU sum `V(0) + Σ c_k(t) D_k` within
@@ -17,7 +27,8 @@
 //!   largest weights, the 2 smallest dropped.
 //! * `bad_input_is_refused_and_changes_nothing`: NaN transform or colour, NaN time in a batch,
 //!   removed and unknown instances, a full asset, a model of another asset, an asset of another
-//!   device: typed errors, and the buffers and states are as before.
+//!   device, the first-instance path on a device without the feature: typed errors, and the
+//!   buffers and states are as before.
 //! * `host_memory_per_instance_is_bounded`: the host bytes each added body instance holds (the
 //!   crowd's own accounting) stay below what it must hold and below [`HOST_BYTES_PER_INSTANCE`].
 //! * `discrete_lods_draw_each_instance_level`: the bench's discrete-LOD renderer (levels of one
@@ -38,7 +49,7 @@ use common::strip_draw;
 use morphlod::build::Sequences;
 use morphlod::collapse::canonical_multiset;
 use morphlod::gpu::{
-    self, AssetId, Crowd, CrowdError, DiscreteCrowd, DiscreteLevels, GpuAsset, GpuError,
+    self, AssetId, Crowd, CrowdError, CrowdPath, DiscreteCrowd, DiscreteLevels, GpuAsset, GpuError,
     InstanceId, LodObject, RenderTarget,
 };
 use morphlod::io::{LoadOptions, MorphSource};
@@ -95,9 +106,19 @@ fn animated_asset(file: &str, animation: &str, frames: usize) -> Asset {
     asset
 }
 
-/// makehuman_head's weight animation (8 targets, a textured surface), built with 3 frames.
+/// makehuman_head's weight animation (8 targets, no surface), built with 3 frames.
 fn head_asset() -> Asset {
-    animated_asset("makehuman_head.glb", "morph", 3)
+    let asset = animated_asset("makehuman_head.glb", "morph", 3);
+    assert!(asset.surface.is_none(), "the head is faceted");
+    asset
+}
+
+/// makehuman_face's weight animation (52 targets with normal deltas, a textured surface),
+/// built with 3 frames.
+fn face_asset() -> Asset {
+    let asset = animated_asset("makehuman_face.glb", "expressions", 3);
+    assert!(asset.surface.is_some(), "the face has a surface");
+    asset
 }
 
 /// One asset of a test crowd: its data, GPU upload and model.
@@ -136,6 +157,30 @@ impl Kind {
             * glam::Mat4::from_scale(glam::Vec3::splat(scale))
             * glam::Mat4::from_translation(-(lo + hi) * 0.5)
     }
+}
+
+/// The paths the drawing tests run on: first instance where the device has
+/// `INDIRECT_FIRST_INSTANCE` (lavapipe does), and the base-vertex fallback everywhere.
+fn paths(ctx: &Gpu) -> Vec<CrowdPath> {
+    let mut paths = vec![CrowdPath::BaseVertex];
+    if ctx.ctx.first_instance_enabled() {
+        paths.insert(0, CrowdPath::FirstInstance);
+    } else {
+        eprintln!("no INDIRECT_FIRST_INSTANCE: the first-instance path is not tested");
+    }
+    paths
+}
+
+/// An empty crowd on `path` drawing into a `RenderTarget`.
+fn crowd_on(ctx: &Gpu, path: CrowdPath) -> Result<Crowd> {
+    let crowd = Crowd::with_path(
+        ctx.device(),
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+        path,
+    )?;
+    assert_eq!(crowd.path(), path);
+    Ok(crowd)
 }
 
 /// The images and draw calls of one pass over `draw`.
@@ -214,17 +259,21 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
-    let (device, queue) = (ctx.device(), ctx.queue());
     let kinds = [
         Kind::new(&ctx, grid_asset(12, 5, 0.4))?,
         Kind::new(&ctx, grid_asset(9, 3, -0.3))?,
         Kind::new(&ctx, head_asset())?,
+        Kind::new(&ctx, face_asset())?,
     ];
-    let mut crowd = Crowd::new(
-        device,
-        RenderTarget::COLOR_FORMAT,
-        Some(RenderTarget::DEPTH_FORMAT),
-    );
+    for path in paths(&ctx) {
+        draws_the_pixels_of_lod_objects(&ctx, &kinds, path)?;
+    }
+    Ok(())
+}
+
+fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -> Result<()> {
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let mut crowd = crowd_on(ctx, path)?;
     let assets: Vec<AssetId> = kinds
         .iter()
         .map(|k| crowd.add_asset(device, Arc::clone(&k.gpu), Arc::clone(&k.model), 4))
@@ -267,12 +316,12 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
         Ok(())
     };
     let mut placed = Vec::new();
-    for (at, kind) in [0, 1, 2, 0, 1, 2, 0, 1].into_iter().enumerate() {
+    for (at, kind) in [0, 1, 2, 3, 1, 2, 0, 3].into_iter().enumerate() {
         add(&mut crowd, &mut placed, kind, at)?;
     }
-    // Time and LOD per frame and instance; the head stays at t = 0, where its weights are 0 and
-    // the GPU sum equals the CPU's bit for bit (gpu_weight_blending_equals_the_cpu_sum bounds
-    // it elsewhere).
+    // Time and LOD per frame and instance; the head and the face stay at t = 0, where their
+    // weights are 0 and the GPU sum equals the CPU's bit for bit
+    // (gpu_weight_blending_equals_the_cpu_sum bounds it elsewhere).
     for frame in 0..5 {
         if frame == 2 {
             // Remove two, add one of another kind in the freed slot and one at a new cell.
@@ -285,7 +334,7 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
         }
         let mut moves = Vec::new();
         for (i, p) in placed.iter_mut().enumerate() {
-            p.t = if p.kind == 2 {
+            p.t = if p.kind >= 2 {
                 0.0
             } else {
                 ((frame * 3 + i) % 7) as f32 / 6.0
@@ -297,12 +346,12 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
         }
         crowd.set(&moves)?;
         crowd.prepare(device, queue);
-        let (expected, _) = render(&ctx, &target, |pass| {
+        let (expected, _) = render(ctx, &target, |pass| {
             for p in &placed {
                 p.object.render(pass);
             }
         });
-        let (image, calls) = render(&ctx, &target, |pass| crowd.render(pass));
+        let (image, calls) = render(ctx, &target, |pass| crowd.render(pass));
         assert_one_multi_draw_per_asset(&crowd, &assets, &calls);
         for p in &placed {
             assert_eq!(
@@ -311,12 +360,16 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
             );
         }
         if image != expected {
-            common::gpu::fail_with_images(&format!("crowd frame {frame}"), &image, &expected);
+            common::gpu::fail_with_images(
+                &format!("crowd frame {frame}, {path:?}"),
+                &image,
+                &expected,
+            );
         }
         let background = image.pixels().filter(|p| p.0 == [0, 0, 255, 255]).count();
         assert!(
             background < image.pixels().len() * 9 / 10,
-            "frame {frame}: the instances cover too little of the image to compare"
+            "frame {frame}, {path:?}: the instances cover too little of the image to compare"
         );
     }
     Ok(())
@@ -325,6 +378,11 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
 /// Per live instance, the triangles its record draws from the buffers read back, mapped back
 /// to the asset's vertex numbers; and every free record's triangle count.
 fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[u32; 3]>> {
+    // The slot's vertices: at slot × n on the base-vertex path, the asset's own on the other.
+    let base = |slot: usize| match crowd.path() {
+        CrowdPath::BaseVertex => slot as u32 * n,
+        CrowdPath::FirstInstance => 0,
+    };
     let indices = ctx.read_words(crowd.index_buffer(asset).expect("asset"));
     let words = ctx.read_words(crowd.indirect_buffer(asset).expect("asset"));
     let capacity = words.len() / 5;
@@ -333,16 +391,17 @@ fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[
             let r = &words[slot * 5..slot * 5 + 5];
             let record = [r[0], r[1], r[2], r[3], r[4]];
             if record[1] > 0 {
-                assert_eq!(
-                    record[3],
-                    slot as u32 * n,
-                    "slot {slot}: base_vertex names the slot"
-                );
+                assert_eq!(record[3], base(slot), "slot {slot}: base_vertex");
+                let first_instance = match crowd.path() {
+                    CrowdPath::BaseVertex => 0,
+                    CrowdPath::FirstInstance => slot as u32,
+                };
+                assert_eq!(record[4], first_instance, "slot {slot}: first_instance");
                 assert_eq!(record[2], slot as u32 * crowd.slots_per_instance(asset));
             }
             draw_indexed_indirect(&indices, &[record], n * capacity as u32)
                 .into_iter()
-                .map(|t| t.map(|v| v - slot as u32 * n))
+                .map(|t| t.map(|v| v - base(slot)))
                 .collect()
         })
         .collect()
@@ -353,16 +412,19 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
-    let (device, queue) = (ctx.device(), ctx.queue());
     let kinds = [
         Kind::new(&ctx, grid_asset(11, 6, 0.5))?,
         Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
     ];
-    let mut crowd = Crowd::new(
-        device,
-        RenderTarget::COLOR_FORMAT,
-        Some(RenderTarget::DEPTH_FORMAT),
-    );
+    for path in paths(&ctx) {
+        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path)?;
+    }
+    Ok(())
+}
+
+fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -> Result<()> {
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let mut crowd = crowd_on(ctx, path)?;
     let capacity = 5;
     let assets: Vec<AssetId> = kinds
         .iter()
@@ -418,7 +480,7 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
         }
         for (k, &asset) in assets.iter().enumerate() {
             let n = kinds[k].gpu.vertex_count();
-            let drawn = drawn_per_slot(&ctx, &crowd, asset, n);
+            let drawn = drawn_per_slot(ctx, &crowd, asset, n);
             let mut busy = vec![false; capacity as usize];
             for id in live.iter().filter(|id| id.asset() == asset) {
                 busy[id.slot() as usize] = true;
@@ -426,7 +488,11 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
                 let expected: Vec<[u32; 3]> = (0..state.lengths().len())
                     .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
                     .collect();
-                assert_eq!(drawn[id.slot() as usize], expected, "step {step}, {id:?}");
+                assert_eq!(
+                    drawn[id.slot() as usize],
+                    expected,
+                    "{path:?}, step {step}, {id:?}"
+                );
                 assert_eq!(expected.len(), state.triangle_count());
             }
             for (slot, triangles) in drawn.iter().enumerate() {
@@ -434,6 +500,157 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
                     assert!(triangles.is_empty(), "step {step}: free slot {slot} draws");
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// Three versions of a head at time `t`, its 4 largest weights' targets there exaggerated 16
+/// times (its expressions move it by less than a pixel of the test image): `four` has only
+/// those 4 targets, `zeroed` all with the others zeroed (at `t` its 8-slot sum holds those 4
+/// among its 8 largest weights and adds the same nonzero terms in the same order as the
+/// 4-slot sum of `four`), `still` all zeroed.
+fn head_versions(head: &Asset, t: f32) -> [Asset; 3] {
+    let blend = head.blend.as_ref().expect("targets");
+    let mut weights = Vec::new();
+    blend.track.offsets_at(t, &mut weights);
+    let mut keep: Vec<usize> = (0..blend.deltas.len()).collect();
+    // As the weight slots pick them: largest magnitude first, lower target first on ties.
+    keep.sort_by(|&a, &b| {
+        weights[b]
+            .abs()
+            .total_cmp(&weights[a].abs())
+            .then(a.cmp(&b))
+    });
+    keep.truncate(4);
+    // (Fewer than 4 may move at t: a zero weight takes no slot in either sum.)
+    assert!(weights[keep[0]] != 0.0, "a target moves at t");
+    keep.sort_unstable();
+    let mut zeroed = head.clone();
+    let mut still = head.clone();
+    for (asset, scale) in [(&mut zeroed, 16.0f32), (&mut still, 0.0)] {
+        let kept = |k: usize| if keep.contains(&k) { scale } else { 0.0 };
+        let deltas = asset.blend.iter_mut().flat_map(|b| b.deltas.iter_mut());
+        for (k, target) in deltas.enumerate() {
+            let scale = kept(k);
+            target.iter_mut().flatten().for_each(|c| *c *= scale);
+        }
+        // Normal deltas kept as they are, zeroed with their targets.
+        let normals = asset
+            .surface
+            .iter_mut()
+            .flat_map(|s| s.normal_deltas.iter_mut());
+        for (k, target) in normals.enumerate() {
+            let scale = kept(k).min(1.0);
+            target.iter_mut().flatten().for_each(|c| *c *= scale);
+        }
+    }
+    let mut four = zeroed.clone();
+    if let Some(blend) = four.blend.as_mut() {
+        blend.deltas = keep.iter().map(|&k| blend.deltas[k].clone()).collect();
+        blend.track = blend.track.select(&keep);
+    }
+    if let Some(surface) = four
+        .surface
+        .as_mut()
+        .filter(|s| !s.normal_deltas.is_empty())
+    {
+        let normals = keep.iter().map(|&k| surface.normal_deltas[k].clone());
+        surface.normal_deltas = normals.collect();
+    }
+    [four, zeroed, still]
+}
+
+#[test]
+fn fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    // The head without a surface (the _plain entry points), the face with one (_surface).
+    for asset in [head_asset(), face_asset()] {
+        fewer_slots_draw_the_pixels_of_8(&ctx, Kind::new(&ctx, asset)?)?;
+    }
+    Ok(())
+}
+
+fn fewer_slots_draw_the_pixels_of_8(ctx: &Gpu, head: Kind) -> Result<()> {
+    let (device, queue) = (ctx.device(), ctx.queue());
+    assert!(head.gpu.target_count() >= 8);
+    // The same poses and surface without the targets: drawn without the sum.
+    let poses = (head.asset.v0.as_slice(), head.asset.v1.as_slice());
+    let plain = Arc::new(GpuAsset::new(device, poses, head.asset.surface.as_ref())?);
+    let t = 0.45;
+    let [four, zeroed, still] = head_versions(&head.asset, t);
+    let four = GpuAsset::from_asset(device, &four)?;
+    let zeroed = GpuAsset::from_asset(device, &zeroed)?;
+    let still = GpuAsset::from_asset(device, &still)?;
+    assert_eq!(four.target_count(), 4);
+    let view_proj = gpu::camera::fit_to_bounds(
+        [-0.8, -0.8, -0.5],
+        [0.8, 0.8, 0.5],
+        glam::Vec3::new(0.05, -0.08, -1.0),
+        1.0,
+        gpu::camera::Projection::Perspective { vertical_fov: 0.9 },
+    )?
+    .view_proj();
+    let target = ctx.target(128, 128, wgpu::Color::BLUE);
+    // Four heads at mixed LODs and angles, one per quadrant, all at time `t`: the image and
+    // the entry point that drew it.
+    let draw = |path: CrowdPath, gpu: &Arc<GpuAsset>, t: f32| -> Result<_> {
+        let mut crowd = crowd_on(ctx, path)?;
+        let asset = crowd.add_asset(device, Arc::clone(gpu), Arc::clone(&head.model), 4)?;
+        crowd.set_view_proj(view_proj);
+        let mut moves = Vec::new();
+        for i in 0..4 {
+            let at = glam::Vec3::new(
+                if i % 2 == 0 { -0.45 } else { 0.45 },
+                if i < 2 { -0.45 } else { 0.45 },
+                0.0,
+            );
+            let id = crowd.add(asset, head.place(at, 0.4 * i as f32))?;
+            moves.push((id, t, Lod::Fraction(i as f32 / 4.0)));
+        }
+        crowd.set(&moves)?;
+        crowd.prepare(device, queue);
+        let (image, _) = render(ctx, &target, |pass| crowd.render(pass));
+        Ok((image, crowd.vertex_entry_point(asset).expect("asset")))
+    };
+    let same = |what: &str,
+                (image, entry): (image::RgbaImage, &str),
+                (expected, by): (image::RgbaImage, &str)| {
+        assert_ne!(entry, by, "{what}: two entry points");
+        if image != expected {
+            common::gpu::fail_with_images(
+                &format!("{what}: {entry} against {by}"),
+                &image,
+                &expected,
+            );
+        }
+        image
+    };
+    let mut moving = Vec::new();
+    for path in paths(ctx) {
+        // At t = 0 the head's weights are all 0: the 8-slot sum adds exact zeros.
+        let rest = same(
+            "t = 0",
+            draw(path, &plain, 0.0)?,
+            draw(path, &head.gpu, 0.0)?,
+        );
+        let background = rest.pixels().filter(|p| p.0 == [0, 0, 255, 255]).count();
+        assert!(
+            background < rest.pixels().len() * 9 / 10,
+            "the heads cover too little"
+        );
+        let mid = same("t = 0.45", draw(path, &four, t)?, draw(path, &zeroed, t)?);
+        let (unmoved, _) = draw(path, &still, t)?;
+        assert_ne!(mid, unmoved, "{path:?}: the 4 targets changed no pixel");
+        moving.push(draw(path, &zeroed, t)?);
+    }
+    // At nonzero weights the two paths' 8-slot sums (same terms, same order) draw the same
+    // pixels.
+    if let [first, base] = moving.as_slice() {
+        if first.0 != base.0 {
+            common::gpu::fail_with_images("t = 0.45, both paths", &first.0, &base.0);
         }
     }
     Ok(())
@@ -564,7 +781,7 @@ fn gpu_weight_blending_equals_the_cpu_sum() -> Result<()> {
     // The face of face_to_face: 52 targets, of which its `expressions` animation drives 10
     // (the asset keeps those), one at a time: at most one nonzero weight at any t, so every
     // target the animation uses has a slot and the sum is the whole sum here too.
-    let mut face = animated_asset("makehuman_face.glb", "expressions", 3);
+    let mut face = face_asset();
     let targets = face.blend.as_ref().expect("targets").deltas.len();
     assert_eq!(
         targets, 10,
@@ -694,6 +911,15 @@ fn bad_input_is_refused_and_changes_nothing() -> Result<()> {
         required_limits: ctx.adapter.limits(),
         ..Default::default()
     }))?;
+    // Without INDIRECT_FIRST_INSTANCE (the second device asked for no feature) a crowd takes
+    // the base-vertex path, and refuses the first-instance one.
+    let formats = (RenderTarget::COLOR_FORMAT, Some(RenderTarget::DEPTH_FORMAT));
+    assert_eq!(
+        Crowd::new(&second, formats.0, formats.1).path(),
+        CrowdPath::BaseVertex
+    );
+    let refused = Crowd::with_path(&second, formats.0, formats.1, CrowdPath::FirstInstance);
+    assert!(matches!(refused, Err(CrowdError::NoFirstInstance)));
     let foreign = GpuAsset::from_asset(&second, &kind.asset)?;
     let error = crowd.add_asset(device, foreign, Arc::clone(&kind.model), 1);
     assert!(
@@ -794,6 +1020,16 @@ fn crowd_bench_reports_both_modes() -> Result<()> {
     assert!(report.gpu_bytes_per_instance > 0.0 && report.host_bytes_per_instance > 0.0);
     let json: serde_json::Value = serde_json::from_str(&report.to_json())?;
     assert_eq!(json["modes"][1]["mode"], "full");
+    // GPU time from timestamps where the device has them, said in the report.
+    let timestamps = ctx
+        .device()
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    let timing = ["submit + wait", "timestamps (render pass)"][usize::from(timestamps)];
+    assert_eq!(json["gpu_timing"], timing);
+    assert!(report.modes.iter().all(|m| m.wait_ms.mean > 0.0));
+    let path = ["BaseVertex", "FirstInstance"][usize::from(ctx.ctx.first_instance_enabled())];
+    assert!(report.path.starts_with(path), "{}", report.path);
     Ok(())
 }
 
@@ -968,6 +1204,7 @@ fn crowd_bench_runs_discrete_lods() -> Result<()> {
         pixels: 4.0,
         full_detail: false,
         discrete: Some(levels.clone()),
+        path: None,
     };
     let report = gpu::run_crowd_bench(&ctx.ctx, &asset, model, &options)?;
     let modes: Vec<&str> = report.modes.iter().map(|m| m.mode).collect();

@@ -196,6 +196,10 @@ struct BenchArgs {
     /// Render frames per loop of the animation in the crowd bench.
     #[arg(long, default_value_t = 120)]
     period: usize,
+    /// The crowd bench's path (first-instance needs INDIRECT_FIRST_INSTANCE); default: the
+    /// first-instance path where the device has it.
+    #[arg(long = "crowd-path", value_name = "PATH", value_parser = ["first-instance", "base-vertex"])]
+    crowd_path: Option<String>,
     /// The crowd bench's discrete LODs (full detail and `--levels`, as `morphlod export
     /// --lods`) are cut from this asset's one shared sequence: a build of the same source with
     /// `--sequence shared`. Without it they are cut from the benchmarked asset when it was
@@ -930,6 +934,10 @@ fn crowd_bench(
         period: args.period,
         width: if size_given { args.size } else { 1920 },
         height: if size_given { args.size } else { 1080 },
+        path: args.crowd_path.as_deref().map(|path| match path {
+            "base-vertex" => morphlod::gpu::CrowdPath::BaseVertex,
+            _ => morphlod::gpu::CrowdPath::FirstInstance,
+        }),
         full_detail: !args.skip_full,
         discrete,
         ..Default::default()

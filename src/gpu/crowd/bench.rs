@@ -5,18 +5,20 @@
 //! discrete LODs ([`DiscreteCrowd`]: per instance the coarsest level within the same screen
 //! error, one instanced draw per level), the alternative a user would pick instead.
 //!
-//! Per frame it times the CPU `set`, `prepare` and the recording of the pass, and the GPU as
-//! submit + wait (the wall time from `queue.submit` to the end of `device.poll(wait)`: what a
-//! frame costs when the CPU waits for it; no timestamp queries, so it includes the submission),
-//! and counts bytes uploaded, triangles drawn and frame switches. Figures are for benchmarks,
-//! never for tests.
+//! Per frame it times the CPU `set`, `prepare` and the recording of the pass; the GPU with
+//! timestamp queries around the render pass where the device has `TIMESTAMP_QUERY` (the pass
+//! only: the scatter dispatch `prepare` submits is not in it), else as submit + wait; and always
+//! submit + wait too (the wall time from `queue.submit` to the end of `device.poll(wait)`: what
+//! a frame costs when the CPU waits for it, submission, scatter and pass included). It counts
+//! bytes uploaded, triangles drawn and frame switches. Figures are for benchmarks, never for
+//! tests.
 
 use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 
-use super::{Crowd, CrowdError, CrowdUpload, DiscreteCrowd, DiscreteLevels, InstanceId};
+use super::{Crowd, CrowdError, CrowdPath, CrowdUpload, DiscreteCrowd, DiscreteLevels, InstanceId};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, Lod};
 use crate::gpu::camera::{fit_to_bounds, Projection};
@@ -40,6 +42,8 @@ pub struct CrowdBenchOptions {
     pub full_detail: bool,
     /// Also run discrete LODs with these levels (of the same asset's vertices).
     pub discrete: Option<DiscreteLevels>,
+    /// The crowd's path; `None`: what [`Crowd::new`] picks for the device.
+    pub path: Option<CrowdPath>,
 }
 
 impl Default for CrowdBenchOptions {
@@ -53,6 +57,7 @@ impl Default for CrowdBenchOptions {
             pixels: 1.0,
             full_detail: true,
             discrete: None,
+            path: None,
         }
     }
 }
@@ -89,8 +94,11 @@ pub struct ModeFigures {
     pub set_ms: Stat,
     pub prepare_ms: Stat,
     pub record_ms: Stat,
-    /// Submit + wait, milliseconds.
+    /// GPU milliseconds: the render pass by timestamps, or submit + wait
+    /// ([`CrowdBenchReport::gpu_timing`]).
     pub gpu_ms: Stat,
+    /// Submit + wait, milliseconds.
+    pub wait_ms: Stat,
     pub uploaded_bytes: Stat,
     pub writes: Stat,
     pub triangles: Stat,
@@ -133,8 +141,10 @@ pub struct CrowdBenchReport {
     pub instances: u32,
     pub vertices: u32,
     pub frames_sampled: usize,
-    /// How GPU time was taken.
+    /// How GPU time was taken: `timestamps (render pass)` or `submit + wait`.
     pub gpu_timing: &'static str,
+    /// The crowd's path and the vertex entry point that drew the asset.
+    pub path: String,
     /// Host bytes per instance (runtime, lengths, record and block mirrors).
     pub host_bytes_per_instance: f64,
     /// GPU bytes per instance (index slots, record, block).
@@ -158,12 +168,13 @@ pub fn run_crowd_bench(
     let shared = Arc::clone(&gpu);
     let vertices = gpu.vertex_count();
     let target = RenderTarget::new(device, options.width, options.height, wgpu::Color::BLACK)?;
-    let mut crowd = Crowd::new(
-        device,
-        RenderTarget::COLOR_FORMAT,
-        Some(RenderTarget::DEPTH_FORMAT),
-    );
+    let (color, depth) = (RenderTarget::COLOR_FORMAT, Some(RenderTarget::DEPTH_FORMAT));
+    let mut crowd = match options.path {
+        Some(path) => Crowd::with_path(device, color, depth, path)?,
+        None => Crowd::new(device, color, depth),
+    };
     let id = crowd.add_asset(device, gpu, Arc::clone(&model), options.instances.max(1))?;
+    let timer = PassTimer::new(device, queue);
 
     // The grid: columns along x, rows along z, one asset's size plus a tenth apart.
     let both: Vec<[f32; 3]> = asset.v0.iter().chain(&asset.v1).copied().collect();
@@ -230,7 +241,15 @@ pub fn run_crowd_bench(
         instances: options.instances,
         vertices,
         frames_sampled: model.frame_count(),
-        gpu_timing: "submit + wait",
+        gpu_timing: match timer {
+            Some(_) => "timestamps (render pass)",
+            None => "submit + wait",
+        },
+        path: format!(
+            "{:?} ({})",
+            crowd.path(),
+            crowd.vertex_entry_point(id).unwrap_or("-")
+        ),
         gpu_bytes_per_instance: stats.instance_gpu_bytes as f64
             / f64::from(options.instances.max(1)),
         shared_gpu_bytes: stats.shared_gpu_bytes,
@@ -240,7 +259,7 @@ pub fn run_crowd_bench(
     let warm = 3;
     let mut moves = Vec::with_capacity(ids.len());
     for mode in modes {
-        let mut rows: [Vec<f64>; 10] = Default::default();
+        let mut rows: [Vec<f64>; 11] = Default::default();
         let mut frames = Vec::with_capacity(options.frames);
         let mut renderer = match (mode, discrete.as_mut()) {
             ("discrete", Some(d)) => Renderer::Discrete(d),
@@ -268,8 +287,12 @@ pub fn run_crowd_bench(
             let c = Instant::now();
             let mut encoder = device.create_command_encoder(&Default::default());
             {
-                let mut pass = target.begin_pass(&mut encoder);
+                let writes = timer.as_ref().map(PassTimer::writes);
+                let mut pass = target.begin_timed_pass(&mut encoder, writes);
                 renderer.render(&mut pass);
+            }
+            if let Some(timer) = &timer {
+                timer.resolve(&mut encoder);
             }
             let commands = encoder.finish();
             let d = Instant::now();
@@ -278,6 +301,10 @@ pub fn run_crowd_bench(
                 .poll(wgpu::PollType::wait_indefinitely())
                 .map_err(crate::gpu::GpuError::from)?;
             let e = Instant::now();
+            let pass_ms = timer
+                .as_ref()
+                .map(|timer| timer.read_ms(device, queue))
+                .transpose()?;
             if f < warm {
                 continue;
             }
@@ -288,6 +315,7 @@ pub fn run_crowd_bench(
                 ms(a, b),
                 ms(b, c),
                 ms(c, d),
+                pass_ms.unwrap_or(ms(d, e)),
                 ms(d, e),
                 upload.bytes as f64,
                 upload.writes as f64,
@@ -307,10 +335,10 @@ pub fn run_crowd_bench(
             frames.push(FrameFigures {
                 cpu_ms: values[0] + values[1] + values[2],
                 gpu_ms: values[3],
-                triangles: values[6],
+                triangles: values[7],
             });
         }
-        let [set, prepare, record, gpu, bytes, writes, triangles, switches, draws, indices] =
+        let [set, prepare, record, gpu, wait, bytes, writes, triangles, switches, draws, indices] =
             rows.map(Stat::of);
         report.modes.push(ModeFigures {
             mode,
@@ -318,6 +346,7 @@ pub fn run_crowd_bench(
             prepare_ms: prepare,
             record_ms: record,
             gpu_ms: gpu,
+            wait_ms: wait,
             uploaded_bytes: bytes,
             writes,
             triangles,
@@ -413,17 +442,76 @@ impl Renderer<'_> {
     }
 }
 
+/// Two timestamps around the render pass, resolved and read back after each frame.
+struct PassTimer {
+    queries: wgpu::QuerySet,
+    resolved: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    period: f64,
+}
+
+impl PassTimer {
+    /// A timer where the device has `TIMESTAMP_QUERY`, else `None`.
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Option<PassTimer> {
+        if !device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+            return None;
+        }
+        let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("crowd bench pass"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let resolved = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("crowd bench timestamps"),
+            size: 2 * wgpu::QUERY_SIZE as u64,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Some(PassTimer {
+            queries,
+            resolved,
+            period: f64::from(queue.get_timestamp_period()),
+        })
+    }
+
+    fn writes(&self) -> wgpu::RenderPassTimestampWrites<'_> {
+        wgpu::RenderPassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
+    /// Resolves the pass's timestamps (recorded after the pass, in the same encoder).
+    fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
+    }
+
+    /// The pass's milliseconds, read back once the frame has run.
+    fn read_ms(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<f64, crate::gpu::GpuError> {
+        let encoder = device.create_command_encoder(&Default::default());
+        let bytes = crate::gpu::readback::read_back(device, queue, encoder, &self.resolved)?;
+        let [start, end]: [u64; 2] = bytemuck::pod_read_unaligned(&bytes);
+        Ok(end.saturating_sub(start) as f64 * self.period / 1e6)
+    }
+}
+
 impl CrowdBenchReport {
     /// A table: one row per mode, mean and p95 of every figure.
     pub fn summary(&self) -> String {
         let mut out = format!(
-            "crowd of {} x {} vertices ({} sampled frames) on {}; GPU time: {}\n\
+            "crowd of {} x {} vertices ({} sampled frames) on {}; path {}; GPU time: {}\n\
              per instance: {:.1} KB host, {:.1} KB GPU; shared asset: {:.1} MB GPU\n\
-             mode      set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      upload KB (p95)   writes  triangles  frame switches  draws  indices\n",
+             mode      set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      wait ms (p95)     upload KB (p95)   writes  triangles  frame switches  draws  indices\n",
             self.instances,
             self.vertices,
             self.frames_sampled,
             self.adapter,
+            self.path,
             self.gpu_timing,
             self.host_bytes_per_instance / 1e3,
             self.gpu_bytes_per_instance / 1e3,
@@ -432,12 +520,13 @@ impl CrowdBenchReport {
         for m in &self.modes {
             let pair = |s: Stat| format!("{:7.2} ({:6.2})", s.mean, s.p95);
             out += &format!(
-                "{:9} {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1} {:14.1} {:8.0}\n",
+                "{:9} {}  {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1} {:14.1} {:8.0}\n",
                 m.mode,
                 pair(m.set_ms),
                 pair(m.prepare_ms),
                 pair(m.record_ms),
                 pair(m.gpu_ms),
+                pair(m.wait_ms),
                 m.uploaded_bytes.mean / 1e3,
                 m.uploaded_bytes.p95 / 1e3,
                 m.writes.mean,
@@ -469,6 +558,7 @@ impl CrowdBenchReport {
                     "prepare_ms": stat(m.prepare_ms),
                     "record_ms": stat(m.record_ms),
                     "gpu_ms": stat(m.gpu_ms),
+                    "wait_ms": stat(m.wait_ms),
                     "uploaded_bytes": stat(m.uploaded_bytes),
                     "writes": stat(m.writes),
                     "triangles": stat(m.triangles),
@@ -489,6 +579,7 @@ impl CrowdBenchReport {
             "vertices": self.vertices,
             "frames_sampled": self.frames_sampled,
             "gpu_timing": self.gpu_timing,
+            "path": self.path,
             "host_bytes_per_instance": self.host_bytes_per_instance,
             "gpu_bytes_per_instance": self.gpu_bytes_per_instance,
             "shared_gpu_bytes": self.shared_gpu_bytes,

@@ -17,10 +17,18 @@
 //! range each; [`render`](Crowd::render) binds each asset and issues its one multi-draw. The
 //! caller owns device, queue and pass, as with an [`Object`](super::Object).
 //!
-//! The instance of a vertex reaches the shader through `base_vertex` (slot × vertex count),
-//! not `first_instance`, which lavapipe drops in indirect draws (`shaders/crowd.wgsl`). Weight
-//! animations are summed on the GPU from 8 weights per instance (the largest of the frame):
-//! exact for assets of at most 8 targets, see [`WEIGHT_SLOTS`].
+//! The instance of a vertex reaches the shader one of two ways ([`CrowdPath`],
+//! `shaders/crowd.wgsl`): as `first_instance` (the slot), with the poses and surface fetched
+//! as vertex buffers, where the device has `wgpu::Features::INDIRECT_FIRST_INSTANCE` (without
+//! it wgpu requires `first_instance = 0` in indirect draws); else through `base_vertex` (slot ×
+//! vertex count), with every vertex pulled from storage buffers. Weight animations are summed
+//! on the GPU from 8 weights per instance (the largest of the frame): exact for assets of at
+//! most 8 targets, see [`WEIGHT_SLOTS`]; an asset without targets draws with an entry point
+//! without the sum.
+//!
+//! Device features a crowd benefits from (the caller creates the device; [`super::Context`]
+//! requests both where the adapter has them): `INDIRECT_FIRST_INSTANCE` (the first-instance
+//! path, see [`CrowdPath`]) and, for the benchmark's GPU times, `TIMESTAMP_QUERY`.
 
 mod bench;
 mod discrete;
@@ -38,8 +46,8 @@ pub use self::bench::{
     Stat,
 };
 pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
-use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, SCATTER_GROUP};
-pub use self::pipeline::{CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
+pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
+use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant, SCATTER_GROUP};
 use self::slots::SlotLayout;
 use super::asset::GpuAsset;
 use super::commands::RenderCommands;
@@ -73,6 +81,9 @@ pub enum CrowdError {
         "the model has {model} vertices but the GPU asset {asset}; make both from the same asset"
     )]
     ModelMismatch { model: usize, asset: u32 },
+    /// [`CrowdPath::FirstInstance`] asked of a device without `INDIRECT_FIRST_INSTANCE`.
+    #[error("the first-instance path needs a device with wgpu::Features::INDIRECT_FIRST_INSTANCE; request it when creating the device, or use CrowdPath::BaseVertex")]
+    NoFirstInstance,
     /// A capacity of 0, or one whose slots or vertex numbers do not fit the device or `u32`.
     #[error("a capacity of {capacity} instances does not fit: {why}")]
     Capacity { capacity: u32, why: String },
@@ -152,6 +163,7 @@ pub struct CrowdStats {
 /// Instances of several assets drawn together: `add`/`remove` at run time, `set` per frame,
 /// `prepare`, `render`.
 pub struct Crowd {
+    path: CrowdPath,
     pipeline: CrowdPipeline,
     scene: SceneBlock,
     scene_buffer: wgpu::Buffer,
@@ -172,6 +184,9 @@ struct CrowdAsset {
     indirect_buffer: wgpu::Buffer,
     instance_buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    /// Its render pipeline (number in the crowd's [`CrowdPipeline`]) and vertex entry point.
+    render: usize,
+    variant: Variant,
     /// The patch list's GPU buffer and the scatter's bind group over it; grown on demand.
     patch_buffer: Option<(wgpu::Buffer, wgpu::BindGroup)>,
     /// Instance of each slot (`None`: free).
@@ -236,11 +251,47 @@ impl Span {
 
 impl Crowd {
     /// An empty crowd drawing into passes of `color_format` and `depth_format` (as
-    /// [`super::MorphPipeline::new`]), back faces culled.
+    /// [`super::MorphPipeline::new`]), back faces culled, on the first-instance path where
+    /// `device` has `INDIRECT_FIRST_INSTANCE` and the base-vertex path elsewhere.
     pub fn new(
         device: &wgpu::Device,
         color_format: wgpu::TextureFormat,
         depth_format: Option<wgpu::TextureFormat>,
+    ) -> Crowd {
+        let path = if device
+            .features()
+            .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE)
+        {
+            CrowdPath::FirstInstance
+        } else {
+            CrowdPath::BaseVertex
+        };
+        Crowd::on_path(device, color_format, depth_format, path)
+    }
+
+    /// [`new`](Self::new) on the given path: [`CrowdPath::BaseVertex`] works on any device
+    /// (tests and benchmarks force it to compare), [`CrowdPath::FirstInstance`] needs
+    /// `INDIRECT_FIRST_INSTANCE` ([`CrowdError::NoFirstInstance`]).
+    pub fn with_path(
+        device: &wgpu::Device,
+        color_format: wgpu::TextureFormat,
+        depth_format: Option<wgpu::TextureFormat>,
+        path: CrowdPath,
+    ) -> Result<Crowd, CrowdError> {
+        let has = device
+            .features()
+            .contains(wgpu::Features::INDIRECT_FIRST_INSTANCE);
+        if path == CrowdPath::FirstInstance && !has {
+            return Err(CrowdError::NoFirstInstance);
+        }
+        Ok(Crowd::on_path(device, color_format, depth_format, path))
+    }
+
+    fn on_path(
+        device: &wgpu::Device,
+        color_format: wgpu::TextureFormat,
+        depth_format: Option<wgpu::TextureFormat>,
+        path: CrowdPath,
     ) -> Crowd {
         let pipeline =
             CrowdPipeline::new(device, color_format, depth_format, Some(wgpu::Face::Back));
@@ -273,6 +324,7 @@ impl Crowd {
         let view = white.create_view(&Default::default());
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor::default());
         Crowd {
+            path,
             pipeline,
             scene,
             scene_buffer,
@@ -312,7 +364,9 @@ impl Crowd {
             return refuse("give room for at least one instance".into());
         }
         // base_vertex (an i32) is slot × n, and slot × n + index is the vertex_index (a u32).
-        if u64::from(capacity) * u64::from(n) > i32::MAX as u64 {
+        if self.path == CrowdPath::BaseVertex
+            && u64::from(capacity) * u64::from(n) > i32::MAX as u64
+        {
             return refuse(format!(
                 "{n} vertices times the capacity passes 2^31 (base_vertex)"
             ));
@@ -362,6 +416,8 @@ impl Crowd {
         });
         let mesh_buffer = mesh_buffer(device, &gpu);
         let bind_group = self.bind_group(device, &gpu, &mesh_buffer, &instance_buffer);
+        let variant = Variant::new(self.path, gpu.has_surface(), gpu.target_count());
+        let render = self.pipeline.render_for(device, variant);
         let id = self.assets.len() as u32;
         self.assets.push(CrowdAsset {
             gpu,
@@ -372,6 +428,8 @@ impl Crowd {
             indirect_buffer,
             instance_buffer,
             bind_group,
+            render,
+            variant,
             patch_buffer: None,
             members: (0..capacity).map(|_| None).collect(),
             generations: vec![0; capacity as usize],
@@ -451,12 +509,18 @@ impl Crowd {
         })?;
         let state = DeformingState::new(&a.model);
         let uploaded = a.layout.s0_lengths();
+        // The slot rides in first_instance or in base_vertex (CrowdPath; checked to fit in
+        // add_asset).
+        let (base_vertex, first_instance) = match self.path {
+            CrowdPath::FirstInstance => (0, slot),
+            CrowdPath::BaseVertex => ((slot * a.gpu.vertex_count()) as i32, 0),
+        };
         a.records[slot as usize] = DrawIndexedIndirectArgs {
             index_count: a.layout.record_count(&uploaded),
             instance_count: 1,
             first_index: slot * a.layout.per_instance(),
-            base_vertex: (slot * a.gpu.vertex_count()) as i32,
-            first_instance: 0,
+            base_vertex,
+            first_instance,
         };
         a.blocks[slot as usize] = InstanceBlock::new(model);
         a.dirty_records.add(slot);
@@ -716,13 +780,25 @@ impl Crowd {
         upload
     }
 
-    /// Draws every asset's instances: per asset one bind group, its index buffer and exactly
-    /// one `multi_draw_indexed_indirect` over its records (one per slot up to the highest in
-    /// use; free slots draw nothing). Sets its own pipeline.
+    /// Draws every asset's instances: per asset one bind group, on the first-instance path its
+    /// vertex buffers (poses, surface), its index buffer and exactly one
+    /// `multi_draw_indexed_indirect` over its records (one per slot up to the highest in use;
+    /// free slots draw nothing). Sets its own pipelines (one per vertex entry point in use).
     pub fn render(&self, pass: &mut (impl RenderCommands + ?Sized)) {
-        pass.set_pipeline(&self.pipeline.render);
+        let mut bound = None;
         for a in self.assets.iter().filter(|a| a.drawn > 0) {
+            if bound != Some(a.render) {
+                pass.set_pipeline(self.pipeline.render(a.render));
+                bound = Some(a.render);
+            }
             pass.set_bind_group(0, &a.bind_group);
+            if self.path == CrowdPath::FirstInstance {
+                pass.set_vertex_buffer(0, a.gpu.v0());
+                pass.set_vertex_buffer(1, a.gpu.v1());
+                if let Some(surface) = a.gpu.surface() {
+                    pass.set_vertex_buffer(2, &surface.buffer);
+                }
+            }
             pass.set_index_buffer(&a.index_buffer, wgpu::IndexFormat::Uint32);
             pass.multi_draw_indexed_indirect(&a.indirect_buffer, 0, a.drawn);
         }
@@ -744,6 +820,19 @@ impl Crowd {
     /// Records `render` draws for `asset` (one past its highest slot in use).
     pub fn drawn_records(&self, asset: AssetId) -> u32 {
         self.assets.get(asset.0 as usize).map_or(0, |a| a.drawn)
+    }
+
+    /// The path this crowd draws on.
+    pub fn path(&self) -> CrowdPath {
+        self.path
+    }
+
+    /// The vertex entry point of `shaders/crowd.wgsl` that draws `asset`: by path, surface
+    /// (first-instance path) and whether it has morph targets.
+    pub fn vertex_entry_point(&self, asset: AssetId) -> Option<&'static str> {
+        self.assets
+            .get(asset.0 as usize)
+            .map(|a| a.variant.entry_point())
     }
 
     /// Index slots per instance of `asset`.

@@ -1,9 +1,11 @@
-//! The crowd's GPU programs and the blocks they read: the render pipeline of
-//! `shaders/crowd.wgsl` (strips, vertex pulling), the scatter that applies a frame's index
+//! The crowd's GPU programs and the blocks they read: the render pipelines of
+//! `shaders/crowd.wgsl` (strips; one per vertex entry point in use), the scatter that applies a frame's index
 //! patches (`shaders/scatter.wgsl`), the probe that writes an instance's blended positions
 //! back, and the byte layouts of the scene, mesh and instance blocks.
 
 use bytemuck::{Pod, Zeroable};
+
+use crate::gpu::pipeline::vertex_buffers;
 
 /// The WGSL source of the crowd shader: `shaders/shade.wgsl` followed by `shaders/crowd.wgsl`.
 pub const CROWD_WGSL: &str = concat!(
@@ -110,14 +112,85 @@ impl InstanceBlock {
     }
 }
 
-/// The pipelines and layouts a crowd draws and edits with.
+/// How a crowd's vertex stage learns the instance of a vertex (`shaders/crowd.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CrowdPath {
+    /// Slot `s`'s record has `first_instance = s` and `base_vertex = 0`; the poses and the
+    /// surface attributes are vertex buffers (fixed-function fetch) and the instance block is
+    /// read by `instance_index`. Needs `wgpu::Features::INDIRECT_FIRST_INSTANCE` (without it
+    /// wgpu requires `first_instance = 0` in indirect draws).
+    FirstInstance,
+    /// Slot `s`'s record has `base_vertex = s × vertex count`; the vertex stage splits
+    /// `vertex_index` into slot and vertex and pulls poses and surface from storage buffers.
+    /// Any device; `capacity × vertex count` must stay below 2³¹.
+    BaseVertex,
+}
+
+/// Which entry points of `crowd.wgsl` draw an asset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(super) struct Variant {
+    path: CrowdPath,
+    /// Reads and interpolates the surface attributes (else faceted: position and colour only).
+    surface: bool,
+    /// Weight slots summed: 0 (no targets), 4 (at most 4 targets), 8.
+    slots: u8,
+}
+
+impl Variant {
+    /// The variant of an asset with or without a surface and with `targets` morph targets.
+    /// An asset of at most 4 targets fills only slots 0..4 ([`InstanceBlock::set_weights`]
+    /// keeps the nonzero weights in ascending target order), so the first 4 slots are its
+    /// whole sum.
+    pub(super) fn new(path: CrowdPath, surface: bool, targets: usize) -> Variant {
+        Variant {
+            path,
+            surface,
+            slots: match targets {
+                0 => 0,
+                1..=4 => 4,
+                _ => WEIGHT_SLOTS as u8,
+            },
+        }
+    }
+
+    /// The vertex entry point.
+    pub(super) fn entry_point(self) -> &'static str {
+        use CrowdPath::{BaseVertex, FirstInstance};
+        match (self.path, self.surface, self.slots) {
+            (BaseVertex, true, 0) => "vs_pull_surface",
+            (BaseVertex, true, 4) => "vs_pull_surface_targets4",
+            (BaseVertex, true, _) => "vs_pull_surface_targets8",
+            (BaseVertex, false, 0) => "vs_pull_plain",
+            (BaseVertex, false, 4) => "vs_pull_plain_targets4",
+            (BaseVertex, false, _) => "vs_pull_plain_targets8",
+            (FirstInstance, true, 0) => "vs_fetch_surface",
+            (FirstInstance, true, 4) => "vs_fetch_surface_targets4",
+            (FirstInstance, true, _) => "vs_fetch_surface_targets8",
+            (FirstInstance, false, 0) => "vs_fetch_plain",
+            (FirstInstance, false, 4) => "vs_fetch_plain_targets4",
+            (FirstInstance, false, _) => "vs_fetch_plain_targets8",
+        }
+    }
+
+    /// The fragment entry point.
+    fn fragment(self) -> &'static str {
+        if self.surface {
+            "fs_surface"
+        } else {
+            "fs_plain"
+        }
+    }
+}
+
+/// The pipelines and layouts a crowd draws and edits with. Render pipelines are made when the
+/// first asset that needs their entry point is added.
 pub(super) struct CrowdPipeline {
     pub(super) layout: wgpu::BindGroupLayout,
     render_layout: wgpu::PipelineLayout,
     shader: wgpu::ShaderModule,
     /// Colour and depth formats and culling every render pipeline of this crowd uses.
     formats: Formats,
-    pub(super) render: wgpu::RenderPipeline,
+    renders: Vec<(Variant, wgpu::RenderPipeline)>,
     pub(super) scatter_layout: wgpu::BindGroupLayout,
     pub(super) scatter: wgpu::ComputePipeline,
     pub(super) probe_layout: wgpu::BindGroupLayout,
@@ -144,14 +217,6 @@ impl CrowdPipeline {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let render = render_pipeline(
-            device,
-            &render_layout,
-            &shader,
-            "vs_crowd",
-            wgpu::PrimitiveTopology::TriangleStrip,
-            (color, depth, cull_mode),
-        );
 
         let storage = |binding, read_only, size| wgpu::BindGroupLayoutEntry {
             binding,
@@ -208,12 +273,41 @@ impl CrowdPipeline {
             render_layout,
             shader,
             formats: (color, depth, cull_mode),
-            render,
+            renders: Vec::new(),
             scatter_layout,
             scatter,
             probe_layout,
             probe,
         }
+    }
+
+    /// The number of `variant`'s render pipeline, made now if no asset used it before.
+    pub(super) fn render_for(&mut self, device: &wgpu::Device, variant: Variant) -> usize {
+        if let Some(at) = self.renders.iter().position(|(v, _)| *v == variant) {
+            return at;
+        }
+        // The first-instance path fetches the poses (and surface) as attributes; the
+        // base-vertex path has no vertex buffers (crowd.wgsl says why).
+        let buffers = match variant.path {
+            CrowdPath::FirstInstance => vertex_buffers(variant.surface),
+            CrowdPath::BaseVertex => Vec::new(),
+        };
+        let render = render_pipeline(
+            device,
+            &self.render_layout,
+            &self.shader,
+            (variant.entry_point(), variant.fragment()),
+            &buffers,
+            wgpu::PrimitiveTopology::TriangleStrip,
+            self.formats,
+        );
+        self.renders.push((variant, render));
+        self.renders.len() - 1
+    }
+
+    /// Render pipeline number `at` (from [`render_for`](Self::render_for)).
+    pub(super) fn render(&self, at: usize) -> &wgpu::RenderPipeline {
+        &self.renders[at].1
     }
 }
 
@@ -225,27 +319,29 @@ type Formats = (
 );
 
 impl CrowdPipeline {
-    /// The discrete-LOD renderer's pipeline (`vs_levels`): the crowd's shader, bind group
-    /// layout and formats, triangle lists, the instance from `instance_index`.
+    /// The discrete-LOD renderer's pipeline (`vs_levels`, `fs_surface`): the crowd's shader,
+    /// bind group layout and formats, triangle lists, the instance from `instance_index`.
     pub(super) fn levels_pipeline(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
         render_pipeline(
             device,
             &self.render_layout,
             &self.shader,
-            "vs_levels",
+            ("vs_levels", "fs_surface"),
+            &[],
             wgpu::PrimitiveTopology::TriangleList,
             self.formats,
         )
     }
 }
 
-/// A render pipeline of `crowd.wgsl`: vertex entry `entry` (vertex pulling, no vertex
-/// buffers), `fs_crowd`, depth test `Less` when there is a depth format.
+/// A render pipeline of `crowd.wgsl`: vertex and fragment entry points `entry` over the
+/// vertex `buffers` (none for vertex pulling), depth test `Less` when there is a depth format.
 fn render_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
     shader: &wgpu::ShaderModule,
-    entry: &str,
+    (entry, fragment): (&str, &str),
+    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
     topology: wgpu::PrimitiveTopology,
     (color, depth, cull_mode): Formats,
 ) -> wgpu::RenderPipeline {
@@ -256,8 +352,7 @@ fn render_pipeline(
             module: shader,
             entry_point: Some(entry),
             compilation_options: Default::default(),
-            // Vertex pulling: no vertex buffers (crowd.wgsl says why).
-            buffers: &[],
+            buffers,
         },
         primitive: wgpu::PrimitiveState {
             topology,
@@ -277,7 +372,7 @@ fn render_pipeline(
         multisample: wgpu::MultisampleState::default(),
         fragment: Some(wgpu::FragmentState {
             module: shader,
-            entry_point: Some("fs_crowd"),
+            entry_point: Some(fragment),
             compilation_options: Default::default(),
             targets: &[Some(wgpu::ColorTargetState {
                 format: color,
@@ -371,8 +466,8 @@ mod tests {
     use super::*;
     use crate::gpu::pipeline::validated_wgsl;
 
-    /// Both crowd shaders parse and validate without a GPU, and the Rust blocks have the
-    /// WGSL structs' sizes.
+    /// Both crowd shaders parse and validate without a GPU, the Rust blocks have the WGSL
+    /// structs' sizes, and every entry point a crowd may pick is there.
     #[test]
     fn crowd_wgsl_validates_and_blocks_match() {
         let crowd = validated_wgsl(CROWD_WGSL);
@@ -392,6 +487,26 @@ mod tests {
         assert_eq!(size("Mesh"), size_of::<MeshBlock>());
         assert_eq!(size("Instance"), size_of::<InstanceBlock>());
         assert!(size_of::<InstanceBlock>() <= 256);
+        // Every variant's vertex entry point exists.
+        for path in [CrowdPath::FirstInstance, CrowdPath::BaseVertex] {
+            for surface in [false, true] {
+                for targets in [0, 3, 4, 5, 8] {
+                    let variant = Variant::new(path, surface, targets);
+                    for (entry, stage) in [
+                        (variant.entry_point(), naga::ShaderStage::Vertex),
+                        (variant.fragment(), naga::ShaderStage::Fragment),
+                    ] {
+                        assert!(
+                            crowd
+                                .entry_points
+                                .iter()
+                                .any(|e| e.name == entry && e.stage == stage),
+                            "crowd.wgsl has no {stage:?} entry point {entry}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]
