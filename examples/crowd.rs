@@ -38,7 +38,7 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::WindowId;
 
 use common::cache::{BuiltMorph, Library};
-use common::headless::{remove_old_frames, resident_mb};
+use common::headless::{check_growth, remove_old_frames, resident_mb};
 use common::scene::Readout;
 use common::window::{no_display, FrameClock, Presenter};
 use common::{Demo, DemoError, MorphSpec, NamedMorph};
@@ -522,20 +522,7 @@ fn run_headless(args: &Args, assets: &[BuiltMorph; 2], out: &Path) -> Result<(),
              {triangles:.0} triangles"
         );
     }
-    if let (Some(before), Some(after)) = (warm_resident, resident_mb()) {
-        let growth_mb = after - before;
-        println!(
-            "crowd: resident set {before:.1} MB after frame {warm_up}, {after:.1} MB after frame {frames}"
-        );
-        if let Some(bound_mb) = args.max_growth_mb.filter(|&bound| growth_mb > bound) {
-            return Err(DemoError::MemoryGrowth {
-                growth_mb,
-                bound_mb,
-                from: warm_up,
-                to: frames,
-            });
-        }
-    }
+    check_growth("crowd", warm_resident, warm_up, frames, args.max_growth_mb)?;
     if let (Some(first), Some(last)) = (written.first(), written.last()) {
         println!(
             "crowd: {frames} frames written: {} .. {}",

@@ -92,21 +92,13 @@ pub fn run_headless(
             warm_resident = resident_mb();
         }
     }
-    if let (Some(before), Some(after)) = (warm_resident, resident_mb()) {
-        let growth_mb = after - before;
-        println!(
-            "{}: resident set {before:.1} MB after frame {warm_up}, {after:.1} MB after frame {frames}",
-            demo.name
-        );
-        if let Some(bound_mb) = args.max_growth_mb.filter(|&bound| growth_mb > bound) {
-            return Err(DemoError::MemoryGrowth {
-                growth_mb,
-                bound_mb,
-                from: warm_up,
-                to: frames,
-            });
-        }
-    }
+    check_growth(
+        demo.name,
+        warm_resident,
+        warm_up,
+        frames,
+        args.max_growth_mb,
+    )?;
     if let Some(first) = first {
         println!(
             "{}: {frames} frames written: {} .. {}",
@@ -137,6 +129,34 @@ pub fn remove_old_frames(out: &Path) -> Result<(), DemoError> {
         }
     }
     Ok(())
+}
+
+/// Prints the resident set at the end of a headless run against `warm_resident` (taken after
+/// frame `warm_up`) and fails with [`DemoError::MemoryGrowth`] when it grew by more than
+/// `bound_mb`. Nothing is checked where the resident set cannot be read (not Linux).
+pub fn check_growth(
+    name: &str,
+    warm_resident: Option<f64>,
+    warm_up: u32,
+    frames: u32,
+    bound_mb: Option<f64>,
+) -> Result<(), DemoError> {
+    let (Some(before), Some(after)) = (warm_resident, resident_mb()) else {
+        return Ok(());
+    };
+    let growth_mb = after - before;
+    println!(
+        "{name}: resident set {before:.1} MB after frame {warm_up}, {after:.1} MB after frame {frames}"
+    );
+    match bound_mb.filter(|&bound| growth_mb > bound) {
+        Some(bound_mb) => Err(DemoError::MemoryGrowth {
+            growth_mb,
+            bound_mb,
+            from: warm_up,
+            to: frames,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// The process's resident set in MB (`/proc/self/statm`, 4 KiB pages), or `None` off Linux.
