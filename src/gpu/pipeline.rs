@@ -263,12 +263,65 @@ impl MorphPipeline {
     }
 }
 
-/// The attachment formats and culling every pipeline of a [`MorphPipeline`] shares.
+/// The attachment formats and culling every pipeline of a [`MorphPipeline`] (or of a crowd)
+/// shares.
 #[derive(Clone, Copy)]
-struct Formats {
-    color: wgpu::TextureFormat,
-    depth: Option<wgpu::TextureFormat>,
-    cull_mode: Option<wgpu::Face>,
+pub(super) struct Formats {
+    pub(super) color: wgpu::TextureFormat,
+    pub(super) depth: Option<wgpu::TextureFormat>,
+    pub(super) cull_mode: Option<wgpu::Face>,
+}
+
+/// A render pipeline of `shader`: entry points `vs` and `fs` over the vertex `buffers` (none
+/// for vertex pulling), depth test `Less` when there is a depth format, strips restarting at
+/// 0xFFFFFFFF (WebGPU requires the index format up front for strips).
+pub(super) fn render_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    shader: &wgpu::ShaderModule,
+    (label, vs, fs): (&str, &str, &str),
+    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+    topology: wgpu::PrimitiveTopology,
+    formats: Formats,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: shader,
+            entry_point: Some(vs),
+            compilation_options: Default::default(),
+            buffers,
+        },
+        primitive: wgpu::PrimitiveState {
+            topology,
+            strip_index_format: (topology == wgpu::PrimitiveTopology::TriangleStrip)
+                .then_some(wgpu::IndexFormat::Uint32),
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: formats.cull_mode,
+            ..Default::default()
+        },
+        depth_stencil: formats.depth.map(|format| wgpu::DepthStencilState {
+            format,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: shader,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: formats.color,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 impl Variant {
@@ -295,52 +348,20 @@ impl Variant {
             Layout::Surface => ("vs_surface", "fs_surface"),
         };
         let buffers = vertex_buffers(matches!(layout, Layout::Surface));
-        let build = |label: &str, topology, strip_index_format| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: shader,
-                    entry_point: Some(vs),
-                    compilation_options: Default::default(),
-                    buffers: &buffers,
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology,
-                    strip_index_format,
-                    front_face: wgpu::FrontFace::Ccw,
-                    cull_mode: formats.cull_mode,
-                    ..Default::default()
-                },
-                depth_stencil: formats.depth.map(|format| wgpu::DepthStencilState {
-                    format,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState::default(),
-                }),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: shader,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: formats.color,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+        let build = |label: &str, topology| {
+            render_pipeline(
+                device,
+                &pipeline_layout,
+                shader,
+                (label, vs, fs),
+                &buffers,
+                topology,
+                formats,
+            )
         };
         // Strips restart at 0xFFFFFFFF: WebGPU requires the index format up front for strips.
-        let strip = build(
-            "morph strips",
-            wgpu::PrimitiveTopology::TriangleStrip,
-            Some(wgpu::IndexFormat::Uint32),
-        );
-        let list = build("morph lists", wgpu::PrimitiveTopology::TriangleList, None);
+        let strip = build("morph strips", wgpu::PrimitiveTopology::TriangleStrip);
+        let list = build("morph lists", wgpu::PrimitiveTopology::TriangleList);
         Variant {
             bind_group_layout,
             strip,

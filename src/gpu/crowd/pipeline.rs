@@ -5,7 +5,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use crate::gpu::pipeline::vertex_buffers;
+use crate::gpu::pipeline::{render_pipeline, vertex_buffers, Formats};
 
 /// The WGSL source of the crowd shader: `shaders/shade.wgsl` followed by `shaders/crowd.wgsl`.
 pub const CROWD_WGSL: &str = concat!(
@@ -272,7 +272,11 @@ impl CrowdPipeline {
             layout,
             render_layout,
             shader,
-            formats: (color, depth, cull_mode),
+            formats: Formats {
+                color,
+                depth,
+                cull_mode,
+            },
             renders: Vec::new(),
             scatter_layout,
             scatter,
@@ -296,7 +300,11 @@ impl CrowdPipeline {
             device,
             &self.render_layout,
             &self.shader,
-            (variant.entry_point(), variant.fragment()),
+            (
+                variant.entry_point(),
+                variant.entry_point(),
+                variant.fragment(),
+            ),
             &buffers,
             wgpu::PrimitiveTopology::TriangleStrip,
             self.formats,
@@ -311,13 +319,6 @@ impl CrowdPipeline {
     }
 }
 
-/// Colour format, depth format and face culling of a crowd's passes.
-type Formats = (
-    wgpu::TextureFormat,
-    Option<wgpu::TextureFormat>,
-    Option<wgpu::Face>,
-);
-
 impl CrowdPipeline {
     /// The discrete-LOD renderer's pipeline (`vs_levels`, `fs_surface`): the crowd's shader,
     /// bind group layout and formats, triangle lists, the instance from `instance_index`.
@@ -326,63 +327,12 @@ impl CrowdPipeline {
             device,
             &self.render_layout,
             &self.shader,
-            ("vs_levels", "fs_surface"),
+            ("vs_levels", "vs_levels", "fs_surface"),
             &[],
             wgpu::PrimitiveTopology::TriangleList,
             self.formats,
         )
     }
-}
-
-/// A render pipeline of `crowd.wgsl`: vertex and fragment entry points `entry` over the
-/// vertex `buffers` (none for vertex pulling), depth test `Less` when there is a depth format.
-fn render_pipeline(
-    device: &wgpu::Device,
-    layout: &wgpu::PipelineLayout,
-    shader: &wgpu::ShaderModule,
-    (entry, fragment): (&str, &str),
-    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
-    topology: wgpu::PrimitiveTopology,
-    (color, depth, cull_mode): Formats,
-) -> wgpu::RenderPipeline {
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(entry),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module: shader,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            buffers,
-        },
-        primitive: wgpu::PrimitiveState {
-            topology,
-            strip_index_format: (topology == wgpu::PrimitiveTopology::TriangleStrip)
-                .then_some(wgpu::IndexFormat::Uint32),
-            front_face: wgpu::FrontFace::Ccw,
-            cull_mode,
-            ..Default::default()
-        },
-        depth_stencil: depth.map(|format| wgpu::DepthStencilState {
-            format,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Less),
-            stencil: wgpu::StencilState::default(),
-            bias: wgpu::DepthBiasState::default(),
-        }),
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: shader,
-            entry_point: Some(fragment),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: color,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
 }
 
 fn compute(
