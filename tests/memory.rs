@@ -23,8 +23,6 @@ use std::sync::{Arc, Mutex};
 mod common;
 
 use morphlod::gpu::{Crowd, GpuAsset, InstanceId, LodObject, RenderTarget};
-use morphlod::io::LoadOptions;
-use morphlod::io::MorphSource;
 use morphlod::{Asset, Builder, DeformingModel, Lod};
 
 /// Frames drawn before the first measurement: pipelines, staging pools and caches fill up.
@@ -49,19 +47,7 @@ fn resident_mb() -> Option<f64> {
 
 /// The head's weight animation (8 targets), built with 8 frames.
 fn head_asset() -> Asset {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/makehuman_head.glb");
-    let morph = morphlod::io::load_morph(
-        &path,
-        &LoadOptions::default(),
-        &MorphSource::Animation("morph".into()),
-    )
-    .expect("the head's weight animation loads");
-    let (asset, _) = Builder::new(&morph)
-        .frames(8)
-        .build()
-        .expect("the head builds");
-    assert!(asset.blend.is_some(), "the asset carries its morph targets");
-    asset
+    common::animated_asset("makehuman_head.glb", "morph", 8)
 }
 
 /// `t` at frame `frame`: 0 → 1 → 0 over 400 frames (crossing every sampled frame), from
@@ -133,20 +119,7 @@ fn lod_object_memory_stays_flat_over_thousands_of_frames() {
 /// the head's vertex work, which llvmpipe runs on the CPU. Its faces are split at every corner,
 /// so it has no LOD: the grid brings the index patches.
 fn cube_asset() -> Asset {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf");
-    let morph = morphlod::io::load_morph(
-        &path,
-        &LoadOptions::default(),
-        &MorphSource::Animation("Square".into()),
-    )
-    .expect("the cube's weight animation loads");
-    let (asset, _) = Builder::new(&morph)
-        .frames(6)
-        .build()
-        .expect("the cube builds");
-    assert!(asset.blend.is_some(), "the asset carries its morph targets");
-    asset
+    common::animated_asset("AnimatedMorphCube-glTF/AnimatedMorphCube.gltf", "Square", 6)
 }
 
 /// A 12 x 12 grid bulging from `V(0)` to `V(1)`, 6 frames: LOD and frame switches, so every

@@ -340,6 +340,23 @@ pub fn meshopt_simplify_with(
     out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
 }
 
+/// The weight animation `animation` of the shipped asset `file`, built with `frames` frames.
+pub fn animated_asset(file: &str, animation: &str, frames: usize) -> morphlod::Asset {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets")
+        .join(file);
+    let source = morphlod::io::MorphSource::Animation(animation.into());
+    let morph = morphlod::io::load_morph(&path, &morphlod::io::LoadOptions::default(), &source)
+        .unwrap_or_else(|e| panic!("{file}: {e}"));
+    let asset = morphlod::Builder::new(&morph)
+        .frames(frames)
+        .build()
+        .unwrap_or_else(|e| panic!("{file} builds: {e}"))
+        .0;
+    assert!(asset.blend.is_some(), "{file} keeps its targets");
+    asset
+}
+
 /// The morph of `assets/<name>` over cleaned connectivity (no repeated-vertex or duplicate
 /// triangle, no unused vertex), as the asset builder simplifies it.
 pub fn load_asset_morph(name: &str, source: morphlod::io::MorphSource) -> Morph {

@@ -52,7 +52,6 @@ use morphlod::gpu::{
     self, AssetId, Crowd, CrowdError, CrowdPath, DiscreteCrowd, DiscreteLevels, GpuAsset, GpuError,
     InstanceId, LodObject, RenderTarget,
 };
-use morphlod::io::{LoadOptions, MorphSource};
 use morphlod::simplify::PoseError;
 use morphlod::{Asset, Builder, DeformingModel, Lod};
 
@@ -89,26 +88,9 @@ fn shared_grid_asset(side: u32, poses: usize, height: f32) -> Asset {
     asset
 }
 
-/// The weight animation `animation` of the shipped asset `file`, built with `frames` frames.
-fn animated_asset(file: &str, animation: &str, frames: usize) -> Asset {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("assets")
-        .join(file);
-    let source = MorphSource::Animation(animation.into());
-    let morph = morphlod::io::load_morph(&path, &LoadOptions::default(), &source)
-        .unwrap_or_else(|e| panic!("{file}: {e}"));
-    let asset = Builder::new(&morph)
-        .frames(frames)
-        .build()
-        .unwrap_or_else(|e| panic!("{file} builds: {e}"))
-        .0;
-    assert!(asset.blend.is_some(), "{file} keeps its targets");
-    asset
-}
-
 /// makehuman_head's weight animation (8 targets, no surface), built with 3 frames.
 fn head_asset() -> Asset {
-    let asset = animated_asset("makehuman_head.glb", "morph", 3);
+    let asset = common::animated_asset("makehuman_head.glb", "morph", 3);
     assert!(asset.surface.is_none(), "the head is faceted");
     asset
 }
@@ -116,7 +98,7 @@ fn head_asset() -> Asset {
 /// makehuman_face's weight animation (52 targets with normal deltas, a textured surface),
 /// built with 3 frames.
 fn face_asset() -> Asset {
-    let asset = animated_asset("makehuman_face.glb", "expressions", 3);
+    let asset = common::animated_asset("makehuman_face.glb", "expressions", 3);
     assert!(asset.surface.is_some(), "the face has a surface");
     asset
 }
@@ -959,7 +941,10 @@ fn host_memory_per_instance_is_bounded() -> Result<()> {
     let (device, queue) = (ctx.device(), ctx.queue());
     // The body of the goal, 2 frames: the footprint of an instance does not depend on the
     // frame count (S0, strips and vertices are the asset's).
-    let kind = Kind::new(&ctx, animated_asset("makehuman_body.glb", "morph", 2))?;
+    let kind = Kind::new(
+        &ctx,
+        common::animated_asset("makehuman_body.glb", "morph", 2),
+    )?;
     let count = 40;
     let mut crowd = Crowd::new(
         device,
