@@ -14,6 +14,7 @@ mod asset_file;
 mod asset_golden;
 mod attribute_quality;
 mod bad_input;
+mod baselines;
 mod clean_attributes;
 mod correspondence;
 mod deform_quality;

@@ -157,11 +157,11 @@ fn report(name: &str, strips: &Strips, seq: &CollapseSequence) {
 // ---------------------------------------------------------------- generators
 
 /// Triangles and vertex count.
-type Mesh = (Vec<[u32; 3]>, usize);
+pub(crate) type Mesh = (Vec<[u32; 3]>, usize);
 
 /// A `w × h` grid of quads split into two triangles each, with the quads for
 /// which `hole(x, y)` is true left out.
-fn grid(w: u32, h: u32, hole: impl Fn(u32, u32) -> bool) -> Mesh {
+pub(crate) fn grid(w: u32, h: u32, hole: impl Fn(u32, u32) -> bool) -> Mesh {
     let mut t = Vec::new();
     for y in 0..h {
         for x in 0..w {
@@ -185,7 +185,7 @@ fn grid(w: u32, h: u32, hole: impl Fn(u32, u32) -> bool) -> Mesh {
 }
 
 /// A subdivided octahedron (closed, genus 0) with `level` 1:4 splits.
-fn sphere(level: u32) -> Mesh {
+pub(crate) fn sphere(level: u32) -> Mesh {
     let mut tris: Vec<[u32; 3]> = vec![
         [0, 2, 4],
         [2, 1, 4],
@@ -220,7 +220,7 @@ fn sphere(level: u32) -> Mesh {
 }
 
 /// Several components, a non-manifold fin, duplicated and flipped triangles.
-fn messy() -> Mesh {
+pub(crate) fn messy() -> Mesh {
     let (mut t, n1) = grid(6, 5, |x, y| x == 2 && y == 2);
     let (s, n2) = sphere(2);
     t.extend(s.iter().map(|tri| tri.map(|v| v + n1 as u32)));

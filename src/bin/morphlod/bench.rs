@@ -293,12 +293,12 @@ pub fn run_bench(
     })
 }
 
-fn micros(start: Instant) -> f64 {
+pub(crate) fn micros(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e6
 }
 
 /// Draws `object` alone into `target` and returns the milliseconds of submit + wait.
-fn gpu_frame(
+pub(crate) fn gpu_frame(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     target: &RenderTarget,

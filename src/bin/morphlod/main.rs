@@ -26,7 +26,9 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod baselines;
 mod bench;
+mod bench_baselines;
 mod export;
 mod output;
 mod plot;
@@ -163,8 +165,14 @@ struct RenderArgs {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// The .mlod asset to benchmark.
+    /// The .mlod asset to benchmark (with `--baselines`, a mesh file: .off, .obj, .ply, .glb).
     asset: PathBuf,
+    /// Instead of the sweeps, the LodStrips paper's comparison on a mesh: Progressive Meshes,
+    /// MTS, Skip Strips and LodStrips from one QEM sequence, their spatial cost (Table 1) and
+    /// the linear and exponential tests (Table 2); `--frames` per test, `--json` the rows,
+    /// `--plot` vertices and strips sent over the linear test (the paper's Fig. 1).
+    #[arg(long, conflicts_with = "crowd")]
+    baselines: bool,
     /// Frames per sweep.
     #[arg(long, default_value_t = 240)]
     frames: usize,
@@ -843,6 +851,9 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     if let Some(path) = &args.plot {
         check_output(path, Written::Png, &[&args.asset])?;
     }
+    if args.baselines {
+        return baselines_bench(args);
+    }
     let budget = budget(args.memory_budget);
     let bytes = read_asset(&args.asset, &budget)?;
     let mut asset = Asset::from_bytes_with(&bytes, &budget)
@@ -879,6 +890,46 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
     }
     if let Some(path) = &args.plot {
         plot::write_plot(&report, path)?;
+        println!("plot written to {}", path.display());
+    }
+    Ok(())
+}
+
+/// `bench --baselines MESH`: the LodStrips paper's tables ([`bench_baselines`]).
+fn baselines_bench(args: &BenchArgs) -> Result<(), String> {
+    let path = &args.asset;
+    let mesh = morphlod::io::load_mesh(path, &morphlod::io::LoadOptions::default())
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let start = Instant::now();
+    let seq = morphlod::simplify::simplify(
+        &mesh.positions,
+        &mesh.triangles,
+        &SimplifyOptions::default(),
+    );
+    let simplify_s = start.elapsed().as_secs_f64();
+    let context = Context::headless().map_err(|e| e.to_string())?;
+    let info = context.adapter_info();
+    println!(
+        "baselines on {} ({:?}, {:?}): {} frames per test, {}x{} target, {} repeats; QEM sequence in {simplify_s:.1} s",
+        info.name, info.backend, info.device_type, args.frames, args.size, args.size, args.repeats
+    );
+    let name = path.file_stem().map_or_else(
+        || path.display().to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let options = bench_baselines::BaselineOptions {
+        frames: args.frames,
+        size: args.size,
+        repeats: usize::from(args.repeats),
+    };
+    let report = bench_baselines::run_baselines(&context, &name, &mesh, &seq, &options)?;
+    print!("{}", report.markdown());
+    if let Some(path) = &args.json {
+        std::fs::write(path, report.to_json()).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("report written to {}", path.display());
+    }
+    if let Some(path) = &args.plot {
+        plot::write_baselines_plot(&report, path)?;
         println!("plot written to {}", path.display());
     }
     Ok(())

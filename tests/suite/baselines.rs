@@ -1,0 +1,303 @@
+//! The bench's baselines (issue 26: Progressive Meshes, MTS, Skip Strips; the bench binary's
+//! `baselines` module, compiled here by path) held to the same oracle as our LodStrips: after
+//! every step of a random walk of `set_lod` (up, down, jumps to 0, to the coarsest and
+//! anywhere), what a mirror updated only through `take_changed` draws equals the reference
+//! mesh at that LOD (docs/DESIGN.md, "Definitions: the oracle"): its multiset hash and count
+//! every step, the exact sorted multiset on small meshes every step and on real ones every
+//! `FULL_STRIDE` steps. Strips are decoded by `common::strip_draw` (the GPU's rules), lists
+//! three indices a triangle. Then bad input: each refusal is a typed error.
+
+use crate::common;
+use crate::oracle::{grid, messy, sphere};
+
+use common::{random_sequence, reference_hashes, strip_draw, tri_hash, Rng};
+use morphlod::collapse::{canonical_multiset, Collapse, CollapseSequence, SequenceError};
+use morphlod::strip::{stripify, Strips};
+
+#[path = "../../src/bin/morphlod/baselines/mod.rs"]
+#[allow(dead_code)] // the bench reads what the walks do not (sizes, names)
+mod model;
+
+use model::mts::Mts;
+use model::pm::ProgressiveMesh;
+use model::skip_strips::SkipStrips;
+use model::{Baseline, BaselineError, Primitive};
+
+/// Meshes up to this size get the exact multiset compared every step.
+const FULL_EVERY_STEP_TRIANGLES: usize = 3000;
+const FULL_STRIDE: usize = 61;
+
+/// The three baselines over one mesh and sequence.
+fn build_all(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence) -> Vec<Box<dyn Baseline>> {
+    vec![
+        Box::new(ProgressiveMesh::build(tris, seq).expect("PM builds")),
+        Box::new(Mts::build(strips, seq).expect("MTS builds")),
+        Box::new(SkipStrips::build(strips, seq).expect("Skip Strips build")),
+    ]
+}
+
+/// What a region draws, as the GPU would.
+fn region_draws(primitive: Primitive, live: &[u32]) -> Vec<[u32; 3]> {
+    match primitive {
+        Primitive::Strips => strip_draw(live),
+        Primitive::Triangles => live
+            .chunks(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .filter(|t| !common::degenerate(*t))
+            .collect(),
+    }
+}
+
+/// The GPU's copy of a model's regions, updated only for the regions `take_changed` names,
+/// with the multiset hash and count of what each draws.
+struct Mirror {
+    regions: Vec<Vec<u32>>,
+    hashes: Vec<(u64, usize)>,
+}
+
+impl Mirror {
+    fn new(model: &mut dyn Baseline) -> Mirror {
+        let n = model.region_count();
+        let mut mirror = Mirror {
+            regions: vec![Vec::new(); n],
+            hashes: vec![(0, 0); n],
+        };
+        model.take_changed();
+        for r in 0..n {
+            mirror.copy(model, r);
+        }
+        mirror
+    }
+
+    fn copy(&mut self, model: &dyn Baseline, r: usize) {
+        let live = model.region(r);
+        assert!(
+            live.len() <= model.region_capacity(r),
+            "{}: region {r} overflows its capacity",
+            model.name()
+        );
+        self.regions[r] = live.to_vec();
+        let tris = region_draws(model.primitive(), live);
+        self.hashes[r] = (
+            tris.iter().fold(0u64, |h, &t| h.wrapping_add(tri_hash(t))),
+            tris.len(),
+        );
+    }
+
+    fn update(&mut self, model: &mut dyn Baseline) {
+        for r in model.take_changed() {
+            self.copy(model, r as usize);
+        }
+    }
+
+    fn hash(&self) -> (u64, usize) {
+        self.hashes
+            .iter()
+            .fold((0u64, 0usize), |(h, c), &(rh, rc)| {
+                (h.wrapping_add(rh), c + rc)
+            })
+    }
+
+    fn triangles(&self, primitive: Primitive) -> Vec<[u32; 3]> {
+        self.regions
+            .iter()
+            .flat_map(|live| region_draws(primitive, live))
+            .collect()
+    }
+}
+
+/// Walks every baseline `steps` times over `seq` and checks the oracle after every step.
+fn walk(name: &str, tris: &[[u32; 3]], seq: &CollapseSequence, steps: usize, seed: u64) {
+    let n = seq.vertex_count as usize;
+    let strips = stripify(tris, n);
+    let reference = reference_hashes(tris, seq);
+    let every_step = tris.len() <= FULL_EVERY_STEP_TRIANGLES;
+    for mut model in build_all(tris, &strips, seq) {
+        let mut rng = Rng(seed);
+        let label = format!("{name}, {}", model.name());
+        let max = model.max_lod();
+        assert_eq!(max, seq.len(), "{label}: one LOD per collapse");
+        let mut mirror = Mirror::new(model.as_mut());
+        let full = |l: usize, mirror: &Mirror, model: &dyn Baseline| {
+            assert_eq!(
+                canonical_multiset(mirror.triangles(model.primitive())),
+                canonical_multiset(seq.reference_mesh(tris, l)),
+                "{label}: drawn triangles differ from the reference at LOD {l}"
+            );
+        };
+        full(0, &mirror, model.as_ref());
+        assert_eq!(mirror.hash(), reference[0], "{label} at LOD 0");
+        for step in 0..steps {
+            let l = model.lod();
+            let target = match rng.below(16) {
+                0 => 0,
+                1 => max,
+                2 | 3 => rng.below(max + 1),
+                4..=9 => (l + 1 + rng.below(3)).min(max),
+                _ => l.saturating_sub(1 + rng.below(3)),
+            };
+            model.set_lod(target).expect("LOD in range");
+            assert_eq!(model.lod(), target, "{label}");
+            mirror.update(model.as_mut());
+            assert_eq!(
+                mirror.hash(),
+                reference[target],
+                "{label}: drawn multiset (hash, count) at LOD {target}, step {step}"
+            );
+            if every_step || step % FULL_STRIDE == 0 || step + 1 == steps {
+                full(target, &mirror, model.as_ref());
+            }
+        }
+        // The walked state equals a fresh model moved straight there.
+        let mut fresh = build_all(tris, &strips, seq)
+            .into_iter()
+            .find(|m| m.name() == model.name())
+            .expect("same model");
+        fresh.set_lod(model.lod()).expect("in range");
+        for r in 0..model.region_count() {
+            assert_eq!(
+                canonical_multiset(region_draws(model.primitive(), model.region(r))),
+                canonical_multiset(region_draws(fresh.primitive(), fresh.region(r))),
+                "{label}: region {r} after the walk differs from a direct move"
+            );
+        }
+    }
+}
+
+#[test]
+fn generated_meshes_random_sequences() {
+    let cases = [
+        (
+            "grid with holes",
+            grid(16, 12, |x, y| (x * 7 + y * 3) % 11 == 0),
+        ),
+        ("sphere", sphere(3)),
+        ("messy", messy()),
+    ];
+    for (k, (name, (tris, n))) in cases.iter().enumerate() {
+        let seq = random_sequence(tris, *n, usize::MAX, &mut Rng(10 + k as u64));
+        walk(name, tris, &seq, 1500, 20 + k as u64);
+    }
+}
+
+#[test]
+fn partial_and_empty_sequences() {
+    let (tris, n) = sphere(2);
+    for (k, steps) in [0, 1, 7].into_iter().enumerate() {
+        let seq = random_sequence(&tris, n, steps, &mut Rng(30 + k as u64));
+        walk("sphere, partial", &tris, &seq, 100, 40 + k as u64);
+    }
+}
+
+/// A real mesh with the simplifier's (QEM) sequence, as the bench builds it.
+#[test]
+fn cow_qem_sequence() {
+    let mesh = common::load_asset_mesh("cow.off");
+    let seq = morphlod::simplify::simplify(
+        &mesh.positions,
+        &mesh.triangles,
+        &morphlod::simplify::SimplifyOptions::default(),
+    );
+    walk("cow.off (QEM)", &mesh.triangles, &seq, 600, 50);
+}
+
+/// A second real mesh with a random edge-collapse sequence (orders QEM never picks).
+#[test]
+fn bunny_random_sequence() {
+    let mesh = common::load_asset_mesh("bunny.obj");
+    let n = mesh.positions.len();
+    let seq = random_sequence(&mesh.triangles, n, usize::MAX, &mut Rng(60));
+    walk("bunny.obj (random)", &mesh.triangles, &seq, 600, 61);
+}
+
+#[test]
+fn lod_out_of_range_is_refused_and_changes_nothing() {
+    let (tris, n) = sphere(1);
+    let seq = random_sequence(&tris, n, 5, &mut Rng(70));
+    let strips = stripify(&tris, n);
+    for mut model in build_all(&tris, &strips, &seq) {
+        model.set_lod(3).expect("in range");
+        model.take_changed();
+        let before: Vec<Vec<u32>> = (0..model.region_count())
+            .map(|r| model.region(r).to_vec())
+            .collect();
+        let err = model.set_lod(seq.len() + 1).expect_err("out of range");
+        assert_eq!(
+            err,
+            BaselineError::LodOutOfRange {
+                lod: seq.len() + 1,
+                max: seq.len()
+            },
+            "{}",
+            model.name()
+        );
+        assert!(err.to_string().contains("0..=5"), "{err}");
+        assert_eq!(model.lod(), 3);
+        assert!(model.take_changed().is_empty(), "{}", model.name());
+        for (r, live) in before.iter().enumerate() {
+            assert_eq!(model.region(r), live.as_slice(), "{}", model.name());
+        }
+    }
+}
+
+#[test]
+fn bad_inputs_are_typed_errors() {
+    let (tris, n) = sphere(1);
+    let strips = stripify(&tris, n);
+    // A sequence over fewer vertices than the mesh names.
+    let short = CollapseSequence {
+        vertex_count: 3,
+        collapses: Vec::new(),
+    };
+    assert!(matches!(
+        ProgressiveMesh::build(&tris, &short),
+        Err(BaselineError::VertexOutOfRange {
+            what: "a triangle",
+            ..
+        })
+    ));
+    assert!(matches!(
+        Mts::build(&strips, &short),
+        Err(BaselineError::VertexOutOfRange {
+            what: "a strip",
+            ..
+        })
+    ));
+    assert!(matches!(
+        SkipStrips::build(&strips, &short),
+        Err(BaselineError::VertexOutOfRange {
+            what: "a strip",
+            ..
+        })
+    ));
+    // An invalid sequence: a vertex collapsing onto itself.
+    let selfish = CollapseSequence {
+        vertex_count: n as u32,
+        collapses: vec![Collapse {
+            u: 2,
+            w: 2,
+            error: 0.0,
+        }],
+    };
+    let expected = BaselineError::Sequence(SequenceError::SelfCollapse { step: 0, vertex: 2 });
+    assert_eq!(
+        ProgressiveMesh::build(&tris, &selfish).err(),
+        Some(expected.clone())
+    );
+    assert_eq!(Mts::build(&strips, &selfish).err(), Some(expected.clone()));
+    assert_eq!(SkipStrips::build(&strips, &selfish).err(), Some(expected));
+    // Strips whose offsets do not cover their indices.
+    let broken = Strips {
+        indices: strips.indices.clone(),
+        offsets: vec![0, 2],
+    };
+    let seq = random_sequence(&tris, n, 3, &mut Rng(80));
+    assert_eq!(
+        Mts::build(&broken, &seq).err(),
+        Some(BaselineError::BadStrips)
+    );
+    assert_eq!(
+        SkipStrips::build(&broken, &seq).err(),
+        Some(BaselineError::BadStrips)
+    );
+}
