@@ -7,10 +7,11 @@
 //!   position) against the triangle mesh (12 bytes per vertex and per triangle), in MB of
 //!   2^20 bytes as the paper's Cow row (0.100 MB for 2904 vertices, 5804 triangles) implies;
 //! * **Table 2**, the linear and exponential tests (Ribelles et al. 1999, as seed 001 cites
-//!   them): LOD fraction `x` (linear) or `1 − (1024^(1−x) − 1) / 1023` (exponential: large
-//!   LOD changes near full detail, small ones far away, as seed 000 §4.3 describes the
-//!   viewer walking away) over `frames` frames. Per frame and model: the extraction's CPU
-//!   time (`set_lod`), the GPU time of one draw (submit + wait, the fastest of `repeats`;
+//!   them) over `frames` frames from full detail to the coarsest, with the LOD fractions of
+//!   [`Sweep`]: `x`, and `(1024^x − 1) / 1023`, which dwells near full detail (the paper's
+//!   exponential render times are above its linear ones for every model and mesh, so its
+//!   exponential test spends more frames at fine LODs). Per frame and model: the extraction's
+//!   CPU time (`set_lod`), the GPU time of one draw (submit + wait, the fastest of `repeats`;
 //!   the first carries the frame's uploads), vertices and strips sent, bytes uploaded.
 //!   Render time = extraction + draw, and "% rec" its extraction share, as in the paper.
 //!
@@ -27,37 +28,13 @@ use crate::baselines::skip_strips::SkipStrips;
 use crate::baselines::{
     strips_and_vertices, Baseline, BaselineError, Primitive, POSITION_BYTES, RESTART,
 };
-use crate::bench::{gpu_frame, micros};
+use crate::bench::{gpu_frame, micros, Sweep};
 use morphlod::collapse::CollapseSequence;
 use morphlod::gpu::camera::{fit_to_bounds, Projection};
 use morphlod::gpu::{Context, MorphPipeline, Object, RenderTarget, ShadeMode, Topology};
 use morphlod::lodstrips::{LodStrips, StripsState};
 use morphlod::strip::Strips;
 use morphlod::IndexedMesh;
-
-/// The LodStrips paper's two tests.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Test {
-    Linear,
-    Exponential,
-}
-
-impl Test {
-    pub fn name(self) -> &'static str {
-        match self {
-            Test::Linear => "linear",
-            Test::Exponential => "exponential",
-        }
-    }
-
-    /// LOD fraction at position `x` in `[0, 1]` (0 full detail, 1 the coarsest).
-    pub fn fraction(self, x: f64) -> f64 {
-        match self {
-            Test::Linear => x,
-            Test::Exponential => 1.0 - (1024f64.powf(1.0 - x) - 1.0) / 1023.0,
-        }
-    }
-}
 
 /// Settings of a baselines run.
 #[derive(Clone, Copy, Debug)]
@@ -139,7 +116,7 @@ pub struct SizeRow {
 /// One frame of one test for one model (Table 2, Fig. 1).
 #[derive(Clone, Debug)]
 pub struct BaselineRow {
-    pub test: Test,
+    pub test: Sweep,
     pub model: &'static str,
     pub frame: usize,
     pub lod: usize,
@@ -256,37 +233,22 @@ pub fn run_baselines(
     let frames = options.frames.max(2);
     let repeats = options.repeats.max(1);
     let mut rows = Vec::new();
-    for test in [Test::Linear, Test::Exponential] {
+    for test in [Sweep::Linear, Sweep::Exponential] {
+        let mut objects = Vec::with_capacity(models.len());
         for (model, _) in &mut models {
             model.set_lod(0).map_err(|e| e.to_string())?;
             model.take_changed();
-            // Each region at its capacity (restarts or degenerate triangles past the live
-            // part), then its live contents: what the model's extraction writes later.
-            let (topology, filler) = match model.primitive() {
-                Primitive::Strips => (Topology::Strip, RESTART),
-                Primitive::Triangles => (Topology::List, 0),
-            };
-            let regions: Vec<Vec<u32>> = (0..model.region_count())
-                .map(|r| {
-                    let mut region = model.region(r).to_vec();
-                    region.resize(model.region_capacity(r), filler);
-                    region
-                })
-                .collect();
-            let mut object =
-                Object::new(device, &pipeline, topology, positions, positions, &regions)
-                    .map_err(gpu)?;
-            for r in 0..model.region_count() {
-                object.write_region(r, model.region(r)).map_err(gpu)?;
-            }
-            object.set_view_proj(camera);
-            object.set_shade_mode(ShadeMode::Faceted);
-            object.prepare(queue);
+            let object = object_for(device, queue, &pipeline, positions, camera, model.as_ref())?;
             gpu_frame(device, queue, &target, &object).map_err(gpu)?;
-            let max_lod = model.max_lod();
-            for frame in 0..frames {
-                let x = frame as f64 / (frames - 1) as f64;
-                let lod = (test.fraction(x) * max_lod as f64).round() as usize;
+            objects.push(object);
+        }
+        // Frame by frame, every model in turn: load from other processes on a shared machine
+        // then falls on all four alike instead of on whichever model ran during it.
+        for frame in 0..frames {
+            let x = frame as f32 / (frames - 1) as f32;
+            for ((model, _), object) in models.iter_mut().zip(&mut objects) {
+                let max_lod = model.max_lod();
+                let lod = (f64::from(test.fraction(x)) * max_lod as f64).round() as usize;
                 let start = Instant::now();
                 model.set_lod(lod.min(max_lod)).map_err(|e| e.to_string())?;
                 let extract_us = micros(start);
@@ -299,7 +261,7 @@ pub fn run_baselines(
                 let mut draw_ms = f64::INFINITY;
                 for _ in 0..repeats {
                     draw_ms =
-                        draw_ms.min(gpu_frame(device, queue, &target, &object).map_err(gpu)?.0);
+                        draw_ms.min(gpu_frame(device, queue, &target, object).map_err(gpu)?.0);
                 }
                 let (mut strips_sent, mut vertices) = (0, 0);
                 for r in 0..model.region_count() {
@@ -339,6 +301,40 @@ pub fn run_baselines(
         sizes,
         rows,
     })
+}
+
+/// A GPU object over `model`'s regions at its current LOD, seen through `camera`, uploaded: each region sized to its
+/// capacity (restarts or degenerate triangles past the live part), then given its live
+/// contents, as the model's extractions will write it later.
+fn object_for(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    pipeline: &MorphPipeline,
+    positions: &[[f32; 3]],
+    camera: glam::Mat4,
+    model: &dyn Baseline,
+) -> Result<Object, String> {
+    let gpu = |e: morphlod::gpu::GpuError| e.to_string();
+    let (topology, filler) = match model.primitive() {
+        Primitive::Strips => (Topology::Strip, RESTART),
+        Primitive::Triangles => (Topology::List, 0),
+    };
+    let regions: Vec<Vec<u32>> = (0..model.region_count())
+        .map(|r| {
+            let mut region = model.region(r).to_vec();
+            region.resize(model.region_capacity(r), filler);
+            region
+        })
+        .collect();
+    let mut object =
+        Object::new(device, pipeline, topology, positions, positions, &regions).map_err(gpu)?;
+    for r in 0..model.region_count() {
+        object.write_region(r, model.region(r)).map_err(gpu)?;
+    }
+    object.set_view_proj(camera);
+    object.set_shade_mode(ShadeMode::Faceted);
+    object.prepare(queue);
+    Ok(object)
 }
 
 const MB: f64 = (1 << 20) as f64;
@@ -391,7 +387,7 @@ impl BaselinesReport {
         POSITION_BYTES * self.vertices + 12 * self.triangles
     }
 
-    fn rows_of<'a>(&'a self, test: Test, model: &'a str) -> impl Iterator<Item = &'a BaselineRow> {
+    fn rows_of<'a>(&'a self, test: Sweep, model: &'a str) -> impl Iterator<Item = &'a BaselineRow> {
         self.rows
             .iter()
             .filter(move |r| r.test == test && r.model == model)
@@ -399,7 +395,7 @@ impl BaselinesReport {
 
     /// Per-frame means of one model in one test: render ms, extraction ms, draw ms,
     /// vertices, strips, upload bytes.
-    fn means(&self, test: Test, model: &str) -> [f64; 6] {
+    fn means(&self, test: Sweep, model: &str) -> [f64; 6] {
         let mut sum = [0.0; 6];
         let mut n = 0usize;
         for r in self.rows_of(test, model) {
@@ -497,7 +493,7 @@ impl BaselinesReport {
             out,
             "| Test | Model | Render (ms) | % rec | % drw | Extract (ms) | Draw (ms) | Vertices | Strips | Upload (B) | Paper render (ms) | Paper % rec |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
         );
-        for (t, test) in [Test::Linear, Test::Exponential].into_iter().enumerate() {
+        for (t, test) in [Sweep::Linear, Sweep::Exponential].into_iter().enumerate() {
             for m in &models {
                 let [render, extract, draw, vertices, strips, upload] = self.means(test, m);
                 let share = 100.0 * extract / render.max(1e-12);
@@ -569,7 +565,7 @@ impl BaselinesReport {
             })
             .collect();
         let mut means = Vec::new();
-        for test in [Test::Linear, Test::Exponential] {
+        for test in [Sweep::Linear, Sweep::Exponential] {
             for m in self.models() {
                 let [render, extract, draw, vertices, strips, upload] = self.means(test, m);
                 means.push(serde_json::json!({
