@@ -142,12 +142,15 @@ pub struct BaselinesReport {
     pub rows: Vec<BaselineRow>,
 }
 
+/// A model and the milliseconds its build took.
+type Built = (Box<dyn Baseline>, f64);
+
 /// The four models of `mesh` (PM, MTS, Skip Strips, LodStrips), each timed as it builds.
 fn build_models(
     mesh: &IndexedMesh,
     strips: &Strips,
     seq: &CollapseSequence,
-) -> Result<Vec<(Box<dyn Baseline>, f64)>, String> {
+) -> Result<Vec<Built>, String> {
     type Build<'a> = Box<dyn Fn() -> Result<Box<dyn Baseline>, String> + 'a>;
     let builds: [Build; 4] = [
         Box::new(|| {

@@ -282,6 +282,106 @@ fn draw_crowd_panel(
     Ok(())
 }
 
+/// Colours of the baselines' models, by name.
+fn model_colour(model: &str) -> RGBColor {
+    match model {
+        "LodStrips" => RGBColor(31, 119, 180),
+        "MTS" => RGBColor(255, 127, 14),
+        "PM" => RGBColor(214, 39, 40),
+        _ => RGBColor(44, 160, 44),
+    }
+}
+
+/// The LodStrips paper's Fig. 1 for `report`: (a) vertices and (b) strips sent over the
+/// linear test's LOD fraction, one line per model (PM sends no strips), written at `path`.
+pub fn write_baselines_plot(report: &BaselinesReport, path: &Path) -> Result<(), String> {
+    register_font(FAMILY, FontStyle::Normal, FONT)
+        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
+    let linear: Vec<_> = report
+        .rows
+        .iter()
+        .filter(|r| r.test == Sweep::Linear)
+        .collect();
+    if linear.is_empty() {
+        return Err("the baselines report has no rows to plot".into());
+    }
+    type Value = fn(&crate::bench_baselines::BaselineRow) -> f64;
+    let panels: [(&str, Value, bool); 2] = [
+        ("(a) vertices sent", |r| r.vertices as f64, true),
+        ("(b) strips sent", |r| r.strips as f64, false),
+    ];
+    let height = PANEL_HEIGHT * 2;
+    let mut pixels = vec![255u8; (WIDTH * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
+        let areas = root.split_evenly((2, 1));
+        for (area, (label, value, with_pm)) in areas.iter().zip(panels) {
+            let draw = || -> Result<(), Box<dyn std::error::Error>> {
+                let rows: Vec<_> = linear
+                    .iter()
+                    .filter(|r| with_pm || r.model != "PM")
+                    .collect();
+                let top = rows
+                    .iter()
+                    .map(|r| value(r))
+                    .fold(0.0f64, f64::max)
+                    .max(1.0)
+                    * 1.05;
+                // MTS and Skip Strips build the same display strips, so their lines coincide.
+                let caption = format!(
+                    "{label} by {} in the linear test ({} triangles; MTS under Skip Strips)",
+                    report.mesh, report.triangles
+                );
+                let mut chart = ChartBuilder::on(area)
+                    .caption(caption, (FAMILY, 18))
+                    .margin(12)
+                    .x_label_area_size(36)
+                    .y_label_area_size(80)
+                    .build_cartesian_2d(0.0..1.0, 0.0..top)?;
+                chart
+                    .configure_mesh()
+                    .x_desc("LOD (0 full detail, 1 the coarsest)")
+                    .y_desc(label)
+                    .x_label_formatter(&|x| format!("{x:.1}"))
+                    .y_label_formatter(&|y| format!("{y:.0}"))
+                    .label_style((FAMILY, 13))
+                    .axis_desc_style((FAMILY, 14))
+                    .light_line_style(RGBColor(235, 235, 235))
+                    .draw()?;
+                for s in &report.sizes {
+                    if !with_pm && s.model == "PM" {
+                        continue;
+                    }
+                    let points = rows
+                        .iter()
+                        .filter(|r| r.model == s.model)
+                        .map(|r| (r.lod as f64 / report.max_lod.max(1) as f64, value(r)));
+                    let style = model_colour(s.model).stroke_width(2);
+                    chart
+                        .draw_series(LineSeries::new(points, style))?
+                        .label(s.model)
+                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
+                }
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperRight)
+                    .label_font((FAMILY, 13))
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .draw()?;
+                Ok(())
+            };
+            draw().map_err(|e| format!("plot: {e}"))?;
+        }
+        root.present().map_err(|e| format!("plot: {e}"))?;
+    }
+    let image = image::RgbImage::from_raw(WIDTH, height, pixels)
+        .ok_or("plot: the pixel buffer does not match the image size")?;
+    image
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -401,104 +501,4 @@ mod tests {
         assert!(error.contains("no rows"), "{error}");
         assert!(!path.exists());
     }
-}
-
-/// Colours of the baselines' models, by name.
-fn model_colour(model: &str) -> RGBColor {
-    match model {
-        "LodStrips" => RGBColor(31, 119, 180),
-        "MTS" => RGBColor(255, 127, 14),
-        "PM" => RGBColor(214, 39, 40),
-        _ => RGBColor(44, 160, 44),
-    }
-}
-
-/// The LodStrips paper's Fig. 1 for `report`: (a) vertices and (b) strips sent over the
-/// linear test's LOD fraction, one line per model (PM sends no strips), written at `path`.
-pub fn write_baselines_plot(report: &BaselinesReport, path: &Path) -> Result<(), String> {
-    register_font(FAMILY, FontStyle::Normal, FONT)
-        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
-    let linear: Vec<_> = report
-        .rows
-        .iter()
-        .filter(|r| r.test == Sweep::Linear)
-        .collect();
-    if linear.is_empty() {
-        return Err("the baselines report has no rows to plot".into());
-    }
-    type Value = fn(&crate::bench_baselines::BaselineRow) -> f64;
-    let panels: [(&str, Value, bool); 2] = [
-        ("(a) vertices sent", |r| r.vertices as f64, true),
-        ("(b) strips sent", |r| r.strips as f64, false),
-    ];
-    let height = PANEL_HEIGHT * 2;
-    let mut pixels = vec![255u8; (WIDTH * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
-        let areas = root.split_evenly((2, 1));
-        for (area, (label, value, with_pm)) in areas.iter().zip(panels) {
-            let draw = || -> Result<(), Box<dyn std::error::Error>> {
-                let rows: Vec<_> = linear
-                    .iter()
-                    .filter(|r| with_pm || r.model != "PM")
-                    .collect();
-                let top = rows
-                    .iter()
-                    .map(|r| value(r))
-                    .fold(0.0f64, f64::max)
-                    .max(1.0)
-                    * 1.05;
-                // MTS and Skip Strips build the same display strips, so their lines coincide.
-                let caption = format!(
-                    "{label} by {} in the linear test ({} triangles; MTS under Skip Strips)",
-                    report.mesh, report.triangles
-                );
-                let mut chart = ChartBuilder::on(area)
-                    .caption(caption, (FAMILY, 18))
-                    .margin(12)
-                    .x_label_area_size(36)
-                    .y_label_area_size(80)
-                    .build_cartesian_2d(0.0..1.0, 0.0..top)?;
-                chart
-                    .configure_mesh()
-                    .x_desc("LOD (0 full detail, 1 the coarsest)")
-                    .y_desc(label)
-                    .x_label_formatter(&|x| format!("{x:.1}"))
-                    .y_label_formatter(&|y| format!("{y:.0}"))
-                    .label_style((FAMILY, 13))
-                    .axis_desc_style((FAMILY, 14))
-                    .light_line_style(RGBColor(235, 235, 235))
-                    .draw()?;
-                for s in &report.sizes {
-                    if !with_pm && s.model == "PM" {
-                        continue;
-                    }
-                    let points = rows
-                        .iter()
-                        .filter(|r| r.model == s.model)
-                        .map(|r| (r.lod as f64 / report.max_lod.max(1) as f64, value(r)));
-                    let style = model_colour(s.model).stroke_width(2);
-                    chart
-                        .draw_series(LineSeries::new(points, style))?
-                        .label(s.model)
-                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
-                }
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .label_font((FAMILY, 13))
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .draw()?;
-                Ok(())
-            };
-            draw().map_err(|e| format!("plot: {e}"))?;
-        }
-        root.present().map_err(|e| format!("plot: {e}"))?;
-    }
-    let image = image::RgbImage::from_raw(WIDTH, height, pixels)
-        .ok_or("plot: the pixel buffer does not match the image size")?;
-    image
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| format!("{}: {e}", path.display()))
 }

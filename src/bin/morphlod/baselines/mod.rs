@@ -144,7 +144,8 @@ pub(crate) fn push_display_strip(mapped: &[u32], out: &mut Vec<u32>) -> usize {
             while next < windows && !real(next) {
                 next += 1;
             }
-            if next == windows || next - last - 1 >= SPLIT_RUN {
+            // `next - last - 1` degenerate windows lie between the two real ones.
+            if next == windows || next - last > SPLIT_RUN {
                 break;
             }
             last = next;
