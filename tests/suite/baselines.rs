@@ -301,3 +301,87 @@ fn bad_inputs_are_typed_errors() {
         Some(BaselineError::BadStrips)
     );
 }
+
+/// `morphlod bench --baselines` on the cow, three frames a test: one run holds the four models'
+/// sizes and every frame of both tests; the strip baselines send the same display strips;
+/// each test ends at the coarsest LOD; LodStrips is the smallest model (Table 1's claim, a
+/// size, not a timing). A mesh that does not exist is refused with its path.
+#[cfg(feature = "cli")]
+#[test]
+fn bench_baselines_writes_both_tables() {
+    use crate::cli::{morphlod, no_adapter, text};
+
+    let dir = common::scratch_dir("baselines", "bench");
+    let json = dir.join("cow.json");
+    let cow = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cow.off");
+    let args = [
+        "bench",
+        "--baselines",
+        cow.to_str().expect("utf-8 path"),
+        "--frames",
+        "3",
+        "--repeats",
+        "1",
+        "--size",
+        "64",
+        "--json",
+        json.to_str().expect("utf-8 path"),
+    ];
+    let out = morphlod(&args);
+    if no_adapter(&out) {
+        return;
+    }
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", text(&out.stderr));
+    assert!(
+        stdout.contains("Table 1.") && stdout.contains("Table 2."),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json written"))
+            .expect("valid JSON");
+    let sizes = report["sizes"].as_array().expect("sizes");
+    let names: Vec<&str> = sizes.iter().filter_map(|s| s["model"].as_str()).collect();
+    assert_eq!(names, ["PM", "MTS", "Skip Strips", "LodStrips"]);
+    let bytes = |name: &str| {
+        sizes.iter().find(|s| s["model"] == name).expect("model")["bytes"]
+            .as_u64()
+            .expect("bytes")
+    };
+    for other in ["PM", "MTS", "Skip Strips"] {
+        assert!(bytes("LodStrips") < bytes(other), "LodStrips vs {other}");
+    }
+    let rows = report["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 2 * 4 * 3);
+    let max_lod = report["max_lod"].as_u64().expect("max_lod");
+    for test in ["linear", "exponential"] {
+        let frame = |model: &str, frame: u64| {
+            rows.iter()
+                .find(|r| r["test"] == test && r["model"] == model && r["frame"] == frame)
+                .expect("row")
+        };
+        for f in 0..3 {
+            assert_eq!(
+                frame("MTS", f)["vertices"],
+                frame("Skip Strips", f)["vertices"]
+            );
+            assert_eq!(frame("MTS", f)["strips"], frame("Skip Strips", f)["strips"]);
+        }
+        for model in names.iter() {
+            assert_eq!(frame(model, 2)["lod"].as_u64(), Some(max_lod), "{model}");
+        }
+    }
+
+    let missing = dir.join("missing.off");
+    let out = morphlod(&[
+        "bench",
+        "--baselines",
+        missing.to_str().expect("utf-8 path"),
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("missing.off"),
+        "{}",
+        text(&out.stderr)
+    );
+}

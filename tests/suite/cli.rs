@@ -6,7 +6,7 @@ use crate::common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn morphlod(args: &[&str]) -> Output {
+pub(crate) fn morphlod(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_morphlod"))
         .args(args)
         .output()
@@ -41,7 +41,7 @@ impl Drop for Scratch {
     }
 }
 
-fn text(bytes: &[u8]) -> String {
+pub(crate) fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
@@ -49,7 +49,7 @@ fn text(bytes: &[u8]) -> String {
 /// `GpuError::NoAdapter`'s message): then the test skips, except under CI, where this panics
 /// (`common::skip_outside_ci`, the rule of every GPU test). Any other failure is the test's to
 /// judge.
-fn no_adapter(out: &Output) -> bool {
+pub(crate) fn no_adapter(out: &Output) -> bool {
     let stderr = text(&out.stderr);
     if out.status.success() || !stderr.contains("no GPU adapter found") {
         return false;
