@@ -47,6 +47,8 @@ mod cli_supermesh;
 #[cfg(feature = "cli")]
 mod export;
 #[cfg(feature = "cli")]
+mod export_compressed;
+#[cfg(feature = "cli")]
 mod gltf_loader;
 #[cfg(feature = "cli")]
 mod gltf_validator;
