@@ -13,7 +13,7 @@
 //!
 //! The codec versions (and the reader that checks them) are in
 //! `io::gltf::meshopt_compression`; the index codec's default version in meshoptimizer 1.x
-//! is the extension's (`0xe1`), which a test checks.
+//! is the extension's (`0xe1`), which the reader checks on every view it decodes.
 
 pub use crate::io::gltf::meshopt_compression::EXT_MESHOPT_COMPRESSION;
 use crate::io::gltf::meshopt_compression::VERTEX_CODEC_VERSION;

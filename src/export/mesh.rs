@@ -56,7 +56,11 @@ impl Elements {
         normalized: bool,
         with_bounds: bool,
     ) -> Elements {
-        let size = if matches!(component, BYTE | UNSIGNED_BYTE) { 1 } else { 2 };
+        let size = if matches!(component, BYTE | UNSIGNED_BYTE) {
+            1
+        } else {
+            2
+        };
         let bytes = data
             .iter()
             .flatten()
@@ -313,7 +317,10 @@ pub(super) struct Quantization {
 
 /// Normal-like values (unit normals, normal deltas) as normalized integers of `bits`.
 fn snorm_elements(data: &[[f32; 3]], bits: u32) -> Elements {
-    let values: Vec<[i32; 3]> = data.iter().map(|n| n.map(|x| snorm(x, bits) as i32)).collect();
+    let values: Vec<[i32; 3]> = data
+        .iter()
+        .map(|n| n.map(|x| snorm(x, bits) as i32))
+        .collect();
     let component = if bits <= 8 { BYTE } else { SHORT };
     Elements::integers(&values, component, true, false)
 }
@@ -332,7 +339,11 @@ fn normal_accessor(buffers: &mut Buffers, normals: &[[f32; 3]], bits: u32) -> us
         (bytes, BYTE, 4)
     } else {
         let encoded = meshopt::encode_filter_oct::<i16>(&unit, bits as i32);
-        let bytes = encoded.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+        let bytes = encoded
+            .iter()
+            .flatten()
+            .flat_map(|c| c.to_le_bytes())
+            .collect();
         (bytes, SHORT, 8)
     };
     let view = buffers.view(bytes, stride, true, Some(ARRAY_BUFFER), Codec::Octahedral);
@@ -494,7 +505,11 @@ fn index_accessor(buffers: &mut Buffers, lod: &Lod, narrow: bool) -> usize {
             let bytes = flat.flat_map(|&i| (i as u16).to_le_bytes()).collect();
             (bytes, 2, UNSIGNED_SHORT)
         } else {
-            (flat.flat_map(|i| i.to_le_bytes()).collect(), 4, UNSIGNED_INT)
+            (
+                flat.flat_map(|i| i.to_le_bytes()).collect(),
+                4,
+                UNSIGNED_INT,
+            )
         };
     let view = buffers.view(
         bytes,

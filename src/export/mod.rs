@@ -42,11 +42,38 @@
 //! Other meshes of the file, other children of the mesh node, cameras and lights are not
 //! written; [`crate::io::gltf::SourceScene::left_out`] lists what of the mesh is not.
 //!
+//! # Quantized and compressed files
+//!
+//! With [`ExportOptions::quantize`] the meshes are written as `KHR_mesh_quantization` allows
+//! (`quantize.rs`): positions as `UNSIGNED_SHORT`s on one uniform [`Grid`] for the whole morph
+//! (every LOD, every target), whose dequantising translation and uniform scale go on the LOD
+//! nodes (composed with the source's local transform; for a skinned mesh into the inverse bind
+//! matrices, glTF ignoring a skinned node's transform); every target's POSITION deltas as the
+//! `SHORT` difference of grid points `q(base + delta) − q(base)`, so a target's pose at weight
+//! 1 is a grid point and `base + Σ w·delta` is the same weighted sum of grid points for every
+//! reader; normals and normal deltas as normalized `BYTE`s or `SHORT`s; UVs in `[0, 1]` as
+//! normalized `UNSIGNED_SHORT`s; indices as `UNSIGNED_SHORT`s where they fit. Colours, the
+//! source's raw attributes, the animation and the skin stay as they are. A mesh node whose own
+//! transform is animated (and not skinned) is refused: its channels would overwrite the
+//! dequantising transform. [`Lod::quantization_error`] is measured over the LOD's vertices and
+//! these poses: `poses` weight sets evenly over the animation, the default weights, and each
+//! target alone at weight 1. Quantization runs after the LODs are chosen, so it changes none.
+//!
+//! With [`ExportOptions::compress`] (`compress.rs`) every buffer view but the images is
+//! compressed with `EXT_meshopt_compression` (ATTRIBUTES for vertex, delta, animation and skin
+//! data, the OCTAHEDRAL filter for normals, TRIANGLES for indices), the views pointing into a
+//! data-less fallback buffer, and each LOD's target deltas of one attribute are one view (one
+//! stream and one view's JSON instead of one per target). Both extensions are listed in
+//! `extensionsRequired`: a client without them cannot read the meshes. The reader
+//! ([`crate::io::gltf`]) decodes such files and reads quantized attributes as their integer
+//! values (the node transform is not applied unless asked for).
+//!
 //! One file a stage, in the order [`export_glb`] runs them after checking its input here and
 //! building the shared sequence: `levels` (the step each LOD stops at, and its mesh in
-//! vertex-cache order), then for the file `mesh` (each LOD as a glTF mesh), `material`,
-//! `animation` (the weight track and the source's node channels) and `scene` (the nodes,
-//! skin and extensions around them, and the GLB container).
+//! vertex-cache order), then for the file `mesh` (each LOD as a glTF mesh, quantized with
+//! `quantize`), `material`, `animation` (the weight track and the source's node channels) and
+//! `scene` (the nodes, skin and extensions around them, and the GLB container), all writing
+//! their buffer views through `compress`.
 
 mod animation;
 mod compress;

@@ -133,9 +133,7 @@ pub(super) fn write_glb(
         })
         .collect();
     let material = match &source.material {
-        Some(material) => {
-            source_material_json(morph, source, material, &raw_names, &mut buffers)
-        }
+        Some(material) => source_material_json(morph, source, material, &raw_names, &mut buffers),
         None => material_json(morph, &mut buffers),
     };
     let mut used = vec!["MSFT_lod".to_string()];

@@ -84,7 +84,11 @@ fn validate_clean(file: &Path) {
 fn quantized_and_compressed_exports_validate_and_keep_the_lods() {
     let plain = exported(false, false);
     for (name, export, required) in [
-        ("quantized", exported(true, false), vec!["KHR_mesh_quantization"]),
+        (
+            "quantized",
+            exported(true, false),
+            vec!["KHR_mesh_quantization"],
+        ),
         (
             "compressed",
             exported(true, true),
@@ -103,7 +107,10 @@ fn quantized_and_compressed_exports_validate_and_keep_the_lods() {
         };
         assert_eq!(listed("extensionsRequired"), required, "{name}");
         assert!(listed("extensionsUsed").contains(&"MSFT_lod".to_string()));
-        assert_eq!(json["nodes"][0]["extensions"]["MSFT_lod"]["ids"], serde_json::json!([1, 2, 3]));
+        assert_eq!(
+            json["nodes"][0]["extensions"]["MSFT_lod"]["ids"],
+            serde_json::json!([1, 2, 3])
+        );
         for mesh in json["meshes"].as_array().unwrap() {
             let targets = mesh["primitives"][0]["targets"].as_array().unwrap();
             assert_eq!(targets.len(), face().targets().len(), "{name}");
@@ -180,7 +187,8 @@ fn a_quantized_export_round_trips_through_the_gltf_crate() {
                 .collect();
             for ((&q, &d), &v) in base.iter().zip(&deltas).zip(&lod.source_vertex) {
                 let v = v as usize;
-                let pose: [f32; 3] = std::array::from_fn(|k| morph.base()[v][k] + source.deltas[v][k]);
+                let pose: [f32; 3] =
+                    std::array::from_fn(|k| morph.base()[v][k] + source.deltas[v][k]);
                 let stored = std::array::from_fn(|k| q[k] as i32 + d[k] as i32);
                 assert!(
                     distance(read(stored), pose) <= bound,
@@ -236,14 +244,22 @@ fn three_js_decodes_every_lod_bit_for_bit() {
                 .map(|x| (x.as_f64().unwrap() as f32).to_bits())
                 .collect()
         };
-        assert_eq!(vector("translation"), grid.offset.map(f32::to_bits), "{name}");
+        assert_eq!(
+            vector("translation"),
+            grid.offset.map(f32::to_bits),
+            "{name}"
+        );
         assert_eq!(vector("scale"), [grid.step.to_bits(); 3], "{name}");
         assert_eq!(got["indices"], lod.triangles.len() * 3, "{name}");
         let kept = || lod.source_vertex.iter().map(|&v| v as usize);
         let positions: Vec<[i32; 3]> = kept()
             .map(|v| grid.quantize(morph.base()[v]).map(i32::from))
             .collect();
-        assert_eq!(bytes(&got["position"], "Uint16Array"), le16(positions), "{name}");
+        assert_eq!(
+            bytes(&got["position"], "Uint16Array"),
+            le16(positions),
+            "{name}"
+        );
         let targets = morph.targets();
         let morph_positions = got["morphPosition"].as_array().unwrap();
         let morph_normals = got["morphNormal"].as_array().unwrap();
@@ -262,7 +278,9 @@ fn three_js_decodes_every_lod_bit_for_bit() {
             // Normalized bytes at 8 bits: round(127 · d), clamped to ±1.
             let normal_deltas = target.normal_deltas.as_ref().unwrap();
             let expected: Vec<u8> = kept()
-                .flat_map(|v| normal_deltas[v].map(|d| (d.clamp(-1.0, 1.0) * 127.0).round() as i8 as u8))
+                .flat_map(|v| {
+                    normal_deltas[v].map(|d| (d.clamp(-1.0, 1.0) * 127.0).round() as i8 as u8)
+                })
                 .collect();
             assert_eq!(
                 bytes(&morph_normals[k], "Int8Array"),
@@ -322,4 +340,69 @@ fn a_corrupt_compressed_buffer_is_refused_with_a_typed_error() {
     let err = load_morph(&write("cut", &cut), &options, &source).unwrap_err();
     assert!(matches!(err, LoadError::GltfCompressed { .. }), "{err:?}");
     assert!(err.to_string().contains("EXT_meshopt_compression"), "{err}");
+}
+
+/// `morphlod export IN --lods 0.5,0.1 --distance-weight 0 MODE -o OUT`: its output.
+fn cli_export(input: &Path, mode: &str, out: &Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_morphlod"))
+        .arg("export")
+        .arg(input)
+        .args(["--lods", "0.5,0.1", "--distance-weight", "0", mode, "-o"])
+        .arg(out)
+        .output()
+        .expect("the morphlod binary runs")
+}
+
+/// A skinned character compressed: glTF ignores a skinned node's transform, so the grid's
+/// dequantising transform is in every inverse bind matrix (`IBM · D`) and the LOD nodes keep
+/// the source's; the file passes the validator. A mesh node with an animated transform (not
+/// skinned) is refused with a message, since its channels would replace the transform.
+#[test]
+fn a_skinned_face_carries_the_grid_in_its_inverse_bind_matrices() {
+    let dir = common::scratch_dir("export_compressed", "skinned");
+    let (input, face) = common::skinned_face(&dir);
+    let out = dir.join("skinned.glb");
+    let output = cli_export(&input, "--compress", &out);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    validate_clean(&out);
+    let glb = std::fs::read(&out).unwrap();
+    let json = json(&glb);
+    let lod0 = &json["nodes"][0];
+    assert!(
+        lod0.get("scale").is_none() && lod0.get("translation").is_none(),
+        "{lod0}"
+    );
+    // The grid as the un-skinned export of the same mesh writes it on its nodes.
+    let plain = exported(true, false);
+    let grid = plain.grid.unwrap();
+    let d = glam::Mat4::from_scale_rotation_translation(
+        glam::Vec3::splat(grid.step),
+        glam::Quat::IDENTITY,
+        glam::Vec3::from_array(grid.offset),
+    );
+    let gltf = gltf::Gltf::from_slice_without_validation(&glb).unwrap();
+    let skin = gltf.skins().next().unwrap();
+    let blob = gltf.blob.clone().unwrap();
+    let matrices: Vec<[[f32; 4]; 4]> = skin
+        .reader(|_| Some(&blob[..]))
+        .read_inverse_bind_matrices()
+        .unwrap()
+        .collect();
+    assert_eq!(matrices.len(), face.inverse_bind_matrices.len());
+    for (read, source) in matrices.iter().zip(&face.inverse_bind_matrices) {
+        let expected = (glam::Mat4::from_cols_array(source) * d).to_cols_array_2d();
+        assert_eq!(*read, expected);
+    }
+
+    let rigged = common::rigged_cube(&dir);
+    if rigged.exists() {
+        let output = cli_export(&rigged, "--quantize", &dir.join("rigged.glb"));
+        assert_eq!(output.status.code(), Some(1));
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains("without --quantize"), "{stderr}");
+    }
 }

@@ -56,10 +56,12 @@ impl Document {
         let document = gltf::Document::from_json_without_validation(root);
         let buffers = document
             .buffers()
-            .map(|buffer| match is_placeholder(&raw, &buffer, bin.is_some()) {
-                true => Ok(Vec::new()),
-                false => load_buffer(path, &buffer, bin),
-            })
+            .map(
+                |buffer| match is_placeholder(&raw, &buffer, bin.is_some()) {
+                    true => Ok(Vec::new()),
+                    false => load_buffer(path, &buffer, bin),
+                },
+            )
             .collect::<Result<Vec<_>, LoadError>>()?;
         let decoded = decode_views(path, &raw, &buffers)?;
         Ok(Document {
@@ -271,9 +273,9 @@ fn validate(root: &gltf::json::Root) -> Result<(), String> {
     let allowed = |path: &str, error: Error| {
         // The extensions this reader implements (the `gltf` crate does not).
         if error == Error::Unsupported {
-            return [QUANTIZATION, EXT_MESHOPT_COMPRESSION]
-                .iter()
-                .any(|e| path.starts_with("extensionsRequired[") && path.ends_with(&format!("\"{e}\"")));
+            return [QUANTIZATION, EXT_MESHOPT_COMPRESSION].iter().any(|e| {
+                path.starts_with("extensionsRequired[") && path.ends_with(&format!("\"{e}\""))
+            });
         }
         if error != Error::Missing {
             return false;

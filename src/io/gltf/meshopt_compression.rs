@@ -9,7 +9,8 @@
 
 /// The extension's name.
 pub const EXT_MESHOPT_COMPRESSION: &str = "EXT_meshopt_compression";
-/// Vertex codec version the extension defines.
+/// Vertex codec version the extension defines (the exporter's; the reader checks the header).
+#[cfg(feature = "export")]
 pub(crate) const VERTEX_CODEC_VERSION: i32 = 0;
 /// Header byte of an ATTRIBUTES stream (vertex codec version 0).
 pub(crate) const ATTRIBUTES_HEADER: u8 = 0xa0;
@@ -102,7 +103,7 @@ fn check(view: &Compressed) -> Result<(), String> {
     let (stride, filter) = (view.stride, view.filter);
     let header = match view.mode {
         "ATTRIBUTES" => {
-            if stride == 0 || stride % 4 != 0 || stride > 256 {
+            if stride == 0 || !stride.is_multiple_of(4) || stride > 256 {
                 return Err(format!(
                     "ATTRIBUTES with byteStride {stride}: it must be a multiple of 4 up to 256"
                 ));
@@ -120,13 +121,19 @@ fn check(view: &Compressed) -> Result<(), String> {
         }
         "TRIANGLES" | "INDICES" => {
             if stride != 2 && stride != 4 {
-                return Err(format!("{} with byteStride {stride}: it must be 2 or 4", view.mode));
+                return Err(format!(
+                    "{} with byteStride {stride}: it must be 2 or 4",
+                    view.mode
+                ));
             }
             if filter != "NONE" {
                 return Err(format!("{} with filter {filter}", view.mode));
             }
-            if view.mode == "TRIANGLES" && view.count % 3 != 0 {
-                return Err(format!("TRIANGLES of {} indices, not a multiple of 3", view.count));
+            if view.mode == "TRIANGLES" && !view.count.is_multiple_of(3) {
+                return Err(format!(
+                    "TRIANGLES of {} indices, not a multiple of 3",
+                    view.count
+                ));
             }
             if view.mode == "TRIANGLES" {
                 TRIANGLES_HEADER
