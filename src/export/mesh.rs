@@ -6,11 +6,16 @@ use super::compress::{Buffers, Codec};
 use super::quantize::{snorm, unorm16, Grid, QuantizeOptions};
 use super::Lod;
 use crate::io::gltf::write::{
-    f32_bytes, number, quote, Json, ARRAY_BUFFER, BYTE, ELEMENT_ARRAY_BUFFER, FLOAT, SHORT,
-    UNSIGNED_BYTE, UNSIGNED_INT, UNSIGNED_SHORT,
+    f32_bytes, number, quote, Json, ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, FLOAT, UNSIGNED_INT,
 };
 use crate::io::gltf::{RawAttribute, SourceScene};
 use crate::morph::Morph;
+
+// The integer component types quantized attributes are written in.
+const BYTE: u32 = 5120;
+const UNSIGNED_BYTE: u32 = 5121;
+const SHORT: u32 = 5122;
+const UNSIGNED_SHORT: u32 = 5123;
 
 /// The values of `source` at the LOD's vertices.
 fn gather<T: Copy>(source: &[T], lod: &Lod) -> Vec<T> {

@@ -119,9 +119,7 @@ impl Document {
 
     /// True when the file lists `extension` in `extensionsUsed`.
     pub(super) fn uses(&self, extension: &str) -> bool {
-        self.raw["extensionsUsed"]
-            .as_array()
-            .is_some_and(|used| used.iter().any(|e| e == extension))
+        super::document::uses(&self.raw, extension)
     }
 
     /// The bytes of a buffer view (decoded, when it is compressed), after checking the view

@@ -56,12 +56,10 @@ impl Document {
         let document = gltf::Document::from_json_without_validation(root);
         let buffers = document
             .buffers()
-            .map(
-                |buffer| match is_placeholder(&raw, &buffer, bin.is_some()) {
-                    true => Ok(Vec::new()),
-                    false => load_buffer(path, &buffer, bin),
-                },
-            )
+            .map(|buffer| match is_placeholder(&raw, &buffer, is_glb) {
+                true => Ok(Vec::new()),
+                false => load_buffer(path, &buffer, bin),
+            })
             .collect::<Result<Vec<_>, LoadError>>()?;
         let decoded = decode_views(path, &raw, &buffers)?;
         Ok(Document {
@@ -107,14 +105,21 @@ impl Document {
 }
 
 /// A buffer with no data of its own that only compressed views point at
-/// (`EXT_meshopt_compression`'s fallback buffer): marked `"fallback": true`, or without a URI
-/// in a GLB where it is not buffer 0 (the BIN chunk). Nothing is loaded for it; a plain view
-/// pointing into it is refused when read.
+/// (`EXT_meshopt_compression`'s fallback buffer): marked `"fallback": true`, or, in a file
+/// that uses the extension, without a URI and not the GLB's BIN chunk (buffer 0). Nothing is
+/// loaded for it; a plain view pointing into it is refused when read.
 fn is_placeholder(raw: &serde_json::Value, buffer: &gltf::Buffer, glb: bool) -> bool {
     let json = &raw["buffers"][buffer.index()];
     let marked = json["extensions"][EXT_MESHOPT_COMPRESSION]["fallback"] == true;
-    let uri = json.get("uri").is_some();
-    marked || (!uri && (buffer.index() > 0 || !glb))
+    let bin_chunk = glb && buffer.index() == 0;
+    marked || (uses(raw, EXT_MESHOPT_COMPRESSION) && json.get("uri").is_none() && !bin_chunk)
+}
+
+/// True when the file (its JSON `raw`) lists `extension` in `extensionsUsed`.
+pub(super) fn uses(raw: &serde_json::Value, extension: &str) -> bool {
+    raw["extensionsUsed"]
+        .as_array()
+        .is_some_and(|used| used.iter().any(|e| e == extension))
 }
 
 /// Every compressed buffer view decoded (`EXT_meshopt_compression`, [`super::meshopt`]); a

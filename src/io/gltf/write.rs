@@ -243,10 +243,6 @@ fn next_toward(x: f32, direction: f32) -> f32 {
 
 pub(crate) const ARRAY_BUFFER: u32 = 34962;
 pub(crate) const ELEMENT_ARRAY_BUFFER: u32 = 34963;
-pub(crate) const BYTE: u32 = 5120;
-pub(crate) const UNSIGNED_BYTE: u32 = 5121;
-pub(crate) const SHORT: u32 = 5122;
-pub(crate) const UNSIGNED_SHORT: u32 = 5123;
 pub(crate) const FLOAT: u32 = 5126;
 pub(crate) const UNSIGNED_INT: u32 = 5125;
 
