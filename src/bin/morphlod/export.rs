@@ -52,13 +52,13 @@ pub(crate) struct ExportArgs {
     #[arg(long, value_name = "PAIRS.txt")]
     landmarks: Option<PathBuf>,
     /// Store positions, normals, UVs and morph deltas as integers (KHR_mesh_quantization; the
-    /// positions on one grid, dequantised by the nodes' transform): about half the size, every
+    /// positions on one grid, dequantised by the nodes' transform): half to two thirds the size, every
     /// position within half a grid step. Clients must support the extension.
     #[arg(long)]
     quantize: bool,
     /// Compress the meshes and animation with EXT_meshopt_compression (implies --quantize):
     /// several times smaller. Clients must support the extension (three.js with its
-    /// MeshoptDecoder, Babylon.js, Blender 3.x+ do).
+    /// MeshoptDecoder and Babylon.js do).
     #[arg(long)]
     compress: bool,
     /// With --quantize or --compress: bits per position component (1 to 15).
