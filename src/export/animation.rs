@@ -1,7 +1,8 @@
 //! The animation: the weight track on every LOD node, and the source's node channels.
 
+use super::compress::{Buffers, Codec};
 use super::mesh::flat_accessor;
-use crate::io::gltf::write::{f32_bytes, Bin, Json, FLOAT};
+use crate::io::gltf::write::{f32_bytes, FLOAT};
 use crate::io::gltf::NodeTrack;
 use crate::morph::{Interpolation, Morph, WeightTrack, Weights};
 
@@ -23,15 +24,15 @@ pub(super) fn animation_json(
     weights: Option<&WeightTrack>,
     node_tracks: &[(Vec<usize>, &NodeTrack)],
     lods: usize,
-    bin: &mut Bin,
-    json: &mut Json,
+    buffers: &mut Buffers,
 ) -> String {
     let mut samplers = Vec::new();
     let mut channels = Vec::new();
-    let input = |bin: &mut Bin, json: &mut Json, times: &[f32]| {
-        let view = json.view(bin.push(f32_bytes(times.iter())), None);
+    // Key times compressed without a filter: read back exactly, as the extension advises.
+    let input = |buffers: &mut Buffers, times: &[f32]| {
+        let view = buffers.view(f32_bytes(times.iter()), 4, false, None, Codec::Attributes);
         let (t0, t1) = (times[0], times[times.len() - 1]);
-        json.accessor(
+        buffers.json.accessor(
             view,
             FLOAT,
             times.len(),
@@ -40,8 +41,8 @@ pub(super) fn animation_json(
         )
     };
     if let Some(track) = weights {
-        let input = input(bin, json, track.times());
-        let output = flat_accessor(bin, json, track.values(), 1, "SCALAR", None);
+        let input = input(buffers, track.times());
+        let output = flat_accessor(buffers, track.values(), 1, "SCALAR", None);
         samplers.push(format!(
             r#"{{"input":{input},"output":{output},"interpolation":"{}"}}"#,
             track.interpolation().name()
@@ -53,10 +54,10 @@ pub(super) fn animation_json(
         );
     }
     for (nodes, track) in node_tracks {
-        let input = input(bin, json, &track.times);
+        let input = input(buffers, &track.times);
         let width = track.property.components();
         let kind = if width == 4 { "VEC4" } else { "VEC3" };
-        let output = flat_accessor(bin, json, &track.values, width, kind, None);
+        let output = flat_accessor(buffers, &track.values, width, kind, None);
         let sampler = samplers.len();
         samplers.push(format!(
             r#"{{"input":{input},"output":{output},"interpolation":"{}"}}"#,

@@ -73,5 +73,7 @@ pub(super) fn compact(mesh: Vec<[u32; 3]>, fraction: f32, step: usize, error: f3
             .chunks_exact(3)
             .map(|t| [t[0], t[1], t[2]])
             .collect(),
+        bytes: 0,
+        quantization_error: 0.0,
     }
 }

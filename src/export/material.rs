@@ -1,7 +1,8 @@
 //! The material: the morph's own (OBJ, OFF, PLY, a supermesh) or the source's glTF
 //! material whole, with its textures, samplers and images embedded.
 
-use crate::io::gltf::write::{number, quote, Bin, Json};
+use super::compress::{Buffers, Codec};
+use crate::io::gltf::write::{number, quote};
 use crate::io::gltf::{texture_infos, SourceMaterial, SourceScene};
 use crate::morph::{ImageFormat, Morph};
 use std::fmt::Write as _;
@@ -10,7 +11,7 @@ use std::fmt::Write as _;
 /// for a source without a glTF material (OBJ, OFF, PLY, a supermesh): base colour and
 /// texture, written as a dielectric (`metallicFactor` 0), which is what those formats' diffuse
 /// colour means; glTF's default of 1 would draw it as bare metal.
-pub(super) fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> String {
+pub(super) fn material_json(morph: &Morph, buffers: &mut Buffers) -> String {
     let material = &morph.attributes().material;
     let name = material
         .name
@@ -23,7 +24,7 @@ pub(super) fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> St
             factor.join(",")
         );
     };
-    let image = image_json(&texture.bytes, texture.format, bin, json);
+    let image = image_json(&texture.bytes, texture.format, buffers);
     let s = &texture.sampler;
     let mut sampler = format!(r#""wrapS":{},"wrapT":{}"#, s.wrap_s, s.wrap_t);
     if let Some(f) = s.mag_filter {
@@ -39,8 +40,9 @@ pub(super) fn material_json(morph: &Morph, bin: &mut Bin, json: &mut Json) -> St
 }
 
 /// An `images` entry for encoded image `bytes`, embedded in the BIN chunk.
-fn image_json(bytes: &[u8], format: ImageFormat, bin: &mut Bin, json: &mut Json) -> String {
-    let view = json.view(bin.push(bytes.to_vec()), None);
+fn image_json(bytes: &[u8], format: ImageFormat, buffers: &mut Buffers) -> String {
+    // Encoded images are compressed already: written as they are.
+    let view = buffers.view(bytes.to_vec(), 1, false, None, Codec::Plain);
     format!(
         r#"{{"bufferView":{view},"mimeType":"{}"}}"#,
         format.mime_type()
@@ -56,8 +58,7 @@ pub(super) fn source_material_json(
     source: &SourceScene,
     material: &SourceMaterial,
     raw_names: &[String],
-    bin: &mut Bin,
-    json: &mut Json,
+    buffers: &mut Buffers,
 ) -> String {
     // A set n of the file → the set written: the morph's UVs are TEXCOORD_0, a carried set
     // is where `written_names` put it.
@@ -111,7 +112,7 @@ pub(super) fn source_material_json(
     let images: Vec<String> = material
         .images
         .iter()
-        .map(|image| image_json(&image.bytes, image.format, bin, json))
+        .map(|image| image_json(&image.bytes, image.format, buffers))
         .collect();
     let mut out = format!(r#""materials":[{object}]"#);
     for (name, list) in [

@@ -42,16 +42,45 @@
 //! Other meshes of the file, other children of the mesh node, cameras and lights are not
 //! written; [`crate::io::gltf::SourceScene::left_out`] lists what of the mesh is not.
 //!
+//! # Quantized and compressed files
+//!
+//! With [`ExportOptions::quantize`] the meshes are written as `KHR_mesh_quantization` allows
+//! (`quantize.rs`): positions as `UNSIGNED_SHORT`s on one uniform [`Grid`] for the whole morph
+//! (every LOD, every target), whose dequantising translation and uniform scale go on the LOD
+//! nodes (composed with the source's local transform; for a skinned mesh into the inverse bind
+//! matrices, glTF ignoring a skinned node's transform); every target's POSITION deltas as the
+//! `SHORT` difference of grid points `q(base + delta) − q(base)`, so a target's pose at weight
+//! 1 is a grid point and `base + Σ w·delta` is the same weighted sum of grid points for every
+//! reader; normals and normal deltas as normalized `BYTE`s or `SHORT`s; UVs in `[0, 1]` as
+//! normalized `UNSIGNED_SHORT`s; indices as `UNSIGNED_SHORT`s where they fit. Colours, the
+//! source's raw attributes, the animation and the skin stay as they are. A mesh node whose own
+//! transform is animated (and not skinned) is refused: its channels would overwrite the
+//! dequantising transform. [`Lod::quantization_error`] is measured over the LOD's vertices and
+//! these poses: `poses` weight sets evenly over the animation, the default weights, and each
+//! target alone at weight 1. Quantization runs after the LODs are chosen, so it changes none.
+//!
+//! With [`ExportOptions::compress`] (`compress.rs`) every buffer view but the images is
+//! compressed with `EXT_meshopt_compression` (ATTRIBUTES for vertex, delta, animation and skin
+//! data, the OCTAHEDRAL filter for normals, TRIANGLES for indices), the views pointing into a
+//! data-less fallback buffer, and each LOD's target deltas of one attribute are one view (one
+//! stream and one view's JSON instead of one per target). Both extensions are listed in
+//! `extensionsRequired`: a client without them cannot read the meshes. The reader
+//! ([`crate::io::gltf`]) decodes such files and reads quantized attributes as their integer
+//! values (the node transform is not applied unless asked for).
+//!
 //! One file a stage, in the order [`export_glb`] runs them after checking its input here and
 //! building the shared sequence: `levels` (the step each LOD stops at, and its mesh in
-//! vertex-cache order), then for the file `mesh` (each LOD as a glTF mesh), `material`,
-//! `animation` (the weight track and the source's node channels) and `scene` (the nodes,
-//! skin and extensions around them, and the GLB container).
+//! vertex-cache order), then for the file `mesh` (each LOD as a glTF mesh, quantized with
+//! `quantize`), `material`, `animation` (the weight track and the source's node channels) and
+//! `scene` (the nodes, skin and extensions around them, and the GLB container), all writing
+//! their buffer views through `compress`.
 
 mod animation;
+mod compress;
 mod levels;
 mod material;
 mod mesh;
+mod quantize;
 mod scene;
 #[cfg(test)]
 mod tests;
@@ -61,7 +90,10 @@ use crate::io::gltf::SourceScene;
 use crate::morph::Morph;
 use crate::seams::StepBoundaries;
 use crate::simplify::{PoseError, SimplifyOptions, DISTANCE_WEIGHT};
+pub use compress::EXT_MESHOPT_COMPRESSION;
 use levels::{compact, diagonal, step_for, step_for_error};
+use mesh::Quantization;
+pub use quantize::{Grid, QuantizeOptions};
 use scene::write_glb;
 use thiserror::Error;
 
@@ -116,6 +148,13 @@ pub struct ExportOptions {
     /// and the raw attributes are written for each kept vertex bit for bit. Empty (the
     /// default): the LOD0 node is a scene root with no transform.
     pub source: SourceScene,
+    /// Write positions, normals, UVs and target deltas as `KHR_mesh_quantization` integers
+    /// with these bit counts (module docs, "Quantized and compressed files"); `None` (the
+    /// default): as `FLOAT`s, bit for bit.
+    pub quantize: Option<QuantizeOptions>,
+    /// Compress every buffer view but the images with `EXT_meshopt_compression`; implies
+    /// quantization ([`QuantizeOptions::default`] when `quantize` is `None`).
+    pub compress: bool,
 }
 
 impl Default for ExportOptions {
@@ -130,6 +169,8 @@ impl Default for ExportOptions {
             default_weights: None,
             name: "mesh".into(),
             source: SourceScene::default(),
+            quantize: None,
+            compress: false,
         }
     }
 }
@@ -153,6 +194,15 @@ pub enum ExportError {
     Source(String),
     #[error("simplifying over the poses: {0}")]
     Build(#[from] BuildError),
+    #[error("--{what}-bits {bits}: give {min} to {max} bits")]
+    Bits {
+        what: &'static str,
+        bits: u32,
+        min: u32,
+        max: u32,
+    },
+    #[error("the mesh's node has an animated transform, which would replace the dequantising transform --quantize puts there: export without --quantize and --compress")]
+    QuantizedAnimatedNode,
 }
 
 /// One exported level: which source vertices it keeps and its triangles over them.
@@ -170,6 +220,14 @@ pub struct Lod {
     pub source_vertex: Vec<u32>,
     /// Triangles over the LOD's vertices, in vertex-cache order.
     pub triangles: Vec<[u32; 3]>,
+    /// Bytes of the LOD's mesh data in the file's BIN chunk (vertex attributes, targets,
+    /// indices; compressed when the file is).
+    pub bytes: usize,
+    /// With quantization: the largest distance between a pose of the LOD as written and as
+    /// the morph describes it, over its vertices and the measured poses (module docs,
+    /// "Quantized and compressed files"), relative to the base pose's bounding-box diagonal;
+    /// 0 without.
+    pub quantization_error: f32,
 }
 
 /// An exported file and what it holds.
@@ -179,6 +237,9 @@ pub struct Export {
     pub glb: Vec<u8>,
     /// LOD0 (the original) first, then one per fraction or error bound.
     pub lods: Vec<Lod>,
+    /// With quantization, the positions' grid: a position is stored as
+    /// [`Grid::quantize`] and read as [`Grid::dequantize`].
+    pub grid: Option<Grid>,
 }
 
 /// Exports `morph` and its LODs (module docs). The animation written is the morph's weight
@@ -207,6 +268,21 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
         None => morph.weights_at(0.0),
     };
     check_source(morph, &options.source)?;
+    let quantize = match (options.quantize, options.compress) {
+        (Some(q), _) => Some(q),
+        (None, true) => Some(QuantizeOptions::default()),
+        (None, false) => None,
+    };
+    if let Some(q) = &quantize {
+        q.check()?;
+        let source = &options.source;
+        let animated = source
+            .mesh_node
+            .is_some_and(|m| !source.nodes[m].tracks.is_empty());
+        if animated && source.skin.is_none() {
+            return Err(ExportError::QuantizedAnimatedNode);
+        }
+    }
     let (asset, _) = Builder::new(morph)
         .frames(options.poses)
         .sequences(Sequences::Shared(PoseError::Max))
@@ -243,8 +319,49 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
             }
         }
     }
-    let glb = write_glb(morph, &lods, &default_weights, options);
-    Ok(Export { glb, lods })
+    // Quantized after the LODs are chosen: the choice does not depend on it.
+    let quantization = quantize.map(|options| {
+        let grid = Grid::new(morph, options.position_bits);
+        let deltas = morph
+            .targets()
+            .iter()
+            .map(|t| {
+                morph
+                    .base()
+                    .iter()
+                    .zip(&t.deltas)
+                    .map(|(&b, &d)| grid.delta(b, d))
+                    .collect()
+            })
+            .collect();
+        Quantization {
+            options,
+            grid,
+            deltas,
+        }
+    });
+    if let Some(q) = &quantization {
+        let poses = quantize::error_poses(morph, options.poses, &default_weights);
+        let errors = quantize::vertex_errors(morph, &q.grid, &q.deltas, &poses);
+        for lod in &mut lods {
+            lod.quantization_error = quantize::lod_error(&errors, lod, diagonal);
+        }
+    }
+    let written = write_glb(
+        morph,
+        &lods,
+        &default_weights,
+        options,
+        quantization.as_ref(),
+    );
+    for (lod, bytes) in lods.iter_mut().zip(written.lod_bytes) {
+        lod.bytes = bytes;
+    }
+    Ok(Export {
+        glb: written.glb,
+        lods,
+        grid: quantization.map(|q| q.grid),
+    })
 }
 
 fn check_fractions(lods: &[f32]) -> Result<(), ExportError> {

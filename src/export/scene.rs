@@ -2,10 +2,12 @@
 //! container around the JSON and the BIN chunk.
 
 use super::animation::{animation, animation_json};
+use super::compress::{Buffers, EXT_MESHOPT_COMPRESSION};
 use super::material::{material_json, source_material_json};
-use super::mesh::{flat_accessor, mesh_json, written_names};
+use super::mesh::{flat_accessor, mesh_json, written_names, Quantization};
+use super::quantize::Grid;
 use super::{ExportOptions, Lod};
-use crate::io::gltf::write::{glb, number, quote, Bin, Json};
+use crate::io::gltf::write::{glb, number, quote};
 use crate::io::gltf::{NodeTrack, NodeTransform};
 use crate::morph::Morph;
 use std::fmt::Write as _;
@@ -53,44 +55,99 @@ fn transform_json(transform: &NodeTransform) -> String {
     }
 }
 
+/// `transform` followed by the dequantising transform of `grid` (translation `offset`,
+/// uniform scale `step`), as one local transform of the same kind: a TRS stays a TRS (the
+/// uniform scale commutes with the rotation), a matrix stays a matrix.
+fn dequantized(transform: &NodeTransform, grid: &Grid) -> NodeTransform {
+    let offset = glam::Vec3::from_array(grid.offset);
+    match transform {
+        NodeTransform::Trs {
+            translation,
+            rotation,
+            scale,
+        } => {
+            let s = glam::Vec3::from_array(*scale);
+            let t = glam::Vec3::from_array(*translation)
+                + glam::Quat::from_array(*rotation) * (s * offset);
+            NodeTransform::Trs {
+                translation: t.to_array(),
+                rotation: *rotation,
+                scale: (s * grid.step).to_array(),
+            }
+        }
+        NodeTransform::Matrix(m) => NodeTransform::Matrix(
+            (glam::Mat4::from_cols_array(m) * dequantizing_matrix(grid)).to_cols_array(),
+        ),
+    }
+}
+
+/// The matrix that maps grid coordinates to positions.
+fn dequantizing_matrix(grid: &Grid) -> glam::Mat4 {
+    glam::Mat4::from_scale_rotation_translation(
+        glam::Vec3::splat(grid.step),
+        glam::Quat::IDENTITY,
+        glam::Vec3::from_array(grid.offset),
+    )
+}
+
+/// What [`write_glb`] wrote.
+pub(super) struct Written {
+    pub(super) glb: Vec<u8>,
+    /// Per LOD, the bytes of its mesh's data in the BIN chunk (compressed, when it is).
+    pub(super) lod_bytes: Vec<usize>,
+}
+
 /// The GLB file of `lods` (LOD0 first): meshes, material, animation, skin and the nodes in
-/// the source's tree, as the module docs describe.
+/// the source's tree, as the module docs describe; quantized with `quantization`, compressed
+/// with `options.compress`.
 pub(super) fn write_glb(
     morph: &Morph,
     lods: &[Lod],
     default_weights: &[f32],
     options: &ExportOptions,
-) -> Vec<u8> {
+    quantization: Option<&Quantization>,
+) -> Written {
     let name = &options.name;
-    let mut bin = Bin::default();
-    let mut json = Json::default();
+    let mut buffers = Buffers::new(options.compress);
     let names: Vec<String> = (0..lods.len()).map(|i| format!("{name}_LOD{i}")).collect();
     let source = &options.source;
     let raw_names = written_names(morph, &source.attributes);
+    let mut lod_bytes = Vec::with_capacity(lods.len());
     let meshes: Vec<String> = lods
         .iter()
         .zip(&names)
         .map(|(lod, n)| {
-            mesh_json(
+            let before = buffers.bin.bytes.len();
+            let mesh = mesh_json(
                 morph,
                 lod,
                 n,
                 default_weights,
                 source,
                 &raw_names,
-                &mut bin,
-                &mut json,
-            )
+                quantization,
+                &mut buffers,
+            );
+            lod_bytes.push(buffers.bin.bytes.len() - before);
+            mesh
         })
         .collect();
     let material = match &source.material {
-        Some(material) => {
-            source_material_json(morph, source, material, &raw_names, &mut bin, &mut json)
-        }
-        None => material_json(morph, &mut bin, &mut json),
+        Some(material) => source_material_json(morph, source, material, &raw_names, &mut buffers),
+        None => material_json(morph, &mut buffers),
     };
     let mut used = vec!["MSFT_lod".to_string()];
     let mut required = Vec::new();
+    // Both change what the data means: a client without them cannot read the meshes.
+    let mut codecs = Vec::new();
+    if quantization.is_some() {
+        codecs.push("KHR_mesh_quantization".to_string());
+    }
+    if options.compress {
+        codecs.push(EXT_MESHOPT_COMPRESSION.to_string());
+    }
+    used.extend(codecs.iter().cloned());
+    required.extend(codecs);
     if let Some(material) = &source.material {
         used.extend(material.extensions_used.iter().cloned());
         required.extend(material.extensions_required.iter().cloned());
@@ -136,13 +193,11 @@ pub(super) fn write_glb(
     } else {
         animation(morph)
     };
-    let animation = animation_json(
-        weights.as_ref(),
-        &node_tracks,
-        lods.len(),
-        &mut bin,
-        &mut json,
-    );
+    let animation = animation_json(weights.as_ref(), &node_tracks, lods.len(), &mut buffers);
+    // A skinned mesh's node transform is ignored (glTF 2.0, 3.7.3.3), so the dequantising
+    // transform goes into every inverse bind matrix instead: joint · IBM · D · q.
+    let grid = quantization.map(|q| &q.grid);
+    let skin_grid = grid.filter(|_| source.skin.is_some());
     let skin = match &source.skin {
         Some(skin) => {
             let joints: Vec<String> = skin
@@ -157,18 +212,36 @@ pub(super) fn write_glb(
             if let Some(skeleton) = skin.skeleton {
                 fields.push(format!(r#""skeleton":{}"#, written[skeleton]));
             }
-            if let Some(matrices) = &skin.inverse_bind_matrices {
+            let matrices = match (&skin.inverse_bind_matrices, skin_grid) {
+                (Some(m), None) => Some(m.clone()),
+                (m, Some(grid)) => {
+                    let d = dequantizing_matrix(grid);
+                    let identity = vec![glam::Mat4::IDENTITY.to_cols_array(); skin.joints.len()];
+                    let m = m.as_ref().unwrap_or(&identity);
+                    Some(
+                        m.iter()
+                            .map(|m| (glam::Mat4::from_cols_array(m) * d).to_cols_array())
+                            .collect(),
+                    )
+                }
+                (None, None) => None,
+            };
+            if let Some(matrices) = matrices {
                 let data: Vec<f32> = matrices.iter().flatten().copied().collect();
-                let acc = flat_accessor(&mut bin, &mut json, &data, 16, "MAT4", None);
+                let acc = flat_accessor(&mut buffers, &data, 16, "MAT4", None);
                 fields.push(format!(r#""inverseBindMatrices":{acc}"#));
             }
             format!(r#","skins":[{{{}}}]"#, fields.join(","))
         }
         None => String::new(),
     };
-    let own = mesh_node.map_or(String::new(), |m| {
-        transform_json(&source.nodes[m].transform)
+    let own = mesh_node.map_or(NodeTransform::IDENTITY, |m| {
+        source.nodes[m].transform.clone()
     });
+    let own = match grid.filter(|_| skin_grid.is_none()) {
+        Some(grid) => transform_json(&dequantized(&own, grid)),
+        None => transform_json(&own),
+    };
     let bind = if skin.is_empty() { "" } else { r#","skin":0"# };
     let ids: Vec<String> = (1..lods.len()).map(|i| i.to_string()).collect();
     let coverage: Vec<String> = screen_coverage(lods).into_iter().map(number).collect();
@@ -230,13 +303,16 @@ pub(super) fn write_glb(
     let mut text = String::new();
     let _ = write!(
         text,
-        r#"{{"asset":{{"version":"2.0","generator":"morphlod export"}},{extensions},"scene":0,"scenes":[{{"nodes":[{roots}]}}],"nodes":[{nodes}],"meshes":[{meshes}]{skin},{material}{animation},"buffers":[{{"byteLength":{len}}}],"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        r#"{{"asset":{{"version":"2.0","generator":"morphlod export"}},{extensions},"scene":0,"scenes":[{{"nodes":[{roots}]}}],"nodes":[{nodes}],"meshes":[{meshes}]{skin},{material}{animation},"buffers":{buffers},"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
         roots = roots.join(","),
         nodes = nodes.join(","),
         meshes = meshes.join(","),
-        len = bin.bytes.len(),
-        views = json.views.join(","),
-        accessors = json.accessors.join(","),
+        buffers = buffers.buffers_json(),
+        views = buffers.json.views.join(","),
+        accessors = buffers.json.accessors.join(","),
     );
-    glb(text.into_bytes(), bin.bytes)
+    Written {
+        glb: glb(text.into_bytes(), buffers.bin.bytes),
+        lod_bytes,
+    }
 }

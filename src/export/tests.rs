@@ -321,3 +321,55 @@ fn fractions_must_lie_in_0_1_and_decrease() {
     }
     assert!(check_fractions(&[1.0, 0.5, 0.01]).is_ok());
 }
+
+#[test]
+fn quantization_bits_out_of_range_are_refused() {
+    let good = QuantizeOptions::default();
+    for bad in [
+        QuantizeOptions {
+            position_bits: 16,
+            ..good
+        },
+        QuantizeOptions {
+            position_bits: 0,
+            ..good
+        },
+        QuantizeOptions {
+            normal_bits: 3,
+            ..good
+        },
+        QuantizeOptions {
+            uv_bits: 17,
+            ..good
+        },
+    ] {
+        let options = ExportOptions {
+            quantize: Some(bad),
+            ..ExportOptions::default()
+        };
+        let err = export_glb(&bumpy_grid(4), &options).unwrap_err();
+        assert!(matches!(err, ExportError::Bits { .. }), "{bad:?}: {err}");
+        assert!(err.to_string().contains("-bits"), "{err}");
+    }
+}
+
+/// Every stored position and target pose is the nearest grid point, within half a step per
+/// component; the grid spans the base and the target poses.
+#[test]
+fn grid_points_are_the_nearest_within_half_a_step() {
+    let morph = bumpy_grid(6);
+    let grid = Grid::new(&morph, 10);
+    assert_eq!(grid.max, 1023);
+    let ridge = &morph.targets()[0].deltas;
+    for (v, &p) in morph.base().iter().enumerate() {
+        let read = grid.dequantize(grid.quantize(p).map(i32::from));
+        let pose: [f32; 3] = std::array::from_fn(|k| p[k] + ridge[v][k]);
+        let q: [i32; 3] =
+            std::array::from_fn(|k| grid.quantize(p)[k] as i32 + grid.delta(p, ridge[v])[k] as i32);
+        let moved = grid.dequantize(q);
+        for k in 0..3 {
+            assert!((read[k] - p[k]).abs() <= 0.5001 * grid.step, "{v} {k}");
+            assert!((moved[k] - pose[k]).abs() <= 0.5001 * grid.step, "{v} {k}");
+        }
+    }
+}

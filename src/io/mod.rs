@@ -147,6 +147,14 @@ pub enum LoadError {
         element: String,
         message: String,
     },
+    /// A buffer view compressed with `EXT_meshopt_compression` that does not decode: its
+    /// extension object breaks the extension's rules, or its data is corrupt.
+    #[error("{path}: buffer view {view} (EXT_meshopt_compression): {message}")]
+    GltfCompressed {
+        path: PathBuf,
+        view: usize,
+        message: String,
+    },
     #[error("{path}: {element}: {what} is not supported by morphlod")]
     GltfUnsupported {
         path: PathBuf,

@@ -48,6 +48,8 @@ mod cli_supermesh;
 #[cfg(feature = "cli")]
 mod export;
 #[cfg(feature = "cli")]
+mod export_compressed;
+#[cfg(feature = "cli")]
 mod gltf_loader;
 #[cfg(feature = "cli")]
 mod gltf_validator;

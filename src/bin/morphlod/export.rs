@@ -3,7 +3,7 @@
 use crate::output::{check_output, Written};
 use crate::{command_inputs, load_pair, load_surface, SimplifyWeights};
 use clap::Args;
-use morphlod::export::{export_glb, ExportOptions, LodSteps, DEFAULT_POSES};
+use morphlod::export::{export_glb, ExportOptions, LodSteps, QuantizeOptions, DEFAULT_POSES};
 use morphlod::io::gltf::SourceScene;
 use morphlod::io::{Format, LoadError, LoadOptions, MorphSource};
 use morphlod::morph::{Morph, Weights};
@@ -51,6 +51,25 @@ pub(crate) struct ExportArgs {
     /// Two meshes of different connectivity: landmark pairs for the supermesh.
     #[arg(long, value_name = "PAIRS.txt")]
     landmarks: Option<PathBuf>,
+    /// Store positions, normals, UVs and morph deltas as integers (KHR_mesh_quantization; the
+    /// positions on one grid, dequantised by the nodes' transform): half to two thirds the size, every
+    /// position within half a grid step. Clients must support the extension.
+    #[arg(long)]
+    quantize: bool,
+    /// Compress the meshes and animation with EXT_meshopt_compression (implies --quantize):
+    /// several times smaller. Clients must support the extension (three.js with its
+    /// MeshoptDecoder and Babylon.js do).
+    #[arg(long)]
+    compress: bool,
+    /// With --quantize or --compress: bits per position component (1 to 15).
+    #[arg(long, default_value_t = QuantizeOptions::default().position_bits)]
+    position_bits: u32,
+    /// With --quantize or --compress: bits per normal component (4 to 16).
+    #[arg(long, default_value_t = QuantizeOptions::default().normal_bits)]
+    normal_bits: u32,
+    /// With --quantize or --compress: bits per texture coordinate (1 to 16).
+    #[arg(long, default_value_t = QuantizeOptions::default().uv_bits)]
+    uv_bits: u32,
     /// The .glb file to write.
     #[arg(short, long, value_name = "OUT.glb")]
     output: PathBuf,
@@ -111,6 +130,12 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
             default_weights,
             name,
             source,
+            quantize: (args.quantize || args.compress).then_some(QuantizeOptions {
+                position_bits: args.position_bits,
+                normal_bits: args.normal_bits,
+                uv_bits: args.uv_bits,
+            }),
+            compress: args.compress,
         },
     )
     .map_err(|e| e.to_string());
@@ -120,15 +145,25 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
     let export = export?;
     std::fs::write(&args.output, &export.glb)
         .map_err(|e| format!("{}: cannot write: {e}", args.output.display()))?;
-    println!("LOD  fraction  triangles  vertices  collapses  error/diagonal");
+    // Quantized files also give each LOD's quantisation error (max over its vertices and the
+    // measured poses).
+    let quantized = export.grid.is_some();
+    let extra = if quantized { "  quantization/diag" } else { "" };
+    println!("LOD  fraction  triangles  vertices  collapses  error/diagonal     bytes{extra}");
     for (i, lod) in export.lods.iter().enumerate() {
+        let extra = if quantized {
+            format!("  {:>17.3e}", lod.quantization_error)
+        } else {
+            String::new()
+        };
         println!(
-            "{i:>3}  {:>8.4}  {:>9}  {:>8}  {:>9}  {:>14.3e}",
+            "{i:>3}  {:>8.4}  {:>9}  {:>8}  {:>9}  {:>14.3e}  {:>8}{extra}",
             lod.fraction,
             lod.triangles.len(),
             lod.source_vertex.len(),
             lod.step,
-            lod.error
+            lod.error,
+            lod.bytes,
         );
     }
     println!(

@@ -1,7 +1,7 @@
 //! Bounds-checked accessor reads (vectors, floats, indices, sparse accessors) and the
 //! corner list → triangle conversion of the primitive modes.
 
-use super::document::{Document, MAX_VIEWLESS_BYTES};
+use super::document::{Document, MAX_VIEWLESS_BYTES, QUANTIZATION};
 use crate::io::LoadError;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -17,7 +17,8 @@ impl Document {
     }
 
     /// Reads float or normalized-integer components (glTF §3.11 decoding) and
-    /// rejects non-finite values; plain integers would need KHR_mesh_quantization.
+    /// rejects non-finite values; plain integers (their values) only in a file that uses
+    /// KHR_mesh_quantization.
     pub(super) fn read_floats(
         &self,
         accessor: &gltf::Accessor,
@@ -35,10 +36,11 @@ impl Document {
             ));
         }
         let data_type = accessor.data_type();
-        if data_type != DataType::F32 && !accessor.normalized() {
+        let integers = data_type != DataType::F32 && !accessor.normalized();
+        if integers && (data_type == DataType::U32 || !self.uses(QUANTIZATION)) {
             return Err(self.unsupported(
                 &element,
-                format!("non-normalized {data_type:?} components (KHR_mesh_quantization)"),
+                format!("non-normalized {data_type:?} components without {QUANTIZATION}"),
             ));
         }
         let bytes = self.gather(accessor, &element)?;
@@ -47,6 +49,7 @@ impl Document {
                 .chunks_exact(4)
                 .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
                 .collect(),
+            _ if integers => integer_values(data_type, &bytes),
             DataType::I8 => bytes
                 .iter()
                 .map(|&b| (b as i8 as f32 / 127.0).max(-1.0))
@@ -114,12 +117,22 @@ impl Document {
         }
     }
 
-    /// The bytes of a buffer view, after checking the view lies inside its buffer.
+    /// True when the file lists `extension` in `extensionsUsed`.
+    pub(super) fn uses(&self, extension: &str) -> bool {
+        super::document::uses(&self.raw, extension)
+    }
+
+    /// The bytes of a buffer view (decoded, when it is compressed), after checking the view
+    /// lies inside its buffer.
     pub(super) fn view_bytes(
         &self,
         view: &gltf::buffer::View,
         element: &str,
     ) -> Result<&[u8], LoadError> {
+        if let Some(Some(decoded)) = self.decoded.get(view.index()) {
+            // Decoded to exactly byteLength bytes (checked by the decoder).
+            return Ok(decoded);
+        }
         let buffer = self
             .buffers
             .get(view.buffer().index())
@@ -253,6 +266,22 @@ impl Document {
             }
         }
         Ok(out)
+    }
+}
+
+/// Little-endian integer components of `data_type` (not `U32` or `F32`) as their values.
+fn integer_values(data_type: DataType, bytes: &[u8]) -> Vec<f32> {
+    match data_type {
+        DataType::I8 => bytes.iter().map(|&b| b as i8 as f32).collect(),
+        DataType::U8 => bytes.iter().map(|&b| b as f32).collect(),
+        DataType::I16 => bytes
+            .chunks_exact(2)
+            .map(|b| i16::from_le_bytes([b[0], b[1]]) as f32)
+            .collect(),
+        _ => bytes
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]) as f32)
+            .collect(),
     }
 }
 

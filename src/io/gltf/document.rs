@@ -4,6 +4,7 @@
 //! primitives in `primitives.rs`, the node tree in `nodes.rs`, animation channels in
 //! `animation.rs`.
 
+use super::meshopt_compression::EXT_MESHOPT_COMPRESSION;
 use super::{list_names, pick};
 use crate::io::LoadError;
 use base64::Engine;
@@ -15,12 +16,17 @@ use std::path::{Path, PathBuf};
 /// 22-million-vertex sparse morph target.
 pub(super) const MAX_VIEWLESS_BYTES: usize = 1 << 28;
 
+/// `KHR_mesh_quantization`: integer vertex attributes, which this reader reads as their values.
+pub(super) const QUANTIZATION: &str = "KHR_mesh_quantization";
+
 /// A validated glTF document with its buffers loaded and length-checked.
 pub(super) struct Document {
     pub(super) path: PathBuf,
     pub(super) document: gltf::Document,
     pub(super) raw: serde_json::Value,
     pub(super) buffers: Vec<Vec<u8>>,
+    /// Per buffer view, its bytes decoded when it is compressed (`EXT_meshopt_compression`).
+    pub(super) decoded: Vec<Option<Vec<u8>>>,
 }
 
 impl Document {
@@ -50,13 +56,18 @@ impl Document {
         let document = gltf::Document::from_json_without_validation(root);
         let buffers = document
             .buffers()
-            .map(|buffer| load_buffer(path, &buffer, bin))
+            .map(|buffer| match is_placeholder(&raw, &buffer, is_glb) {
+                true => Ok(Vec::new()),
+                false => load_buffer(path, &buffer, bin),
+            })
             .collect::<Result<Vec<_>, LoadError>>()?;
+        let decoded = decode_views(path, &raw, &buffers)?;
         Ok(Document {
             path: path.to_path_buf(),
             document,
             raw,
             buffers,
+            decoded,
         })
     }
 
@@ -91,6 +102,50 @@ impl Document {
                 available: list_names(&names),
             })
     }
+}
+
+/// A buffer with no data of its own that only compressed views point at
+/// (`EXT_meshopt_compression`'s fallback buffer): marked `"fallback": true`, or, in a file
+/// that uses the extension, without a URI and not the GLB's BIN chunk (buffer 0). Nothing is
+/// loaded for it; a plain view pointing into it is refused when read.
+fn is_placeholder(raw: &serde_json::Value, buffer: &gltf::Buffer, glb: bool) -> bool {
+    let json = &raw["buffers"][buffer.index()];
+    let marked = json["extensions"][EXT_MESHOPT_COMPRESSION]["fallback"] == true;
+    let bin_chunk = glb && buffer.index() == 0;
+    marked || (uses(raw, EXT_MESHOPT_COMPRESSION) && json.get("uri").is_none() && !bin_chunk)
+}
+
+/// True when the file (its JSON `raw`) lists `extension` in `extensionsUsed`.
+pub(super) fn uses(raw: &serde_json::Value, extension: &str) -> bool {
+    raw["extensionsUsed"]
+        .as_array()
+        .is_some_and(|used| used.iter().any(|e| e == extension))
+}
+
+/// Every compressed buffer view decoded (`EXT_meshopt_compression`, [`super::meshopt`]); a
+/// view that does not decode is refused with what is wrong.
+fn decode_views(
+    path: &Path,
+    raw: &serde_json::Value,
+    buffers: &[Vec<u8>],
+) -> Result<Vec<Option<Vec<u8>>>, LoadError> {
+    let views = raw["bufferViews"].as_array().map_or(&[][..], |v| v);
+    views
+        .iter()
+        .enumerate()
+        .map(|(i, view)| {
+            let Some(ext) = view["extensions"].get(EXT_MESHOPT_COMPRESSION) else {
+                return Ok(None);
+            };
+            super::meshopt_compression::decode_view(view, ext, buffers)
+                .map(Some)
+                .map_err(|message| LoadError::GltfCompressed {
+                    path: path.to_path_buf(),
+                    view: i,
+                    message,
+                })
+        })
+        .collect()
 }
 
 /// Splits a GLB file into its JSON chunk and optional BIN chunk, checking the
@@ -221,6 +276,12 @@ fn precheck(root: &gltf::json::Root) -> Result<(), String> {
 fn validate(root: &gltf::json::Root) -> Result<(), String> {
     use gltf::json::validation::{Error, Validate};
     let allowed = |path: &str, error: Error| {
+        // The extensions this reader implements (the `gltf` crate does not).
+        if error == Error::Unsupported {
+            return [QUANTIZATION, EXT_MESHOPT_COMPRESSION].iter().any(|e| {
+                path.starts_with("extensionsRequired[") && path.ends_with(&format!("\"{e}\""))
+            });
+        }
         if error != Error::Missing {
             return false;
         }

@@ -14,6 +14,7 @@ mod accessor;
 mod animation;
 mod attributes;
 mod document;
+pub(crate) mod meshopt_compression;
 #[cfg(test)]
 mod morph_tests;
 mod nodes;
