@@ -12,7 +12,12 @@
 //!   removes and adds (freed slots reused, old ids refused), the index and indirect buffers read
 //!   back from the GPU draw, per live instance, exactly the triangles of its runtime's strips
 //!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), the records
-//!   carry the slot where the path says, and free records draw nothing.
+//!   carry the slot where the path says, lie in its slot range, start and end at live
+//!   indices, and free records draw nothing.
+//! * `crowd_records_read_only_live_indices`: the same walk with other record cuts
+//!   (`CrowdRecords`): one record per strip and no gap read (the records read exactly the live
+//!   indices), gaps of one slot read (no run of restarts longer than one: no restart tail
+//!   read), and 2 records per instance (never more).
 //! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, for the head and
 //!   for the face (without and with a surface): drawn by the entry point without the target
 //!   sum (uploaded without targets) and by the 8-slot one at zero weights they give the same
@@ -49,8 +54,8 @@ use common::strip_draw;
 use morphlod::build::Sequences;
 use morphlod::collapse::canonical_multiset;
 use morphlod::gpu::{
-    self, AssetId, Crowd, CrowdError, CrowdPath, DiscreteCrowd, DiscreteLevels, GpuAsset, GpuError,
-    InstanceId, LodObject, RenderTarget,
+    self, AssetId, Crowd, CrowdError, CrowdPath, CrowdRecords, DiscreteCrowd, DiscreteLevels,
+    GpuAsset, GpuError, InstanceId, LodObject, RenderTarget,
 };
 use morphlod::simplify::PoseError;
 use morphlod::{Asset, Builder, DeformingModel, Lod};
@@ -357,9 +362,22 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
     Ok(())
 }
 
-/// Per live instance, the triangles its record draws from the buffers read back, mapped back
-/// to the asset's vertex numbers; and every free record's triangle count.
-fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[u32; 3]>> {
+/// What one instance slot's records draw, from the buffers read back.
+struct SlotDraw {
+    /// The triangles, mapped back to the asset's vertex numbers.
+    triangles: Vec<[u32; 3]>,
+    /// Records that draw something.
+    records: usize,
+    /// Indices they read.
+    read: u32,
+    /// The longest run of restarts one of them reads.
+    longest_restarts: usize,
+}
+
+/// Per slot, what its records draw from the buffers read back; checks where each record
+/// lies (in its slot's index range, carrying the slot where the path says, starting and ending
+/// at a live index).
+fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<SlotDraw> {
     // The slot's vertices: at slot × n on the base-vertex path, the asset's own on the other.
     let base = |slot: usize| match crowd.path() {
         CrowdPath::BaseVertex => slot as u32 * n,
@@ -367,24 +385,45 @@ fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[
     };
     let indices = ctx.read_words(crowd.index_buffer(asset).expect("asset"));
     let words = ctx.read_words(crowd.indirect_buffer(asset).expect("asset"));
-    let capacity = words.len() / 5;
+    let per_slot = crowd.records_per_instance(asset) as usize;
+    let per = crowd.slots_per_instance(asset);
+    let capacity = words.len() / 5 / per_slot;
     (0..capacity)
         .map(|slot| {
-            let r = &words[slot * 5..slot * 5 + 5];
-            let record = [r[0], r[1], r[2], r[3], r[4]];
-            if record[1] > 0 {
+            let records: Vec<[u32; 5]> = words[slot * per_slot * 5..(slot + 1) * per_slot * 5]
+                .chunks(5)
+                .map(|r| [r[0], r[1], r[2], r[3], r[4]])
+                .filter(|r| r[0] > 0 && r[1] > 0)
+                .collect();
+            let mut longest_restarts = 0;
+            for record in &records {
                 assert_eq!(record[3], base(slot), "slot {slot}: base_vertex");
                 let first_instance = match crowd.path() {
                     CrowdPath::BaseVertex => 0,
                     CrowdPath::FirstInstance => slot as u32,
                 };
                 assert_eq!(record[4], first_instance, "slot {slot}: first_instance");
-                assert_eq!(record[2], slot as u32 * crowd.slots_per_instance(asset));
+                let (first, count) = (record[2], record[0]);
+                let own = slot as u32 * per..(slot as u32 + 1) * per;
+                assert!(own.contains(&first) && own.contains(&(first + count - 1)));
+                let read = &indices[first as usize..(first + count) as usize];
+                assert!(
+                    read[0] != gpu::RESTART && read[read.len() - 1] != gpu::RESTART,
+                    "slot {slot}: a record starts or ends with a restart"
+                );
+                for run in read.split(|&i| i != gpu::RESTART) {
+                    longest_restarts = longest_restarts.max(run.len());
+                }
             }
-            draw_indexed_indirect(&indices, &[record], n * capacity as u32)
-                .into_iter()
-                .map(|t| t.map(|v| v - base(slot)))
-                .collect()
+            SlotDraw {
+                triangles: draw_indexed_indirect(&indices, &records, n * capacity as u32)
+                    .into_iter()
+                    .map(|t| t.map(|v| v - base(slot)))
+                    .collect(),
+                records: records.len(),
+                read: records.iter().map(|r| r[0]).sum(),
+                longest_restarts,
+            }
         })
         .collect()
 }
@@ -399,14 +438,43 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
         Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
     ];
     for path in paths(&ctx) {
-        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path)?;
+        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, CrowdRecords::default())?;
     }
     Ok(())
 }
 
-fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -> Result<()> {
+/// The records read the live indices of an instance and restarts only where the cut says:
+/// with room for a record per strip and no gap read through, exactly the live indices; with
+/// gaps of one slot read through (the separators of adjacent full regions), no run of
+/// restarts longer than one; with 2 records per instance, no more than 2. A record that
+/// reached past an instance's last live index or read a strip's restart tail fails the first
+/// two. 64 records are room for every strip of the grids' instances (checked).
+#[test]
+fn crowd_records_read_only_live_indices() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let kinds = [
+        Kind::new(&ctx, grid_asset(11, 6, 0.5))?,
+        Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
+    ];
+    let path = paths(&ctx)[0];
+    for (per_instance, gap) in [(64, 0), (64, 1), (2, 1)] {
+        let records = CrowdRecords { per_instance, gap };
+        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, records)?;
+    }
+    Ok(())
+}
+
+fn buffers_decode_to_each_instance_mesh(
+    ctx: &Gpu,
+    kinds: &[Kind],
+    path: CrowdPath,
+    records: CrowdRecords,
+) -> Result<()> {
     let (device, queue) = (ctx.device(), ctx.queue());
     let mut crowd = crowd_on(ctx, path)?;
+    crowd.set_records(records);
     let capacity = 5;
     let assets: Vec<AssetId> = kinds
         .iter()
@@ -470,16 +538,26 @@ fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPa
                 let expected: Vec<[u32; 3]> = (0..state.lengths().len())
                     .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
                     .collect();
-                assert_eq!(
-                    drawn[id.slot() as usize],
-                    expected,
-                    "{path:?}, step {step}, {id:?}"
-                );
+                let slot = &drawn[id.slot() as usize];
+                assert_eq!(slot.triangles, expected, "{path:?}, step {step}, {id:?}");
                 assert_eq!(expected.len(), state.triangle_count());
+                // How the records cut the strips (CrowdRecords).
+                let live: u32 = state.lengths().iter().sum();
+                let strips = state.lengths().iter().filter(|&&len| len > 0).count();
+                let why = format!("{records:?}, step {step}, {id:?}: {live} live indices, {strips} strips, {} records read {}", slot.records, slot.read);
+                assert!(slot.records <= records.per_instance as usize, "{why}");
+                if slot.records < records.per_instance as usize {
+                    assert!(slot.longest_restarts <= records.gap as usize, "{why}");
+                }
+                if records.gap == 0 {
+                    assert!(strips <= records.per_instance as usize, "{why}");
+                    assert_eq!(slot.read, live, "{why}");
+                    assert_eq!(slot.records, strips, "{why}");
+                }
             }
-            for (slot, triangles) in drawn.iter().enumerate() {
+            for (slot, drawn) in drawn.iter().enumerate() {
                 if !busy[slot] {
-                    assert!(triangles.is_empty(), "step {step}: free slot {slot} draws");
+                    assert_eq!(drawn.records, 0, "step {step}: free slot {slot} draws");
                 }
             }
         }
@@ -1189,7 +1267,7 @@ fn crowd_bench_runs_discrete_lods() -> Result<()> {
         pixels: 4.0,
         full_detail: false,
         discrete: Some(levels.clone()),
-        path: None,
+        ..Default::default()
     };
     let report = gpu::run_crowd_bench(&ctx.ctx, &asset, model, &options)?;
     let modes: Vec<&str> = report.modes.iter().map(|m| m.mode).collect();

@@ -200,6 +200,14 @@ struct BenchArgs {
     /// first-instance path where the device has it.
     #[arg(long = "crowd-path", value_name = "PATH", value_parser = ["first-instance", "base-vertex"])]
     crowd_path: Option<String>,
+    /// Draw records per instance of the crowd bench (`gpu::CrowdRecords`): an instance's live
+    /// strips are drawn by at most this many records.
+    #[arg(long, value_name = "N", default_value_t = morphlod::gpu::CrowdRecords::default().per_instance)]
+    records: u32,
+    /// The largest run of restart slots between two live strips that one of the crowd
+    /// bench's records reads through instead of ending (`gpu::CrowdRecords::gap`).
+    #[arg(long, value_name = "SLOTS", default_value_t = morphlod::gpu::CrowdRecords::default().gap)]
+    record_gap: u32,
     /// The crowd bench's discrete LODs (full detail and `--levels`, as `morphlod export
     /// --lods`) are cut from this asset's one shared sequence: a build of the same source with
     /// `--sequence shared`. Without it they are cut from the benchmarked asset when it was
@@ -940,6 +948,10 @@ fn crowd_bench(
         }),
         full_detail: !args.skip_full,
         discrete,
+        records: morphlod::gpu::CrowdRecords {
+            per_instance: args.records,
+            gap: args.record_gap,
+        },
         ..Default::default()
     };
     let report = morphlod::gpu::run_crowd_bench(context, asset, model, &options)

@@ -89,6 +89,33 @@ pub enum CrowdError {
     Capacity { capacity: u32, why: String },
 }
 
+/// How an instance's live strips are cut into draw records ([`Crowd::set_records`]).
+///
+/// Every instance slot owns `per_instance` records of its asset's indirect buffer; unused
+/// ones are zero and draw nothing. A record starts at a live strip and ends at the last live
+/// index of one; between two live strips lie slots that hold restarts (the separator, the
+/// tail of a strip shorter than its region, empty regions: the gap). A gap of more than `gap`
+/// slots ends a record and starts the next, the largest gaps first while records last; the
+/// gaps left inside records are read as restarts. A record more costs a draw of the
+/// multi-draw, a gap read costs its restarts: docs/DESIGN.md, "Crowds", has the measurement
+/// behind the defaults.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CrowdRecords {
+    /// Records per instance slot (at least 1).
+    pub per_instance: u32,
+    /// The largest gap a record reads through.
+    pub gap: u32,
+}
+
+impl Default for CrowdRecords {
+    fn default() -> Self {
+        CrowdRecords {
+            per_instance: 16,
+            gap: 64,
+        }
+    }
+}
+
 /// An asset of a crowd.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct AssetId(u32);
@@ -171,6 +198,8 @@ pub struct Crowd {
     /// What assets without a texture bind: a white texel and a sampler.
     white: (wgpu::Texture, wgpu::TextureView, wgpu::Sampler),
     white_pending: bool,
+    /// How the assets added from now on cut their records.
+    records: CrowdRecords,
     assets: Vec<CrowdAsset>,
 }
 
@@ -187,22 +216,110 @@ struct CrowdAsset {
     /// Its render pipeline (number in the crowd's [`CrowdPipeline`]) and vertex entry point.
     render: usize,
     variant: Variant,
-    /// The patch list's GPU buffer and the scatter's bind group over it; grown on demand.
-    patch_buffer: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// How an instance's strips are cut into its records.
+    cut: RecordCut,
+    /// The patch list's GPU buffer and the scatter's bind groups over it and the index,
+    /// resp. indirect buffer; grown on demand.
+    patch_buffer: Option<PatchBuffer>,
     /// Instance of each slot (`None`: free).
     members: Vec<Option<Member>>,
     /// Generation of each slot, bumped when its instance is removed.
     generations: Vec<u32>,
     /// Free slots, reused lowest first.
     free: Vec<u32>,
-    /// Records drawn: one past the highest slot in use.
+    /// Slots drawn: one past the highest slot in use.
     drawn: u32,
+    /// Mirror of the indirect buffer: `budget` records per slot.
     records: Vec<DrawIndexedIndirectArgs>,
     blocks: Vec<InstanceBlock>,
-    dirty_records: Span,
     dirty_blocks: Span,
-    /// Scratch of prepare: the frame's patches.
+    /// The frame's index patches (scratch of prepare).
     patches: Vec<[u32; 2]>,
+    /// The record words changed since the last prepare, as `[word, value]` patches of the
+    /// indirect buffer.
+    record_patches: Vec<[u32; 2]>,
+}
+
+/// The buffer a frame's patches go through, with the scatter's bind groups over it and the
+/// asset's index buffer, resp. indirect buffer.
+struct PatchBuffer {
+    buffer: wgpu::Buffer,
+    indices: wgpu::BindGroup,
+    records: wgpu::BindGroup,
+}
+
+/// Which buffer of an asset a scatter patches.
+#[derive(Clone, Copy)]
+enum Patched {
+    Indices,
+    Records,
+}
+
+/// How an asset's instances' strips are cut into draw records ([`CrowdRecords`]).
+#[derive(Clone, Copy)]
+struct RecordCut {
+    /// Records per slot.
+    budget: usize,
+    /// Gaps of at most this many slots are read through.
+    min_gap: u32,
+    /// Where the slot rides: `first_instance` or `base_vertex` (slot × `vertex_count`).
+    path: CrowdPath,
+    vertex_count: u32,
+}
+
+impl RecordCut {
+    /// The records of `slot` in the mirror of all records.
+    fn of_slot(
+        self,
+        records: &mut [DrawIndexedIndirectArgs],
+        slot: u32,
+    ) -> &mut [DrawIndexedIndirectArgs] {
+        &mut records[slot as usize * self.budget..][..self.budget]
+    }
+
+    /// Sets `records` (the `budget` records of `slot`) to draw the live strips of `lengths`
+    /// (empty: nothing) and appends to `patches` one `[word, value]` patch of the indirect
+    /// buffer per record word that changed.
+    fn fill(
+        self,
+        layout: &SlotLayout,
+        slot: u32,
+        lengths: &[u32],
+        records: &mut [DrawIndexedIndirectArgs],
+        patches: &mut Vec<[u32; 2]>,
+    ) {
+        // The slot rides in first_instance or in base_vertex (checked to fit in add_asset).
+        let (base_vertex, first_instance) = match self.path {
+            CrowdPath::FirstInstance => (0, slot),
+            CrowdPath::BaseVertex => ((slot * self.vertex_count) as i32, 0),
+        };
+        let base = slot * layout.per_instance();
+        let (mut gaps, mut runs) = (Vec::new(), Vec::new());
+        layout.records(lengths, self.budget, self.min_gap, &mut gaps, &mut runs);
+        let words = size_of::<DrawIndexedIndirectArgs>() / 4;
+        let first_word = slot as usize * self.budget * words;
+        for (j, record) in records.iter_mut().enumerate() {
+            let new = runs
+                .get(j)
+                .map_or_else(Default::default, |&(first, count)| {
+                    DrawIndexedIndirectArgs {
+                        index_count: count,
+                        instance_count: 1,
+                        first_index: base + first,
+                        base_vertex,
+                        first_instance,
+                    }
+                });
+            let old: [u32; 5] = bytemuck::cast(*record);
+            let now: [u32; 5] = bytemuck::cast(new);
+            for (w, (&o, &v)) in old.iter().zip(&now).enumerate() {
+                if o != v {
+                    patches.push([(first_word + j * words + w) as u32, v]);
+                }
+            }
+            *record = new;
+        }
+    }
 }
 
 /// One instance: its runtime and what its slots on the GPU hold.
@@ -331,8 +448,15 @@ impl Crowd {
             scene_dirty: false,
             white: (white, view, sampler),
             white_pending: true,
+            records: CrowdRecords::default(),
             assets: Vec::new(),
         }
+    }
+
+    /// How the assets added from now on cut their instances' draw records (assets added
+    /// before keep theirs); [`CrowdRecords::default`] until set. `per_instance` 0 counts as 1.
+    pub fn set_records(&mut self, records: CrowdRecords) {
+        self.records = records;
     }
 
     /// Adds an asset with room for `capacity` instances: its index buffer (`capacity` × the
@@ -388,6 +512,13 @@ impl Crowd {
                 "{block_bytes} bytes of instance blocks pass the device's binding limit"
             ));
         }
+        let budget = self.records.per_instance.max(1);
+        let record_bytes = u64::from(capacity) * u64::from(budget) * ARGS_BYTES;
+        if record_bytes > limits.max_storage_buffer_binding_size {
+            return refuse(format!(
+                "{record_bytes} bytes of draw records pass the device's binding limit"
+            ));
+        }
 
         let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("crowd indices"),
@@ -399,11 +530,13 @@ impl Crowd {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        // Zeroed records draw nothing (index and instance counts 0).
+        // Zeroed records draw nothing (index and instance counts 0). STORAGE: the scatter
+        // writes the changed record words.
         let indirect_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("crowd records"),
-            size: u64::from(capacity) * ARGS_BYTES,
+            size: record_bytes,
             usage: wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_DST
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
@@ -430,16 +563,22 @@ impl Crowd {
             bind_group,
             render,
             variant,
+            cut: RecordCut {
+                budget: budget as usize,
+                min_gap: self.records.gap,
+                path: self.path,
+                vertex_count: n,
+            },
             patch_buffer: None,
             members: (0..capacity).map(|_| None).collect(),
             generations: vec![0; capacity as usize],
             free: (0..capacity).rev().collect(),
             drawn: 0,
-            records: vec![DrawIndexedIndirectArgs::default(); capacity as usize],
+            records: vec![DrawIndexedIndirectArgs::default(); (capacity * budget) as usize],
             blocks: vec![InstanceBlock::new(glam::Mat4::IDENTITY); capacity as usize],
-            dirty_records: Span::EMPTY,
             dirty_blocks: Span::EMPTY,
             patches: Vec::new(),
+            record_patches: Vec::new(),
         });
         Ok(AssetId(id))
     }
@@ -509,21 +648,10 @@ impl Crowd {
         })?;
         let state = DeformingState::new(&a.model);
         let uploaded = a.layout.s0_lengths();
-        // The slot rides in first_instance or in base_vertex (CrowdPath; checked to fit in
-        // add_asset).
-        let (base_vertex, first_instance) = match self.path {
-            CrowdPath::FirstInstance => (0, slot),
-            CrowdPath::BaseVertex => ((slot * a.gpu.vertex_count()) as i32, 0),
-        };
-        a.records[slot as usize] = DrawIndexedIndirectArgs {
-            index_count: a.layout.record_count(&uploaded),
-            instance_count: 1,
-            first_index: slot * a.layout.per_instance(),
-            base_vertex,
-            first_instance,
-        };
+        let records = a.cut.of_slot(&mut a.records, slot);
+        a.cut
+            .fill(&a.layout, slot, &uploaded, records, &mut a.record_patches);
         a.blocks[slot as usize] = InstanceBlock::new(model);
-        a.dirty_records.add(slot);
         a.dirty_blocks.add(slot);
         a.members[slot as usize] = Some(Member {
             state,
@@ -547,8 +675,9 @@ impl Crowd {
         let slot = id.slot as usize;
         a.members[slot] = None;
         a.generations[slot] = a.generations[slot].wrapping_add(1);
-        a.records[slot] = DrawIndexedIndirectArgs::default();
-        a.dirty_records.add(id.slot);
+        let records = a.cut.of_slot(&mut a.records, id.slot);
+        a.cut
+            .fill(&a.layout, id.slot, &[], records, &mut a.record_patches);
         // Lowest slot reused first: keeps the drawn records dense.
         let at = a.free.partition_point(|&s| s > id.slot);
         a.free.insert(at, id.slot);
@@ -694,78 +823,42 @@ impl Crowd {
                     );
                 }
             }
-            // Moved instances: their patches and records, in parallel; then one list.
-            let layout = &a.layout;
-            let moved: Vec<(u32, Vec<[u32; 2]>)> = a
+            // Moved instances: their index patches and, where a strip changed length, their
+            // records' patches, in parallel; then one list of each.
+            let (layout, cut) = (&a.layout, a.cut);
+            let moved: Vec<(Vec<[u32; 2]>, Vec<[u32; 2]>)> = a
                 .members
                 .par_iter_mut()
-                .zip(a.records.par_iter_mut())
+                .zip(a.records.par_chunks_mut(cut.budget))
                 .enumerate()
-                .filter_map(|(slot, (member, record))| {
+                .filter_map(|(slot, (member, records))| {
                     let member = member.as_mut().filter(|m| m.moved)?;
                     member.moved = false;
                     let dirty = member.state.take_dirty();
-                    let mut patches = Vec::new();
-                    let base = slot as u32 * per;
+                    let (mut patches, mut record_patches) = (Vec::new(), Vec::new());
+                    let slot = slot as u32;
                     layout.patches(
-                        base,
+                        slot * per,
                         &member.state,
                         &dirty,
                         &mut member.uploaded,
                         &mut patches,
                     );
-                    record.index_count = layout.record_count(&member.uploaded);
-                    Some((slot as u32, patches))
+                    // Records follow the lengths only.
+                    if !dirty.lengths.is_empty() {
+                        cut.fill(layout, slot, &member.uploaded, records, &mut record_patches);
+                    }
+                    Some((patches, record_patches))
                 })
                 .collect();
             a.patches.clear();
-            for (slot, patches) in moved {
-                // Its record may have changed length.
-                a.dirty_records.add(slot);
+            for (patches, records) in moved {
                 a.patches.extend_from_slice(&patches);
+                a.record_patches.extend_from_slice(&records);
             }
-            if let Some(&last) = a.patches.last() {
-                upload.patches += a.patches.len() as u64;
-                // Whole workgroups: the last patch repeated (same slot, same value).
-                let padded = a.patches.len().next_multiple_of(SCATTER_GROUP as usize);
-                a.patches.resize(padded, last);
-                // A frame that moves many instances far (the first LOD frame of a crowd)
-                // can pass one binding's or one dispatch's limit: then it goes in chunks, each
-                // written and submitted before the next reuses the buffer.
-                let limits = device.limits();
-                let by_binding = limits.max_storage_buffer_binding_size / 8;
-                let by_dispatch = u64::from(limits.max_compute_workgroups_per_dimension)
-                    * u64::from(SCATTER_GROUP);
-                let chunk = (by_binding.min(by_dispatch) as usize / SCATTER_GROUP as usize).max(1)
-                    * SCATTER_GROUP as usize;
-                let patches = std::mem::take(&mut a.patches);
-                for part in patches.chunks(chunk) {
-                    let size = std::mem::size_of_val(part) as u64;
-                    let group = a.patch_group(device, &self.pipeline, size);
-                    let buffer = &a.patch_buffer.as_ref().expect("made above").0;
-                    upload.write(queue, buffer, 0, bytemuck::cast_slice(part));
-                    let mut encoder = device.create_command_encoder(&Default::default());
-                    {
-                        let mut pass = encoder.begin_compute_pass(&Default::default());
-                        pass.set_pipeline(&self.pipeline.scatter);
-                        pass.set_bind_group(0, &group, &[]);
-                        pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
-                    }
-                    queue.submit([encoder.finish()]);
-                    upload.dispatches += 1;
-                }
-                a.patches = patches;
-            }
-            if let Some(range) = a.dirty_records.take() {
-                let records = &a.records[range.start as usize..range.end as usize];
-                let offset = u64::from(range.start) * ARGS_BYTES;
-                upload.write(
-                    queue,
-                    &a.indirect_buffer,
-                    offset,
-                    bytemuck::cast_slice(records),
-                );
-            }
+            upload.patches += a.patches.len() as u64;
+            a.scatter(device, queue, &self.pipeline, Patched::Indices, &mut upload);
+            a.scatter(device, queue, &self.pipeline, Patched::Records, &mut upload);
             if let Some(range) = a.dirty_blocks.take() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
@@ -800,7 +893,7 @@ impl Crowd {
                 }
             }
             pass.set_index_buffer(&a.index_buffer, wgpu::IndexFormat::Uint32);
-            pass.multi_draw_indexed_indirect(&a.indirect_buffer, 0, a.drawn);
+            pass.multi_draw_indexed_indirect(&a.indirect_buffer, 0, a.drawn_records());
         }
     }
 
@@ -810,16 +903,27 @@ impl Crowd {
         self.assets.get(asset.0 as usize).map(|a| &a.index_buffer)
     }
 
-    /// The indirect buffer of `asset` (`COPY_SRC`): record `s` draws slot `s`.
+    /// The indirect buffer of `asset` (`COPY_SRC`): records
+    /// `s × records_per_instance .. (s + 1) × records_per_instance` draw slot `s` (the
+    /// unused ones are zero).
     pub fn indirect_buffer(&self, asset: AssetId) -> Option<&wgpu::Buffer> {
         self.assets
             .get(asset.0 as usize)
             .map(|a| &a.indirect_buffer)
     }
 
-    /// Records `render` draws for `asset` (one past its highest slot in use).
+    /// Records `render` draws for `asset`: those of the slots up to its highest in use.
     pub fn drawn_records(&self, asset: AssetId) -> u32 {
-        self.assets.get(asset.0 as usize).map_or(0, |a| a.drawn)
+        self.assets
+            .get(asset.0 as usize)
+            .map_or(0, CrowdAsset::drawn_records)
+    }
+
+    /// Draw records per instance slot of `asset` ([`CrowdRecords::per_instance`]).
+    pub fn records_per_instance(&self, asset: AssetId) -> u32 {
+        self.assets
+            .get(asset.0 as usize)
+            .map_or(0, |a| a.cut.budget as u32)
     }
 
     /// The path this crowd draws on.
@@ -850,15 +954,16 @@ impl Crowd {
             let count = a.members.iter().flatten().count();
             stats.instances += count;
             stats.triangles += live.map(|m| m.state.triangle_count()).sum::<usize>();
-            stats.indices += a.records[..a.drawn as usize]
+            stats.indices += a.records[..a.drawn_records() as usize]
                 .iter()
                 .map(|r| u64::from(r.index_count))
                 .sum::<u64>();
+            let records = ARGS_BYTES * a.cut.budget as u64;
             let per_slot = u64::from(a.layout.per_instance()) * 4
-                + ARGS_BYTES
+                + records
                 + size_of::<InstanceBlock>() as u64;
             stats.instance_gpu_bytes += per_slot * count as u64;
-            let mirrors = (ARGS_BYTES as usize + size_of::<InstanceBlock>()) * count;
+            let mirrors = (records as usize + size_of::<InstanceBlock>()) * count;
             let members: usize = a.members.iter().flatten().map(Member::heap_bytes).sum();
             stats.instance_host_bytes += (members + mirrors) as u64;
             stats.shared_gpu_bytes += a.gpu.gpu_bytes();
@@ -919,43 +1024,107 @@ impl Crowd {
 }
 
 impl CrowdAsset {
-    /// The scatter's bind group over a patch buffer of at least `bytes`, growing it (to the
-    /// next power of two) when it is smaller.
-    fn patch_group(
+    /// Records drawn: `budget` per slot up to the highest in use.
+    fn drawn_records(&self) -> u32 {
+        self.drawn * self.cut.budget as u32
+    }
+
+    /// Applies this frame's patches of `what` (then empties the list): written to the patch
+    /// buffer and scattered by one dispatch, submitted on `queue`.
+    fn scatter(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pipeline: &CrowdPipeline,
+        what: Patched,
+        upload: &mut CrowdUpload,
+    ) {
+        let mut patches = std::mem::take(match what {
+            Patched::Indices => &mut self.patches,
+            Patched::Records => &mut self.record_patches,
+        });
+        if let Some(&last) = patches.last() {
+            // Whole workgroups: the last patch repeated (same slot, same value).
+            let padded = patches.len().next_multiple_of(SCATTER_GROUP as usize);
+            patches.resize(padded, last);
+            // A frame that moves many instances far (the first LOD frame of a crowd) can pass
+            // one binding's or one dispatch's limit: then it goes in chunks, each written and
+            // submitted before the next reuses the buffer.
+            let limits = device.limits();
+            let by_binding = limits.max_storage_buffer_binding_size / 8;
+            let by_dispatch =
+                u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(SCATTER_GROUP);
+            let chunk = (by_binding.min(by_dispatch) as usize / SCATTER_GROUP as usize).max(1)
+                * SCATTER_GROUP as usize;
+            for part in patches.chunks(chunk) {
+                let size = std::mem::size_of_val(part) as u64;
+                let buffer = self.patch_buffer(device, pipeline, size);
+                upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(part));
+                let group = match what {
+                    Patched::Indices => &buffer.indices,
+                    Patched::Records => &buffer.records,
+                };
+                let mut encoder = device.create_command_encoder(&Default::default());
+                {
+                    let mut pass = encoder.begin_compute_pass(&Default::default());
+                    pass.set_pipeline(&pipeline.scatter);
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
+                }
+                queue.submit([encoder.finish()]);
+                upload.dispatches += 1;
+            }
+        }
+        patches.clear();
+        match what {
+            Patched::Indices => self.patches = patches,
+            Patched::Records => self.record_patches = patches,
+        }
+    }
+
+    /// The patch buffer, of at least `bytes`: grown (to the next power of two) when smaller.
+    fn patch_buffer(
         &mut self,
         device: &wgpu::Device,
         pipeline: &CrowdPipeline,
         bytes: u64,
-    ) -> wgpu::BindGroup {
-        if let Some((buffer, group)) = &self.patch_buffer {
-            if buffer.size() >= bytes {
-                return group.clone();
-            }
+    ) -> &PatchBuffer {
+        if self
+            .patch_buffer
+            .as_ref()
+            .is_none_or(|p| p.buffer.size() < bytes)
+        {
+            // The caller keeps `bytes` within the binding limit; so does the rounding.
+            let max = device.limits().max_storage_buffer_binding_size;
+            let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("crowd patches"),
+                size: bytes.next_power_of_two().min(max).max(bytes),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let group = |target: &wgpu::Buffer| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("crowd scatter"),
+                    layout: &pipeline.scatter_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: buffer.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: target.as_entire_binding(),
+                        },
+                    ],
+                })
+            };
+            self.patch_buffer = Some(PatchBuffer {
+                indices: group(&self.index_buffer),
+                records: group(&self.indirect_buffer),
+                buffer,
+            });
         }
-        // The caller keeps `bytes` within the binding limit; so does the rounding.
-        let max = device.limits().max_storage_buffer_binding_size;
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("crowd patches"),
-            size: bytes.next_power_of_two().min(max).max(bytes),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("crowd scatter"),
-            layout: &pipeline.scatter_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.index_buffer.as_entire_binding(),
-                },
-            ],
-        });
-        self.patch_buffer = Some((buffer, group.clone()));
-        group
+        self.patch_buffer.as_ref().expect("made above")
     }
 }
 

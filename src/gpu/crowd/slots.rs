@@ -59,13 +59,47 @@ impl SlotLayout {
         self.runtime.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// The index count of an instance's one draw record: up to the last live index of its last
-    /// non-empty region (coarse levels do not read the restart tails after it).
-    pub(super) fn record_count(&self, lengths: &[u32]) -> u32 {
-        lengths
-            .iter()
-            .rposition(|&len| len > 0)
-            .map_or(0, |r| self.starts[r] + lengths[r])
+    /// Cuts an instance's live strips (regions of `lengths`) into at most `budget` draw
+    /// records, each `(first, count)` relative to the instance's first slot, appended to `out`
+    /// in slot order. A record starts at a non-empty region and ends at the last live index of
+    /// a non-empty region; between two non-empty regions lie the separator and the restart tail
+    /// of the first and any empty regions (the gap). Every gap of more than `min_gap` slots
+    /// is cut (the record ends before it, the next starts after it), the largest first, while
+    /// the budget lasts; the gaps left inside records are read as restarts. `gaps` is scratch.
+    pub(super) fn records(
+        &self,
+        lengths: &[u32],
+        budget: usize,
+        min_gap: u32,
+        gaps: &mut Vec<(u32, u32)>,
+        out: &mut Vec<(u32, u32)>,
+    ) {
+        // Gaps as (size, the start of the non-empty region after it).
+        gaps.clear();
+        let (mut first, mut end) = (None, 0u32);
+        for (r, &len) in lengths.iter().enumerate().filter(|(_, &len)| len > 0) {
+            let start = self.starts[r];
+            match first {
+                None => first = Some(start),
+                Some(_) if start - end > min_gap => gaps.push((start - end, start)),
+                Some(_) => {}
+            }
+            end = start + len;
+        }
+        let Some(first) = first else { return };
+        let cuts = budget.max(1) - 1;
+        if gaps.len() > cuts {
+            // The largest gaps are cut; ties by position, so the cut is deterministic.
+            gaps.select_nth_unstable_by(cuts, |a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+            gaps.truncate(cuts);
+        }
+        gaps.sort_unstable_by_key(|&(_, at)| at);
+        let mut from = first;
+        for &(size, at) in gaps.iter() {
+            out.push((from, at - size - from));
+            from = at;
+        }
+        out.push((from, end - from));
     }
 
     /// Appends to `out` the patches that take the slots at `base` from what the GPU holds
@@ -194,7 +228,32 @@ mod tests {
                 "step {step}"
             );
             assert_eq!(uploaded, state.lengths());
-            let end = layout.record_count(state.lengths()) as usize;
+            // Records cut at every gap (min_gap 0) read exactly the live indices; keeping
+            // the separators (min_gap 1) reads them and no restart tail; after the last
+            // record, only restarts.
+            let (mut gaps, mut records) = (Vec::new(), Vec::new());
+            let live: u32 = state.lengths().iter().sum();
+            let strips = state.lengths().iter().filter(|&&len| len > 0).count();
+            layout.records(state.lengths(), usize::MAX, 0, &mut gaps, &mut records);
+            assert_eq!(records.len(), strips);
+            assert_eq!(records.iter().map(|&(_, count)| count).sum::<u32>(), live);
+            records.clear();
+            layout.records(state.lengths(), usize::MAX, 1, &mut gaps, &mut records);
+            let read: u32 = records.iter().map(|&(_, count)| count).sum();
+            assert_eq!(read - live, (strips - records.len()) as u32, "step {step}");
+            for &(first, count) in &records {
+                let slots = &gpu[(base + first) as usize..(base + first + count) as usize];
+                assert!(slots.first() != Some(&RESTART) && slots.last() != Some(&RESTART));
+                assert!(
+                    slots.windows(2).all(|w| w != [RESTART, RESTART]),
+                    "a tail read"
+                );
+            }
+            // A budget of 2 cuts the largest gap only.
+            records.clear();
+            layout.records(state.lengths(), 2, 1, &mut gaps, &mut records);
+            assert!(records.len() <= 2.min(strips));
+            let end = records.last().map_or(0, |&(first, count)| first + count) as usize;
             assert!(gpu[base as usize + end..].iter().all(|&w| w == RESTART));
         }
     }
