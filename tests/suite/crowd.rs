@@ -14,10 +14,11 @@
 //!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), the records
 //!   carry the slot where the path says, lie in its slot range, start and end at live
 //!   indices, and free records draw nothing.
-//! * `crowd_records_read_only_live_indices`: the same walk with other record cuts
-//!   (`CrowdRecords`): one record per strip and no gap read (the records read exactly the live
-//!   indices), gaps of one slot read (no run of restarts longer than one: no restart tail
-//!   read), and 2 records per instance (never more).
+//!   Where a moved instance's live strips fit its compact area (`CrowdRecords`), its record
+//!   reads their packed copy: the live indices and one restart between two strips, nothing else.
+//! * `crowd_records_read_only_live_indices`: the same walk with a compact area as large as the
+//!   regions (every moved instance's record reads only its live indices and the restarts
+//!   between strips) and without one (every record reads the regions).
 //! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, for the head and
 //!   for the face (without and with a surface): drawn by the entry point without the target
 //!   sum (uploaded without targets) and by the 8-slot one at zero weights they give the same
@@ -362,21 +363,19 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
     Ok(())
 }
 
-/// What one instance slot's records draw, from the buffers read back.
+/// What one instance slot's record draws, from the buffers read back.
 struct SlotDraw {
     /// The triangles, mapped back to the asset's vertex numbers.
     triangles: Vec<[u32; 3]>,
-    /// Records that draw something.
-    records: usize,
-    /// Indices they read.
+    /// Indices the record reads (0: it draws nothing).
     read: u32,
-    /// The longest run of restarts one of them reads.
-    longest_restarts: usize,
+    /// Whether it reads the slot's compact area (the last `compact_slots` of its range).
+    compact: bool,
 }
 
-/// Per slot, what its records draw from the buffers read back; checks where each record
-/// lies (in its slot's index range, carrying the slot where the path says, starting and ending
-/// at a live index).
+/// Per slot, what its record draws from the buffers read back; checks where each record lies
+/// (in its slot's index range, carrying the slot where the path says, starting and ending at
+/// a live index).
 fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<SlotDraw> {
     // The slot's vertices: at slot × n on the base-vertex path, the asset's own on the other.
     let base = |slot: usize| match crowd.path() {
@@ -385,44 +384,36 @@ fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<SlotD
     };
     let indices = ctx.read_words(crowd.index_buffer(asset).expect("asset"));
     let words = ctx.read_words(crowd.indirect_buffer(asset).expect("asset"));
-    let per_slot = crowd.records_per_instance(asset) as usize;
     let per = crowd.slots_per_instance(asset);
-    let capacity = words.len() / 5 / per_slot;
+    let compact_from = per - crowd.compact_slots(asset);
+    let capacity = words.len() / 5;
     (0..capacity)
         .map(|slot| {
-            let records: Vec<[u32; 5]> = words[slot * per_slot * 5..(slot + 1) * per_slot * 5]
-                .chunks(5)
-                .map(|r| [r[0], r[1], r[2], r[3], r[4]])
-                .filter(|r| r[0] > 0 && r[1] > 0)
-                .collect();
-            let mut longest_restarts = 0;
-            for record in &records {
+            let r = &words[slot * 5..slot * 5 + 5];
+            let record = [r[0], r[1], r[2], r[3], r[4]];
+            let (count, first) = (record[0] * record[1].min(1), record[2]);
+            let own = slot as u32 * per..(slot as u32 + 1) * per;
+            if count > 0 {
                 assert_eq!(record[3], base(slot), "slot {slot}: base_vertex");
                 let first_instance = match crowd.path() {
                     CrowdPath::BaseVertex => 0,
                     CrowdPath::FirstInstance => slot as u32,
                 };
                 assert_eq!(record[4], first_instance, "slot {slot}: first_instance");
-                let (first, count) = (record[2], record[0]);
-                let own = slot as u32 * per..(slot as u32 + 1) * per;
                 assert!(own.contains(&first) && own.contains(&(first + count - 1)));
                 let read = &indices[first as usize..(first + count) as usize];
                 assert!(
                     read[0] != gpu::RESTART && read[read.len() - 1] != gpu::RESTART,
                     "slot {slot}: a record starts or ends with a restart"
                 );
-                for run in read.split(|&i| i != gpu::RESTART) {
-                    longest_restarts = longest_restarts.max(run.len());
-                }
             }
             SlotDraw {
-                triangles: draw_indexed_indirect(&indices, &records, n * capacity as u32)
+                triangles: draw_indexed_indirect(&indices, &[record], n * capacity as u32)
                     .into_iter()
                     .map(|t| t.map(|v| v - base(slot)))
                     .collect(),
-                records: records.len(),
-                read: records.iter().map(|r| r[0]).sum(),
-                longest_restarts,
+                read: count,
+                compact: count > 0 && first >= own.start + compact_from,
             }
         })
         .collect()
@@ -443,12 +434,11 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
     Ok(())
 }
 
-/// The records read the live indices of an instance and restarts only where the cut says:
-/// with room for a record per strip and no gap read through, exactly the live indices; with
-/// gaps of one slot read through (the separators of adjacent full regions), no run of
-/// restarts longer than one; with 2 records per instance, no more than 2. A record that
-/// reached past an instance's last live index or read a strip's restart tail fails the first
-/// two. 64 records are room for every strip of the grids' instances (checked).
+/// The record of an instance whose live strips fit its compact area reads them and one
+/// restart between two, nothing else: with a compact area as large as the regions every
+/// moved instance's record does (a record that read a strip's restart tail, or past the last
+/// live index, reads more); without one none does, and the regions still decode to each
+/// instance's mesh.
 #[test]
 fn crowd_records_read_only_live_indices() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
@@ -459,8 +449,8 @@ fn crowd_records_read_only_live_indices() -> Result<()> {
         Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
     ];
     let path = paths(&ctx)[0];
-    for (per_instance, gap) in [(64, 0), (64, 1), (2, 1)] {
-        let records = CrowdRecords { per_instance, gap };
+    for compact_share in [1.0, 0.0] {
+        let records = CrowdRecords { compact_share };
         buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, records)?;
     }
     Ok(())
@@ -483,6 +473,8 @@ fn buffers_decode_to_each_instance_mesh(
     let mut rng = common::Rng(0x5eed_c0de);
     let mut live: Vec<InstanceId> = Vec::new();
     let mut removed: Vec<InstanceId> = Vec::new();
+    // Instances moved since they were added (the others still draw S0 from their regions).
+    let mut moved: Vec<InstanceId> = Vec::new();
     for step in 0..40 {
         // Adds and removes: keep between 2 and all slots busy.
         if step % 4 == 0 || live.len() < 2 {
@@ -514,6 +506,7 @@ fn buffers_decode_to_each_instance_mesh(
             }
         }
         crowd.set(&moves)?;
+        moved.extend(moves.iter().map(|&(id, _, _)| id));
         if step % 3 == 0 {
             let again: Vec<_> = moves
                 .iter()
@@ -541,23 +534,30 @@ fn buffers_decode_to_each_instance_mesh(
                 let slot = &drawn[id.slot() as usize];
                 assert_eq!(slot.triangles, expected, "{path:?}, step {step}, {id:?}");
                 assert_eq!(expected.len(), state.triangle_count());
-                // How the records cut the strips (CrowdRecords).
-                let live: u32 = state.lengths().iter().sum();
-                let strips = state.lengths().iter().filter(|&&len| len > 0).count();
-                let why = format!("{records:?}, step {step}, {id:?}: {live} live indices, {strips} strips, {} records read {}", slot.records, slot.read);
-                assert!(slot.records <= records.per_instance as usize, "{why}");
-                if slot.records < records.per_instance as usize {
-                    assert!(slot.longest_restarts <= records.gap as usize, "{why}");
+                // Where the live strips fit the compact area, the record reads them and
+                // one restart between two (CrowdRecords).
+                let indices: u32 = state.lengths().iter().sum();
+                let strips = state.lengths().iter().filter(|&&len| len > 0).count() as u32;
+                let packed = indices + strips.saturating_sub(1);
+                let fits = packed > 0 && packed <= crowd.compact_slots(asset);
+                let why = format!(
+                    "{records:?}, step {step}, {id:?}: {indices} live indices, {strips} strips, record reads {}",
+                    slot.read
+                );
+                if fits && moved.contains(id) {
+                    assert!(slot.compact, "{why}");
+                    assert_eq!(slot.read, packed, "{why}");
+                } else {
+                    assert!(!slot.compact, "{why}");
+                    assert!(slot.read >= packed, "{why}");
                 }
-                if records.gap == 0 {
-                    assert!(strips <= records.per_instance as usize, "{why}");
-                    assert_eq!(slot.read, live, "{why}");
-                    assert_eq!(slot.records, strips, "{why}");
+                if records.compact_share >= 1.0 && moved.contains(id) {
+                    assert!(fits || packed == 0, "{why}");
                 }
             }
             for (slot, drawn) in drawn.iter().enumerate() {
                 if !busy[slot] {
-                    assert_eq!(drawn.records, 0, "step {step}: free slot {slot} draws");
+                    assert_eq!(drawn.read, 0, "step {step}: free slot {slot} draws");
                 }
             }
         }

@@ -47,7 +47,7 @@ pub struct CrowdBenchOptions {
     pub discrete: Option<DiscreteLevels>,
     /// The crowd's path; `None`: what [`Crowd::new`] picks for the device.
     pub path: Option<CrowdPath>,
-    /// How the crowd cuts its draw records.
+    /// The crowd's compact area.
     pub records: CrowdRecords,
 }
 
@@ -108,7 +108,7 @@ pub struct ModeFigures {
     pub uploaded_bytes: Stat,
     pub writes: Stat,
     pub triangles: Stat,
-    /// Indices the draws read (the crowd's records include restarts and region tails).
+    /// Indices the draws read (restarts included; [`super::CrowdStats::indices`]).
     pub indices: Stat,
     /// Instances whose frame changed (none in discrete LODs: one connectivity for all).
     pub frame_switches: Stat,
@@ -149,8 +149,8 @@ pub struct CrowdBenchReport {
     pub frames_sampled: usize,
     /// How GPU time was taken: `timestamps (render pass)` or `submit + wait`.
     pub gpu_timing: &'static str,
-    /// The crowd's path, the vertex entry point that drew the asset and its records
-    /// ([`CrowdRecords`]).
+    /// The crowd's path, the vertex entry point that drew the asset and the slots of its
+    /// instances' compact area ([`CrowdRecords`]).
     pub path: String,
     /// Host bytes per instance (runtime, lengths, record and block mirrors).
     pub host_bytes_per_instance: f64,
@@ -254,11 +254,10 @@ pub fn run_crowd_bench(
             None => "submit + wait",
         },
         path: format!(
-            "{:?} ({}; {} records per instance, gap {})",
+            "{:?} ({}; compact area {} slots)",
             crowd.path(),
             crowd.vertex_entry_point(id).unwrap_or("-"),
-            options.records.per_instance,
-            options.records.gap
+            crowd.compact_slots(id),
         ),
         gpu_bytes_per_instance: stats.instance_gpu_bytes as f64
             / f64::from(options.instances.max(1)),

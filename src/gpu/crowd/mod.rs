@@ -10,12 +10,17 @@
 //!   lengths the GPU holds, one record and one 192-byte block. No index mirror: the runtime's
 //!   dirty log says what to upload.
 //!
+//! An instance's slots hold its strips in fixed regions (patched in place) and a compact area:
+//! where its live strips fit there (a coarse LOD), its record draws their packed copy, so it
+//! reads the live indices only, not the restart tails of the regions ([`CrowdRecords`]).
+//!
 //! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon);
 //! [`prepare`](Crowd::prepare) gathers per asset the index patches of every moved instance
-//! (O(changed indices), in parallel), uploads them with one write and applies them with one
-//! compute dispatch, and writes the changed records and instance blocks as one contiguous
-//! range each; [`render`](Crowd::render) binds each asset and issues its one multi-draw. The
-//! caller owns device, queue and pass, as with an [`Object`](super::Object).
+//! (O(changed indices) for the regions, the live indices for a changed compact copy, in
+//! parallel), uploads them with one write and applies them with one compute dispatch, does
+//! the same with the changed words of the records, and writes the changed instance blocks as
+//! one contiguous range; [`render`](Crowd::render) binds each asset and issues its one
+//! multi-draw. The caller owns device, queue and pass, as with an [`Object`](super::Object).
 //!
 //! The instance of a vertex reaches the shader one of two ways ([`CrowdPath`],
 //! `shaders/crowd.wgsl`): as `first_instance` (the slot), with the poses and surface fetched
@@ -48,7 +53,7 @@ pub use self::bench::{
 pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant, SCATTER_GROUP};
-use self::slots::SlotLayout;
+use self::slots::{SlotLayout, SlotRecord};
 use super::asset::GpuAsset;
 use super::commands::RenderCommands;
 use super::pose::{clamp_t, default_mode};
@@ -89,29 +94,30 @@ pub enum CrowdError {
     Capacity { capacity: u32, why: String },
 }
 
-/// How an instance's live strips are cut into draw records ([`Crowd::set_records`]).
+/// How much room an instance has for a compact copy of its live strips
+/// ([`Crowd::set_records`]).
 ///
-/// Every instance slot owns `per_instance` records of its asset's indirect buffer; unused
-/// ones are zero and draw nothing. A record starts at a live strip and ends at the last live
-/// index of one; between two live strips lie slots that hold restarts (the separator, the
-/// tail of a strip shorter than its region, empty regions: the gap). A gap of more than `gap`
-/// slots ends a record and starts the next, the largest gaps first while records last; the
-/// gaps left inside records are read as restarts. A record more costs a draw of the
-/// multi-draw, a gap read costs its restarts: docs/DESIGN.md, "Crowds", has the measurement
-/// behind the defaults.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// An instance's index slots hold its strips in fixed regions, one per strip of `S0` with room
+/// for its full length (patched at O(changed indices)); at a coarse LOD most of those slots
+/// are restarts. Each slot range also has a compact area of `compact_share` of the regions'
+/// slots: where the live strips, one restart between two, fit in it, `prepare` copies them
+/// there (whenever they change) and the instance's one draw record reads that copy, i.e. the
+/// live indices and nothing else; otherwise it reads the regions from the first live index to
+/// the last. The area shrinks (to nothing at most) where `capacity` slot ranges would pass the
+/// device's buffer or storage binding size ([`Crowd::compact_slots`] says what an asset got;
+/// llvmpipe binds 128 MiB: 1000 bodies keep 1,621 slots each). docs/DESIGN.md, "Crowds", has
+/// the measurement behind the default.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CrowdRecords {
-    /// Records per instance slot (at least 1).
-    pub per_instance: u32,
-    /// The largest gap a record reads through.
-    pub gap: u32,
+    /// The compact area's share of the regions' slots, in 0..=1 (clamped): 0 never copies, 1
+    /// always does.
+    pub compact_share: f32,
 }
 
 impl Default for CrowdRecords {
     fn default() -> Self {
         CrowdRecords {
-            per_instance: 16,
-            gap: 64,
+            compact_share: 0.125,
         }
     }
 }
@@ -145,15 +151,15 @@ impl InstanceId {
 /// What one [`Crowd::prepare`] sent to the GPU.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct CrowdUpload {
-    /// Index slots patched (by the scatter), over all assets.
+    /// Index slots patched (by the scatter), over all assets; record words not counted.
     pub patches: u64,
-    /// Bytes written: patches (8 per patch, padded to whole workgroups), new instances' `S0`,
-    /// records, instance blocks, the scene block and textures.
+    /// Bytes written: patches of index slots and of record words (8 per patch, padded to
+    /// whole workgroups), new instances' `S0`, instance blocks, the scene block and textures.
     pub bytes: u64,
     /// `queue.write_buffer` and `write_texture` calls.
     pub writes: usize,
-    /// Scatter dispatches (one per asset with patches; more when a frame's patches pass a
-    /// binding's size limit).
+    /// Scatter dispatches (per asset one for index patches and one for record patches where
+    /// it has them; more when a frame's patches pass a binding's size limit).
     pub dispatches: usize,
 }
 
@@ -174,8 +180,9 @@ pub struct CrowdStats {
     pub instances: usize,
     /// Triangles the instances draw.
     pub triangles: usize,
-    /// Indices the records read, restarts and region tails before the last live index
-    /// included (as of the last prepare).
+    /// Indices the records read, restarts included (as of the last prepare): an instance
+    /// drawn from its compact copy reads its live indices and one restart between two strips,
+    /// one drawn from its regions also the restart tails between its first and last live index.
     pub indices: u64,
     /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
     /// summed over assets' slots in use.
@@ -198,7 +205,7 @@ pub struct Crowd {
     /// What assets without a texture bind: a white texel and a sampler.
     white: (wgpu::Texture, wgpu::TextureView, wgpu::Sampler),
     white_pending: bool,
-    /// How the assets added from now on cut their records.
+    /// The compact area of the assets added from now on.
     records: CrowdRecords,
     assets: Vec<CrowdAsset>,
 }
@@ -216,8 +223,6 @@ struct CrowdAsset {
     /// Its render pipeline (number in the crowd's [`CrowdPipeline`]) and vertex entry point.
     render: usize,
     variant: Variant,
-    /// How an instance's strips are cut into its records.
-    cut: RecordCut,
     /// The patch list's GPU buffer and the scatter's bind groups over it and the index,
     /// resp. indirect buffer; grown on demand.
     patch_buffer: Option<PatchBuffer>,
@@ -227,9 +232,9 @@ struct CrowdAsset {
     generations: Vec<u32>,
     /// Free slots, reused lowest first.
     free: Vec<u32>,
-    /// Slots drawn: one past the highest slot in use.
+    /// Records drawn: one past the highest slot in use.
     drawn: u32,
-    /// Mirror of the indirect buffer: `budget` records per slot.
+    /// Mirror of the indirect buffer: one record per slot.
     records: Vec<DrawIndexedIndirectArgs>,
     blocks: Vec<InstanceBlock>,
     dirty_blocks: Span,
@@ -255,71 +260,39 @@ enum Patched {
     Records,
 }
 
-/// How an asset's instances' strips are cut into draw records ([`CrowdRecords`]).
-#[derive(Clone, Copy)]
-struct RecordCut {
-    /// Records per slot.
-    budget: usize,
-    /// Gaps of at most this many slots are read through.
-    min_gap: u32,
-    /// Where the slot rides: `first_instance` or `base_vertex` (slot × `vertex_count`).
-    path: CrowdPath,
-    vertex_count: u32,
-}
-
-impl RecordCut {
-    /// The records of `slot` in the mirror of all records.
-    fn of_slot(
-        self,
-        records: &mut [DrawIndexedIndirectArgs],
-        slot: u32,
-    ) -> &mut [DrawIndexedIndirectArgs] {
-        &mut records[slot as usize * self.budget..][..self.budget]
-    }
-
-    /// Sets `records` (the `budget` records of `slot`) to draw the live strips of `lengths`
-    /// (empty: nothing) and appends to `patches` one `[word, value]` patch of the indirect
-    /// buffer per record word that changed.
-    fn fill(
-        self,
-        layout: &SlotLayout,
-        slot: u32,
-        lengths: &[u32],
-        records: &mut [DrawIndexedIndirectArgs],
-        patches: &mut Vec<[u32; 2]>,
-    ) {
-        // The slot rides in first_instance or in base_vertex (checked to fit in add_asset).
-        let (base_vertex, first_instance) = match self.path {
-            CrowdPath::FirstInstance => (0, slot),
-            CrowdPath::BaseVertex => ((slot * self.vertex_count) as i32, 0),
-        };
-        let base = slot * layout.per_instance();
-        let (mut gaps, mut runs) = (Vec::new(), Vec::new());
-        layout.records(lengths, self.budget, self.min_gap, &mut gaps, &mut runs);
-        let words = size_of::<DrawIndexedIndirectArgs>() / 4;
-        let first_word = slot as usize * self.budget * words;
-        for (j, record) in records.iter_mut().enumerate() {
-            let new = runs
-                .get(j)
-                .map_or_else(Default::default, |&(first, count)| {
-                    DrawIndexedIndirectArgs {
-                        index_count: count,
-                        instance_count: 1,
-                        first_index: base + first,
-                        base_vertex,
-                        first_instance,
-                    }
-                });
-            let old: [u32; 5] = bytemuck::cast(*record);
-            let now: [u32; 5] = bytemuck::cast(new);
-            for (w, (&o, &v)) in old.iter().zip(&now).enumerate() {
-                if o != v {
-                    patches.push([(first_word + j * words + w) as u32, v]);
-                }
-            }
-            *record = new;
+/// Sets `record` (slot `slot`'s) to read `what` of its slots (`path`: where the slot rides,
+/// `vertex_count`: the asset's) and appends to `patches` one `[word, value]` patch of the
+/// indirect buffer per word that changed.
+fn set_record(
+    (path, vertex_count, per_instance): (CrowdPath, u32, u32),
+    slot: u32,
+    what: Option<SlotRecord>,
+    record: &mut DrawIndexedIndirectArgs,
+    patches: &mut Vec<[u32; 2]>,
+) {
+    // The slot rides in first_instance or in base_vertex (checked to fit in add_asset).
+    let (base_vertex, first_instance) = match path {
+        CrowdPath::FirstInstance => (0, slot),
+        CrowdPath::BaseVertex => ((slot * vertex_count) as i32, 0),
+    };
+    let new = what
+        .filter(|w| w.count > 0)
+        .map_or_else(Default::default, |w| DrawIndexedIndirectArgs {
+            index_count: w.count,
+            instance_count: 1,
+            first_index: slot * per_instance + w.first,
+            base_vertex,
+            first_instance,
+        });
+    let old: [u32; 5] = bytemuck::cast(*record);
+    let now: [u32; 5] = bytemuck::cast(new);
+    let first_word = slot * 5;
+    for (w, (&o, &v)) in (0u32..).zip(old.iter().zip(&now)) {
+        if o != v {
+            patches.push([first_word + w, v]);
         }
     }
+    *record = new;
 }
 
 /// One instance: its runtime and what its slots on the GPU hold.
@@ -333,6 +306,8 @@ struct Member {
     moved: bool,
     /// Added since the last prepare: its slots need `S0`.
     fresh: bool,
+    /// Its compact area holds its current strips, and its record reads them.
+    compacted: bool,
 }
 
 impl Member {
@@ -453,8 +428,8 @@ impl Crowd {
         }
     }
 
-    /// How the assets added from now on cut their instances' draw records (assets added
-    /// before keep theirs); [`CrowdRecords::default`] until set. `per_instance` 0 counts as 1.
+    /// The compact area of the assets added from now on (assets added before keep theirs);
+    /// [`CrowdRecords::default`] until set.
     pub fn set_records(&mut self, records: CrowdRecords) {
         self.records = records;
     }
@@ -480,13 +455,19 @@ impl Crowd {
                 asset: n,
             });
         }
-        let layout = SlotLayout::new(&model);
-        let per = u64::from(layout.per_instance().max(1));
         let limits = device.limits();
         let refuse = |why: String| Err(CrowdError::Capacity { capacity, why });
         if capacity == 0 {
             return refuse("give room for at least one instance".into());
         }
+        // The compact area gives way where the slots would pass the device's limits (the
+        // scatter binds the whole index buffer).
+        let max_bytes = limits
+            .max_buffer_size
+            .min(limits.max_storage_buffer_binding_size);
+        let mut layout = SlotLayout::new(&model, self.records.compact_share);
+        layout.fit(max_bytes / 4 / u64::from(capacity));
+        let per = u64::from(layout.per_instance().max(1));
         // base_vertex (an i32) is slot × n, and slot × n + index is the vertex_index (a u32).
         if self.path == CrowdPath::BaseVertex
             && u64::from(capacity) * u64::from(n) > i32::MAX as u64
@@ -496,12 +477,7 @@ impl Crowd {
             ));
         }
         let index_bytes = u64::from(capacity) * per * 4;
-        if u64::from(capacity) * per > u64::from(u32::MAX)
-            || index_bytes
-                > limits
-                    .max_buffer_size
-                    .min(limits.max_storage_buffer_binding_size)
-        {
+        if u64::from(capacity) * per > u64::from(u32::MAX) || index_bytes > max_bytes {
             return refuse(format!(
                 "{index_bytes} bytes of index slots pass the device's buffer limit"
             ));
@@ -512,8 +488,7 @@ impl Crowd {
                 "{block_bytes} bytes of instance blocks pass the device's binding limit"
             ));
         }
-        let budget = self.records.per_instance.max(1);
-        let record_bytes = u64::from(capacity) * u64::from(budget) * ARGS_BYTES;
+        let record_bytes = u64::from(capacity) * ARGS_BYTES;
         if record_bytes > limits.max_storage_buffer_binding_size {
             return refuse(format!(
                 "{record_bytes} bytes of draw records pass the device's binding limit"
@@ -563,18 +538,12 @@ impl Crowd {
             bind_group,
             render,
             variant,
-            cut: RecordCut {
-                budget: budget as usize,
-                min_gap: self.records.gap,
-                path: self.path,
-                vertex_count: n,
-            },
             patch_buffer: None,
             members: (0..capacity).map(|_| None).collect(),
             generations: vec![0; capacity as usize],
             free: (0..capacity).rev().collect(),
             drawn: 0,
-            records: vec![DrawIndexedIndirectArgs::default(); (capacity * budget) as usize],
+            records: vec![DrawIndexedIndirectArgs::default(); capacity as usize],
             blocks: vec![InstanceBlock::new(glam::Mat4::IDENTITY); capacity as usize],
             dirty_blocks: Span::EMPTY,
             patches: Vec::new(),
@@ -648,9 +617,16 @@ impl Crowd {
         })?;
         let state = DeformingState::new(&a.model);
         let uploaded = a.layout.s0_lengths();
-        let records = a.cut.of_slot(&mut a.records, slot);
-        a.cut
-            .fill(&a.layout, slot, &uploaded, records, &mut a.record_patches);
+        // Its compact area holds nothing of it yet: the record reads S0 from the regions.
+        let record = a.layout.region_record(&uploaded);
+        let key = (self.path, a.gpu.vertex_count(), a.layout.per_instance());
+        set_record(
+            key,
+            slot,
+            Some(record),
+            &mut a.records[slot as usize],
+            &mut a.record_patches,
+        );
         a.blocks[slot as usize] = InstanceBlock::new(model);
         a.dirty_blocks.add(slot);
         a.members[slot as usize] = Some(Member {
@@ -659,6 +635,7 @@ impl Crowd {
             pending: None,
             moved: false,
             fresh: true,
+            compacted: false,
         });
         a.drawn = a.drawn.max(slot + 1);
         Ok(InstanceId {
@@ -671,13 +648,19 @@ impl Crowd {
     /// Removes an instance: its record draws nothing from the next prepare and its slot is
     /// reused by a later [`add`](Self::add); its id is refused from now on.
     pub fn remove(&mut self, id: InstanceId) -> Result<(), CrowdError> {
+        let path = self.path;
         let a = self.member_asset(id)?;
         let slot = id.slot as usize;
         a.members[slot] = None;
         a.generations[slot] = a.generations[slot].wrapping_add(1);
-        let records = a.cut.of_slot(&mut a.records, id.slot);
-        a.cut
-            .fill(&a.layout, id.slot, &[], records, &mut a.record_patches);
+        let key = (path, a.gpu.vertex_count(), a.layout.per_instance());
+        set_record(
+            key,
+            id.slot,
+            None,
+            &mut a.records[slot],
+            &mut a.record_patches,
+        );
         // Lowest slot reused first: keeps the drawn records dense.
         let at = a.free.partition_point(|&s| s > id.slot);
         a.free.insert(at, id.slot);
@@ -823,18 +806,21 @@ impl Crowd {
                     );
                 }
             }
-            // Moved instances: their index patches and, where a strip changed length, their
-            // records' patches, in parallel; then one list of each.
-            let (layout, cut) = (&a.layout, a.cut);
+            // Moved instances: their index patches, their compact copy where it is drawn and
+            // the strips changed, and their record's patches, in parallel; then one list of
+            // each.
+            let layout = &a.layout;
+            let key = (self.path, a.gpu.vertex_count(), per);
             let moved: Vec<(Vec<[u32; 2]>, Vec<[u32; 2]>)> = a
                 .members
                 .par_iter_mut()
-                .zip(a.records.par_chunks_mut(cut.budget))
+                .zip(a.records.par_iter_mut())
                 .enumerate()
-                .filter_map(|(slot, (member, records))| {
+                .filter_map(|(slot, (member, record))| {
                     let member = member.as_mut().filter(|m| m.moved)?;
                     member.moved = false;
                     let dirty = member.state.take_dirty();
+                    let changed = !dirty.ranges.is_empty() || !dirty.lengths.is_empty();
                     let (mut patches, mut record_patches) = (Vec::new(), Vec::new());
                     let slot = slot as u32;
                     layout.patches(
@@ -844,10 +830,12 @@ impl Crowd {
                         &mut member.uploaded,
                         &mut patches,
                     );
-                    // Records follow the lengths only.
-                    if !dirty.lengths.is_empty() {
-                        cut.fill(layout, slot, &member.uploaded, records, &mut record_patches);
+                    let drawn = layout.record(&member.uploaded);
+                    if drawn.compact && (changed || !member.compacted) {
+                        layout.compact_patches(slot * per, &member.state, &mut patches);
                     }
+                    member.compacted = drawn.compact;
+                    set_record(key, slot, Some(drawn), record, &mut record_patches);
                     Some((patches, record_patches))
                 })
                 .collect();
@@ -893,7 +881,7 @@ impl Crowd {
                 }
             }
             pass.set_index_buffer(&a.index_buffer, wgpu::IndexFormat::Uint32);
-            pass.multi_draw_indexed_indirect(&a.indirect_buffer, 0, a.drawn_records());
+            pass.multi_draw_indexed_indirect(&a.indirect_buffer, 0, a.drawn);
         }
     }
 
@@ -903,27 +891,24 @@ impl Crowd {
         self.assets.get(asset.0 as usize).map(|a| &a.index_buffer)
     }
 
-    /// The indirect buffer of `asset` (`COPY_SRC`): records
-    /// `s × records_per_instance .. (s + 1) × records_per_instance` draw slot `s` (the
-    /// unused ones are zero).
+    /// The indirect buffer of `asset` (`COPY_SRC`): record `s` draws slot `s`.
     pub fn indirect_buffer(&self, asset: AssetId) -> Option<&wgpu::Buffer> {
         self.assets
             .get(asset.0 as usize)
             .map(|a| &a.indirect_buffer)
     }
 
-    /// Records `render` draws for `asset`: those of the slots up to its highest in use.
+    /// Records `render` draws for `asset` (one past its highest slot in use).
     pub fn drawn_records(&self, asset: AssetId) -> u32 {
-        self.assets
-            .get(asset.0 as usize)
-            .map_or(0, CrowdAsset::drawn_records)
+        self.assets.get(asset.0 as usize).map_or(0, |a| a.drawn)
     }
 
-    /// Draw records per instance slot of `asset` ([`CrowdRecords::per_instance`]).
-    pub fn records_per_instance(&self, asset: AssetId) -> u32 {
+    /// Index slots of the compact area of each instance of `asset` (the last ones of its
+    /// slot range, [`CrowdRecords`]).
+    pub fn compact_slots(&self, asset: AssetId) -> u32 {
         self.assets
             .get(asset.0 as usize)
-            .map_or(0, |a| a.cut.budget as u32)
+            .map_or(0, |a| a.layout.compact_slots())
     }
 
     /// The path this crowd draws on.
@@ -954,16 +939,15 @@ impl Crowd {
             let count = a.members.iter().flatten().count();
             stats.instances += count;
             stats.triangles += live.map(|m| m.state.triangle_count()).sum::<usize>();
-            stats.indices += a.records[..a.drawn_records() as usize]
+            stats.indices += a.records[..a.drawn as usize]
                 .iter()
                 .map(|r| u64::from(r.index_count))
                 .sum::<u64>();
-            let records = ARGS_BYTES * a.cut.budget as u64;
             let per_slot = u64::from(a.layout.per_instance()) * 4
-                + records
+                + ARGS_BYTES
                 + size_of::<InstanceBlock>() as u64;
             stats.instance_gpu_bytes += per_slot * count as u64;
-            let mirrors = (records as usize + size_of::<InstanceBlock>()) * count;
+            let mirrors = (ARGS_BYTES as usize + size_of::<InstanceBlock>()) * count;
             let members: usize = a.members.iter().flatten().map(Member::heap_bytes).sum();
             stats.instance_host_bytes += (members + mirrors) as u64;
             stats.shared_gpu_bytes += a.gpu.gpu_bytes();
@@ -1024,11 +1008,6 @@ impl Crowd {
 }
 
 impl CrowdAsset {
-    /// Records drawn: `budget` per slot up to the highest in use.
-    fn drawn_records(&self) -> u32 {
-        self.drawn * self.cut.budget as u32
-    }
-
     /// Applies this frame's patches of `what` (then empties the list): written to the patch
     /// buffer and scattered by one dispatch, submitted on `queue`.
     fn scatter(
