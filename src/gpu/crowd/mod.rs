@@ -253,6 +253,9 @@ struct PatchBuffer {
     records: wgpu::BindGroup,
 }
 
+/// `[slot, value]` patches of the index buffer, or `[word, value]` of the indirect buffer.
+type Patches = Vec<[u32; 2]>;
+
 /// Which buffer of an asset a scatter patches.
 #[derive(Clone, Copy)]
 enum Patched {
@@ -306,8 +309,6 @@ struct Member {
     moved: bool,
     /// Added since the last prepare: its slots need `S0`.
     fresh: bool,
-    /// Its compact area holds its current strips, and its record reads them.
-    compacted: bool,
 }
 
 impl Member {
@@ -635,7 +636,6 @@ impl Crowd {
             pending: None,
             moved: false,
             fresh: true,
-            compacted: false,
         });
         a.drawn = a.drawn.max(slot + 1);
         Ok(InstanceId {
@@ -806,12 +806,12 @@ impl Crowd {
                     );
                 }
             }
-            // Moved instances: their index patches, their compact copy where it is drawn and
-            // the strips changed, and their record's patches, in parallel; then one list of
+            // Moved instances whose strips changed: their index patches, their compact copy
+            // where it is drawn, and their record's patches, in parallel; then one list of
             // each.
             let layout = &a.layout;
             let key = (self.path, a.gpu.vertex_count(), per);
-            let moved: Vec<(Vec<[u32; 2]>, Vec<[u32; 2]>)> = a
+            let moved: Vec<(Patches, Patches)> = a
                 .members
                 .par_iter_mut()
                 .zip(a.records.par_iter_mut())
@@ -830,12 +830,14 @@ impl Crowd {
                         &mut member.uploaded,
                         &mut patches,
                     );
-                    let drawn = layout.record(&member.uploaded);
-                    if drawn.compact && (changed || !member.compacted) {
-                        layout.compact_patches(slot * per, &member.state, &mut patches);
+                    // Unchanged strips keep their record (and compact copy, if drawn).
+                    if changed {
+                        let drawn = layout.record(&member.uploaded);
+                        if drawn.compact {
+                            layout.compact_patches(slot * per, &member.state, &mut patches);
+                        }
+                        set_record(key, slot, Some(drawn), record, &mut record_patches);
                     }
-                    member.compacted = drawn.compact;
-                    set_record(key, slot, Some(drawn), record, &mut record_patches);
                     Some((patches, record_patches))
                 })
                 .collect();
