@@ -7,7 +7,9 @@
 //   base_vertex = 0, so instance_index is the slot and vertex_index the asset's own vertex. The
 //   poses and surface attributes arrive as vertex buffers (fixed-function fetch); only the
 //   instance block (by instance_index) and the target deltas (by vertex_index) are storage
-//   reads. Needs INDIRECT_FIRST_INSTANCE: without it wgpu requires first_instance = 0.
+//   reads. Needs INDIRECT_FIRST_INSTANCE: without it wgpu requires first_instance = 0. The
+//   discrete-LOD renderer (gpu::DiscreteCrowd) draws with these entry points too, over
+//   triangle lists, with direct instanced draws (which set instance_index on every device).
 // * Base vertex (vs_pull_*), any device: the record has base_vertex = s * vertex_count and its
 //   indices name the asset's own vertices, so the vertex stage sees vertex_index = s * n + v and
 //   recovers both. Attribute fetch would add base_vertex to the address, so this path reads
@@ -363,16 +365,6 @@ fn vs_fetch_plain_targets8(
 ) -> PlainOut {
     let inst = instances[slot];
     return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset(inst, v));
-}
-
-// The discrete-LOD renderer (gpu::crowd::discrete, the crowd bench's comparison): one
-// instanced draw per level over triangle lists of the asset's own vertices, base_vertex 0, the
-// instance's block number in instance_index (direct draws keep first_instance on every
-// device); pulled with the 8-slot sum and a surface (drawn with fs_surface).
-@vertex
-fn vs_levels(@builtin(vertex_index) v: u32, @builtin(instance_index) slot: u32) -> CrowdOut {
-    let inst = instances[slot];
-    return pulled(inst, v, target_offset(inst, v), normal_offset(inst, v));
 }
 
 // An asset with a surface: shaded by its mode (faceted, smooth or textured).

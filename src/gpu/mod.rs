@@ -72,9 +72,9 @@ pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
 pub use crowd::{
     run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdPath,
-    CrowdStats, CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels, FrameFigures,
-    InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL, SCATTER_WGSL,
-    WEIGHT_SLOTS,
+    CrowdRecords, CrowdStats, CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels,
+    FrameFigures, InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL,
+    SCATTER_WGSL, WEIGHT_SLOTS,
 };
 pub use lod_object::{s0_regions, LodObject};
 pub use object::{Object, Topology};

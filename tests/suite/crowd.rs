@@ -12,7 +12,13 @@
 //!   removes and adds (freed slots reused, old ids refused), the index and indirect buffers read
 //!   back from the GPU draw, per live instance, exactly the triangles of its runtime's strips
 //!   (the reference mesh of its frame and LOD, which tests/oracle_deform.rs checks), the records
-//!   carry the slot where the path says, and free records draw nothing.
+//!   carry the slot where the path says, lie in its slot range, start and end at live
+//!   indices, and free records draw nothing.
+//!   Where a moved instance's live strips fit its compact area (`CrowdRecords`), its record
+//!   reads their packed copy: the live indices and one restart between two strips, nothing else.
+//! * `crowd_records_read_only_live_indices`: the same walk with a compact area as large as the
+//!   regions (every moved instance's record reads only its live indices and the restarts
+//!   between strips) and without one (every record reads the regions).
 //! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, for the head and
 //!   for the face (without and with a surface): drawn by the entry point without the target
 //!   sum (uploaded without targets) and by the 8-slot one at zero weights they give the same
@@ -49,8 +55,8 @@ use common::strip_draw;
 use morphlod::build::Sequences;
 use morphlod::collapse::canonical_multiset;
 use morphlod::gpu::{
-    self, AssetId, Crowd, CrowdError, CrowdPath, DiscreteCrowd, DiscreteLevels, GpuAsset, GpuError,
-    InstanceId, LodObject, RenderTarget,
+    self, AssetId, Crowd, CrowdError, CrowdPath, CrowdRecords, DiscreteCrowd, DiscreteLevels,
+    GpuAsset, GpuError, InstanceId, LodObject, RenderTarget,
 };
 use morphlod::simplify::PoseError;
 use morphlod::{Asset, Builder, DeformingModel, Lod};
@@ -357,9 +363,20 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
     Ok(())
 }
 
-/// Per live instance, the triangles its record draws from the buffers read back, mapped back
-/// to the asset's vertex numbers; and every free record's triangle count.
-fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[u32; 3]>> {
+/// What one instance slot's record draws, from the buffers read back.
+struct SlotDraw {
+    /// The triangles, mapped back to the asset's vertex numbers.
+    triangles: Vec<[u32; 3]>,
+    /// Indices the record reads (0: it draws nothing).
+    read: u32,
+    /// Whether it reads the slot's compact area (the last `compact_slots` of its range).
+    compact: bool,
+}
+
+/// Per slot, what its record draws from the buffers read back; checks where each record lies
+/// (in its slot's index range, carrying the slot where the path says, starting and ending at
+/// a live index).
+fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<SlotDraw> {
     // The slot's vertices: at slot × n on the base-vertex path, the asset's own on the other.
     let base = |slot: usize| match crowd.path() {
         CrowdPath::BaseVertex => slot as u32 * n,
@@ -367,24 +384,37 @@ fn drawn_per_slot(ctx: &Gpu, crowd: &Crowd, asset: AssetId, n: u32) -> Vec<Vec<[
     };
     let indices = ctx.read_words(crowd.index_buffer(asset).expect("asset"));
     let words = ctx.read_words(crowd.indirect_buffer(asset).expect("asset"));
+    let per = crowd.slots_per_instance(asset);
+    let compact_from = per - crowd.compact_slots(asset);
     let capacity = words.len() / 5;
     (0..capacity)
         .map(|slot| {
             let r = &words[slot * 5..slot * 5 + 5];
             let record = [r[0], r[1], r[2], r[3], r[4]];
-            if record[1] > 0 {
+            let (count, first) = (record[0] * record[1].min(1), record[2]);
+            let own = slot as u32 * per..(slot as u32 + 1) * per;
+            if count > 0 {
                 assert_eq!(record[3], base(slot), "slot {slot}: base_vertex");
                 let first_instance = match crowd.path() {
                     CrowdPath::BaseVertex => 0,
                     CrowdPath::FirstInstance => slot as u32,
                 };
                 assert_eq!(record[4], first_instance, "slot {slot}: first_instance");
-                assert_eq!(record[2], slot as u32 * crowd.slots_per_instance(asset));
+                assert!(own.contains(&first) && own.contains(&(first + count - 1)));
+                let read = &indices[first as usize..(first + count) as usize];
+                assert!(
+                    read[0] != gpu::RESTART && read[read.len() - 1] != gpu::RESTART,
+                    "slot {slot}: a record starts or ends with a restart"
+                );
             }
-            draw_indexed_indirect(&indices, &[record], n * capacity as u32)
-                .into_iter()
-                .map(|t| t.map(|v| v - base(slot)))
-                .collect()
+            SlotDraw {
+                triangles: draw_indexed_indirect(&indices, &[record], n * capacity as u32)
+                    .into_iter()
+                    .map(|t| t.map(|v| v - base(slot)))
+                    .collect(),
+                read: count,
+                compact: count > 0 && first >= own.start + compact_from,
+            }
         })
         .collect()
 }
@@ -399,14 +429,42 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
         Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
     ];
     for path in paths(&ctx) {
-        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path)?;
+        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, CrowdRecords::default())?;
     }
     Ok(())
 }
 
-fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -> Result<()> {
+/// The record of an instance whose live strips fit its compact area reads them and one
+/// restart between two, nothing else: with a compact area as large as the regions every
+/// moved instance's record does (a record that read a strip's restart tail, or past the last
+/// live index, reads more); without one none does, and the regions still decode to each
+/// instance's mesh.
+#[test]
+fn crowd_records_read_only_live_indices() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let kinds = [
+        Kind::new(&ctx, grid_asset(11, 6, 0.5))?,
+        Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
+    ];
+    let path = paths(&ctx)[0];
+    for compact_share in [1.0, 0.0] {
+        let records = CrowdRecords { compact_share };
+        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, records)?;
+    }
+    Ok(())
+}
+
+fn buffers_decode_to_each_instance_mesh(
+    ctx: &Gpu,
+    kinds: &[Kind],
+    path: CrowdPath,
+    records: CrowdRecords,
+) -> Result<()> {
     let (device, queue) = (ctx.device(), ctx.queue());
     let mut crowd = crowd_on(ctx, path)?;
+    crowd.set_records(records);
     let capacity = 5;
     let assets: Vec<AssetId> = kinds
         .iter()
@@ -415,6 +473,8 @@ fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPa
     let mut rng = common::Rng(0x5eed_c0de);
     let mut live: Vec<InstanceId> = Vec::new();
     let mut removed: Vec<InstanceId> = Vec::new();
+    // Instances moved since they were added (the others still draw S0 from their regions).
+    let mut moved: Vec<InstanceId> = Vec::new();
     for step in 0..40 {
         // Adds and removes: keep between 2 and all slots busy.
         if step % 4 == 0 || live.len() < 2 {
@@ -446,6 +506,7 @@ fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPa
             }
         }
         crowd.set(&moves)?;
+        moved.extend(moves.iter().map(|&(id, _, _)| id));
         if step % 3 == 0 {
             let again: Vec<_> = moves
                 .iter()
@@ -470,16 +531,33 @@ fn buffers_decode_to_each_instance_mesh(ctx: &Gpu, kinds: &[Kind], path: CrowdPa
                 let expected: Vec<[u32; 3]> = (0..state.lengths().len())
                     .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
                     .collect();
-                assert_eq!(
-                    drawn[id.slot() as usize],
-                    expected,
-                    "{path:?}, step {step}, {id:?}"
-                );
+                let slot = &drawn[id.slot() as usize];
+                assert_eq!(slot.triangles, expected, "{path:?}, step {step}, {id:?}");
                 assert_eq!(expected.len(), state.triangle_count());
+                // Where the live strips fit the compact area, the record reads them and
+                // one restart between two (CrowdRecords).
+                let indices: u32 = state.lengths().iter().sum();
+                let strips = state.lengths().iter().filter(|&&len| len > 0).count() as u32;
+                let packed = indices + strips.saturating_sub(1);
+                let fits = packed > 0 && packed <= crowd.compact_slots(asset);
+                let why = format!(
+                    "{records:?}, step {step}, {id:?}: {indices} live indices, {strips} strips, record reads {}",
+                    slot.read
+                );
+                if fits && moved.contains(id) {
+                    assert!(slot.compact, "{why}");
+                    assert_eq!(slot.read, packed, "{why}");
+                } else {
+                    assert!(!slot.compact, "{why}");
+                    assert!(slot.read >= packed, "{why}");
+                }
+                if records.compact_share >= 1.0 && moved.contains(id) {
+                    assert!(fits || packed == 0, "{why}");
+                }
             }
-            for (slot, triangles) in drawn.iter().enumerate() {
+            for (slot, drawn) in drawn.iter().enumerate() {
                 if !busy[slot] {
-                    assert!(triangles.is_empty(), "step {step}: free slot {slot} draws");
+                    assert_eq!(drawn.read, 0, "step {step}: free slot {slot} draws");
                 }
             }
         }
@@ -1189,7 +1267,7 @@ fn crowd_bench_runs_discrete_lods() -> Result<()> {
         pixels: 4.0,
         full_detail: false,
         discrete: Some(levels.clone()),
-        path: None,
+        ..Default::default()
     };
     let report = gpu::run_crowd_bench(&ctx.ctx, &asset, model, &options)?;
     let modes: Vec<&str> = report.modes.iter().map(|m| m.mode).collect();

@@ -208,6 +208,11 @@ struct BenchArgs {
     /// first-instance path where the device has it.
     #[arg(long = "crowd-path", value_name = "PATH", value_parser = ["first-instance", "base-vertex"])]
     crowd_path: Option<String>,
+    /// The crowd bench's compact area per instance, as a share of its strip regions' index
+    /// slots in 0..=1 (`gpu::CrowdRecords`): an instance whose live strips fit in it draws a
+    /// packed copy of them; 0 turns the copies off.
+    #[arg(long, value_name = "SHARE", default_value_t = morphlod::gpu::CrowdRecords::default().compact_share)]
+    compact_share: f32,
     /// The crowd bench's discrete LODs (full detail and `--levels`, as `morphlod export
     /// --lods`) are cut from this asset's one shared sequence: a build of the same source with
     /// `--sequence shared`. Without it they are cut from the benchmarked asset when it was
@@ -991,6 +996,9 @@ fn crowd_bench(
         }),
         full_detail: !args.skip_full,
         discrete,
+        records: morphlod::gpu::CrowdRecords {
+            compact_share: args.compact_share,
+        },
         ..Default::default()
     };
     let report = morphlod::gpu::run_crowd_bench(context, asset, model, &options)

@@ -18,7 +18,10 @@ use std::time::Instant;
 
 use glam::{Mat4, Vec3};
 
-use super::{Crowd, CrowdError, CrowdPath, CrowdUpload, DiscreteCrowd, DiscreteLevels, InstanceId};
+use super::{
+    Crowd, CrowdError, CrowdPath, CrowdRecords, CrowdUpload, DiscreteCrowd, DiscreteLevels,
+    InstanceId,
+};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, Lod};
 use crate::gpu::camera::{fit_to_bounds, Projection};
@@ -44,6 +47,8 @@ pub struct CrowdBenchOptions {
     pub discrete: Option<DiscreteLevels>,
     /// The crowd's path; `None`: what [`Crowd::new`] picks for the device.
     pub path: Option<CrowdPath>,
+    /// The crowd's compact area.
+    pub records: CrowdRecords,
 }
 
 impl Default for CrowdBenchOptions {
@@ -58,6 +63,7 @@ impl Default for CrowdBenchOptions {
             full_detail: true,
             discrete: None,
             path: None,
+            records: CrowdRecords::default(),
         }
     }
 }
@@ -102,7 +108,7 @@ pub struct ModeFigures {
     pub uploaded_bytes: Stat,
     pub writes: Stat,
     pub triangles: Stat,
-    /// Indices the draws read (the crowd's records include restarts and region tails).
+    /// Indices the draws read (restarts included; [`super::CrowdStats::indices`]).
     pub indices: Stat,
     /// Instances whose frame changed (none in discrete LODs: one connectivity for all).
     pub frame_switches: Stat,
@@ -143,7 +149,8 @@ pub struct CrowdBenchReport {
     pub frames_sampled: usize,
     /// How GPU time was taken: `timestamps (render pass)` or `submit + wait`.
     pub gpu_timing: &'static str,
-    /// The crowd's path and the vertex entry point that drew the asset.
+    /// The crowd's path, the vertex entry point that drew the asset and the slots of its
+    /// instances' compact area ([`CrowdRecords`]).
     pub path: String,
     /// Host bytes per instance (runtime, lengths, record and block mirrors).
     pub host_bytes_per_instance: f64,
@@ -173,6 +180,7 @@ pub fn run_crowd_bench(
         Some(path) => Crowd::with_path(device, color, depth, path)?,
         None => Crowd::new(device, color, depth),
     };
+    crowd.set_records(options.records);
     let id = crowd.add_asset(device, gpu, Arc::clone(&model), options.instances.max(1))?;
     let timer = PassTimer::new(device, queue);
 
@@ -246,9 +254,10 @@ pub fn run_crowd_bench(
             None => "submit + wait",
         },
         path: format!(
-            "{:?} ({})",
+            "{:?} ({}; compact area {} slots)",
             crowd.path(),
-            crowd.vertex_entry_point(id).unwrap_or("-")
+            crowd.vertex_entry_point(id).unwrap_or("-"),
+            crowd.compact_slots(id),
         ),
         gpu_bytes_per_instance: stats.instance_gpu_bytes as f64
             / f64::from(options.instances.max(1)),

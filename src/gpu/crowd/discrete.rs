@@ -3,12 +3,13 @@
 //! detail and the first step boundaries at ½, ¼ and ⅒ of the triangles), each instance
 //! drawing the coarsest level whose error is within its LOD, the instances grouped per level
 //! and drawn with one instanced `draw_indexed` per level; the morph is blended on the GPU by
-//! the crowd's own vertex stage (`vs_levels` in `shaders/crowd.wgsl`, the same unrolled target
-//! sum), reading the same shared [`GpuAsset`].
+//! the crowd's own vertex stage on its fast path (the first-instance entry points of
+//! `shaders/crowd.wgsl`: poses and surface fetched as vertex buffers, the asset's number of
+//! weight slots, `fs_plain` without a surface), reading the same shared [`GpuAsset`].
 //!
 //! The instance reaches the vertex stage as `instance_index` (its block's number in the
 //! level-sorted instance buffer): a direct draw keeps `first_instance` on every device, only
-//! indirect draws lose it on lavapipe. The renderer is a benchmark's, not a general one: a
+//! indirect draws need `INDIRECT_FIRST_INSTANCE` for it. The renderer is a benchmark's, not a general one: a
 //! fixed list of instances of one asset, no adds or removes.
 
 use std::ops::Range;
@@ -18,8 +19,8 @@ use rayon::prelude::*;
 use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
-use super::pipeline::InstanceBlock;
-use super::{check_finite, mesh_buffer, Crowd, CrowdError, CrowdUpload};
+use super::pipeline::{InstanceBlock, Variant};
+use super::{check_finite, mesh_buffer, Crowd, CrowdError, CrowdPath, CrowdUpload};
 use crate::asset::Asset;
 use crate::collapse::CollapseSequence;
 use crate::deform::{Lod, SetError};
@@ -240,7 +241,14 @@ impl DiscreteCrowd {
             own.push(InstanceBlock::new(*model));
         }
         let base = Crowd::new(device, color_format, depth_format);
-        let pipeline = base.pipeline.levels_pipeline(device);
+        // The crowd's fast path (fixed-function fetch, the asset's weight slots), whatever
+        // the device: direct draws carry the first instance everywhere.
+        let variant = Variant::new(
+            CrowdPath::FirstInstance,
+            gpu.has_surface(),
+            gpu.target_count(),
+        );
+        let pipeline = base.pipeline.levels_pipeline(device, variant);
         let mut indices: Vec<u32> = Vec::new();
         let mut ranges = Vec::with_capacity(levels.levels.len());
         for level in &levels.levels {
@@ -349,6 +357,11 @@ impl DiscreteCrowd {
     pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, self.gpu.v0().slice(..));
+        pass.set_vertex_buffer(1, self.gpu.v1().slice(..));
+        if let Some(surface) = self.gpu.surface() {
+            pass.set_vertex_buffer(2, surface.buffer.slice(..));
+        }
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         for (l, range) in self.ranges.iter().enumerate() {
             let instances = self.first[l]..self.first[l + 1];

@@ -10,12 +10,17 @@
 //!   lengths the GPU holds, one record and one 192-byte block. No index mirror: the runtime's
 //!   dirty log says what to upload.
 //!
+//! An instance's slots hold its strips in fixed regions (patched in place) and a compact area:
+//! where its live strips fit there (a coarse LOD), its record draws their packed copy, so it
+//! reads the live indices only, not the restart tails of the regions ([`CrowdRecords`]).
+//!
 //! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon);
 //! [`prepare`](Crowd::prepare) gathers per asset the index patches of every moved instance
-//! (O(changed indices), in parallel), uploads them with one write and applies them with one
-//! compute dispatch, and writes the changed records and instance blocks as one contiguous
-//! range each; [`render`](Crowd::render) binds each asset and issues its one multi-draw. The
-//! caller owns device, queue and pass, as with an [`Object`](super::Object).
+//! (O(changed indices) for the regions, the live indices for a changed compact copy, in
+//! parallel), uploads them with one write and applies them with one compute dispatch, does
+//! the same with the changed words of the records, and writes the changed instance blocks as
+//! one contiguous range; [`render`](Crowd::render) binds each asset and issues its one
+//! multi-draw. The caller owns device, queue and pass, as with an [`Object`](super::Object).
 //!
 //! The instance of a vertex reaches the shader one of two ways ([`CrowdPath`],
 //! `shaders/crowd.wgsl`): as `first_instance` (the slot), with the poses and surface fetched
@@ -48,7 +53,7 @@ pub use self::bench::{
 pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant, SCATTER_GROUP};
-use self::slots::SlotLayout;
+use self::slots::{SlotLayout, SlotRecord};
 use super::asset::GpuAsset;
 use super::commands::RenderCommands;
 use super::pose::{clamp_t, default_mode};
@@ -89,6 +94,34 @@ pub enum CrowdError {
     Capacity { capacity: u32, why: String },
 }
 
+/// How much room an instance has for a compact copy of its live strips
+/// ([`Crowd::set_records`]).
+///
+/// An instance's index slots hold its strips in fixed regions, one per strip of `S0` with room
+/// for its full length (patched at O(changed indices)); at a coarse LOD most of those slots
+/// are restarts. Each slot range also has a compact area of `compact_share` of the regions'
+/// slots: where the live strips, one restart between two, fit in it, `prepare` copies them
+/// there (whenever they change) and the instance's one draw record reads that copy, i.e. the
+/// live indices and nothing else; otherwise it reads the regions from the first live index to
+/// the last. The area shrinks (to nothing at most) where `capacity` slot ranges would pass the
+/// device's buffer or storage binding size ([`Crowd::compact_slots`] says what an asset got;
+/// llvmpipe binds 128 MiB: 1000 bodies keep 1,621 slots each). docs/DESIGN.md, "Crowds", has
+/// the measurement behind the default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CrowdRecords {
+    /// The compact area's share of the regions' slots, in 0..=1 (clamped): 0 never copies, 1
+    /// always does.
+    pub compact_share: f32,
+}
+
+impl Default for CrowdRecords {
+    fn default() -> Self {
+        CrowdRecords {
+            compact_share: 0.125,
+        }
+    }
+}
+
 /// An asset of a crowd.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct AssetId(u32);
@@ -118,15 +151,15 @@ impl InstanceId {
 /// What one [`Crowd::prepare`] sent to the GPU.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct CrowdUpload {
-    /// Index slots patched (by the scatter), over all assets.
+    /// Index slots patched (by the scatter), over all assets; record words not counted.
     pub patches: u64,
-    /// Bytes written: patches (8 per patch, padded to whole workgroups), new instances' `S0`,
-    /// records, instance blocks, the scene block and textures.
+    /// Bytes written: patches of index slots and of record words (8 per patch, padded to
+    /// whole workgroups), new instances' `S0`, instance blocks, the scene block and textures.
     pub bytes: u64,
     /// `queue.write_buffer` and `write_texture` calls.
     pub writes: usize,
-    /// Scatter dispatches (one per asset with patches; more when a frame's patches pass a
-    /// binding's size limit).
+    /// Scatter dispatches (per asset one for index patches and one for record patches where
+    /// it has them; more when a frame's patches pass a binding's size limit).
     pub dispatches: usize,
 }
 
@@ -147,8 +180,9 @@ pub struct CrowdStats {
     pub instances: usize,
     /// Triangles the instances draw.
     pub triangles: usize,
-    /// Indices the records read, restarts and region tails before the last live index
-    /// included (as of the last prepare).
+    /// Indices the records read, restarts included (as of the last prepare): an instance
+    /// drawn from its compact copy reads its live indices and one restart between two strips,
+    /// one drawn from its regions also the restart tails between its first and last live index.
     pub indices: u64,
     /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
     /// summed over assets' slots in use.
@@ -171,6 +205,8 @@ pub struct Crowd {
     /// What assets without a texture bind: a white texel and a sampler.
     white: (wgpu::Texture, wgpu::TextureView, wgpu::Sampler),
     white_pending: bool,
+    /// The compact area of the assets added from now on.
+    records: CrowdRecords,
     assets: Vec<CrowdAsset>,
 }
 
@@ -187,8 +223,9 @@ struct CrowdAsset {
     /// Its render pipeline (number in the crowd's [`CrowdPipeline`]) and vertex entry point.
     render: usize,
     variant: Variant,
-    /// The patch list's GPU buffer and the scatter's bind group over it; grown on demand.
-    patch_buffer: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// The patch list's GPU buffer and the scatter's bind groups over it and the index,
+    /// resp. indirect buffer; grown on demand.
+    patch_buffer: Option<PatchBuffer>,
     /// Instance of each slot (`None`: free).
     members: Vec<Option<Member>>,
     /// Generation of each slot, bumped when its instance is removed.
@@ -197,12 +234,68 @@ struct CrowdAsset {
     free: Vec<u32>,
     /// Records drawn: one past the highest slot in use.
     drawn: u32,
+    /// Mirror of the indirect buffer: one record per slot.
     records: Vec<DrawIndexedIndirectArgs>,
     blocks: Vec<InstanceBlock>,
-    dirty_records: Span,
     dirty_blocks: Span,
-    /// Scratch of prepare: the frame's patches.
+    /// The frame's index patches (scratch of prepare).
     patches: Vec<[u32; 2]>,
+    /// The record words changed since the last prepare, as `[word, value]` patches of the
+    /// indirect buffer.
+    record_patches: Vec<[u32; 2]>,
+}
+
+/// The buffer a frame's patches go through, with the scatter's bind groups over it and the
+/// asset's index buffer, resp. indirect buffer.
+struct PatchBuffer {
+    buffer: wgpu::Buffer,
+    indices: wgpu::BindGroup,
+    records: wgpu::BindGroup,
+}
+
+/// `[slot, value]` patches of the index buffer, or `[word, value]` of the indirect buffer.
+type Patches = Vec<[u32; 2]>;
+
+/// Which buffer of an asset a scatter patches.
+#[derive(Clone, Copy)]
+enum Patched {
+    Indices,
+    Records,
+}
+
+/// Sets `record` (slot `slot`'s) to read `what` of its slots (`path`: where the slot rides,
+/// `vertex_count`: the asset's) and appends to `patches` one `[word, value]` patch of the
+/// indirect buffer per word that changed.
+fn set_record(
+    (path, vertex_count, per_instance): (CrowdPath, u32, u32),
+    slot: u32,
+    what: Option<SlotRecord>,
+    record: &mut DrawIndexedIndirectArgs,
+    patches: &mut Vec<[u32; 2]>,
+) {
+    // The slot rides in first_instance or in base_vertex (checked to fit in add_asset).
+    let (base_vertex, first_instance) = match path {
+        CrowdPath::FirstInstance => (0, slot),
+        CrowdPath::BaseVertex => ((slot * vertex_count) as i32, 0),
+    };
+    let new = what
+        .filter(|w| w.count > 0)
+        .map_or_else(Default::default, |w| DrawIndexedIndirectArgs {
+            index_count: w.count,
+            instance_count: 1,
+            first_index: slot * per_instance + w.first,
+            base_vertex,
+            first_instance,
+        });
+    let old: [u32; 5] = bytemuck::cast(*record);
+    let now: [u32; 5] = bytemuck::cast(new);
+    let first_word = slot * 5;
+    for (w, (&o, &v)) in (0u32..).zip(old.iter().zip(&now)) {
+        if o != v {
+            patches.push([first_word + w, v]);
+        }
+    }
+    *record = new;
 }
 
 /// One instance: its runtime and what its slots on the GPU hold.
@@ -331,8 +424,15 @@ impl Crowd {
             scene_dirty: false,
             white: (white, view, sampler),
             white_pending: true,
+            records: CrowdRecords::default(),
             assets: Vec::new(),
         }
+    }
+
+    /// The compact area of the assets added from now on (assets added before keep theirs);
+    /// [`CrowdRecords::default`] until set.
+    pub fn set_records(&mut self, records: CrowdRecords) {
+        self.records = records;
     }
 
     /// Adds an asset with room for `capacity` instances: its index buffer (`capacity` × the
@@ -356,13 +456,19 @@ impl Crowd {
                 asset: n,
             });
         }
-        let layout = SlotLayout::new(&model);
-        let per = u64::from(layout.per_instance().max(1));
         let limits = device.limits();
         let refuse = |why: String| Err(CrowdError::Capacity { capacity, why });
         if capacity == 0 {
             return refuse("give room for at least one instance".into());
         }
+        // The compact area gives way where the slots would pass the device's limits (the
+        // scatter binds the whole index buffer).
+        let max_bytes = limits
+            .max_buffer_size
+            .min(limits.max_storage_buffer_binding_size);
+        let mut layout = SlotLayout::new(&model, self.records.compact_share);
+        layout.fit(max_bytes / 4 / u64::from(capacity));
+        let per = u64::from(layout.per_instance().max(1));
         // base_vertex (an i32) is slot × n, and slot × n + index is the vertex_index (a u32).
         if self.path == CrowdPath::BaseVertex
             && u64::from(capacity) * u64::from(n) > i32::MAX as u64
@@ -372,12 +478,7 @@ impl Crowd {
             ));
         }
         let index_bytes = u64::from(capacity) * per * 4;
-        if u64::from(capacity) * per > u64::from(u32::MAX)
-            || index_bytes
-                > limits
-                    .max_buffer_size
-                    .min(limits.max_storage_buffer_binding_size)
-        {
+        if u64::from(capacity) * per > u64::from(u32::MAX) || index_bytes > max_bytes {
             return refuse(format!(
                 "{index_bytes} bytes of index slots pass the device's buffer limit"
             ));
@@ -386,6 +487,12 @@ impl Crowd {
         if block_bytes > limits.max_storage_buffer_binding_size {
             return refuse(format!(
                 "{block_bytes} bytes of instance blocks pass the device's binding limit"
+            ));
+        }
+        let record_bytes = u64::from(capacity) * ARGS_BYTES;
+        if record_bytes > limits.max_storage_buffer_binding_size {
+            return refuse(format!(
+                "{record_bytes} bytes of draw records pass the device's binding limit"
             ));
         }
 
@@ -399,11 +506,13 @@ impl Crowd {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        // Zeroed records draw nothing (index and instance counts 0).
+        // Zeroed records draw nothing (index and instance counts 0). STORAGE: the scatter
+        // writes the changed record words.
         let indirect_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("crowd records"),
-            size: u64::from(capacity) * ARGS_BYTES,
+            size: record_bytes,
             usage: wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_DST
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
@@ -437,9 +546,9 @@ impl Crowd {
             drawn: 0,
             records: vec![DrawIndexedIndirectArgs::default(); capacity as usize],
             blocks: vec![InstanceBlock::new(glam::Mat4::IDENTITY); capacity as usize],
-            dirty_records: Span::EMPTY,
             dirty_blocks: Span::EMPTY,
             patches: Vec::new(),
+            record_patches: Vec::new(),
         });
         Ok(AssetId(id))
     }
@@ -509,21 +618,17 @@ impl Crowd {
         })?;
         let state = DeformingState::new(&a.model);
         let uploaded = a.layout.s0_lengths();
-        // The slot rides in first_instance or in base_vertex (CrowdPath; checked to fit in
-        // add_asset).
-        let (base_vertex, first_instance) = match self.path {
-            CrowdPath::FirstInstance => (0, slot),
-            CrowdPath::BaseVertex => ((slot * a.gpu.vertex_count()) as i32, 0),
-        };
-        a.records[slot as usize] = DrawIndexedIndirectArgs {
-            index_count: a.layout.record_count(&uploaded),
-            instance_count: 1,
-            first_index: slot * a.layout.per_instance(),
-            base_vertex,
-            first_instance,
-        };
+        // Its compact area holds nothing of it yet: the record reads S0 from the regions.
+        let record = a.layout.region_record(&uploaded);
+        let key = (self.path, a.gpu.vertex_count(), a.layout.per_instance());
+        set_record(
+            key,
+            slot,
+            Some(record),
+            &mut a.records[slot as usize],
+            &mut a.record_patches,
+        );
         a.blocks[slot as usize] = InstanceBlock::new(model);
-        a.dirty_records.add(slot);
         a.dirty_blocks.add(slot);
         a.members[slot as usize] = Some(Member {
             state,
@@ -543,12 +648,19 @@ impl Crowd {
     /// Removes an instance: its record draws nothing from the next prepare and its slot is
     /// reused by a later [`add`](Self::add); its id is refused from now on.
     pub fn remove(&mut self, id: InstanceId) -> Result<(), CrowdError> {
+        let path = self.path;
         let a = self.member_asset(id)?;
         let slot = id.slot as usize;
         a.members[slot] = None;
         a.generations[slot] = a.generations[slot].wrapping_add(1);
-        a.records[slot] = DrawIndexedIndirectArgs::default();
-        a.dirty_records.add(id.slot);
+        let key = (path, a.gpu.vertex_count(), a.layout.per_instance());
+        set_record(
+            key,
+            id.slot,
+            None,
+            &mut a.records[slot],
+            &mut a.record_patches,
+        );
         // Lowest slot reused first: keeps the drawn records dense.
         let at = a.free.partition_point(|&s| s > id.slot);
         a.free.insert(at, id.slot);
@@ -694,9 +806,12 @@ impl Crowd {
                     );
                 }
             }
-            // Moved instances: their patches and records, in parallel; then one list.
+            // Moved instances whose strips changed: their index patches, their compact copy
+            // where it is drawn, and their record's patches, in parallel; then one list of
+            // each.
             let layout = &a.layout;
-            let moved: Vec<(u32, Vec<[u32; 2]>)> = a
+            let key = (self.path, a.gpu.vertex_count(), per);
+            let moved: Vec<(Patches, Patches)> = a
                 .members
                 .par_iter_mut()
                 .zip(a.records.par_iter_mut())
@@ -705,67 +820,35 @@ impl Crowd {
                     let member = member.as_mut().filter(|m| m.moved)?;
                     member.moved = false;
                     let dirty = member.state.take_dirty();
-                    let mut patches = Vec::new();
-                    let base = slot as u32 * per;
+                    let changed = !dirty.ranges.is_empty() || !dirty.lengths.is_empty();
+                    let (mut patches, mut record_patches) = (Vec::new(), Vec::new());
+                    let slot = slot as u32;
                     layout.patches(
-                        base,
+                        slot * per,
                         &member.state,
                         &dirty,
                         &mut member.uploaded,
                         &mut patches,
                     );
-                    record.index_count = layout.record_count(&member.uploaded);
-                    Some((slot as u32, patches))
+                    // Unchanged strips keep their record (and compact copy, if drawn).
+                    if changed {
+                        let drawn = layout.record(&member.uploaded);
+                        if drawn.compact {
+                            layout.compact_patches(slot * per, &member.state, &mut patches);
+                        }
+                        set_record(key, slot, Some(drawn), record, &mut record_patches);
+                    }
+                    Some((patches, record_patches))
                 })
                 .collect();
             a.patches.clear();
-            for (slot, patches) in moved {
-                // Its record may have changed length.
-                a.dirty_records.add(slot);
+            for (patches, records) in moved {
                 a.patches.extend_from_slice(&patches);
+                a.record_patches.extend_from_slice(&records);
             }
-            if let Some(&last) = a.patches.last() {
-                upload.patches += a.patches.len() as u64;
-                // Whole workgroups: the last patch repeated (same slot, same value).
-                let padded = a.patches.len().next_multiple_of(SCATTER_GROUP as usize);
-                a.patches.resize(padded, last);
-                // A frame that moves many instances far (the first LOD frame of a crowd)
-                // can pass one binding's or one dispatch's limit: then it goes in chunks, each
-                // written and submitted before the next reuses the buffer.
-                let limits = device.limits();
-                let by_binding = limits.max_storage_buffer_binding_size / 8;
-                let by_dispatch = u64::from(limits.max_compute_workgroups_per_dimension)
-                    * u64::from(SCATTER_GROUP);
-                let chunk = (by_binding.min(by_dispatch) as usize / SCATTER_GROUP as usize).max(1)
-                    * SCATTER_GROUP as usize;
-                let patches = std::mem::take(&mut a.patches);
-                for part in patches.chunks(chunk) {
-                    let size = std::mem::size_of_val(part) as u64;
-                    let group = a.patch_group(device, &self.pipeline, size);
-                    let buffer = &a.patch_buffer.as_ref().expect("made above").0;
-                    upload.write(queue, buffer, 0, bytemuck::cast_slice(part));
-                    let mut encoder = device.create_command_encoder(&Default::default());
-                    {
-                        let mut pass = encoder.begin_compute_pass(&Default::default());
-                        pass.set_pipeline(&self.pipeline.scatter);
-                        pass.set_bind_group(0, &group, &[]);
-                        pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
-                    }
-                    queue.submit([encoder.finish()]);
-                    upload.dispatches += 1;
-                }
-                a.patches = patches;
-            }
-            if let Some(range) = a.dirty_records.take() {
-                let records = &a.records[range.start as usize..range.end as usize];
-                let offset = u64::from(range.start) * ARGS_BYTES;
-                upload.write(
-                    queue,
-                    &a.indirect_buffer,
-                    offset,
-                    bytemuck::cast_slice(records),
-                );
-            }
+            upload.patches += a.patches.len() as u64;
+            a.scatter(device, queue, &self.pipeline, Patched::Indices, &mut upload);
+            a.scatter(device, queue, &self.pipeline, Patched::Records, &mut upload);
             if let Some(range) = a.dirty_blocks.take() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
@@ -820,6 +903,14 @@ impl Crowd {
     /// Records `render` draws for `asset` (one past its highest slot in use).
     pub fn drawn_records(&self, asset: AssetId) -> u32 {
         self.assets.get(asset.0 as usize).map_or(0, |a| a.drawn)
+    }
+
+    /// Index slots of the compact area of each instance of `asset` (the last ones of its
+    /// slot range, [`CrowdRecords`]).
+    pub fn compact_slots(&self, asset: AssetId) -> u32 {
+        self.assets
+            .get(asset.0 as usize)
+            .map_or(0, |a| a.layout.compact_slots())
     }
 
     /// The path this crowd draws on.
@@ -919,43 +1010,102 @@ impl Crowd {
 }
 
 impl CrowdAsset {
-    /// The scatter's bind group over a patch buffer of at least `bytes`, growing it (to the
-    /// next power of two) when it is smaller.
-    fn patch_group(
+    /// Applies this frame's patches of `what` (then empties the list): written to the patch
+    /// buffer and scattered by one dispatch, submitted on `queue`.
+    fn scatter(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pipeline: &CrowdPipeline,
+        what: Patched,
+        upload: &mut CrowdUpload,
+    ) {
+        let mut patches = std::mem::take(match what {
+            Patched::Indices => &mut self.patches,
+            Patched::Records => &mut self.record_patches,
+        });
+        if let Some(&last) = patches.last() {
+            // Whole workgroups: the last patch repeated (same slot, same value).
+            let padded = patches.len().next_multiple_of(SCATTER_GROUP as usize);
+            patches.resize(padded, last);
+            // A frame that moves many instances far (the first LOD frame of a crowd) can pass
+            // one binding's or one dispatch's limit: then it goes in chunks, each written and
+            // submitted before the next reuses the buffer.
+            let limits = device.limits();
+            let by_binding = limits.max_storage_buffer_binding_size / 8;
+            let by_dispatch =
+                u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(SCATTER_GROUP);
+            let chunk = (by_binding.min(by_dispatch) as usize / SCATTER_GROUP as usize).max(1)
+                * SCATTER_GROUP as usize;
+            for part in patches.chunks(chunk) {
+                let size = std::mem::size_of_val(part) as u64;
+                let buffer = self.patch_buffer(device, pipeline, size);
+                upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(part));
+                let group = match what {
+                    Patched::Indices => &buffer.indices,
+                    Patched::Records => &buffer.records,
+                };
+                let mut encoder = device.create_command_encoder(&Default::default());
+                {
+                    let mut pass = encoder.begin_compute_pass(&Default::default());
+                    pass.set_pipeline(&pipeline.scatter);
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
+                }
+                queue.submit([encoder.finish()]);
+                upload.dispatches += 1;
+            }
+        }
+        patches.clear();
+        match what {
+            Patched::Indices => self.patches = patches,
+            Patched::Records => self.record_patches = patches,
+        }
+    }
+
+    /// The patch buffer, of at least `bytes`: grown (to the next power of two) when smaller.
+    fn patch_buffer(
         &mut self,
         device: &wgpu::Device,
         pipeline: &CrowdPipeline,
         bytes: u64,
-    ) -> wgpu::BindGroup {
-        if let Some((buffer, group)) = &self.patch_buffer {
-            if buffer.size() >= bytes {
-                return group.clone();
-            }
+    ) -> &PatchBuffer {
+        if self
+            .patch_buffer
+            .as_ref()
+            .is_none_or(|p| p.buffer.size() < bytes)
+        {
+            // The caller keeps `bytes` within the binding limit; so does the rounding.
+            let max = device.limits().max_storage_buffer_binding_size;
+            let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("crowd patches"),
+                size: bytes.next_power_of_two().min(max).max(bytes),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let group = |target: &wgpu::Buffer| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("crowd scatter"),
+                    layout: &pipeline.scatter_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: buffer.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: target.as_entire_binding(),
+                        },
+                    ],
+                })
+            };
+            self.patch_buffer = Some(PatchBuffer {
+                indices: group(&self.index_buffer),
+                records: group(&self.indirect_buffer),
+                buffer,
+            });
         }
-        // The caller keeps `bytes` within the binding limit; so does the rounding.
-        let max = device.limits().max_storage_buffer_binding_size;
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("crowd patches"),
-            size: bytes.next_power_of_two().min(max).max(bytes),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("crowd scatter"),
-            layout: &pipeline.scatter_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.index_buffer.as_entire_binding(),
-                },
-            ],
-        });
-        self.patch_buffer = Some((buffer, group.clone()));
-        group
+        self.patch_buffer.as_ref().expect("made above")
     }
 }
 

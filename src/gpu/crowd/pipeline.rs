@@ -320,15 +320,25 @@ impl CrowdPipeline {
 }
 
 impl CrowdPipeline {
-    /// The discrete-LOD renderer's pipeline (`vs_levels`, `fs_surface`): the crowd's shader,
-    /// bind group layout and formats, triangle lists, the instance from `instance_index`.
-    pub(super) fn levels_pipeline(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+    /// The discrete-LOD renderer's pipeline: the crowd's shader, bind group layout, formats
+    /// and `variant`'s entry points and vertex buffers, over triangle lists. On the
+    /// first-instance path the instance comes from `instance_index`, which a direct instanced
+    /// draw sets on every device.
+    pub(super) fn levels_pipeline(
+        &self,
+        device: &wgpu::Device,
+        variant: Variant,
+    ) -> wgpu::RenderPipeline {
         render_pipeline(
             device,
             &self.render_layout,
             &self.shader,
-            ("vs_levels", "vs_levels", "fs_surface"),
-            &[],
+            (
+                variant.entry_point(),
+                variant.entry_point(),
+                variant.fragment(),
+            ),
+            &vertex_buffers(variant.surface),
             wgpu::PrimitiveTopology::TriangleList,
             self.formats,
         )

@@ -1,13 +1,17 @@
 //! An instance's index slots in its asset's index buffer, and the patches that bring them from
 //! what the GPU holds to the runtime's current strips.
 //!
-//! Every instance of an asset owns `per_instance` consecutive slots: region `r` (strip `r` of
-//! `S0`) at `starts[r]..starts[r] + capacity`, followed by one separator slot that always holds
-//! [`RESTART`]: the layout of a strip [`Object`](super::super::Object), so one record per
-//! instance draws all its strips (restarts separate them). The CPU keeps no mirror of the
-//! slots: what the GPU holds is known from the runtime's strips as of the last upload, and the
-//! runtime's dirty log says which positions may differ since. A patch is `[slot, value]`;
-//! a frame's patches of all instances are applied by one scatter dispatch.
+//! Every instance of an asset owns `per_instance` consecutive slots. First its regions: region
+//! `r` (strip `r` of `S0`) at `starts[r]..starts[r] + capacity`, followed by one separator
+//! slot that always holds [`RESTART`]: the layout of a strip [`Object`](super::super::Object),
+//! so one record draws all its strips (restarts separate them), and patches keep it current
+//! at O(changed indices). Then its compact area: where the instance's live strips fit in it
+//! (a coarse LOD), they are copied there packed, one restart between two, and its record
+//! draws that copy instead of the regions, whose restart tails would be most of what it reads.
+//! The CPU keeps no mirror of the slots: what the GPU holds is known from the runtime's strips
+//! as of the last upload, and the runtime's dirty log says which positions may differ since.
+//! A patch is `[slot, value]`; a frame's patches of all instances are applied by one scatter
+//! dispatch.
 
 use crate::deform::{DeformingModel, DeformingState};
 use crate::lodstrips::Dirty;
@@ -20,12 +24,25 @@ pub(super) struct SlotLayout {
     starts: Vec<u32>,
     /// Region r starts at `runtime[r]` in the runtime's packed buffer (no separators).
     runtime: Vec<u32>,
-    /// `S0` with a separator after every region: what a new instance's slots hold.
+    /// `S0` with a separator after every region: what a new instance's regions hold.
     s0: Vec<u32>,
+    /// Slots of the compact area, after the regions.
+    compact: u32,
+}
+
+/// Which slots an instance's one draw record reads, relative to its first slot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct SlotRecord {
+    pub(super) first: u32,
+    pub(super) count: u32,
+    /// Reads the compact area (else the regions).
+    pub(super) compact: bool,
 }
 
 impl SlotLayout {
-    pub(super) fn new(model: &DeformingModel) -> SlotLayout {
+    /// The slots of `model`'s instances, with a compact area of `compact_share` (clamped to
+    /// 0..=1) of the regions' slots.
+    pub(super) fn new(model: &DeformingModel, compact_share: f32) -> SlotLayout {
         let layout = model.layout();
         let runtime = layout.region_offsets().to_vec();
         let s0 = layout.s0();
@@ -37,19 +54,39 @@ impl SlotLayout {
             slots.push(RESTART);
             starts.push(slots.len() as u32);
         }
+        let regions = slots.len() as f32;
+        let compact = (regions * compact_share.clamp(0.0, 1.0)).ceil() as u32;
         SlotLayout {
             starts,
             runtime,
             s0: slots,
+            compact,
         }
     }
 
-    /// Slots per instance (capacities plus separators).
+    /// Slots per instance: the regions (capacities plus separators) and the compact area.
     pub(super) fn per_instance(&self) -> u32 {
+        self.regions() + self.compact
+    }
+
+    /// Shrinks the compact area (to nothing at most) so that an instance has at most
+    /// `slots`.
+    pub(super) fn fit(&mut self, slots: u64) {
+        let room = slots.saturating_sub(u64::from(self.regions()));
+        self.compact = self.compact.min(room.min(u64::from(u32::MAX)) as u32);
+    }
+
+    /// Slots of the regions.
+    fn regions(&self) -> u32 {
         *self.starts.last().unwrap_or(&0)
     }
 
-    /// The slots of a new instance (`S0`, separators).
+    /// Slots of the compact area.
+    pub(super) fn compact_slots(&self) -> u32 {
+        self.compact
+    }
+
+    /// The regions of a new instance (`S0`, separators).
     pub(super) fn s0(&self) -> &[u32] {
         &self.s0
     }
@@ -59,13 +96,63 @@ impl SlotLayout {
         self.runtime.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// The index count of an instance's one draw record: up to the last live index of its last
-    /// non-empty region (coarse levels do not read the restart tails after it).
-    pub(super) fn record_count(&self, lengths: &[u32]) -> u32 {
-        lengths
-            .iter()
-            .rposition(|&len| len > 0)
-            .map_or(0, |r| self.starts[r] + lengths[r])
+    /// The record of an instance whose regions hold strips of `lengths`: the compact copy
+    /// where its live strips and the restarts between them fit the compact area, else the
+    /// regions from the first live index to the last (restart tails between them included).
+    pub(super) fn record(&self, lengths: &[u32]) -> SlotRecord {
+        let live = lengths.iter().filter(|&&len| len > 0);
+        let packed = live
+            .clone()
+            .map(|&len| len + 1)
+            .sum::<u32>()
+            .saturating_sub(1);
+        if packed > 0 && packed <= self.compact {
+            return SlotRecord {
+                first: self.regions(),
+                count: packed,
+                compact: true,
+            };
+        }
+        self.region_record(lengths)
+    }
+
+    /// The record that reads the regions of strips of `lengths` from the first live index to
+    /// the last.
+    pub(super) fn region_record(&self, lengths: &[u32]) -> SlotRecord {
+        let first = lengths.iter().position(|&len| len > 0);
+        let last = lengths.iter().rposition(|&len| len > 0);
+        let (first, end) = match (first, last) {
+            (Some(f), Some(l)) => (self.starts[f], self.starts[l] + lengths[l]),
+            _ => (0, 0),
+        };
+        SlotRecord {
+            first,
+            count: end - first,
+            compact: false,
+        }
+    }
+
+    /// Appends to `out` the patches that write `state`'s live strips packed into the compact
+    /// area of the instance at `base` (one restart between two strips; the caller checked
+    /// that they fit, [`record`](Self::record)).
+    pub(super) fn compact_patches(
+        &self,
+        base: u32,
+        state: &DeformingState,
+        out: &mut Vec<[u32; 2]>,
+    ) {
+        let (indices, lengths) = (state.indices(), state.lengths());
+        let mut at = base + self.regions();
+        for (r, &len) in lengths.iter().enumerate().filter(|(_, &len)| len > 0) {
+            if at > base + self.regions() {
+                out.push([at, RESTART]);
+                at += 1;
+            }
+            let source = self.runtime[r] as usize;
+            let strip = &indices[source..source + len as usize];
+            out.extend(strip.iter().zip(at..).map(|(&v, slot)| [slot, v]));
+            at += len;
+        }
     }
 
     /// Appends to `out` the patches that take the slots at `base` from what the GPU holds
@@ -137,9 +224,9 @@ mod tests {
         DeformingModel::new(&asset).expect("model")
     }
 
-    /// The slots as built from scratch from the state's strips.
+    /// The regions as built from scratch from the state's strips.
     fn from_scratch(layout: &SlotLayout, state: &DeformingState) -> Vec<u32> {
-        let mut slots = vec![RESTART; layout.per_instance() as usize];
+        let mut slots = vec![RESTART; layout.regions() as usize];
         for r in 0..state.lengths().len() {
             let strip = state.strip(r).expect("strip");
             let start = layout.starts[r] as usize;
@@ -149,53 +236,91 @@ mod tests {
     }
 
     /// Over a walk with frame switches and LOD jumps, applying the patches in reverse order
-    /// (any order must do) to the previous slots gives the slots built from scratch.
+    /// (any order must do) to the previous slots gives the regions built from scratch; the
+    /// record reads the live strips and the restarts between them only where they fit the
+    /// compact area (its copy), else from the first live index to the last.
     #[test]
     fn patches_bring_the_slots_to_the_current_strips() {
         let model = model();
-        let layout = SlotLayout::new(&model);
-        let mut state = DeformingState::new(&model);
-        let base = 3 * layout.per_instance();
-        let mut gpu = vec![0u32; base as usize];
-        gpu.extend_from_slice(layout.s0());
-        assert_eq!(
-            &gpu[base as usize..],
-            from_scratch(&layout, &state).as_slice()
-        );
-        let mut uploaded = layout.s0_lengths();
-        let walk = [
-            (0.0, 0.5),
-            (0.0, 0.9),
-            (0.7, 0.9),
-            (0.7, 0.1),
-            (1.0, 1.0),
-            (0.2, 0.0),
-            (0.4, 0.6),
-        ];
-        for (step, &(t, lod)) in walk.iter().enumerate() {
-            state.set(&model, t, Lod::Fraction(lod)).expect("set");
-            // Every other step moves twice before the upload: the dirty log accumulates.
-            if step % 2 == 1 {
-                state.set(&model, 1.0 - t, Lod::Fraction(0.3)).expect("set");
-            }
-            let dirty = state.take_dirty();
-            let mut patches = Vec::new();
-            layout.patches(base, &state, &dirty, &mut uploaded, &mut patches);
-            for &[slot, value] in patches.iter().rev() {
-                gpu[slot as usize] = value;
-            }
-            assert!(
-                gpu[..base as usize].iter().all(|&w| w == 0),
-                "other slots untouched"
-            );
+        for share in [0.0, 0.3, 1.0] {
+            let layout = SlotLayout::new(&model, share);
+            let mut state = DeformingState::new(&model);
+            let base = 3 * layout.per_instance();
+            let (regions, end) = (base + layout.regions(), base + layout.per_instance());
+            let mut gpu = vec![0u32; end as usize + 5];
+            gpu[base as usize..regions as usize].copy_from_slice(layout.s0());
             assert_eq!(
-                &gpu[base as usize..],
-                from_scratch(&layout, &state).as_slice(),
-                "step {step}"
+                &gpu[base as usize..regions as usize],
+                from_scratch(&layout, &state).as_slice()
             );
-            assert_eq!(uploaded, state.lengths());
-            let end = layout.record_count(state.lengths()) as usize;
-            assert!(gpu[base as usize + end..].iter().all(|&w| w == RESTART));
+            let mut uploaded = layout.s0_lengths();
+            let walk = [
+                (0.0, 0.5),
+                (0.0, 0.9),
+                (0.7, 0.9),
+                (0.7, 0.1),
+                (1.0, 1.0),
+                (0.2, 0.0),
+                (0.4, 0.6),
+            ];
+            let mut compacted = 0;
+            for (step, &(t, lod)) in walk.iter().enumerate() {
+                state.set(&model, t, Lod::Fraction(lod)).expect("set");
+                // Every other step moves twice before the upload: the dirty log accumulates.
+                if step % 2 == 1 {
+                    state.set(&model, 1.0 - t, Lod::Fraction(0.3)).expect("set");
+                }
+                let dirty = state.take_dirty();
+                let mut patches = Vec::new();
+                layout.patches(base, &state, &dirty, &mut uploaded, &mut patches);
+                let record = layout.record(&uploaded);
+                if record.compact {
+                    layout.compact_patches(base, &state, &mut patches);
+                    compacted += 1;
+                }
+                for &[slot, value] in patches.iter().rev() {
+                    gpu[slot as usize] = value;
+                }
+                assert!(
+                    gpu[..base as usize]
+                        .iter()
+                        .chain(&gpu[end as usize..])
+                        .all(|&w| w == 0),
+                    "other slots untouched"
+                );
+                assert_eq!(
+                    &gpu[base as usize..regions as usize],
+                    from_scratch(&layout, &state).as_slice(),
+                    "step {step}"
+                );
+                assert_eq!(uploaded, state.lengths());
+                // What the record reads draws the strips; it starts and ends at a live index.
+                let read = &gpu[(base + record.first) as usize..][..record.count as usize];
+                let strips: Vec<&[u32]> = (0..uploaded.len())
+                    .filter_map(|r| state.strip(r).filter(|s| !s.is_empty()))
+                    .collect();
+                let drawn: Vec<&[u32]> = read
+                    .split(|&w| w == RESTART)
+                    .filter(|s| !s.is_empty())
+                    .collect();
+                assert_eq!(drawn, strips, "share {share}, step {step}");
+                assert!(read.first() != Some(&RESTART) && read.last() != Some(&RESTART));
+                let live: u32 = uploaded.iter().sum();
+                let packed = live + strips.len().saturating_sub(1) as u32;
+                assert_eq!(
+                    record.compact,
+                    packed > 0 && packed <= layout.compact_slots()
+                );
+                if record.compact {
+                    // Nothing but the live indices and one restart between two strips.
+                    assert_eq!(record.count, packed);
+                }
+            }
+            // Without a compact area never; with one as large as the regions always.
+            assert_eq!(compacted == 0, share == 0.0);
+            if share == 1.0 {
+                assert_eq!(compacted, walk.len());
+            }
         }
     }
 }
