@@ -13,8 +13,10 @@
 //! * stepping: `|l − l'|` steps inside a frame, or `l + l'` steps across frames
 //!   (refine to LOD 0, where every frame's buffer is `S0`, then coarsen under
 //!   the new frame); or
-//! * a rebuild: one pass over all strip entries plus the survivors of all
-//!   vertices (`FrameChanges::rebuild_work`), independent of `l`.
+//! * a rebuild: one pass over the entries of the strips not empty at `l'` plus
+//!   the survivors of the first `l'` collapses (`FrameChanges::rebuild_work`
+//!   bounds it); a crowd's rebuilds to one frame share the survivors
+//!   (`gpu::Crowd::set`).
 //!
 //! [`Strategy::Auto`] takes the cheaper by [`STEP_COST`], the measured cost of
 //! one step in rebuild work units (`cargo bench --bench deform`). Both produce
@@ -29,7 +31,7 @@ use thiserror::Error;
 use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::lodstrips::packed::Narrow;
-use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState};
+use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState, Survivors};
 use crate::seams::{check_steps, SeamError, StepBoundaries, Wedges};
 
 /// The level of detail to show, resolved against the current frame's tables.
@@ -440,6 +442,46 @@ fn build_frame(
     })
 }
 
+/// A checked move of a [`DeformingState`]: the frame and LOD it goes to, and the strategy
+/// (`Steps` or `Rebuild`) that takes it there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Plan {
+    pub(crate) frame: usize,
+    pub(crate) lod: usize,
+    pub(crate) strategy: Strategy,
+}
+
+/// Carries out the rebuilds of many states of one model, each with its plan: sorted by
+/// frame and LOD, cut into runs of one frame (at most `⌈states / (4 × threads)⌉` each, so
+/// that the runs spread over the threads even when every state goes to one frame), the runs
+/// in parallel. A run links each of its frame's collapses once for all its states
+/// ([`Survivors`]) instead of once per state. (The crowd's; a crate without the renderer has
+/// no caller.)
+#[cfg(feature = "gpu")]
+pub(crate) fn rebuild_all(model: &DeformingModel, jobs: &mut [(Plan, &mut DeformingState)]) {
+    jobs.sort_unstable_by_key(|(plan, _)| (plan.frame, plan.lod));
+    let run = jobs.len().div_ceil(4 * rayon::current_num_threads()).max(1);
+    let mut runs = Vec::new();
+    let mut rest = jobs;
+    while let Some((first, _)) = rest.first() {
+        let frame = first.frame;
+        let n = rest
+            .iter()
+            .take(run)
+            .take_while(|(plan, _)| plan.frame == frame)
+            .count();
+        let (head, tail) = rest.split_at_mut(n);
+        runs.push(head);
+        rest = tail;
+    }
+    runs.into_par_iter().for_each(|run| {
+        let mut anc = Survivors::new();
+        for (plan, state) in run.iter_mut() {
+            state.apply(model, *plan, &mut anc);
+        }
+    });
+}
+
 /// The strips of one [`DeformingModel`] at some `(frame, lod)`, with the log
 /// of what changed since the GPU uploader last looked.
 #[derive(Clone, Debug)]
@@ -472,6 +514,19 @@ impl DeformingState {
         lod: Lod,
         strategy: Strategy,
     ) -> Result<Strategy, SetError> {
+        let plan = self.plan(model, t, lod, strategy)?;
+        self.apply(model, plan, &mut Survivors::new());
+        Ok(plan.strategy)
+    }
+
+    /// Where a move to `(t, lod)` goes and how (the request checked, nothing moved).
+    pub(crate) fn plan(
+        &self,
+        model: &DeformingModel,
+        t: f32,
+        lod: Lod,
+        strategy: Strategy,
+    ) -> Result<Plan, SetError> {
         if self.state.model_id() != model.id {
             return Err(SetError::WrongModel);
         }
@@ -483,23 +538,38 @@ impl DeformingState {
         } else {
             self.state.lod() + l
         };
-        let used = match strategy {
+        let strategy = match strategy {
             Strategy::Auto if steps * STEP_COST <= frame.rebuild_work(&model.layout, l) => {
                 Strategy::Steps
             }
             Strategy::Auto => Strategy::Rebuild,
             chosen => chosen,
         };
-        if used == Strategy::Rebuild {
-            self.state.rebuild(&model.layout, frame, l);
+        Ok(Plan {
+            frame: k,
+            lod: l,
+            strategy,
+        })
+    }
+
+    /// Carries out `plan` (made by [`plan`](Self::plan) for this state and `model`); a
+    /// rebuild takes its survivors from `anc`.
+    pub(crate) fn apply<'a>(
+        &mut self,
+        model: &'a DeformingModel,
+        plan: Plan,
+        anc: &mut Survivors<'a>,
+    ) {
+        let frame = &model.frames[plan.frame].changes;
+        if plan.strategy == Strategy::Rebuild {
+            self.state.rebuild(&model.layout, frame, plan.lod, anc);
         } else {
-            if k != self.frame {
+            if plan.frame != self.frame {
                 self.state.step_to(&model.frames[self.frame].changes, 0);
             }
-            self.state.step_to(frame, l);
+            self.state.step_to(frame, plan.lod);
         }
-        self.frame = k;
-        Ok(used)
+        self.frame = plan.frame;
     }
 
     /// The current frame.
@@ -548,7 +618,8 @@ impl DeformingState {
     }
 
     /// Hands the dirty log to the uploader and clears it. After a rebuild it
-    /// names every live strip; the uploader coalesces.
+    /// names, per strip, the span of the positions whose value changed and the
+    /// strips whose length changed.
     pub fn take_dirty(&mut self) -> Dirty {
         self.state.take_dirty()
     }

@@ -384,6 +384,19 @@ impl<'a> Replay<'a> {
         let lod = |d: u32| if d == NEVER { never } else { d };
         let last_vertex = seq.vertex_count.saturating_sub(1);
         let copies = flatten_copies(self.region_offsets, &self.tokens);
+        // Per strip, the first LOD at which none of its entries (slots or copies) is alive.
+        let mut strip_death: Vec<u32> = self
+            .region_offsets
+            .windows(2)
+            .map(|w| {
+                let slots = &self.tokens.death[w[0] as usize..w[1] as usize];
+                slots.iter().map(|&d| lod(d)).max().unwrap_or(0)
+            })
+            .collect();
+        for c in &copies {
+            let strip = self.region_offsets.partition_point(|&o| o <= c.after) - 1;
+            strip_death[strip] = strip_death[strip].max(lod(c.death));
+        }
         let triangle_samples = (0..self.cursors.len())
             .map(|j| self.triangles[(j * CURSOR_STRIDE).min(max)])
             .collect();
@@ -402,6 +415,7 @@ impl<'a> Replay<'a> {
             copy_value: Narrow::new(last_vertex, copies.iter().map(|c| c.value)),
             copy_birth: Narrow::new(never, copies.iter().map(|c| c.birth)),
             copy_death: Narrow::new(never, copies.iter().map(|c| lod(c.death))),
+            strip_death: Narrow::new(never, strip_death),
         }
     }
 }

@@ -35,6 +35,7 @@ pub(crate) mod packed;
 mod runtime;
 
 pub use build::ChangeListError;
+pub(crate) use runtime::Survivors;
 pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
 
 use crate::collapse::CollapseSequence;
@@ -151,6 +152,10 @@ pub struct FrameChanges {
     copy_value: Narrow,
     copy_birth: Narrow,
     copy_death: Narrow,
+    /// Per strip, the first LOD at which none of its entries is alive (the largest death
+    /// among its slots and copies): a rebuild at that LOD or coarser skips the strip
+    /// without reading its entries.
+    strip_death: Narrow,
 }
 
 /// Every this many steps the stream position is kept, so a rebuilt state
@@ -249,6 +254,7 @@ impl FrameChanges {
             + self.copy_value.byte_size()
             + self.copy_birth.byte_size()
             + self.copy_death.byte_size()
+            + self.strip_death.byte_size()
     }
 
     /// Stream position where step `lod` starts and the triangles drawn there:
@@ -278,10 +284,26 @@ impl FrameChanges {
         (at, tris)
     }
 
-    /// Work units of a one-pass rebuild at `lod` (entries to visit plus
-    /// survivors to resolve), for choosing between a rebuild and stepping.
+    /// Work units of a one-pass rebuild at `lod` from scratch (entries to visit plus
+    /// survivors to link), for choosing between a rebuild and stepping. An upper bound:
+    /// the rebuild skips strips that are empty at `lod`, and a crowd's rebuilds of one
+    /// frame share the survivors.
     pub fn rebuild_work(&self, layout: &StripLayout, lod: usize) -> usize {
         self.death.len() + self.copy_count() + layout.vertex_count() + lod.min(self.max_lod())
+    }
+
+    /// The first copy anchored at `S0` slot `slot` or after it (copies are sorted by anchor).
+    fn first_copy_from(&self, slot: usize) -> usize {
+        let (mut lo, mut hi) = (0, self.copy_count());
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if (self.copy_after.get(mid) as usize) < slot {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
     }
 }
 

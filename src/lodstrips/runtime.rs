@@ -59,11 +59,89 @@ pub struct StripsState {
 }
 
 thread_local! {
-    /// The survivor table of [`StripsState::rebuild`] (4 bytes per vertex), one per thread
-    /// rather than one per state: it lives only during a rebuild, so the states a thread moves
-    /// (a crowd's instances, moved in parallel) share it, and an instance's footprint is its
-    /// index buffer and per-strip bookkeeping only.
+    /// The survivor forest of [`Survivors`] (4 bytes per vertex), one per thread rather than
+    /// one per state: it lives only during rebuilds, so the states a thread moves (a crowd's
+    /// instances, moved in parallel) share it, and an instance's footprint is its index
+    /// buffer and per-strip bookkeeping only.
     static SURVIVORS: std::cell::Cell<Vec<u32>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// The survivor of every vertex after the first `lod` collapses of one frame, for rebuilds:
+/// a forest over the vertices in which collapse `u → w` links `u` under `w` (`u` is a root
+/// then: a vertex is removed once), so a vertex's root is its survivor. Reaching a coarser
+/// LOD of the same frame only links the collapses in between, so rebuilds of one frame taken
+/// in ascending LOD (a crowd's instances switching to that frame) link each collapse once;
+/// a finer LOD or another frame starts over (4 bytes per vertex written, then the collapses
+/// walked backward, which points every vertex straight at its root). Finding a root
+/// halves the path as it goes: links only ever point at a vertex that was alive when they
+/// were made, so a shortcut to a further ancestor stays an ancestor at every coarser LOD.
+///
+/// Its table is the calling thread's (taken on creation, handed back on drop), so the
+/// allocation is reused by every rebuild on that thread.
+pub(crate) struct Survivors<'a> {
+    /// The frame the links are of (`None`: none yet).
+    frame: Option<&'a FrameChanges>,
+    /// Collapses linked.
+    lod: usize,
+    parent: Vec<u32>,
+}
+
+impl<'a> Survivors<'a> {
+    /// No links yet, on the calling thread's table.
+    pub(crate) fn new() -> Survivors<'a> {
+        Survivors {
+            frame: None,
+            lod: 0,
+            parent: SURVIVORS.take(),
+        }
+    }
+
+    /// Links the first `lod` collapses of `frame` over `vertices` vertices (only those not
+    /// linked yet when the forest is at a finer LOD of the same frame).
+    fn reach(&mut self, vertices: usize, frame: &'a FrameChanges, lod: usize) {
+        let same = self.frame.is_some_and(|f| std::ptr::eq(f, frame));
+        if !same || lod < self.lod || self.parent.len() != vertices {
+            // From scratch, the collapses walked backward (as
+            // [`CollapseSequence::survivors`](crate::collapse::CollapseSequence::survivors)):
+            // every vertex then points at its root, so a lone rebuild finds each survivor in
+            // one step, for the same work as linking forward.
+            self.parent.clear();
+            self.parent.extend(0..vertices as u32);
+            for step in (0..lod).rev() {
+                let (u, w) = frame.collapse(step);
+                self.parent[u as usize] = self.parent[w as usize];
+            }
+            self.frame = Some(frame);
+            self.lod = lod;
+        }
+        for step in self.lod..lod {
+            let (u, w) = frame.collapse(step);
+            self.parent[u as usize] = w;
+        }
+        self.lod = lod;
+    }
+
+    /// The survivor of `v` at the LOD reached.
+    #[inline]
+    fn find(&mut self, v: u32) -> u32 {
+        let parent = &mut self.parent;
+        let mut v = v as usize;
+        loop {
+            let p = parent[v] as usize;
+            if p == v {
+                return v as u32;
+            }
+            let grand = parent[p];
+            parent[v] = grand;
+            v = grand as usize;
+        }
+    }
+}
+
+impl Drop for Survivors<'_> {
+    fn drop(&mut self) {
+        SURVIVORS.set(std::mem::take(&mut self.parent));
+    }
 }
 
 impl StripsState {
@@ -178,24 +256,26 @@ impl StripsState {
     }
 
     /// Sets the state to `frame` at `lod` (clamped) in one pass, whatever
-    /// frame and LOD it was at: the survivors `anc` of every vertex first
-    /// (walking the first `lod` collapses backward, as
-    /// [`CollapseSequence::survivors`](crate::collapse::CollapseSequence::survivors)),
-    /// then every strip as its entries alive at `lod` mapped through `anc`
-    /// (see [`FrameChanges`]). The result is the very buffer that stepping
-    /// from LOD 0 produces, so later steps can replay recorded positions.
-    /// Every live strip is marked dirty.
-    pub(crate) fn rebuild(&mut self, layout: &StripLayout, frame: &FrameChanges, lod: usize) {
+    /// frame and LOD it was at: every strip as its entries alive at `lod` mapped
+    /// to their survivors (see [`FrameChanges`]), the survivors taken from `anc`
+    /// (brought to `frame` at `lod` first, see [`Survivors`]). Strips with no
+    /// entry alive at `lod` are emptied without reading their entries. The result
+    /// is the very buffer that stepping from LOD 0 produces, so later steps can
+    /// replay recorded positions.
+    ///
+    /// Only what differs from the buffer as it was is written and marked dirty:
+    /// per strip the positions from the first to the last whose value changed,
+    /// and the positions a strip grew by (a crowd's instances switching between
+    /// neighbouring frames keep most of their indices, so uploads shrink).
+    pub(crate) fn rebuild<'a>(
+        &mut self,
+        layout: &StripLayout,
+        frame: &'a FrameChanges,
+        lod: usize,
+        anc: &mut Survivors<'a>,
+    ) {
         let lod = lod.min(frame.max_lod());
-        // Taken out of the thread's slot for the rebuild and put back after: no borrow is
-        // held across the pass, and the allocation is reused by the thread's next rebuild.
-        let mut anc = SURVIVORS.take();
-        anc.clear();
-        anc.extend(0..layout.vertex_count);
-        for step in (0..lod).rev() {
-            let (u, w) = frame.collapse(step);
-            anc[u as usize] = anc[w as usize];
-        }
+        anc.reach(layout.vertex_count as usize, frame, lod);
         let l = lod as u32;
         let copies = frame.copy_count();
         // The anchor of copy `ci` (past the last copy: beyond every slot).
@@ -206,12 +286,37 @@ impl StripsState {
                 usize::MAX
             }
         };
+        // `ci` is the first copy anchored in the strip being read, when `synced`; after a
+        // skipped strip it is found again by binary search.
         let mut ci = 0;
-        let mut next_after = anchor(0);
+        let mut synced = true;
         for s in 0..layout.strip_count() {
             let start = layout.region_offsets[s] as usize;
+            let old = self.lens[s] as usize;
+            if frame.strip_death.get(s) <= l {
+                synced = false;
+                if old != 0 {
+                    self.lens[s] = 0;
+                    self.mark_len(s);
+                }
+                continue;
+            }
+            if !synced {
+                ci = frame.first_copy_from(start);
+                synced = true;
+            }
             let end = layout.region_offsets[s + 1] as usize;
-            let mut q = start;
+            let mut next_after = anchor(ci);
+            // Writes `v` at the next position, noting the changed span `lo..hi`.
+            let (mut q, mut lo, mut hi) = (start, usize::MAX, 0);
+            let mut put = |indices: &mut [u32], v: u32| {
+                if q - start >= old || indices[q] != v {
+                    indices[q] = v;
+                    lo = lo.min(q - start);
+                    hi = q - start + 1;
+                }
+                q += 1;
+            };
             let mut p = start;
             while p < end {
                 // `S0` slots up to the next copy anchor, then its copies.
@@ -222,15 +327,13 @@ impl StripsState {
                 };
                 for slot in p..stop {
                     if frame.death.get(slot) > l {
-                        self.indices[q] = anc[layout.s0[slot] as usize];
-                        q += 1;
+                        put(&mut self.indices, anc.find(layout.s0[slot]));
                     }
                 }
                 p = stop;
                 while next_after == stop - 1 {
                     if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
-                        self.indices[q] = anc[frame.copy_value.get(ci) as usize];
-                        q += 1;
+                        put(&mut self.indices, anc.find(frame.copy_value.get(ci)));
                     }
                     ci += 1;
                     next_after = anchor(ci);
@@ -241,9 +344,10 @@ impl StripsState {
                 self.lens[s] = live;
                 self.mark_len(s);
             }
-            self.mark(s, 0, live);
+            if lo < hi {
+                self.mark(s, lo as u32, hi as u32);
+            }
         }
-        SURVIVORS.set(anc);
         self.lod = lod;
         (self.cursor, self.triangles) = frame.seek(lod);
     }

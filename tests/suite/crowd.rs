@@ -19,6 +19,10 @@
 //! * `crowd_records_read_only_live_indices`: the same walk with a compact area as large as the
 //!   regions (every moved instance's record reads only its live indices and the restarts
 //!   between strips) and without one (every record reads the regions).
+//! * `instances_sharing_a_frame_draw_their_reference_meshes`: most instances switching to one
+//!   `(frame, LOD)` together (rebuilt in one run of that frame), one at another LOD of it, one
+//!   at another frame, one left alone: each instance's buffers read back draw the reference
+//!   mesh of its frame and LOD.
 //! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, for the head and
 //!   for the face (without and with a surface): drawn by the entry point without the target
 //!   sum (uploaded without targets) and by the 8-slot one at zero weights they give the same
@@ -561,6 +565,73 @@ fn buffers_decode_to_each_instance_mesh(
                 }
             }
         }
+    }
+    Ok(())
+}
+
+/// A crowd's frame switches are rebuilt in runs of one frame sharing its survivors, in
+/// ascending LOD: over a walk where most instances move together to one `(frame, LOD)` each
+/// step (many rebuilds of one frame at one LOD), one moves to the same frame at another LOD
+/// (finer or coarser than the herd, so a run meets both orders), one to another frame, and one
+/// stays, the buffers read back draw, per instance, exactly the reference mesh of its frame
+/// and LOD (computed here from the frame's sequence, not from the runtime).
+#[test]
+fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let frames = 6;
+    let kind = Kind::new(&ctx, grid_asset(12, frames, 0.5))?;
+    let s0 = &kind.asset.s0;
+    let triangles: Vec<[u32; 3]> = (0..s0.len())
+        .filter_map(|i| s0.strip(i))
+        .flat_map(strip_draw)
+        .collect();
+    let path = paths(&ctx)[0];
+    let mut crowd = crowd_on(&ctx, path)?;
+    let count = 12;
+    let asset = crowd.add_asset(
+        device,
+        Arc::clone(&kind.gpu),
+        Arc::clone(&kind.model),
+        count,
+    )?;
+    let ids: Vec<InstanceId> = (0..count)
+        .map(|_| crowd.add(asset, glam::Mat4::IDENTITY))
+        .collect::<std::result::Result<_, _>>()?;
+    let mut rng = common::Rng(0xc0ffee);
+    let frame_t = |k: usize| k as f32 / (frames - 1) as f32;
+    for step in 0..24 {
+        let k = (step + rng.below(2)) % frames;
+        let herd = Lod::Fraction(0.2 + 0.6 * rng.unit());
+        let other_lod = Lod::Fraction(if step % 2 == 0 { 0.05 } else { 0.95 });
+        let mut moves: Vec<(InstanceId, f32, Lod)> = Vec::new();
+        for (i, &id) in ids.iter().enumerate() {
+            match i {
+                0 => moves.push((id, frame_t(k), other_lod)),
+                1 => moves.push((id, frame_t((k + 3) % frames), herd)),
+                2 if step % 3 != 0 => {}
+                _ => moves.push((id, frame_t(k), herd)),
+            }
+        }
+        crowd.set(&moves)?;
+        crowd.prepare(device, queue);
+        let drawn = drawn_per_slot(&ctx, &crowd, asset, kind.gpu.vertex_count());
+        for &id in &ids {
+            let state = crowd.state(id)?;
+            let (frame, lod) = (state.frame(), state.lod());
+            let reference = kind.asset.frames[frame].reference_mesh(&triangles, lod);
+            assert_eq!(
+                canonical_multiset(drawn[id.slot() as usize].iter().copied()),
+                canonical_multiset(reference),
+                "{path:?}, step {step}, {id:?} at frame {frame}, LOD {lod}"
+            );
+        }
+        // The herd is where it was asked to be.
+        let herd_state = crowd.state(ids[3])?;
+        assert_eq!(herd_state.frame(), k);
+        assert_eq!(herd_state.lod(), kind.model.resolve(k, herd)?);
     }
     Ok(())
 }

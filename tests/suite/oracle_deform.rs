@@ -368,6 +368,72 @@ fn unrelated_random_frames() {
     walk("random frames", &tris, &asset, 10_000, 5);
 }
 
+/// A rebuild logs only what changed (what a crowd uploads after a frame switch): every logged
+/// range starts and ends at a position whose value changed or that the strip grew by, every
+/// such position is logged, and a rebuild to where the state already is logs nothing. The walk
+/// moves like a crowd's instance, to the neighbouring frame at a similar LOD, where most
+/// indices stay; it must log fewer positions than the strips hold (the whole strips before).
+#[test]
+fn rebuild_logs_only_changed_positions() {
+    let morph = common::grid_morph(24, |x, y| {
+        0.4 * (x as f32 * 0.4).sin() * (y as f32 * 0.3).cos() + 0.05 * x as f32
+    });
+    let frames = 6;
+    let asset = build_asset(&morph, frames);
+    let model = DeformingModel::new(&asset).expect("model builds");
+    let mut state = DeformingState::new(&model);
+    let mut rng = Rng(11);
+    let (mut logged, mut live) = (0usize, 0usize);
+    for step in 0..60 {
+        let k = (step / 2) % frames;
+        let t = k as f32 / (frames - 1) as f32;
+        let lod = Lod::Fraction(0.3 + 0.5 * rng.unit());
+        let before = state.clone();
+        let how = state.set_with(&model, t, lod, Strategy::Rebuild);
+        assert_eq!(how, Ok(Strategy::Rebuild));
+        let dirty = state.take_dirty();
+        let changed = |s: usize, i: usize| {
+            before.strip(s).and_then(|o| o.get(i)) != state.strip(s).and_then(|n| n.get(i))
+        };
+        for r in &dirty.ranges {
+            let s = r.strip as usize;
+            assert!(r.start < r.end, "step {step}: empty range {r:?}");
+            assert!(
+                changed(s, r.start as usize) && changed(s, r.end as usize - 1),
+                "step {step}: range {r:?} not tight"
+            );
+            logged += (r.end - r.start) as usize;
+        }
+        for s in 0..state.lengths().len() {
+            let old = before.lengths()[s] as usize;
+            let grown = dirty.lengths.contains(&(s as u32));
+            for i in 0..state.lengths()[s] as usize {
+                let in_range = dirty
+                    .ranges
+                    .iter()
+                    .any(|r| r.strip as usize == s && (r.start..r.end).contains(&(i as u32)));
+                assert!(
+                    !changed(s, i) || in_range || (grown && i >= old),
+                    "step {step}: strip {s} position {i} changed unlogged"
+                );
+            }
+        }
+        assert_eq!(
+            state.lengths() != before.lengths(),
+            !dirty.lengths.is_empty(),
+            "step {step}: lengths logged"
+        );
+        live += state.index_count();
+        // The same place again: nothing to upload.
+        state
+            .set_with(&model, t, lod, Strategy::Rebuild)
+            .expect("valid request");
+        assert_eq!(state.take_dirty(), Default::default(), "step {step}");
+    }
+    eprintln!("rebuilds logged {logged} of {live} live positions");
+    assert!(logged < live, "{logged} logged of {live} live");
+}
+
 #[test]
 fn bad_assets_and_requests_are_rejected() {
     let tris = vec![[0, 1, 2], [0, 2, 3]];

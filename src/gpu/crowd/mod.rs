@@ -59,7 +59,8 @@ use super::commands::RenderCommands;
 use super::pose::{clamp_t, default_mode};
 use super::records::ARGS_BYTES;
 use super::GpuError;
-use crate::deform::{DeformingModel, DeformingState, Lod, SetError};
+use crate::deform::{rebuild_all, DeformingModel, DeformingState, Lod, Plan, SetError, Strategy};
+use crate::lodstrips::Survivors;
 
 /// Why a crowd call was refused; nothing changed.
 #[derive(Debug, Error)]
@@ -705,19 +706,41 @@ impl Crowd {
         }
         for a in &mut self.assets {
             let (model, track) = (&a.model, a.gpu.track());
-            a.members
+            // In parallel: every moved instance's pose and plan; the moves that step are made
+            // here, the rebuilds (frame switches) are gathered.
+            let rebuilds: Vec<(usize, Plan)> = a
+                .members
                 .par_iter_mut()
                 .zip(a.blocks.par_iter_mut())
-                .for_each(|(member, block)| {
-                    let Some(member) = member else { return };
-                    let Some((t, lod)) = member.pending.take() else {
-                        return;
-                    };
-                    // Checked above: neither can fail.
-                    member.state.set(model, t, lod).expect("checked move");
+                .enumerate()
+                .filter_map(|(slot, (member, block))| {
+                    let member = member.as_mut()?;
+                    let (t, lod) = member.pending.take()?;
                     member.moved = true;
                     block.set_pose(track, clamp_t(t).expect("checked time"));
-                });
+                    // Checked above: cannot fail.
+                    let plan = (member.state)
+                        .plan(model, t, lod, Strategy::Auto)
+                        .expect("checked move");
+                    if plan.strategy == Strategy::Rebuild {
+                        return Some((slot, plan));
+                    }
+                    member.state.apply(model, plan, &mut Survivors::new());
+                    None
+                })
+                .collect();
+            // The rebuilds, by frame: instances switching to one frame share its survivors.
+            let mut plans = rebuilds.into_iter().peekable();
+            let mut jobs = Vec::with_capacity(plans.len());
+            for (slot, member) in a.members.iter_mut().enumerate() {
+                if let (Some(member), Some(&(s, plan))) = (member, plans.peek()) {
+                    if s == slot {
+                        jobs.push((plan, &mut member.state));
+                        plans.next();
+                    }
+                }
+            }
+            rebuild_all(model, &mut jobs);
         }
         Ok(())
     }
