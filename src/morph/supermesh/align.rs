@@ -500,6 +500,84 @@ pub(crate) fn pull_landmarks(
     }
 }
 
+/// The other shape's normalised surface at sphere points, located by walks
+/// from the last face found for each vertex.
+pub(crate) struct Surface<'a> {
+    mesh: SphereMesh<'a>,
+    normalised: &'a [DVec3],
+}
+
+impl<'a> Surface<'a> {
+    pub fn new(points: &'a [DVec3], triangles: &'a [[u32; 3]], normalised: &'a [DVec3]) -> Self {
+        Surface {
+            mesh: SphereMesh::new(points, triangles),
+            normalised,
+        }
+    }
+
+    fn at(&self, p: DVec3, hint: &mut u32, rng: &mut u64) -> DVec3 {
+        *hint = match self.mesh.locate(p, *hint, rng) {
+            Location::Inside(f) | Location::Degenerate(f) => f,
+        };
+        let t = self.mesh.triangles[*hint as usize];
+        let [a, b, c] = t.map(|v| self.mesh.points[v as usize]);
+        let l = projective_barycentric(p, a, b, c);
+        let q = t.map(|v| self.normalised[v as usize]);
+        q[0] * l[0] + q[1] * l[1] + q[2] * l[2]
+    }
+}
+
+/// Lowers each free vertex's term of D, `‖q_v − other(x_v)‖²` (its
+/// normalised position against the other shape's surface at its sphere
+/// point): each vertex tries steps of a third of the way to
+/// its nearest neighbour in four directions and takes the one that lowers its
+/// term most, by a fold-rejecting move (so the embedding stays bijective and
+/// pinned vertices stay where they are). `hints`: each vertex's last face
+/// of `other` (`u32::MAX`: none yet, start from the previous vertex's), kept
+/// between calls so that each lookup is a short walk.
+pub(crate) fn refine(
+    points: &mut [DVec3],
+    rings: &[Vec<u32>],
+    normalised: &[DVec3],
+    other: &Surface,
+    pinned: &[bool],
+    hints: &mut [u32],
+) {
+    let mut rng = 0x5eed_u64;
+    let mut last = 0u32;
+    for v in 0..points.len() {
+        if pinned[v] || rings[v].is_empty() {
+            continue;
+        }
+        if hints[v] == u32::MAX {
+            hints[v] = last;
+        }
+        let x = points[v].normalize();
+        let step = rings[v]
+            .iter()
+            .map(|&r| x.angle_between(points[r as usize]))
+            .fold(f64::INFINITY, f64::min)
+            / 3.0;
+        let mut term =
+            |p: DVec3| (normalised[v] - other.at(p, &mut hints[v], &mut rng)).length_squared();
+        let current = term(points[v]);
+        let e1 = x.any_orthonormal_vector();
+        let e2 = x.cross(e1);
+        let mut best = (current, x);
+        for dir in [e1, -e1, e2, -e2] {
+            let trial = (x + dir * step).normalize();
+            let t = term(trial);
+            if t < best.0 {
+                best = (t, trial);
+            }
+        }
+        if best.0 < current {
+            super::embed::move_vertex(rings, points, v as u32, best.1);
+        }
+        last = hints[v];
+    }
+}
+
 /// Rotates sphere points; `false` when rounding folded a triangle (the
 /// points are then left rotated: the caller retries or gives up).
 pub(crate) fn rotate(points: &mut [DVec3], triangles: &[[u32; 3]], rotation: DMat3) -> bool {
