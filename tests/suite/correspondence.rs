@@ -533,7 +533,8 @@ fn stood_up(mut mesh: IndexedMesh) -> IndexedMesh {
 }
 
 /// man → camel with the shipped landmarks: the in-betweens keep their size
-/// (s ≥ 0.9 at ¼, ½, ¾, the issue's goal: 0.930, 0.905, 0.930 measured;
+/// (s ≥ 0.9 at ¼, ½, ¾, the issue's goal: 0.930, 0.906, 0.930 measured;
+/// 0.930, 0.905, 0.930 with the drag from a fraction of the Möbius fit;
 /// 0.924, 0.897, 0.924 before the embeddings were relaxed after the drag;
 /// 0.737, 0.626, 0.737 with the alignment before issue 25), every pair on
 /// one point, no fold-overs.
@@ -557,6 +558,14 @@ fn man_to_camel_with_the_shipped_landmarks() {
     assert!(c.s.iter().all(|&s| s >= 0.9), "{c:?}");
     assert_eq!(r.fold_overs, 0);
     assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0);
+    // The landmarks' Möbius fit carried through whole (7,016 of the camel's
+    // 9,770 vertices were left behind before), and the man's embedding
+    // centred (it stalled at 0.31).
+    assert_eq!(r.alignment.mobius_unreached, Some(0), "{r}");
+    assert!(r.alignment.centroid_a.1 < 1e-6, "{r}");
+    // The issue's goal: no larger than 1.3x the automatic supermesh (91,188
+    // vertices; 97,075 measured, 138,765 before).
+    assert!(r.vertices <= 118_000, "{r}");
     for &(la, lb) in &landmarks.pairs {
         assert!(s.origins.contains(&Origin::Both { a: la, b: lb }));
     }
