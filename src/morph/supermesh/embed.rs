@@ -894,8 +894,8 @@ mod tests {
         for k in 1..=8 {
             let m = map.power(k as f64 / 8.0);
             for _ in 0..4 {
-                for v in 0..p.len() {
-                    move_vertex(&rings, &mut one_by_one, v as u32, m.apply(points[v]));
+                for (v, &x) in points.iter().enumerate() {
+                    move_vertex(&rings, &mut one_by_one, v as u32, m.apply(x));
                 }
             }
         }
