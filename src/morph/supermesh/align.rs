@@ -515,7 +515,7 @@ impl<'a> Surface<'a> {
         }
     }
 
-    fn at(&self, p: DVec3, hint: &mut u32, rng: &mut u64) -> DVec3 {
+    pub fn at(&self, p: DVec3, hint: &mut u32, rng: &mut u64) -> DVec3 {
         *hint = match self.mesh.locate(p, *hint, rng) {
             Location::Inside(f) | Location::Degenerate(f) => f,
         };
