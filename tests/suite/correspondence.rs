@@ -590,3 +590,24 @@ fn near_landmarks_do_not_pull_each_other_back() {
         check_closed(&s, &r, &pairs);
     }
 }
+
+/// `fit_b_onto_a`: a mesh and its turned, moved and scaled copy under the
+/// identity map: the fit puts the copy back on the mesh (the similarity's
+/// oracle), and the measure then finds the ends the same.
+#[test]
+fn the_fit_takes_a_turned_moved_scaled_copy_back_onto_the_mesh() {
+    use morphlod::morph::supermesh::fit_b_onto_a;
+    let a = blob(8, 12, 0.3, [2.0, 1.0, 0.6], 3);
+    let turn = glam::DMat3::from_axis_angle(DVec3::new(1.0, -2.0, 0.5).normalize(), 1.1);
+    let b = deformed(&a, |p| turn * p * 2.5 + DVec3::new(3.0, -1.0, 7.0));
+    let before = measure(&a.triangles, &a.positions, &b.positions);
+    assert!(before.placement.differs(before.d), "{before:?}");
+    let fitted = fit_b_onto_a(&a.triangles, &a.positions, &b.positions);
+    for (f, p) in fitted.iter().zip(&a.positions) {
+        let d = (0..3).map(|k| (f[k] - p[k]).abs()).fold(0.0f32, f32::max);
+        assert!(d < 1e-4, "{f:?} {p:?}");
+    }
+    let after = measure(&a.triangles, &a.positions, &fitted);
+    assert!(after.d < 1e-8 && after.d_placed < 1e-8, "{after:?}");
+    assert!(!after.placement.differs(after.d), "{after:?}");
+}

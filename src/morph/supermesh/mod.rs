@@ -65,7 +65,7 @@ use thiserror::Error;
 
 pub use align::Residual;
 pub use embed::EmbeddingQuality;
-pub use measure::{measure, Correspondence, Distortion, Placement, MEASURED_T};
+pub use measure::{fit_b_onto_a, measure, Correspondence, Distortion, Placement, MEASURED_T};
 
 use crate::mesh::clean::Cleaned;
 use crate::mesh::{IndexedMesh, MeshError};
