@@ -230,10 +230,28 @@ pub(crate) fn cost_by(samples: &[Sample], b: &SurfaceLookup, back: impl Fn(DVec3
         .sum()
 }
 
-/// [`cost_by`] with B's sphere turned by `rotation`.
-fn cost(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3) -> f64 {
+/// [`cost_by`] with B's sphere turned by `rotation`; `turned`: with A's
+/// normalised samples first turned by [`shape_turn`] (D as it would be
+/// after fitting B onto A, blind to how B is placed).
+pub(crate) fn cost(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3, turned: bool) -> f64 {
     let inverse = rotation.transpose();
-    cost_by(samples, b, |x| inverse * x)
+    if !turned {
+        return cost_by(samples, b, |x| inverse * x);
+    }
+    let turn = shape_turn(samples, b, rotation);
+    samples
+        .iter()
+        .map(|&(s, q, w)| w * (b.at(inverse * s) - turn * q).length_squared())
+        .sum()
+}
+
+/// The rotation that best takes A's normalised samples onto B's surface at
+/// the same sphere points (B's sphere turned by `rotation`; Kabsch).
+pub(crate) fn shape_turn(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3) -> DMat3 {
+    let inverse = rotation.transpose();
+    nearest_rotation(correlation(
+        samples.iter().map(|&(s, q, w)| (b.at(inverse * s) * w, q)),
+    ))
 }
 
 /// The 24 proper rotations of the cube (signed axis permutations).
@@ -321,30 +339,42 @@ fn candidates() -> Vec<DMat3> {
 }
 
 /// The rotation of B's sphere that best matches the shapes (see module docs).
-pub(crate) fn search_rotation(samples: &[Sample], b: &SurfaceLookup, extra: &[DMat3]) -> DMat3 {
+/// `turned`: scored by D after the best turn of A's shape ([`cost`]).
+pub(crate) fn search_rotation(
+    samples: &[Sample],
+    b: &SurfaceLookup,
+    extra: &[DMat3],
+    turned: bool,
+) -> DMat3 {
     let mut scored: Vec<(f64, DMat3)> = candidates()
         .into_iter()
         .chain(extra.iter().copied())
-        .map(|r| (cost(samples, b, r), r))
+        .map(|r| (cost(samples, b, r, turned), r))
         .collect();
     scored.sort_by(|x, y| x.0.total_cmp(&y.0));
     scored
         .into_iter()
         .take(6)
-        .map(|(c, r)| descend(samples, b, r, c))
+        .map(|(c, r)| descend(samples, b, r, c, turned))
         .min_by(|x, y| x.0.total_cmp(&y.0))
         .map(|(_, r)| r)
         .unwrap_or(DMat3::IDENTITY)
 }
 
-fn descend(samples: &[Sample], b: &SurfaceLookup, mut r: DMat3, mut c: f64) -> (f64, DMat3) {
+fn descend(
+    samples: &[Sample],
+    b: &SurfaceLookup,
+    mut r: DMat3,
+    mut c: f64,
+    turned: bool,
+) -> (f64, DMat3) {
     let mut angle = 20f64.to_radians();
     while angle > 0.1f64.to_radians() {
         let mut improved = false;
         for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
             for sign in [1.0, -1.0] {
                 let trial = DMat3::from_axis_angle(axis, sign * angle) * r;
-                let tc = cost(samples, b, trial);
+                let tc = cost(samples, b, trial, turned);
                 if tc < c {
                     (c, r) = (tc, trial);
                     improved = true;

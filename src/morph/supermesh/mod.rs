@@ -623,7 +623,7 @@ impl Supermesh {
                 ));
             }
         }
-        let (mut b_aligned, mut alignment) = stages.run(Stage::Align, || {
+        let (mut b_aligned, mut alignment, turn) = stages.run(Stage::Align, || {
             align_b(&ca.mesh, &cb.mesh, &mut embedded, &landmarks, options)
         })?;
         if same_size && landmarks.is_empty() {
@@ -644,11 +644,10 @@ impl Supermesh {
         if options.align && !options.radial {
             stages.run(Stage::Refine, || {
                 refine_alignment(
-                    &ca.mesh,
-                    &cb.mesh,
-                    &mut embedded.a,
-                    &mut b_aligned,
+                    (&ca.mesh, &mut embedded.a),
+                    (&cb.mesh, &mut b_aligned),
                     &landmarks,
+                    turn,
                 )
             })?;
         }
@@ -917,7 +916,7 @@ fn align_b(
     embedded: &mut Embedded,
     landmarks: &[(u32, u32)],
     options: &SupermeshOptions,
-) -> Result<(Vec<DVec3>, AlignmentReport), SupermeshError> {
+) -> Result<(Vec<DVec3>, AlignmentReport, DMat3), SupermeshError> {
     let (mass_a, mass_b) = (
         embed::vertex_masses(&a.positions, &a.triangles),
         embed::vertex_masses(&b.positions, &b.triangles),
@@ -943,12 +942,25 @@ fn align_b(
     report.before = align::residual(&samples, &lookup, DMat3::IDENTITY);
     report.after = report.before;
     let mut points = embedded.b.clone();
-    let rotation = if options.align {
+    // The rotation with the smallest D as placed, unless the one with the
+    // smallest D after turning A's shape (blind to placement) is under half
+    // of it: then B is placed differently (man.off is z-up, makehuman's
+    // body y-up: D 1.27 as placed, 0.17 turned), and the correspondence
+    // follows the shapes; the refinement then works in the turned frame.
+    let (rotation, turn) = if options.align {
         let b_samples = align::samples(&embedded.b, &qb, &mass_b, 4000);
         let extra = align::moment_candidates(&samples, &b_samples);
-        align::search_rotation(&samples, &lookup, &extra)
+        let placed = align::search_rotation(&samples, &lookup, &extra, false);
+        let turned = align::search_rotation(&samples, &lookup, &extra, true);
+        if align::cost(&samples, &lookup, turned, true)
+            < 0.5 * align::cost(&samples, &lookup, placed, false)
+        {
+            (turned, align::shape_turn(&samples, &lookup, turned))
+        } else {
+            (placed, DMat3::IDENTITY)
+        }
     } else {
-        DMat3::IDENTITY
+        (DMat3::IDENTITY, DMat3::IDENTITY)
     };
     if !align::rotate(&mut points, &b.triangles, rotation) {
         return Err(SupermeshError::Embedding {
@@ -957,7 +969,7 @@ fn align_b(
         });
     }
     if landmarks.is_empty() {
-        return Ok((points, report));
+        return Ok((points, report, turn));
     }
     // Landmarks: from the automatic alignment, the landmarks' least-squares
     // Möbius map (exact for three pairs), then the drag for what it leaves.
@@ -1022,7 +1034,8 @@ fn align_b(
     );
     embed::relax(&mass_b, &rings, &mut points, &free_b, LANDMARK_RELAX_SWEEPS);
     report.landmarks_after = Some(align::landmark_angles(&embedded.a, &points, landmarks));
-    Ok((points, report))
+    // The landmarks say which parts correspond, whatever the placement.
+    Ok((points, report, DMat3::IDENTITY))
 }
 
 /// The vertices of A and of B in no landmark pair.
@@ -1045,12 +1058,14 @@ fn free_vertices(na: usize, nb: usize, landmarks: &[(u32, u32)]) -> (Vec<u32>, V
 /// landmarks pinned, then one relaxation sweep of each embedding keeps it
 /// even (without them the map's angle distortion p95 went from 65 to 1271
 /// on man stood up → camel with the shipped landmarks).
+///
+/// `turn` takes A's normalised shape into B's frame (the identity unless B
+/// is placed differently, see [`align_b`]).
 fn refine_alignment(
-    a: &IndexedMesh,
-    b: &IndexedMesh,
-    a_sphere: &mut [DVec3],
-    b_sphere: &mut [DVec3],
+    (a, a_sphere): (&IndexedMesh, &mut [DVec3]),
+    (b, b_sphere): (&IndexedMesh, &mut [DVec3]),
     landmarks: &[(u32, u32)],
+    turn: DMat3,
 ) -> Result<(), SupermeshError> {
     let rings_of = |mesh: &IndexedMesh, side: Side| {
         embed::build_rings(mesh.vertex_count(), &mesh.triangles).map_err(|e| {
@@ -1065,7 +1080,8 @@ fn refine_alignment(
         embed::vertex_masses(&a.positions, &a.triangles),
         embed::vertex_masses(&b.positions, &b.triangles),
     );
-    let (qa, qb) = (normalised(a, &mass_a), normalised(b, &mass_b));
+    let qa: Vec<DVec3> = normalised(a, &mass_a).iter().map(|&q| turn * q).collect();
+    let qb = normalised(b, &mass_b);
     let (free_a, free_b) = free_vertices(a_sphere.len(), b_sphere.len(), landmarks);
     let pinned = |n: usize, free: &[u32]| {
         let mut out = vec![true; n];
@@ -1326,10 +1342,10 @@ mod tests {
         };
         let landmarks = [(0, 0), (40, 17)];
         let options = SupermeshOptions::default();
-        let (mut sb, _) = align_b(&a, &b, &mut embedded, &landmarks, &options).unwrap();
+        let (mut sb, _, turn) = align_b(&a, &b, &mut embedded, &landmarks, &options).unwrap();
         let before = vertex_d(&a, &b, &embedded.a, &sb);
         let pins = landmarks.map(|(la, lb)| (embedded.a[la as usize], sb[lb as usize]));
-        refine_alignment(&a, &b, &mut embedded.a, &mut sb, &landmarks).unwrap();
+        refine_alignment((&a, &mut embedded.a), (&b, &mut sb), &landmarks, turn).unwrap();
         let after = vertex_d(&a, &b, &embedded.a, &sb);
         println!("D over both sides' vertices {before:.4} -> {after:.4}");
         assert!(after < 0.8 * before, "{before} -> {after}");
@@ -1379,7 +1395,7 @@ mod tests {
                 .map(|(x, y)| x.angle_between(*y))
                 .sum::<f64>()
                 / sphere.len() as f64;
-            let (points, _) =
+            let (points, _, _) =
                 align_b(&a, &b, &mut embedded, &[], &SupermeshOptions::default()).unwrap();
             let after: f64 = embedded
                 .a
