@@ -454,3 +454,48 @@ fn bad_input_is_a_clear_error() {
         }
     }
 }
+
+/// `supermesh --fit`: V(1) in the GLB is B fitted onto A (`fit_b_onto_a` of the same
+/// supermesh), and the report says so and measures the fitted ends.
+#[test]
+fn supermesh_fit_writes_b_fitted_onto_a() {
+    use morphlod::morph::supermesh::fit_b_onto_a;
+    let dir = temp_dir("fit");
+    let (a, b) = pair(&dir);
+    let glb = dir.join("s.glb");
+    let (a_str, b_str, glb_str) = (
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        glb.to_str().unwrap(),
+    );
+    let out = morphlod(&["supermesh", a_str, b_str, "--fit", "-o", glb_str]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("B fitted onto A"),
+        "{}",
+        text(&out)
+    );
+    let options = LoadOptions::default();
+    let (ma, mb) = (
+        load_mesh(&a, &options).unwrap(),
+        load_mesh(&b, &options).unwrap(),
+    );
+    let (supermesh, _) = Supermesh::build(&ma, &mb, &SupermeshOptions::default()).unwrap();
+    let fitted = fit_b_onto_a(&supermesh.triangles, &supermesh.v0, &supermesh.v1);
+    let morph = load_morph(&glb, &options, &MorphSource::Target("0".into())).unwrap();
+    let loaded = morph.v1();
+    assert_eq!(loaded.len(), fitted.len());
+    let moved = fitted
+        .iter()
+        .zip(&supermesh.v1)
+        .any(|(f, b)| (0..3).any(|k| (f[k] - b[k]).abs() > 1e-3));
+    assert!(moved, "the pair is placed alike: the fit moved nothing");
+    for (got, want) in loaded.iter().zip(&fitted) {
+        for k in 0..3 {
+            assert!(
+                (got[k] - want[k]).abs() <= 1e-5 * (1.0 + want[k].abs()),
+                "{got:?} {want:?}"
+            );
+        }
+    }
+}

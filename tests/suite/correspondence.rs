@@ -191,6 +191,38 @@ fn a_mesh_and_its_shuffled_scaled_copy_correspond() {
     assert_eq!(r.fold_overs, 0);
 }
 
+/// The same, with the copy turned a quarter turn and more (placed
+/// differently, as `man.off` is z-up and makehuman's body y-up): the
+/// alignment follows the shapes, not the placement, so the report says B is
+/// placed differently and B fitted onto A is the mesh itself (D 0.0000;
+/// with the alignment by D as placed alone, checked by turning the choice
+/// off, the fit leaves D 0.096).
+#[test]
+fn a_turned_copy_is_matched_by_shape_and_fits_back() {
+    use morphlod::morph::supermesh::fit_b_onto_a;
+    let a = blob(16, 24, 0.2, [2.0, 1.0, 0.6], 9);
+    let turn = glam::DMat3::from_axis_angle(DVec3::new(1.0, 0.3, -0.2).normalize(), 1.9);
+    let (b, _) = shuffled(&deformed(&a, |p| turn * p * 2.5 + 1.0), 5);
+    let options = SupermeshOptions {
+        reuse_connectivity: false,
+        ..SupermeshOptions::default()
+    };
+    let (s, r) = Supermesh::build(&a, &b, &options).unwrap();
+    let c = r.correspondence;
+    assert!(c.placement.differs(c.d), "{r}");
+    let fitted = measure(
+        &s.triangles,
+        &s.v0,
+        &fit_b_onto_a(&s.triangles, &s.v0, &s.v1),
+    );
+    println!("{r}\nfitted: {fitted}");
+    assert!(
+        fitted.d < 0.05 && fitted.s.iter().all(|&x| x > 0.98),
+        "{fitted:?}"
+    );
+    assert_eq!(r.fold_overs, 0);
+}
+
 // ------------------------------------- a mesh and a deformed copy of itself
 
 /// `mesh` with each vertex moved by `f` (same indices).
@@ -533,7 +565,8 @@ fn stood_up(mut mesh: IndexedMesh) -> IndexedMesh {
 }
 
 /// man → camel with the shipped landmarks: the in-betweens keep their size
-/// (s ≥ 0.9 at ¼, ½, ¾, the issue's goal: 0.930, 0.905, 0.930 measured;
+/// (s ≥ 0.9 at ¼, ½, ¾, the issue's goal: 0.930, 0.906, 0.930 measured;
+/// 0.930, 0.905, 0.930 with the drag from a fraction of the Möbius fit;
 /// 0.924, 0.897, 0.924 before the embeddings were relaxed after the drag;
 /// 0.737, 0.626, 0.737 with the alignment before issue 25), every pair on
 /// one point, no fold-overs.
@@ -557,6 +590,14 @@ fn man_to_camel_with_the_shipped_landmarks() {
     assert!(c.s.iter().all(|&s| s >= 0.9), "{c:?}");
     assert_eq!(r.fold_overs, 0);
     assert_eq!(r.alignment.landmarks_after.unwrap().max, 0.0);
+    // The landmarks' Möbius fit carried through whole (7,016 of the camel's
+    // 9,770 vertices were left behind before), and the man's embedding
+    // centred (it stalled at 0.31).
+    assert_eq!(r.alignment.mobius_unreached, Some(0), "{r}");
+    assert!(r.alignment.centroid_a.1 < 1e-6, "{r}");
+    // The issue's goal: no larger than 1.3x the automatic supermesh (91,188
+    // vertices; 97,075 measured, 138,765 before).
+    assert!(r.vertices <= 118_000, "{r}");
     for &(la, lb) in &landmarks.pairs {
         assert!(s.origins.contains(&Origin::Both { a: la, b: lb }));
     }
@@ -580,4 +621,25 @@ fn near_landmarks_do_not_pull_each_other_back() {
             Supermesh::build(&a, &b, &options).unwrap_or_else(|e| panic!("{pairs:?}: {e}"));
         check_closed(&s, &r, &pairs);
     }
+}
+
+/// `fit_b_onto_a`: a mesh and its turned, moved and scaled copy under the
+/// identity map: the fit puts the copy back on the mesh (the similarity's
+/// oracle), and the measure then finds the ends the same.
+#[test]
+fn the_fit_takes_a_turned_moved_scaled_copy_back_onto_the_mesh() {
+    use morphlod::morph::supermesh::fit_b_onto_a;
+    let a = blob(8, 12, 0.3, [2.0, 1.0, 0.6], 3);
+    let turn = glam::DMat3::from_axis_angle(DVec3::new(1.0, -2.0, 0.5).normalize(), 1.1);
+    let b = deformed(&a, |p| turn * p * 2.5 + DVec3::new(3.0, -1.0, 7.0));
+    let before = measure(&a.triangles, &a.positions, &b.positions);
+    assert!(before.placement.differs(before.d), "{before:?}");
+    let fitted = fit_b_onto_a(&a.triangles, &a.positions, &b.positions);
+    for (f, p) in fitted.iter().zip(&a.positions) {
+        let d = (0..3).map(|k| (f[k] - p[k]).abs()).fold(0.0f32, f32::max);
+        assert!(d < 1e-4, "{f:?} {p:?}");
+    }
+    let after = measure(&a.triangles, &a.positions, &fitted);
+    assert!(after.d < 1e-8 && after.d_placed < 1e-8, "{after:?}");
+    assert!(!after.placement.differs(after.d), "{after:?}");
 }

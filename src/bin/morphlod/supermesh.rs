@@ -14,7 +14,7 @@ use morphlod::io::{load_mesh, LoadOptions};
 use morphlod::mesh::IndexedMesh;
 use morphlod::metrics::hausdorff;
 use morphlod::morph::supermesh::{
-    parse_landmarks, Landmarks, Stage, Supermesh, SupermeshOptions, SupermeshReport,
+    fit_b_onto_a, parse_landmarks, Landmarks, Stage, Supermesh, SupermeshOptions, SupermeshReport,
 };
 
 #[derive(Args)]
@@ -26,6 +26,11 @@ pub struct SupermeshArgs {
     /// Landmark pairs: one `vertex_in_a vertex_in_b` a line (0-based file vertex order).
     #[arg(long, value_name = "PAIRS.txt")]
     pub landmarks: Option<PathBuf>,
+    /// Fit B onto A first: turn, move and scale B by the similarity that best takes it onto A
+    /// under the correspondence (the report's `placement` line), so the morph changes the
+    /// shape alone. Without it V(1) is B bit for bit, as given.
+    #[arg(long)]
+    pub fit: bool,
     /// Surface samples per mesh for the Hausdorff distances of the report.
     #[arg(long, default_value_t = 50_000)]
     pub samples: usize,
@@ -149,7 +154,7 @@ pub fn supermesh(args: &SupermeshArgs) -> Result<(), String> {
     let options = LoadOptions::default();
     let a = load_mesh(&args.a, &options).map_err(|e| e.to_string())?;
     let b = load_mesh(&args.b, &options).map_err(|e| e.to_string())?;
-    let (supermesh, report) = build_supermesh(&a, &b, &landmarks)?;
+    let (mut supermesh, report) = build_supermesh(&a, &b, &landmarks)?;
     println!(
         "supermesh of {} and {}\n{report}",
         args.a.display(),
@@ -163,6 +168,14 @@ pub fn supermesh(args: &SupermeshArgs) -> Result<(), String> {
         measure.elapsed().as_secs_f64()
     );
 
+    if args.fit {
+        // After the Hausdorff check, which compares V(1) with B as given.
+        supermesh.v1 = fit_b_onto_a(&supermesh.triangles, &supermesh.v0, &supermesh.v1);
+        println!(
+            "  fit               B fitted onto A (--fit: V(1) is B turned, moved and scaled)\n{}",
+            morphlod::morph::supermesh::measure(&supermesh.triangles, &supermesh.v0, &supermesh.v1)
+        );
+    }
     let write = Instant::now();
     let name = format!(
         "{} to {}",

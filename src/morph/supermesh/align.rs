@@ -230,10 +230,28 @@ pub(crate) fn cost_by(samples: &[Sample], b: &SurfaceLookup, back: impl Fn(DVec3
         .sum()
 }
 
-/// [`cost_by`] with B's sphere turned by `rotation`.
-fn cost(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3) -> f64 {
+/// [`cost_by`] with B's sphere turned by `rotation`; `turned`: with A's
+/// normalised samples first turned by [`shape_turn`] (D as it would be
+/// after fitting B onto A, blind to how B is placed).
+pub(crate) fn cost(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3, turned: bool) -> f64 {
     let inverse = rotation.transpose();
-    cost_by(samples, b, |x| inverse * x)
+    if !turned {
+        return cost_by(samples, b, |x| inverse * x);
+    }
+    let turn = shape_turn(samples, b, rotation);
+    samples
+        .iter()
+        .map(|&(s, q, w)| w * (b.at(inverse * s) - turn * q).length_squared())
+        .sum()
+}
+
+/// The rotation that best takes A's normalised samples onto B's surface at
+/// the same sphere points (B's sphere turned by `rotation`; Kabsch).
+pub(crate) fn shape_turn(samples: &[Sample], b: &SurfaceLookup, rotation: DMat3) -> DMat3 {
+    let inverse = rotation.transpose();
+    nearest_rotation(correlation(
+        samples.iter().map(|&(s, q, w)| (b.at(inverse * s) * w, q)),
+    ))
 }
 
 /// The 24 proper rotations of the cube (signed axis permutations).
@@ -321,30 +339,42 @@ fn candidates() -> Vec<DMat3> {
 }
 
 /// The rotation of B's sphere that best matches the shapes (see module docs).
-pub(crate) fn search_rotation(samples: &[Sample], b: &SurfaceLookup, extra: &[DMat3]) -> DMat3 {
+/// `turned`: scored by D after the best turn of A's shape ([`cost`]).
+pub(crate) fn search_rotation(
+    samples: &[Sample],
+    b: &SurfaceLookup,
+    extra: &[DMat3],
+    turned: bool,
+) -> DMat3 {
     let mut scored: Vec<(f64, DMat3)> = candidates()
         .into_iter()
         .chain(extra.iter().copied())
-        .map(|r| (cost(samples, b, r), r))
+        .map(|r| (cost(samples, b, r, turned), r))
         .collect();
     scored.sort_by(|x, y| x.0.total_cmp(&y.0));
     scored
         .into_iter()
         .take(6)
-        .map(|(c, r)| descend(samples, b, r, c))
+        .map(|(c, r)| descend(samples, b, r, c, turned))
         .min_by(|x, y| x.0.total_cmp(&y.0))
         .map(|(_, r)| r)
         .unwrap_or(DMat3::IDENTITY)
 }
 
-fn descend(samples: &[Sample], b: &SurfaceLookup, mut r: DMat3, mut c: f64) -> (f64, DMat3) {
+fn descend(
+    samples: &[Sample],
+    b: &SurfaceLookup,
+    mut r: DMat3,
+    mut c: f64,
+    turned: bool,
+) -> (f64, DMat3) {
     let mut angle = 20f64.to_radians();
     while angle > 0.1f64.to_radians() {
         let mut improved = false;
         for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
             for sign in [1.0, -1.0] {
                 let trial = DMat3::from_axis_angle(axis, sign * angle) * r;
-                let tc = cost(samples, b, trial);
+                let tc = cost(samples, b, trial, turned);
                 if tc < c {
                     (c, r) = (tc, trial);
                     improved = true;
@@ -497,6 +527,84 @@ pub(crate) fn pull_landmarks(
         if !remaining {
             break;
         }
+    }
+}
+
+/// The other shape's normalised surface at sphere points, located by walks
+/// from the last face found for each vertex.
+pub(crate) struct Surface<'a> {
+    mesh: SphereMesh<'a>,
+    normalised: &'a [DVec3],
+}
+
+impl<'a> Surface<'a> {
+    pub fn new(points: &'a [DVec3], triangles: &'a [[u32; 3]], normalised: &'a [DVec3]) -> Self {
+        Surface {
+            mesh: SphereMesh::new(points, triangles),
+            normalised,
+        }
+    }
+
+    pub fn at(&self, p: DVec3, hint: &mut u32, rng: &mut u64) -> DVec3 {
+        *hint = match self.mesh.locate(p, *hint, rng) {
+            Location::Inside(f) | Location::Degenerate(f) => f,
+        };
+        let t = self.mesh.triangles[*hint as usize];
+        let [a, b, c] = t.map(|v| self.mesh.points[v as usize]);
+        let l = projective_barycentric(p, a, b, c);
+        let q = t.map(|v| self.normalised[v as usize]);
+        q[0] * l[0] + q[1] * l[1] + q[2] * l[2]
+    }
+}
+
+/// Lowers each free vertex's term of D, `‖q_v − other(x_v)‖²` (its
+/// normalised position against the other shape's surface at its sphere
+/// point): each vertex tries steps of a third of the way to
+/// its nearest neighbour in four directions and takes the one that lowers its
+/// term most, by a fold-rejecting move (so the embedding stays bijective and
+/// pinned vertices stay where they are). `hints`: each vertex's last face
+/// of `other` (`u32::MAX`: none yet, start from the previous vertex's), kept
+/// between calls so that each lookup is a short walk.
+pub(crate) fn refine(
+    points: &mut [DVec3],
+    rings: &[Vec<u32>],
+    normalised: &[DVec3],
+    other: &Surface,
+    pinned: &[bool],
+    hints: &mut [u32],
+) {
+    let mut rng = 0x5eed_u64;
+    let mut last = 0u32;
+    for v in 0..points.len() {
+        if pinned[v] || rings[v].is_empty() {
+            continue;
+        }
+        if hints[v] == u32::MAX {
+            hints[v] = last;
+        }
+        let x = points[v].normalize();
+        let step = rings[v]
+            .iter()
+            .map(|&r| x.angle_between(points[r as usize]))
+            .fold(f64::INFINITY, f64::min)
+            / 3.0;
+        let mut term =
+            |p: DVec3| (normalised[v] - other.at(p, &mut hints[v], &mut rng)).length_squared();
+        let current = term(points[v]);
+        let e1 = x.any_orthonormal_vector();
+        let e2 = x.cross(e1);
+        let mut best = (current, x);
+        for dir in [e1, -e1, e2, -e2] {
+            let trial = (x + dir * step).normalize();
+            let t = term(trial);
+            if t < best.0 {
+                best = (t, trial);
+            }
+        }
+        if best.0 < current {
+            super::embed::move_vertex(rings, points, v as u32, best.1);
+        }
+        last = hints[v];
     }
 }
 

@@ -876,6 +876,43 @@ mod tests {
         embeds(&p, &t);
     }
 
+    /// A Möbius map carried through whole on a thin limb's embedding, whose
+    /// tip cap has triangles far smaller than the map moves them: one vertex
+    /// at a time (fold-rejecting moves, the whole, half or a quarter of the
+    /// way, in Gauss–Seidel sweeps) the cap stays behind, as every move
+    /// folds a fan against its unmoved neighbours; all at once
+    /// ([`super::super::mobius::warp`]) it moves with its vertices. Likewise
+    /// the Möbius centring reaches the centre.
+    #[test]
+    fn mobius_maps_carry_a_thin_limb_through() {
+        use super::super::mobius::{centre, warp, Mobius};
+        let (p, t) = finger(0.01, 1.0, 12, 120);
+        let points = embed(&p, &t, &mut |_| {}).expect("embeds");
+        let rings = build_rings(p.len(), &t).unwrap();
+        let map = Mobius::small([0.36, 0.16, -0.28, 0.12, 0.2, -0.24]);
+        let mut one_by_one = points.clone();
+        for k in 1..=8 {
+            let m = map.power(k as f64 / 8.0);
+            for _ in 0..4 {
+                for (v, &x) in points.iter().enumerate() {
+                    move_vertex(&rings, &mut one_by_one, v as u32, m.apply(x));
+                }
+            }
+        }
+        let behind = (0..p.len())
+            .filter(|&v| one_by_one[v] != map.apply(points[v]))
+            .count();
+        assert!(behind > p.len() / 2, "{behind}");
+        let mut warped = points.clone();
+        assert_eq!(warp(&rings, &t, &mut warped, &map, 8, 4), 0);
+        assert_eq!(check_embedding(&warped, &t).0, 0);
+        let mass = vertex_masses(&p, &t);
+        let mut centred = points.clone();
+        let (before, after) = centre(&rings, &mut centred, &mass, &t);
+        assert!(before > 0.1 && after < 1e-6, "{before} -> {after}");
+        assert_eq!(check_embedding(&centred, &t).0, 0);
+    }
+
     #[test]
     fn collapse_and_split_are_inverse() {
         let (p, t) = finger(0.1, 1.0, 8, 10);

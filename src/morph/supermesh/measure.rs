@@ -244,6 +244,36 @@ pub fn measure(triangles: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]]) -> Corr
     }
 }
 
+/// `v1` (B's end) moved onto `v0` (A's) by the similarity of [`Placement`]:
+/// `p ↦ c₀ + (r₀ / r₁) Rᵀ (p − c₁)`, with the weighted centroids `cₖ`, RMS
+/// radii `rₖ` and the turn `R` that best takes A's normalised end onto B's.
+/// For a morph of the shape alone when B is placed differently (the
+/// normalised measure is unchanged but for the turn: its `D` becomes
+/// [`Placement::turned_d`]).
+pub fn fit_b_onto_a(triangles: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    let p0: Vec<DVec3> = v0.iter().map(|&p| d3(p)).collect();
+    let p1: Vec<DVec3> = v1.iter().map(|&p| d3(p)).collect();
+    let (s0, s1) = (area_shares(&p0, triangles), area_shares(&p1, triangles));
+    let w: Vec<f64> = s0.iter().zip(&s1).map(|(a, b)| 0.5 * (a + b)).collect();
+    let ((c0, i0), (c1, i1)) = (moments(&p0, &w), moments(&p1, &w));
+    let radius = |i: f64| if i > 0.0 { i.sqrt() } else { 1.0 };
+    let (r0, r1) = (radius(i0), radius(i1));
+    let turn = super::align::nearest_rotation(
+        p0.iter()
+            .zip(&p1)
+            .zip(&w)
+            .map(|((&x, &y), &w)| {
+                let (x, y) = ((x - c0) / r0, (y - c1) / r1);
+                glam::DMat3::from_cols(y * (w * x.x), y * (w * x.y), y * (w * x.z))
+            })
+            .fold(glam::DMat3::ZERO, |m, x| m + x),
+    );
+    let back = turn.transpose() * (r0 / r1);
+    p1.iter()
+        .map(|&p| (c0 + back * (p - c1)).as_vec3().to_array())
+        .collect()
+}
+
 /// Singular values `σ₁ ≥ σ₂` of the linear map taking triangle `p` to `q`
 /// (each in its own plane); `None` when either has no area.
 pub(crate) fn singular_values(p: [DVec3; 3], q: [DVec3; 3]) -> Option<(f64, f64)> {
@@ -355,7 +385,7 @@ impl std::fmt::Display for Correspondence {
             p.offset,
             p.scale,
             if p.differs(self.d) {
-                ": placed differently, so the morph also turns, moves or scales the shape; fit B onto A by this similarity (e.g. in a modeller) for a morph of the shape alone (V(1) stays B as given)"
+                ": placed differently, so the morph also turns, moves or scales the shape; fit B onto A by this similarity for a morph of the shape alone (`morphlod supermesh --fit`, or `fit_b_onto_a`; V(1) stays B as given otherwise)"
             } else {
                 ""
             }
