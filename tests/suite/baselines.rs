@@ -19,8 +19,8 @@ use common::{random_sequence, reference_hashes, strip_draw, tri_hash, Rng};
 use morphlod::collapse::{
     canonical, canonical_multiset, Collapse, CollapseSequence, SequenceError,
 };
-use std::collections::HashSet;
 use morphlod::strip::{stripify, Strips};
+use std::collections::HashSet;
 
 #[path = "../../src/bin/morphlod/baselines/mod.rs"]
 #[allow(dead_code)] // the bench reads what the walks do not (sizes, names)
@@ -337,7 +337,10 @@ fn view_walk(
     let known = sequence_triangles(tris, seq);
     if planar {
         for &t in &known {
-            assert!(area_xy(positions, t) > 0.0, "{name}: the sequence flips {t:?}");
+            assert!(
+                area_xy(positions, t) > 0.0,
+                "{name}: the sequence flips {t:?}"
+            );
         }
     }
     let (mut min, mut max) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
@@ -347,7 +350,10 @@ fn view_walk(
             max[k] = max[k].max(p[k]);
         }
     }
-    let diag = (0..3).map(|k| (max[k] - min[k]).powi(2)).sum::<f32>().sqrt();
+    let diag = (0..3)
+        .map(|k| (max[k] - min[k]).powi(2))
+        .sum::<f32>()
+        .sqrt();
     // Half the merges are wanted at one diagonal's distance.
     let mut errors: Vec<f32> = seq.collapses.iter().map(|c| c.error.sqrt()).collect();
     errors.sort_by(f32::total_cmp);
@@ -366,7 +372,11 @@ fn view_walk(
             0 => model.set_lod(rng.below(seq.len() + 1)).expect("in range"),
             1 | 2 => {
                 let salt = rng.next();
-                let done = model.adapt(|m| common::mix(salt ^ m.step as u64) % 2 == 0);
+                let done = model.adapt(|m| {
+                    common::mix(salt ^ u64::from(m.parent) ^ (u64::from(m.switch.to_bits()) << 32))
+                        % 2
+                        == 0
+                });
                 total.refused += done.refused;
             }
             k => {
@@ -388,7 +398,11 @@ fn view_walk(
         }
         mirror.update(&mut model);
         let displayed = model.displayed();
-        assert_eq!(model.lod(), n - displayed.len(), "{label}: lod counts merges");
+        assert_eq!(
+            model.lod(),
+            n - displayed.len(),
+            "{label}: lod counts merges"
+        );
         if !check_cut(seq, displayed, &label) {
             mixed_frames += 1;
         }
@@ -420,7 +434,10 @@ fn view_walk(
         }
     }
     // The walk really was view-dependent, moved both ways, and met the dependencies.
-    assert!(mixed_frames > frames / 4, "{name}: {mixed_frames} mixed cuts");
+    assert!(
+        mixed_frames > frames / 4,
+        "{name}: {mixed_frames} mixed cuts"
+    );
     assert!(total.merges > 0 && total.splits > 0, "{name}: {total:?}");
     assert!(total.refused > 0, "{name}: no operation was ever refused");
 }
@@ -660,6 +677,13 @@ fn bench_baselines_writes_both_tables() {
         }
     }
 
+    // Table 3: the view-dependent fly-in, one row a frame, merging while the eye is far and
+    // splitting again as it comes near.
+    assert!(stdout.contains("Table 3."), "{stdout}");
+    let view = report["view_dependent"].as_array().expect("view_dependent");
+    assert_eq!(view.len(), 3);
+    let total = |k: &str| view.iter().map(|r| r[k].as_u64().expect(k)).sum::<u64>();
+    assert!(total("merges") > 0 && total("splits") > 0, "{view:?}");
     let missing = dir.join("missing.off");
     let out = morphlod(&[
         "bench",

@@ -88,8 +88,6 @@ pub struct SkipStrips {
 /// A merge the view criterion of [`SkipStrips::adapt`] is asked about.
 #[derive(Clone, Copy, Debug)]
 pub struct Merge {
-    /// Its step in the collapse sequence.
-    pub step: usize,
     /// The node it merges into.
     pub parent: u32,
     /// Its switch value: object-space error (a length), never below a merge under it.
@@ -282,7 +280,6 @@ impl SkipStrips {
         front.clear();
         front.extend_from_slice(&self.front);
         let merge = |model: &SkipStrips, j: usize| Merge {
-            step: j,
             parent: model.parent(model.merges[j]),
             switch: model.switch[j],
         };
