@@ -294,10 +294,8 @@ fn sequence_triangles(tris: &[[u32; 3]], seq: &CollapseSequence) -> HashSet<[u32
     }
     for c in &seq.collapses {
         let moved = std::mem::take(&mut of[c.u as usize]);
-        for v in 0..n {
-            if anc[v] == c.u {
-                anc[v] = c.w;
-            }
+        for a in anc.iter_mut().filter(|a| **a == c.u) {
+            *a = c.w;
         }
         for &t in &moved {
             let m = tris[t].map(|v| anc[v as usize]);
@@ -374,8 +372,7 @@ fn view_walk(
                 let salt = rng.next();
                 let done = model.adapt(|m| {
                     common::mix(salt ^ u64::from(m.parent) ^ (u64::from(m.switch.to_bits()) << 32))
-                        % 2
-                        == 0
+                        .is_multiple_of(2)
                 });
                 total.refused += done.refused;
             }
