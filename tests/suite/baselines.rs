@@ -5,14 +5,22 @@
 //! mesh at that LOD (docs/DESIGN.md, "Definitions: the oracle"): its multiset hash and count
 //! every step, the exact sorted multiset on small meshes every step and on real ones every
 //! `FULL_STRIDE` steps. Strips are decoded by `common::strip_draw` (the GPU's rules), lists
-//! three indices a triangle. Then bad input: each refusal is a typed error.
+//! three indices a triangle. Then Skip Strips' view-dependent mode, walked by a moving and
+//! jumping viewpoint (and random cuts): every frame what it draws equals the mesh of its cut
+//! (each original triangle mapped through its vertices' displayed ancestors, degenerate ones
+//! dropped), the cut is one of the hierarchy's, and every drawn triangle is one that some
+//! uniform LOD has (the dependencies' guarantee: no fold-over the simplifier did not check).
+//! Then bad input: each refusal is a typed error.
 
 use crate::common;
 use crate::oracle::{grid, messy, sphere};
 
 use common::{random_sequence, reference_hashes, strip_draw, tri_hash, Rng};
-use morphlod::collapse::{canonical_multiset, Collapse, CollapseSequence, SequenceError};
+use morphlod::collapse::{
+    canonical, canonical_multiset, Collapse, CollapseSequence, SequenceError,
+};
 use morphlod::strip::{stripify, Strips};
+use std::collections::HashSet;
 
 #[path = "../../src/bin/morphlod/baselines/mod.rs"]
 #[allow(dead_code)] // the bench reads what the walks do not (sizes, names)
@@ -20,7 +28,7 @@ mod model;
 
 use model::mts::Mts;
 use model::pm::ProgressiveMesh;
-use model::skip_strips::SkipStrips;
+use model::skip_strips::{Adapted, SkipStrips};
 use model::{Baseline, BaselineError, Primitive};
 
 /// Meshes up to this size get the exact multiset compared every step.
@@ -210,6 +218,300 @@ fn bunny_random_sequence() {
     walk("bunny.obj (random)", &mesh.triangles, &seq, 600, 61);
 }
 
+/// The mesh of a cut through the hierarchy, from the display vertices alone: every original
+/// triangle mapped through each vertex's displayed ancestor (walking the collapses backwards,
+/// a merged `u` takes `w`'s, already resolved since `w` merges later), degenerate ones dropped.
+fn cut_mesh(tris: &[[u32; 3]], seq: &CollapseSequence, displayed: &[u32]) -> Vec<[u32; 3]> {
+    let n = seq.vertex_count as usize;
+    let mut shown = vec![false; n];
+    for &v in displayed {
+        assert!(!shown[v as usize], "vertex {v} displayed twice");
+        shown[v as usize] = true;
+    }
+    let mut anc: Vec<u32> = (0..n as u32).collect();
+    for c in seq.collapses.iter().rev() {
+        if !shown[c.u as usize] {
+            anc[c.u as usize] = anc[c.w as usize];
+        }
+    }
+    tris.iter()
+        .map(|t| t.map(|v| anc[v as usize]))
+        .filter(|&t| !common::degenerate(t))
+        .collect()
+}
+
+/// Panics unless the display vertices are a cut of the hierarchy: a vertex that never merges
+/// is displayed, the merged children of every vertex are the first ones in merge order, and a
+/// merged vertex has all its children merged. Returns whether the cut is a uniform LOD (the
+/// merged vertices are exactly the first collapses' `u`).
+fn check_cut(seq: &CollapseSequence, displayed: &[u32], label: &str) -> bool {
+    let n = seq.vertex_count as usize;
+    let mut shown = vec![false; n];
+    for &v in displayed {
+        shown[v as usize] = true;
+    }
+    let rank = seq.ranks();
+    for v in 0..n {
+        assert!(
+            shown[v] || rank[v] != morphlod::collapse::NEVER,
+            "{label}: root {v} not displayed"
+        );
+    }
+    let mut gap = vec![false; n];
+    for (j, c) in seq.collapses.iter().enumerate() {
+        let merged = !shown[c.u as usize];
+        assert!(
+            !(merged && gap[c.w as usize]),
+            "{label}: step {j} merged after a later sibling split"
+        );
+        gap[c.w as usize] |= !merged;
+        assert!(
+            !(merged && gap[c.u as usize]),
+            "{label}: step {j} merged with a child split"
+        );
+    }
+    let merged = n - displayed.len();
+    seq.collapses
+        .iter()
+        .enumerate()
+        .all(|(j, c)| shown[c.u as usize] == (j >= merged))
+}
+
+/// Every oriented triangle some uniform LOD draws (canonical): the original ones, then at each
+/// collapse the triangles of `u`'s class remapped, the new ones among them.
+fn sequence_triangles(tris: &[[u32; 3]], seq: &CollapseSequence) -> HashSet<[u32; 3]> {
+    let n = seq.vertex_count as usize;
+    let mut anc: Vec<u32> = (0..n as u32).collect();
+    let mut of: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut all = HashSet::new();
+    for (t, tri) in tris.iter().enumerate() {
+        if !common::degenerate(*tri) {
+            all.insert(canonical(*tri));
+        }
+        for &v in tri {
+            of[v as usize].push(t);
+        }
+    }
+    for c in &seq.collapses {
+        let moved = std::mem::take(&mut of[c.u as usize]);
+        for a in anc.iter_mut().filter(|a| **a == c.u) {
+            *a = c.w;
+        }
+        for &t in &moved {
+            let m = tris[t].map(|v| anc[v as usize]);
+            if !common::degenerate(m) {
+                all.insert(canonical(m));
+            }
+        }
+        of[c.w as usize].extend(moved);
+    }
+    all
+}
+
+/// Signed area of `t`'s projection on the xy plane, doubled.
+fn area_xy(p: &[[f32; 3]], t: [u32; 3]) -> f32 {
+    let [a, b, c] = t.map(|v| p[v as usize]);
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+/// Walks the view-dependent Skip Strip of a mesh for `frames` frames: the eye mostly moves a
+/// little, sometimes jumps, and some frames ask for a uniform LOD or for a random cut instead
+/// (the criterion then wants each merge by a coin, the hardest case for the dependencies).
+/// After every frame, what a mirror updated through `take_changed` draws is the mesh of the
+/// cut, the cut is one of the hierarchy's, and every drawn triangle is one of the sequence's
+/// (with `planar`, every one keeps its xy orientation too).
+fn view_walk(
+    name: &str,
+    tris: &[[u32; 3]],
+    positions: &[[f32; 3]],
+    seq: &CollapseSequence,
+    frames: usize,
+    planar: bool,
+    seed: u64,
+) {
+    let n = seq.vertex_count as usize;
+    let strips = stripify(tris, n);
+    let mut model = SkipStrips::build(&strips, seq).expect("Skip Strips build");
+    let known = sequence_triangles(tris, seq);
+    if planar {
+        for &t in &known {
+            assert!(
+                area_xy(positions, t) > 0.0,
+                "{name}: the sequence flips {t:?}"
+            );
+        }
+    }
+    let (mut min, mut max) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for p in positions {
+        for k in 0..3 {
+            min[k] = min[k].min(p[k]);
+            max[k] = max[k].max(p[k]);
+        }
+    }
+    let diag = (0..3)
+        .map(|k| (max[k] - min[k]).powi(2))
+        .sum::<f32>()
+        .sqrt();
+    // Half the merges are wanted at one diagonal's distance.
+    let mut errors: Vec<f32> = seq.collapses.iter().map(|c| c.error.sqrt()).collect();
+    errors.sort_by(f32::total_cmp);
+    let tolerance = errors.get(errors.len() / 2).copied().unwrap_or(0.0) / diag;
+    let mut rng = Rng(seed);
+    let point = |rng: &mut Rng, spread: f32| -> [f32; 3] {
+        std::array::from_fn(|k| (min[k] + max[k]) / 2.0 + (rng.unit() - 0.5) * spread * diag)
+    };
+    let mut eye = point(&mut rng, 3.0);
+    let mut mirror = Mirror::new(&mut model);
+    let mut total = Adapted::default();
+    let mut mixed_frames = 0;
+    for frame in 0..frames {
+        let label = format!("{name}, frame {frame}");
+        match rng.below(16) {
+            0 => model.set_lod(rng.below(seq.len() + 1)).expect("in range"),
+            1 | 2 => {
+                let salt = rng.next();
+                let done = model.adapt(|m| {
+                    common::mix(salt ^ u64::from(m.parent) ^ (u64::from(m.switch.to_bits()) << 32))
+                        .is_multiple_of(2)
+                });
+                total.refused += done.refused;
+            }
+            k => {
+                if k < 5 {
+                    eye = point(&mut rng, 3.0);
+                } else {
+                    let step = point(&mut rng, 0.1);
+                    for k in 0..3 {
+                        eye[k] += step[k] - (min[k] + max[k]) / 2.0;
+                    }
+                }
+                let done = model
+                    .adapt_to_view(positions, eye, tolerance)
+                    .expect("positions match");
+                total.merges += done.merges;
+                total.splits += done.splits;
+                total.refused += done.refused;
+            }
+        }
+        mirror.update(&mut model);
+        let displayed = model.displayed();
+        assert_eq!(
+            model.lod(),
+            n - displayed.len(),
+            "{label}: lod counts merges"
+        );
+        if !check_cut(seq, displayed, &label) {
+            mixed_frames += 1;
+        }
+        let expected = cut_mesh(tris, seq, displayed);
+        let hash = expected
+            .iter()
+            .fold(0u64, |h, &t| h.wrapping_add(tri_hash(t)));
+        assert_eq!(
+            mirror.hash(),
+            (hash, expected.len()),
+            "{label}: drawn multiset (hash, count) differs from the cut's mesh"
+        );
+        let drawn = mirror.triangles(Primitive::Strips);
+        if tris.len() <= FULL_EVERY_STEP_TRIANGLES || frame % FULL_STRIDE == 0 {
+            assert_eq!(
+                canonical_multiset(drawn.iter().copied()),
+                canonical_multiset(expected),
+                "{label}: drawn triangles differ from the cut's mesh"
+            );
+        }
+        for &t in &drawn {
+            assert!(
+                known.contains(&canonical(t)),
+                "{label}: {t:?} is in no uniform LOD: the dependencies let a fold-over through"
+            );
+            if planar {
+                assert!(area_xy(positions, t) > 0.0, "{label}: {t:?} flipped");
+            }
+        }
+    }
+    // The walk really was view-dependent, moved both ways, and met the dependencies.
+    assert!(
+        mixed_frames > frames / 4,
+        "{name}: {mixed_frames} mixed cuts"
+    );
+    assert!(total.merges > 0 && total.splits > 0, "{name}: {total:?}");
+    assert!(total.refused > 0, "{name}: no operation was ever refused");
+}
+
+/// The cut mesh of a uniform LOD is the LodStrips reference mesh at that LOD (so the
+/// view-dependent oracle extends the uniform one), and after `set_lod` the model's display
+/// vertices are that cut.
+#[test]
+fn cut_mesh_of_a_uniform_lod_is_the_reference_mesh() {
+    let (tris, n) = sphere(2);
+    let seq = random_sequence(&tris, n, usize::MAX, &mut Rng(90));
+    let mut model = SkipStrips::build(&stripify(&tris, n), &seq).expect("builds");
+    for lod in [0, 1, seq.len() / 3, seq.len() - 1, seq.len()] {
+        model.set_lod(lod).expect("in range");
+        assert!(check_cut(&seq, model.displayed(), "uniform"), "LOD {lod}");
+        assert_eq!(
+            cut_mesh(&tris, &seq, model.displayed()),
+            seq.reference_mesh(&tris, lod),
+            "LOD {lod}"
+        );
+    }
+}
+
+/// A planar grid with holes and its QEM sequence: the view walk, and no drawn triangle ever
+/// flips (every triangle of every uniform LOD keeps its orientation, checked first).
+#[test]
+fn skip_strips_view_dependent_grid() {
+    let (tris, n) = grid(24, 18, |x, y| (x * 5 + y * 3) % 13 == 0);
+    let positions: Vec<[f32; 3]> = (0..n as u32)
+        .map(|v| [(v % 25) as f32, (v / 25) as f32, 0.0])
+        .collect();
+    let seq = morphlod::simplify::simplify(
+        &positions,
+        &tris,
+        &morphlod::simplify::SimplifyOptions::default(),
+    );
+    view_walk("grid", &tris, &positions, &seq, 300, true, 91);
+}
+
+/// The cow with the simplifier's sequence, as the bench builds it.
+#[test]
+fn skip_strips_view_dependent_cow() {
+    let mesh = common::load_asset_mesh("cow.off");
+    let seq = morphlod::simplify::simplify(
+        &mesh.positions,
+        &mesh.triangles,
+        &morphlod::simplify::SimplifyOptions::default(),
+    );
+    view_walk(
+        "cow.off",
+        &mesh.triangles,
+        &mesh.positions,
+        &seq,
+        200,
+        false,
+        92,
+    );
+}
+
+#[test]
+fn view_with_wrong_positions_is_refused() {
+    let (tris, n) = sphere(1);
+    let seq = random_sequence(&tris, n, 5, &mut Rng(93));
+    let mut model = SkipStrips::build(&stripify(&tris, n), &seq).expect("builds");
+    let err = model
+        .adapt_to_view(&[[0.0; 3]; 2], [0.0; 3], 1.0)
+        .expect_err("two positions");
+    assert_eq!(
+        err,
+        BaselineError::PositionCount {
+            positions: 2,
+            vertices: n
+        }
+    );
+    assert!(model.take_changed().is_empty());
+}
+
 #[test]
 fn lod_out_of_range_is_refused_and_changes_nothing() {
     let (tris, n) = sphere(1);
@@ -372,6 +674,13 @@ fn bench_baselines_writes_both_tables() {
         }
     }
 
+    // Table 3: the view-dependent fly-in, one row a frame, merging while the eye is far and
+    // splitting again as it comes near.
+    assert!(stdout.contains("Table 3."), "{stdout}");
+    let view = report["view_dependent"].as_array().expect("view_dependent");
+    assert_eq!(view.len(), 3);
+    let total = |k: &str| view.iter().map(|r| r[k].as_u64().expect(k)).sum::<u64>();
+    assert!(total("merges") > 0 && total("splits") > 0, "{view:?}");
     let missing = dir.join("missing.off");
     let out = morphlod(&[
         "bench",

@@ -15,6 +15,13 @@
 //!   the first carries the frame's uploads), vertices and strips sent, bytes uploaded.
 //!   Render time = extraction + draw, and "% rec" its extraction share, as in the paper.
 //!
+//! * **Table 3**, Skip Strips' view-dependent mode (seed 003 §4.2.1, no other model has one):
+//!   the eye flies in along the camera's axis from 3 to 0.25 mesh diagonals from the centre
+//!   over `frames` frames, one [`SkipStrips::adapt_to_view`] pass a frame (merges, splits, the
+//!   modified display strips regenerated); per frame its CPU time, the operations done and
+//!   refused by the dependencies, the display vertices and what the strips send. Extraction
+//!   only: nothing is drawn.
+//!
 //! Every model draws through the same [`Object`] path (regions, one multi-draw), faceted:
 //! a strip model's changed regions are written with `write_region` (which uploads only the
 //! words that changed), PM's one triangle-list region likewise.
@@ -128,6 +135,23 @@ pub struct BaselineRow {
     pub upload_bytes: u64,
 }
 
+/// One frame of the view-dependent fly-in (Table 3).
+#[derive(Clone, Debug)]
+pub struct ViewRow {
+    pub frame: usize,
+    /// Eye distance from the mesh's centre, in mesh diagonals.
+    pub distance: f32,
+    pub extract_us: f64,
+    pub merges: usize,
+    pub splits: usize,
+    pub refused: usize,
+    /// Display vertices (the active nodes list).
+    pub displayed: usize,
+    /// Indices sent other than restarts, and strips.
+    pub vertices: usize,
+    pub strips: usize,
+}
+
 /// A whole baselines run over one mesh.
 #[derive(Clone, Debug)]
 pub struct BaselinesReport {
@@ -140,6 +164,7 @@ pub struct BaselinesReport {
     pub max_lod: usize,
     pub sizes: Vec<SizeRow>,
     pub rows: Vec<BaselineRow>,
+    pub view_rows: Vec<ViewRow>,
 }
 
 /// A model and the milliseconds its build took.
@@ -292,6 +317,7 @@ pub fn run_baselines(
             }
         }
     }
+    let view_rows = view_dependent(&strips, seq, positions, (min, max), frames)?;
     let info = context.adapter_info();
     Ok(BaselinesReport {
         mesh: name.to_string(),
@@ -303,7 +329,61 @@ pub fn run_baselines(
         max_lod: seq.len(),
         sizes,
         rows,
+        view_rows,
     })
+}
+
+/// Table 3: Skip Strips' view-dependent fly-in over the mesh with bounds `(min, max)`. The
+/// tolerance wants half the merges (by switch value) at one diagonal's distance.
+fn view_dependent(
+    strips: &Strips,
+    seq: &CollapseSequence,
+    positions: &[[f32; 3]],
+    (min, max): ([f32; 3], [f32; 3]),
+    frames: usize,
+) -> Result<Vec<ViewRow>, String> {
+    let mut model = SkipStrips::build(strips, seq).map_err(|e| format!("Skip Strips: {e}"))?;
+    let centre = glam::Vec3::from(min).lerp(glam::Vec3::from(max), 0.5);
+    let diag = (glam::Vec3::from(max) - glam::Vec3::from(min))
+        .length()
+        .max(f32::MIN_POSITIVE);
+    let mut errors: Vec<f32> = seq
+        .collapses
+        .iter()
+        .map(|c| c.error.max(0.0).sqrt())
+        .collect();
+    errors.sort_by(f32::total_cmp);
+    let tolerance = errors.get(errors.len() / 2).copied().unwrap_or(0.0) / diag;
+    let axis = glam::Vec3::new(-0.35, -0.15, -1.0).normalize();
+    let mut rows = Vec::with_capacity(frames);
+    for frame in 0..frames {
+        let x = frame as f32 / (frames - 1).max(1) as f32;
+        let distance = 3.0 + (0.25 - 3.0) * x;
+        let eye = centre - axis * distance * diag;
+        let start = Instant::now();
+        let done = model
+            .adapt_to_view(positions, eye.into(), tolerance)
+            .map_err(|e| format!("Skip Strips: {e}"))?;
+        let extract_us = micros(start);
+        let (mut strips_sent, mut vertices) = (0, 0);
+        for r in 0..model.region_count() {
+            let (s, v) = strips_and_vertices(model.region(r));
+            strips_sent += s;
+            vertices += v;
+        }
+        rows.push(ViewRow {
+            frame,
+            distance,
+            extract_us,
+            merges: done.merges,
+            splits: done.splits,
+            refused: done.refused,
+            displayed: model.displayed().len(),
+            vertices,
+            strips: strips_sent,
+        });
+    }
+    Ok(rows)
 }
 
 /// A GPU object over `model`'s regions at its current LOD, seen through `camera`, uploaded: each region sized to its
@@ -521,6 +601,48 @@ impl BaselinesReport {
                 );
             }
         }
+        let _ = writeln!(
+            out,
+            "\nTable 3. Skip Strips, view-dependent: the eye flies in from 3 to 0.25 diagonals, \
+             one adapt pass a frame (extraction only, nothing drawn); every {}th frame.\n",
+            self.view_rows.len().div_ceil(8).max(1)
+        );
+        let _ = writeln!(
+            out,
+            "| Frame | Distance (diag.) | Extract (ms) | Merges | Splits | Refused | Display vertices | Vertices sent | Strips |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        );
+        let stride = self.view_rows.len().div_ceil(8).max(1);
+        for r in self
+            .view_rows
+            .iter()
+            .filter(|r| r.frame % stride == 0 || r.frame + 1 == self.view_rows.len())
+        {
+            let _ = writeln!(
+                out,
+                "| {} | {:.2} | {:.4} | {} | {} | {} | {} | {} | {} |",
+                r.frame,
+                r.distance,
+                r.extract_us / 1e3,
+                r.merges,
+                r.splits,
+                r.refused,
+                r.displayed,
+                r.vertices,
+                r.strips
+            );
+        }
+        let n = self.view_rows.len().max(1) as f64;
+        let mean = self.view_rows.iter().map(|r| r.extract_us).sum::<f64>() / n / 1e3;
+        let worst = self
+            .view_rows
+            .iter()
+            .map(|r| r.extract_us)
+            .fold(0.0, f64::max)
+            / 1e3;
+        let _ = writeln!(
+            out,
+            "\nView-dependent extraction: mean {mean:.4} ms, worst {worst:.4} ms per frame."
+        );
         out
     }
 
@@ -578,6 +700,23 @@ impl BaselinesReport {
                 }));
             }
         }
+        let view_rows: Vec<serde_json::Value> = self
+            .view_rows
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "frame": r.frame,
+                    "distance": r.distance,
+                    "extract_us": r.extract_us,
+                    "merges": r.merges,
+                    "splits": r.splits,
+                    "refused": r.refused,
+                    "displayed": r.displayed,
+                    "vertices": r.vertices,
+                    "strips": r.strips,
+                })
+            })
+            .collect();
         serde_json::json!({
             "mesh": self.mesh,
             "adapter": self.adapter,
@@ -590,6 +729,7 @@ impl BaselinesReport {
             "sizes": sizes,
             "means": means,
             "rows": rows,
+            "view_dependent": view_rows,
         })
         .to_string()
     }

@@ -42,6 +42,8 @@ pub enum BaselineError {
         vertex: u32,
         vertices: usize,
     },
+    #[error("{positions} positions were given for a mesh of {vertices} vertices; pass the positions of the mesh the model was built from")]
+    PositionCount { positions: usize, vertices: usize },
     #[error("the strips' offsets are not increasing from 0 to the index count; build them with morphlod::strip::stripify")]
     BadStrips,
 }

@@ -12,13 +12,24 @@
 //! ancestor with an inactive parent pointer (§4.2.2), then cut into display strips by the
 //! rule MTS uses (`super::push_display_strip`).
 //!
-//! Only the uniform LOD of the other models is driven here: the merges and splits come in the
-//! collapse sequence's order. The structure is view-dependent (any set of nodes may be
-//! merged, subject to the dependencies of §4.2.1), but the bench's tests, like the LodStrips
-//! paper's, ask for one LOD per frame.
+//! Two ways to drive it. [`Baseline::set_lod`] asks for the uniform LOD of the other models
+//! (the merges in the collapse sequence's order). [`SkipStrips::adapt`] is the view-dependent
+//! mode of §4.2.1 (per-region detail): one pass over the active nodes list, each node split or
+//! merged by its switch value against a view criterion ([`SkipStrips::adapt_to_view`]:
+//! object-space error over distance to the eye), an operation done only when it is legal:
+//! * the hierarchy: a node merges into its parent only after all its children have merged
+//!   into it, and its parent's children merge (split) in merge order (reverse order), which
+//!   the node's child index tracks (§4.2.1: a merge increments the parent's child index, a
+//!   split decrements it);
+//! * the dependencies (Xia and Varshney, §3.1): the edge's neighbourhood must be exactly the
+//!   one it had when the sequence collapsed it: every neighbour node displayed, with at least
+//!   the children it had merged then (its child index), so no finer node stands in for it.
+//!   The triangles around the edge are then exactly the sequence's, before and after, so every
+//!   triangle ever drawn is a triangle of some uniform LOD (no fold-over the simplifier did
+//!   not check).
 
 use super::{check_inputs, push_display_strip, Baseline, BaselineError, Primitive};
-use morphlod::collapse::CollapseSequence;
+use morphlod::collapse::{CollapseSequence, NEVER};
 use morphlod::strip::Strips;
 
 /// A Skip Strip over strips `S0` and its current merges.
@@ -36,6 +47,17 @@ pub struct SkipStrips {
     /// Node `v`'s child pointers, in merge order.
     child_start: Vec<u32>,
     children: Vec<u32>,
+    /// The merge (collapse step) of node `v`, or [`NEVER`] for a root, and `v`'s place in its
+    /// parent's child list.
+    merge_of: Vec<u32>,
+    child_place: Vec<u32>,
+    /// Merge `j`'s switch value: the object-space error (a length) of the collapse, raised to
+    /// the largest of the merges below it, so a node never wants to merge before its children.
+    switch: Vec<f32>,
+    /// Merge `j`'s dependencies: the nodes around edge `u_j w_j` when the sequence collapsed
+    /// it, each with its child index then, in `deps[dep_start[j]..dep_start[j + 1]]`.
+    dep_start: Vec<u32>,
+    deps: Vec<(u32, u32)>,
     /// The original strips holding vertex `v` (each once).
     strip_start: Vec<u32>,
     strips_of: Vec<u32>,
@@ -43,15 +65,42 @@ pub struct SkipStrips {
     /// strips flagged as modified, the display strips (region `s` has the length of original
     /// strip `s`, which no display strip exceeds) and their lengths.
     active: Vec<bool>,
+    /// The merges applied; a uniform LOD only while `uniform`.
     lod: usize,
+    uniform: bool,
+    /// Runtime hierarchy state (§4.2.1): each node's child index (how many of its children
+    /// have merged into it) and the active nodes list (the displayed nodes, with each one's
+    /// place in it).
+    child_index: Vec<u32>,
+    front: Vec<u32>,
+    front_place: Vec<u32>,
     modified: Vec<bool>,
     modified_list: Vec<u32>,
     live: Vec<u32>,
     lengths: Vec<u32>,
     changed: Vec<u32>,
-    /// Scratch for one regenerated strip.
+    /// Scratch for one regenerated strip and for a pass over the active nodes list.
     mapped: Vec<u32>,
     display: Vec<u32>,
+    scratch_front: Vec<u32>,
+}
+
+/// A merge the view criterion of [`SkipStrips::adapt`] is asked about.
+#[derive(Clone, Copy, Debug)]
+pub struct Merge {
+    /// The node it merges into.
+    pub parent: u32,
+    /// Its switch value: object-space error (a length), never below a merge under it.
+    pub switch: f32,
+}
+
+/// What one [`SkipStrips::adapt`] pass did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Adapted {
+    pub merges: usize,
+    pub splits: usize,
+    /// Operations the view wanted but the hierarchy or the dependencies did not allow yet.
+    pub refused: usize,
 }
 
 impl SkipStrips {
@@ -75,10 +124,31 @@ impl SkipStrips {
         }
         let (skip_start, skips) = flatten(&lists);
         let mut kids: Vec<Vec<u32>> = vec![Vec::new(); n];
-        for c in &seq.collapses {
+        let mut merge_of = vec![NEVER; n];
+        let mut child_place = vec![NEVER; n];
+        for (j, c) in seq.collapses.iter().enumerate() {
+            merge_of[c.u as usize] = j as u32;
+            child_place[c.u as usize] = kids[c.w as usize].len() as u32;
             kids[c.w as usize].push(c.u);
         }
         let (child_start, children) = flatten(&kids);
+        let (dep_start, deps) = dependencies(&s0.triangles(), seq);
+        // Below a merge are its child's merges and the parent's earlier ones.
+        let mut below = vec![0.0f32; n];
+        let switch = seq
+            .collapses
+            .iter()
+            .map(|c| {
+                let s = c
+                    .error
+                    .max(0.0)
+                    .sqrt()
+                    .max(below[c.u as usize])
+                    .max(below[c.w as usize]);
+                below[c.w as usize] = s;
+                s
+            })
+            .collect();
         let mut holding: Vec<Vec<u32>> = vec![Vec::new(); n];
         for s in 0..s0.len() {
             for &v in s0.strip(s).unwrap_or(&[]) {
@@ -97,10 +167,19 @@ impl SkipStrips {
             skips,
             child_start,
             children,
+            merge_of,
+            child_place,
+            switch,
+            dep_start,
+            deps,
             strip_start,
             strips_of,
             active: vec![false; n],
             lod: 0,
+            uniform: true,
+            child_index: vec![0; n],
+            front: (0..n as u32).collect(),
+            front_place: (0..n as u32).collect(),
             modified: vec![false; s0.len()],
             modified_list: Vec::new(),
             live: vec![0; s0.indices.len()],
@@ -108,6 +187,7 @@ impl SkipStrips {
             changed: Vec::new(),
             mapped: Vec::new(),
             display: Vec::new(),
+            scratch_front: Vec::new(),
         };
         for s in 0..s0.len() {
             model.regenerate(s);
@@ -132,6 +212,147 @@ impl SkipStrips {
             stack.extend_from_slice(
                 &self.children[self.child_start[x] as usize..self.child_start[x + 1] as usize],
             );
+        }
+    }
+
+    /// Node `v`'s parent (`v` must have one).
+    fn parent(&self, v: u32) -> u32 {
+        self.skips[self.skip_start[v as usize] as usize]
+    }
+
+    /// §4.2.1's merge of step `j`'s node into its parent: activate the parent pointer,
+    /// increment the parent's child index, leave the active nodes list.
+    fn merge(&mut self, j: usize) {
+        let u = self.merges[j];
+        let w = self.parent(u);
+        self.active[u as usize] = true;
+        self.child_index[w as usize] += 1;
+        let place = self.front_place[u as usize] as usize;
+        self.front.swap_remove(place);
+        if let Some(&moved) = self.front.get(place) {
+            self.front_place[moved as usize] = place as u32;
+        }
+        self.flag_subtree(u);
+        self.lod += 1;
+    }
+
+    /// The inverse of [`merge`](Self::merge).
+    fn split(&mut self, j: usize) {
+        let u = self.merges[j];
+        let w = self.parent(u);
+        self.active[u as usize] = false;
+        self.child_index[w as usize] -= 1;
+        self.front_place[u as usize] = self.front.len() as u32;
+        self.front.push(u);
+        self.flag_subtree(u);
+        self.lod -= 1;
+    }
+
+    /// Whether the hierarchy lets step `j` merge now: the node and its parent displayed, all
+    /// the node's children merged into it, and exactly the parent's children before it.
+    fn hierarchy_allows_merge(&self, j: usize) -> bool {
+        let u = self.merges[j] as usize;
+        let w = self.parent(u as u32) as usize;
+        let kids = self.child_start[u + 1] - self.child_start[u];
+        !self.active[u]
+            && !self.active[w]
+            && self.child_index[u] == kids
+            && self.child_index[w] == self.child_place[u]
+    }
+
+    /// Whether step `j`'s neighbourhood is the one the sequence collapsed (or split) it in:
+    /// every dependency displayed, with at least the children it had merged then.
+    fn dependencies_hold(&self, j: usize) -> bool {
+        self.deps[self.dep_start[j] as usize..self.dep_start[j + 1] as usize]
+            .iter()
+            .all(|&(d, k)| !self.active[d as usize] && self.child_index[d as usize] >= k)
+    }
+
+    /// The view-dependent mode (§4.2.1): one pass over the active nodes list. A displayed node
+    /// whose latest merged child's merge is no longer wanted splits it; otherwise, when its
+    /// own merge is wanted, it merges into its parent. `wants_merged` is the view criterion,
+    /// asked about merges only; an operation is done only when the hierarchy and the
+    /// dependencies allow it (else it waits for a later frame). Then every modified display
+    /// strip is regenerated. Afterwards [`lod`](Baseline::lod) counts the merges applied.
+    pub fn adapt(&mut self, mut wants_merged: impl FnMut(Merge) -> bool) -> Adapted {
+        let mut done = Adapted::default();
+        let mut front = std::mem::take(&mut self.scratch_front);
+        front.clear();
+        front.extend_from_slice(&self.front);
+        let merge = |model: &SkipStrips, j: usize| Merge {
+            parent: model.parent(model.merges[j]),
+            switch: model.switch[j],
+        };
+        for &v in &front {
+            let v = v as usize;
+            if self.active[v] {
+                continue; // merged earlier in this pass
+            }
+            let k = self.child_index[v] as usize;
+            if k > 0 {
+                let child = self.children[self.child_start[v] as usize + k - 1];
+                let j = self.merge_of[child as usize] as usize;
+                if !wants_merged(merge(self, j)) {
+                    if self.dependencies_hold(j) {
+                        self.split(j);
+                        done.splits += 1;
+                    } else {
+                        done.refused += 1;
+                    }
+                    continue;
+                }
+            }
+            let j = self.merge_of[v];
+            if j != NEVER && wants_merged(merge(self, j as usize)) {
+                let j = j as usize;
+                if self.hierarchy_allows_merge(j) && self.dependencies_hold(j) {
+                    self.merge(j);
+                    done.merges += 1;
+                } else {
+                    done.refused += 1;
+                }
+            }
+        }
+        self.scratch_front = front;
+        self.uniform = false;
+        self.regenerate_modified();
+        done
+    }
+
+    /// [`adapt`](Self::adapt) to a viewpoint: a merge is wanted while its switch value (its
+    /// object-space error, a length) is under `tolerance` times the distance from `eye` to the
+    /// node it merges into, so detail falls off with distance (screen-space error under
+    /// `tolerance` per unit of distance). `positions` are the mesh's vertices.
+    pub fn adapt_to_view(
+        &mut self,
+        positions: &[[f32; 3]],
+        eye: [f32; 3],
+        tolerance: f32,
+    ) -> Result<Adapted, BaselineError> {
+        if positions.len() != self.active.len() {
+            return Err(BaselineError::PositionCount {
+                positions: positions.len(),
+                vertices: self.active.len(),
+            });
+        }
+        Ok(self.adapt(|m| {
+            let p = positions[m.parent as usize];
+            let d = ((p[0] - eye[0]).powi(2) + (p[1] - eye[1]).powi(2) + (p[2] - eye[2]).powi(2))
+                .sqrt();
+            m.switch < tolerance * d
+        }))
+    }
+
+    /// The active nodes list: the display vertices, in no particular order.
+    pub fn displayed(&self) -> &[u32] {
+        &self.front
+    }
+
+    /// Regenerates every display strip flagged as modified.
+    fn regenerate_modified(&mut self) {
+        for s in std::mem::take(&mut self.modified_list) {
+            self.modified[s as usize] = false;
+            self.regenerate(s as usize);
         }
     }
 
@@ -179,6 +400,70 @@ impl SkipStrips {
     }
 }
 
+/// Every merge's dependencies (§4.2.1, stored explicitly as in Xia and Varshney): replaying
+/// the sequence over `triangles`, the nodes that the triangles touching `u_j` or `w_j` map to
+/// just before step `j`, other than `u_j` and `w_j`, each with its child index then. The
+/// triangles that have already degenerated count too: a finer cut elsewhere could make them
+/// real again around the edge.
+fn dependencies(triangles: &[[u32; 3]], seq: &CollapseSequence) -> (Vec<u32>, Vec<(u32, u32)>) {
+    let n = seq.vertex_count as usize;
+    let mut class: Vec<u32> = (0..n as u32).collect();
+    let mut touching: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (t, tri) in triangles.iter().enumerate() {
+        for &v in tri {
+            touching[v as usize].push(t as u32);
+        }
+    }
+    let mut child_index = vec![0u32; n];
+    let mut start = vec![0u32];
+    let mut deps = Vec::new();
+    let mut around = Vec::new();
+    for c in &seq.collapses {
+        let (u, w) = (c.u as usize, c.w as usize);
+        around.clear();
+        for &t in touching[u].iter().chain(&touching[w]) {
+            for &x in &triangles[t as usize] {
+                let x = find(&mut class, x);
+                if x != c.u && x != c.w {
+                    around.push(x);
+                }
+            }
+        }
+        around.sort_unstable();
+        around.dedup();
+        deps.extend(around.iter().map(|&x| (x, child_index[x as usize])));
+        start.push(deps.len() as u32);
+        // `w`'s class takes `u`'s triangles; those holding both ends are already in its list.
+        let moved = std::mem::take(&mut touching[u]);
+        for t in moved {
+            if !triangles[t as usize]
+                .iter()
+                .any(|&x| find(&mut class, x) == c.w)
+            {
+                touching[w].push(t);
+            }
+        }
+        class[u] = c.w;
+        child_index[w] += 1;
+    }
+    (start, deps)
+}
+
+/// The class representative of `v` (the node it maps to now), compressing the path.
+fn find(class: &mut [u32], v: u32) -> u32 {
+    let mut root = v;
+    while class[root as usize] != root {
+        root = class[root as usize];
+    }
+    let mut v = v;
+    while class[v as usize] != root {
+        let next = class[v as usize];
+        class[v as usize] = root;
+        v = next;
+    }
+    root
+}
+
 /// Lists as one CSR pair (starts, values).
 fn flatten(lists: &[Vec<u32>]) -> (Vec<u32>, Vec<u32>) {
     let mut start = Vec::with_capacity(lists.len() + 1);
@@ -213,22 +498,26 @@ impl Baseline for SkipStrips {
         if lod > max {
             return Err(BaselineError::LodOutOfRange { lod, max });
         }
-        while self.lod < lod {
-            let v = self.merges[self.lod];
-            self.active[v as usize] = true;
-            self.flag_subtree(v);
-            self.lod += 1;
+        // From a uniform LOD only the steps between it and `lod` change; from a view-dependent
+        // cut any step may. Splitting the later merges latest first and then merging the
+        // earlier ones in order keeps every operation legal in the hierarchy.
+        let (from, to) = if self.uniform {
+            (self.lod, self.lod)
+        } else {
+            (0, max)
+        };
+        for j in (lod..to).rev() {
+            if self.active[self.merges[j] as usize] {
+                self.split(j);
+            }
         }
-        while self.lod > lod {
-            self.lod -= 1;
-            let v = self.merges[self.lod];
-            self.active[v as usize] = false;
-            self.flag_subtree(v);
+        for j in from..lod {
+            if !self.active[self.merges[j] as usize] {
+                self.merge(j);
+            }
         }
-        for s in std::mem::take(&mut self.modified_list) {
-            self.modified[s as usize] = false;
-            self.regenerate(s as usize);
-        }
+        self.uniform = true;
+        self.regenerate_modified();
         Ok(())
     }
 
