@@ -623,7 +623,7 @@ fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
             let (frame, lod) = (state.frame(), state.lod());
             let reference = kind.asset.frames[frame].reference_mesh(&triangles, lod);
             assert_eq!(
-                canonical_multiset(drawn[id.slot() as usize].iter().copied()),
+                canonical_multiset(drawn[id.slot() as usize].triangles.iter().copied()),
                 canonical_multiset(reference),
                 "{path:?}, step {step}, {id:?} at frame {frame}, LOD {lod}"
             );
