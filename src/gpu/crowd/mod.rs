@@ -246,6 +246,29 @@ struct CrowdAsset {
     record_patches: Vec<[u32; 2]>,
 }
 
+/// Leaves one patch per word, the last pushed (a stable sort by word keeps each word's
+/// patches in the order they were made).
+fn keep_last_per_word(patches: &mut Vec<[u32; 2]>) {
+    patches.sort_by_key(|p| p[0]);
+    let mut kept = 0;
+    for i in 0..patches.len() {
+        if patches.get(i + 1).is_some_and(|next| next[0] == patches[i][0]) {
+            continue;
+        }
+        patches[kept] = patches[i];
+        kept += 1;
+    }
+    patches.truncate(kept);
+}
+
+/// Whether no word is patched twice with different values (the same value twice is harmless
+/// in any order).
+fn one_value_per_word(patches: &[[u32; 2]]) -> bool {
+    let mut sorted = patches.to_vec();
+    sorted.sort_unstable();
+    sorted.windows(2).all(|w| w[0][0] != w[1][0] || w[0][1] == w[1][1])
+}
+
 /// The buffer a frame's patches go through, with the scatter's bind groups over it and the
 /// asset's index buffer, resp. indirect buffer.
 struct PatchBuffer {
@@ -258,7 +281,7 @@ struct PatchBuffer {
 type Patches = Vec<[u32; 2]>;
 
 /// Which buffer of an asset a scatter patches.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Patched {
     Indices,
     Records,
@@ -1047,6 +1070,19 @@ impl CrowdAsset {
             Patched::Indices => &mut self.patches,
             Patched::Records => &mut self.record_patches,
         });
+        // The scatter's invocations run in any order on a real GPU (lavapipe runs them in
+        // order, NVIDIA does not), so a word may get only one value a frame. A slot's record
+        // can change several times between two prepares (removed, then added again), so its
+        // words keep their last value; an index word patched twice (a dirty range and a
+        // strip's growth) gets the same value both times (checked in debug builds, which the
+        // tests run on lavapipe).
+        if what == Patched::Records {
+            keep_last_per_word(&mut patches);
+        }
+        debug_assert!(
+            one_value_per_word(&patches),
+            "{what:?}: a word patched twice with different values"
+        );
         if let Some(&last) = patches.last() {
             // Whole workgroups: the last patch repeated (same slot, same value).
             let padded = patches.len().next_multiple_of(SCATTER_GROUP as usize);
