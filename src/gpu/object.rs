@@ -22,7 +22,9 @@
 //!   as `first_instance`) a record draws one region. A record ends at the last live index of
 //!   its group, so coarse levels do not read the restart tails after it.
 //! * The CPU keeps a mirror of both buffers. Edits go to the mirror and record the changed
-//!   spans; [`Object::prepare`] coalesces them into few `queue.write_buffer` calls, and
+//!   spans; [`Object::prepare`] coalesces them and sends them as they are or, when a call
+//!   costs more than re-sending the unchanged words between them ([`WRITE_CALL_BYTES`]), as
+//!   one write from the first changed word to the last; and
 //!   [`Object::render`] issues one `multi_draw_indexed_indirect` over all records.
 //!
 //! The object composes four parts, one file each: the draw records (`records.rs`), the
@@ -54,10 +56,10 @@ use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
 use super::pose::{default_mode, Pose};
 use super::records::{DrawRecords, ARGS_BYTES};
-use super::upload::{clip, coalesce, IndexMirror};
-#[allow(unused_imports)] // named in the docs
-use super::MERGE_GAP_BYTES;
+use super::upload::{clip, coalesce, plan_writes, IndexMirror};
 use super::{Draws, GpuError, Upload, GROUP_INDICES, RESTART};
+#[allow(unused_imports)] // named in the docs
+use super::{MERGE_GAP_BYTES, WRITE_CALL_BYTES};
 use crate::asset::{Asset, Surface};
 use crate::lodstrips::Dirty;
 use crate::morph::WeightTrack;
@@ -630,19 +632,24 @@ impl Object {
     }
 
     /// Uploads everything changed since the last call: coalesced index spans, coalesced
-    /// indirect records and the uniforms, each with `queue.write_buffer`. Call before the
-    /// render pass that draws this object is submitted.
+    /// indirect records and the uniforms, each with `queue.write_buffer`. Each buffer's spans
+    /// go up as they are or as one write from the first to the last, whichever
+    /// [`WRITE_CALL_BYTES`]'s cost model says is cheaper, so a frame switch that changes
+    /// thousands of spans costs one call and a copy of at most the index buffer; the
+    /// [`Upload`] lists the ranges actually written. Call before the render pass that draws
+    /// this object is submitted.
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
         let mut upload = Upload::default();
         let args_gap =
             u32::try_from(self.mirror.merge_gap_bytes() / ARGS_BYTES).unwrap_or(u32::MAX);
-        for span in self.mirror.take_spans() {
+        for span in plan_writes(self.mirror.take_spans(), 4) {
             let data = &self.mirror.indices[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * 4..u64::from(span.end) * 4;
             queue.write_buffer(&self.index_buffer, bytes.start, bytemuck::cast_slice(data));
             upload.index_ranges.push(bytes);
         }
-        for span in coalesce(&mut self.records.dirty, args_gap) {
+        let records = coalesce(&mut self.records.dirty, args_gap);
+        for span in plan_writes(records, ARGS_BYTES) {
             let data = &self.records.args[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * ARGS_BYTES..u64::from(span.end) * ARGS_BYTES;
             queue.write_buffer(

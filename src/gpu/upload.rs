@@ -1,7 +1,8 @@
 //! The CPU mirror of an [`Object`](super::Object)'s index buffer and the word-level diff that
 //! decides what [`Object::prepare`](super::Object::prepare) uploads: edits go to the mirror,
-//! only the words whose value changed are marked, and marked spans closer than the merge gap
-//! are sent as one `queue.write_buffer`.
+//! only the words whose value changed are marked, marked spans closer than the merge gap
+//! become one span, and the spans go up as they are or as one `queue.write_buffer` from the
+//! first to the last, by the cost model of [`WRITE_CALL_BYTES`].
 
 use std::ops::Range;
 
@@ -13,6 +14,18 @@ use std::ops::Range;
 /// to the values they already had, and a large gap re-sends those. 32 bytes (8 indices) is
 /// the trade-off measured in BENCHMARKS.md ("Figures behind constants").
 pub const MERGE_GAP_BYTES: u64 = 32;
+
+/// What one `queue.write_buffer` call costs beyond the bytes it carries, in bytes:
+/// [`Object::prepare`](super::Object::prepare)'s cost model for a buffer's changed spans.
+///
+/// A call costs a fixed `c` (wgpu creates and maps a staging buffer per call and records a copy:
+/// about 3 µs on lavapipe, measured as 513 µs of `prepare` for 167 writes, the median frame of
+/// the man → camel bench) plus `b` per byte (the copy into the staging memory and the GPU copy,
+/// about 0.25 ns, i.e. 0.25 ms per MB). `n` spans covering `changed` bytes cost
+/// `n·c + changed·b` as separate writes and `c + extent·b` as one write from the first changed
+/// byte to the last (`extent` bytes); `prepare` sends the cheaper, i.e. one write when
+/// `(extent − changed) < (n − 1) · c/b`. This constant is `c/b`, rounded down to a power of two.
+pub const WRITE_CALL_BYTES: u64 = 8 * 1024;
 
 /// What one [`Object::prepare`](super::Object::prepare) sent to the GPU.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -141,6 +154,27 @@ fn diff_copy(
     }
 }
 
+/// The writes that send `spans` (ascending, disjoint, positions of `unit`-byte elements) at
+/// the least cost under [`WRITE_CALL_BYTES`]'s model: the spans as they are, or one span
+/// from the first to the last when the unchanged elements between them cost less to re-send
+/// than the calls they save.
+pub(super) fn plan_writes(spans: Vec<Range<u32>>, unit: u64) -> Vec<Range<u32>> {
+    let (Some(first), Some(last)) = (spans.first(), spans.last()) else {
+        return spans;
+    };
+    let extent = u64::from(last.end - first.start) * unit;
+    let changed: u64 = spans
+        .iter()
+        .map(|s| u64::from(s.end - s.start) * unit)
+        .sum();
+    let saved_calls = spans.len() as u64 - 1;
+    if extent - changed < saved_calls.saturating_mul(WRITE_CALL_BYTES) {
+        vec![first.start..last.end]
+    } else {
+        spans
+    }
+}
+
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
 pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>> {
     spans.sort_unstable_by_key(|span| span.start);
@@ -158,7 +192,34 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
 
 #[cfg(test)]
 mod tests {
-    use super::{coalesce, diff_copy};
+    use super::{coalesce, diff_copy, plan_writes, WRITE_CALL_BYTES};
+
+    #[test]
+    fn plan_writes_joins_spans_only_when_calls_cost_more_than_the_gaps() {
+        assert_eq!(plan_writes(vec![], 4), vec![]);
+        assert_eq!(plan_writes(vec![3..5], 4), vec![3..5]);
+        // Gaps of one call's worth of bytes in all, two calls saved: one write.
+        let call = (WRITE_CALL_BYTES / 4) as u32;
+        assert_eq!(
+            plan_writes(vec![0..1, 1 + call..2 + call, 2 + call..3 + call], 4),
+            vec![0..3 + call]
+        );
+        // The same gap for one saved call is not cheaper (equal cost keeps the exact bytes).
+        assert_eq!(
+            plan_writes(vec![0..1, 1 + call..2 + call], 4),
+            vec![0..1, 1 + call..2 + call]
+        );
+        // Units count: 20-byte records are 5 times as far apart.
+        let records = call / 5;
+        assert_eq!(
+            plan_writes(vec![0..1, 2 + records..3 + records], 20),
+            vec![0..1, 2 + records..3 + records]
+        );
+        assert_eq!(
+            plan_writes(vec![0..1, records..1 + records], 20),
+            vec![0..1 + records]
+        );
+    }
 
     #[test]
     fn coalesce_merges_overlapping_and_close_spans_only() {
