@@ -22,9 +22,9 @@
 //!   as `first_instance`) a record draws one region. A record ends at the last live index of
 //!   its group, so coarse levels do not read the restart tails after it.
 //! * The CPU keeps a mirror of both buffers. Edits go to the mirror and record the changed
-//!   spans; [`Object::prepare`] coalesces them and sends them as they are or, when a call
-//!   costs more than re-sending the unchanged words between them ([`WRITE_CALL_BYTES`]), as
-//!   one write from the first changed word to the last; and
+//!   spans; [`Object::prepare`] sends them in few `queue.write_buffer` calls, joining spans
+//!   whenever a call costs more than re-sending the unchanged words between them
+//!   ([`WRITE_CALL_BYTES`]); and
 //!   [`Object::render`] issues one `multi_draw_indexed_indirect` over all records.
 //!
 //! The object composes four parts, one file each: the draw records (`records.rs`), the
@@ -632,12 +632,11 @@ impl Object {
     }
 
     /// Uploads everything changed since the last call: coalesced index spans, coalesced
-    /// indirect records and the uniforms, each with `queue.write_buffer`. Each buffer's spans
-    /// go up as they are or as one write from the first to the last, whichever
-    /// [`WRITE_CALL_BYTES`]'s cost model says is cheaper, so a frame switch that changes
-    /// thousands of spans costs one call and a copy of at most the index buffer; the
-    /// [`Upload`] lists the ranges actually written. Call before the render pass that draws
-    /// this object is submitted.
+    /// indirect records and the uniforms, each with `queue.write_buffer`. Spans closer than
+    /// [`WRITE_CALL_BYTES`] (a call's cost in bytes) share one write, so a frame switch that
+    /// changes thousands of spans costs a few calls and a copy of at most the index buffer;
+    /// the [`Upload`] lists the ranges actually written, unchanged words inside a write
+    /// included. Call before the render pass that draws this object is submitted.
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
         let mut upload = Upload::default();
         let args_gap =

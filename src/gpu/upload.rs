@@ -1,8 +1,8 @@
 //! The CPU mirror of an [`Object`](super::Object)'s index buffer and the word-level diff that
 //! decides what [`Object::prepare`](super::Object::prepare) uploads: edits go to the mirror,
 //! only the words whose value changed are marked, marked spans closer than the merge gap
-//! become one span, and the spans go up as they are or as one `queue.write_buffer` from the
-//! first to the last, by the cost model of [`WRITE_CALL_BYTES`].
+//! become one span, and spans closer than one call's cost in bytes ([`WRITE_CALL_BYTES`]) go
+//! up as one `queue.write_buffer`.
 
 use std::ops::Range;
 
@@ -18,13 +18,14 @@ pub const MERGE_GAP_BYTES: u64 = 32;
 /// What one `queue.write_buffer` call costs beyond the bytes it carries, in bytes:
 /// [`Object::prepare`](super::Object::prepare)'s cost model for a buffer's changed spans.
 ///
-/// A call costs a fixed `c` (wgpu creates and maps a staging buffer per call and records a copy:
-/// about 3 µs on lavapipe, measured as 513 µs of `prepare` for 167 writes, the median frame of
-/// the man → camel bench) plus `b` per byte (the copy into the staging memory and the GPU copy,
-/// about 0.25 ns, i.e. 0.25 ms per MB). `n` spans covering `changed` bytes cost
-/// `n·c + changed·b` as separate writes and `c + extent·b` as one write from the first changed
-/// byte to the last (`extent` bytes); `prepare` sends the cheaper, i.e. one write when
-/// `(extent − changed) < (n − 1) · c/b`. This constant is `c/b`, rounded down to a power of two.
+/// A call costs a fixed `c` (wgpu creates and maps a staging buffer per call and records a
+/// copy: about 2–3 µs on lavapipe, e.g. 1.5 ms of `prepare` for 707 writes, the median frame
+/// without a switch of the man → camel bench) plus `b` per byte (the copy into the staging
+/// memory and the GPU's copy, about 0.25 ns, i.e. 0.25 ms per MB). Joining two neighbouring
+/// spans into one write re-sends the `g` unchanged bytes between them and saves a call, so it
+/// pays when `g < c/b`; this constant is `c/b`, rounded down to a power of two. Dense spans (a
+/// frame switch rewrites thousands spread over the buffer) become one write of at most the
+/// buffer, O(bytes) instead of O(spans); an edit far from others keeps its exact bytes.
 pub const WRITE_CALL_BYTES: u64 = 8 * 1024;
 
 /// What one [`Object::prepare`](super::Object::prepare) sent to the GPU.
@@ -155,24 +156,14 @@ fn diff_copy(
 }
 
 /// The writes that send `spans` (ascending, disjoint, positions of `unit`-byte elements) at
-/// the least cost under [`WRITE_CALL_BYTES`]'s model: the spans as they are, or one span
-/// from the first to the last when the unchanged elements between them cost less to re-send
-/// than the calls they save.
-pub(super) fn plan_writes(spans: Vec<Range<u32>>, unit: u64) -> Vec<Range<u32>> {
-    let (Some(first), Some(last)) = (spans.first(), spans.last()) else {
-        return spans;
-    };
-    let extent = u64::from(last.end - first.start) * unit;
-    let changed: u64 = spans
-        .iter()
-        .map(|s| u64::from(s.end - s.start) * unit)
-        .sum();
-    let saved_calls = spans.len() as u64 - 1;
-    if extent - changed < saved_calls.saturating_mul(WRITE_CALL_BYTES) {
-        vec![first.start..last.end]
-    } else {
-        spans
-    }
+/// the least cost under [`WRITE_CALL_BYTES`]'s model: two neighbouring spans become one write
+/// when the unchanged elements between them cost less to re-send than the call they save.
+/// Each gap is decided alone, so dense spans (a frame switch) join into one write from the
+/// first to the last, while spans far apart keep their own writes and exact bytes.
+pub(super) fn plan_writes(mut spans: Vec<Range<u32>>, unit: u64) -> Vec<Range<u32>> {
+    // A gap of `g` elements joins when `g * unit < WRITE_CALL_BYTES`.
+    let gap = u32::try_from(WRITE_CALL_BYTES.div_ceil(unit) - 1).unwrap_or(u32::MAX);
+    coalesce(&mut spans, gap)
 }
 
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
@@ -195,30 +186,23 @@ mod tests {
     use super::{coalesce, diff_copy, plan_writes, WRITE_CALL_BYTES};
 
     #[test]
-    fn plan_writes_joins_spans_only_when_calls_cost_more_than_the_gaps() {
+    fn plan_writes_joins_spans_only_when_a_call_costs_more_than_the_gap() {
         assert_eq!(plan_writes(vec![], 4), vec![]);
         assert_eq!(plan_writes(vec![3..5], 4), vec![3..5]);
-        // Gaps of one call's worth of bytes in all, two calls saved: one write.
+        // 4-byte indices: a gap of one call's worth of bytes stays (equal cost keeps the exact
+        // bytes), one index less joins.
         let call = (WRITE_CALL_BYTES / 4) as u32;
-        assert_eq!(
-            plan_writes(vec![0..1, 1 + call..2 + call, 2 + call..3 + call], 4),
-            vec![0..3 + call]
-        );
-        // The same gap for one saved call is not cheaper (equal cost keeps the exact bytes).
         assert_eq!(
             plan_writes(vec![0..1, 1 + call..2 + call], 4),
             vec![0..1, 1 + call..2 + call]
         );
-        // Units count: 20-byte records are 5 times as far apart.
-        let records = call / 5;
         assert_eq!(
-            plan_writes(vec![0..1, 2 + records..3 + records], 20),
-            vec![0..1, 2 + records..3 + records]
+            plan_writes(vec![0..1, call..1 + call, 2 * call..1 + 2 * call], 4),
+            vec![0..1 + 2 * call]
         );
-        assert_eq!(
-            plan_writes(vec![0..1, records..1 + records], 20),
-            vec![0..1 + records]
-        );
+        // 20-byte records: WRITE_CALL_BYTES / 20 = 409.6, so 410 records apart stay apart.
+        assert_eq!(plan_writes(vec![0..1, 411..412], 20), vec![0..1, 411..412]);
+        assert_eq!(plan_writes(vec![0..1, 410..411], 20), vec![0..411]);
     }
 
     #[test]
