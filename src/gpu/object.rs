@@ -623,10 +623,11 @@ impl Object {
         self.asset.has_surface()
     }
 
-    /// Sets how far apart (in bytes of one buffer) two changed spans may lie and still be sent
-    /// as one `write_buffer` ([`MERGE_GAP_BYTES`] by default); it applies to changes made
-    /// after the call. 0 sends exactly the changed bytes in more calls; larger values send
-    /// fewer, bigger writes.
+    /// Sets how far apart (in bytes of one buffer) two changed spans may lie and still be
+    /// recorded as one span ([`MERGE_GAP_BYTES`] by default); it applies to changes made
+    /// after the call. [`prepare`](Self::prepare) joins spans closer than
+    /// [`WRITE_CALL_BYTES`] into one write anyway, so only a larger gap changes the writes
+    /// (fewer, bigger ones); a smaller one only keeps the span list shorter.
     pub fn set_merge_gap(&mut self, bytes: u64) {
         self.mirror.set_merge_gap(bytes);
     }

@@ -6,13 +6,14 @@
 
 use std::ops::Range;
 
-/// Changed spans at most this many bytes apart are uploaded as one write by default
+/// Changed spans at most this many bytes apart are recorded as one span by default
 /// ([`Object::set_merge_gap`](super::Object::set_merge_gap) changes it).
 ///
-/// Each `queue.write_buffer` allocates a staging buffer and records a copy, so re-sending a
-/// few unchanged words beats a second call; but a frame switch rewrites whole strips, mostly
-/// to the values they already had, and a large gap re-sends those. 32 bytes (8 indices) is
-/// the trade-off measured in BENCHMARKS.md ("Figures behind constants").
+/// A frame switch rewrites whole strips, mostly to the values they already had: the diff
+/// records the words that differ, and this gap keeps its span list short. 32 bytes (8
+/// indices) was the upload trade-off measured in BENCHMARKS.md ("Figures behind constants")
+/// when every span was its own write; since [`WRITE_CALL_BYTES`] decides the writes, gaps
+/// below it no longer change what is uploaded.
 pub const MERGE_GAP_BYTES: u64 = 32;
 
 /// What one `queue.write_buffer` call costs beyond the bytes it carries, in bytes:
