@@ -27,6 +27,10 @@ pub const MERGE_GAP_BYTES: u64 = 32;
 /// pays when `g < c/b`; this constant is `c/b`, rounded down to a power of two. Dense spans (a
 /// frame switch rewrites thousands spread over the buffer) become one write of at most the
 /// buffer, O(bytes) instead of O(spans); an edit far from others keeps its exact bytes.
+///
+/// Off by default ([`Object::set_write_call_bytes`](super::Object::set_write_call_bytes)
+/// turns it on): joined writes re-send unchanged words, 43% of the index buffer per frame on
+/// the head's exponential sweep against issue 5's goal of at most 5%.
 pub const WRITE_CALL_BYTES: u64 = 8 * 1024;
 
 /// What one [`Object::prepare`](super::Object::prepare) sent to the GPU.
@@ -78,6 +82,8 @@ pub(super) struct IndexMirror {
     /// Changed index spans (buffer positions) since the last prepare, unsorted.
     dirty: Vec<Range<u32>>,
     merge_gap_bytes: u64,
+    /// A write call's cost in bytes for `plan_writes` (0: off).
+    write_call_bytes: u64,
 }
 
 impl IndexMirror {
@@ -86,6 +92,7 @@ impl IndexMirror {
             indices,
             dirty: Vec::new(),
             merge_gap_bytes: MERGE_GAP_BYTES,
+            write_call_bytes: 0,
         }
     }
 
@@ -95,6 +102,14 @@ impl IndexMirror {
 
     pub(super) fn set_merge_gap(&mut self, bytes: u64) {
         self.merge_gap_bytes = bytes;
+    }
+
+    pub(super) fn write_call_bytes(&self) -> u64 {
+        self.write_call_bytes
+    }
+
+    pub(super) fn set_write_call_bytes(&mut self, bytes: u64) {
+        self.write_call_bytes = bytes;
     }
 
     /// The merge gap in indices.
@@ -161,9 +176,14 @@ fn diff_copy(
 /// when the unchanged elements between them cost less to re-send than the call they save.
 /// Each gap is decided alone, so dense spans (a frame switch) join into one write from the
 /// first to the last, while spans far apart keep their own writes and exact bytes.
-pub(super) fn plan_writes(mut spans: Vec<Range<u32>>, unit: u64) -> Vec<Range<u32>> {
-    // A gap of `g` elements joins when `g * unit < WRITE_CALL_BYTES`.
-    let gap = u32::try_from(WRITE_CALL_BYTES.div_ceil(unit) - 1).unwrap_or(u32::MAX);
+/// `call_bytes` is the call's cost in bytes; 0 keeps every span its own write.
+pub(super) fn plan_writes(
+    mut spans: Vec<Range<u32>>,
+    unit: u64,
+    call_bytes: u64,
+) -> Vec<Range<u32>> {
+    // A gap of `g` elements joins when `g * unit < call_bytes`.
+    let gap = u32::try_from(call_bytes.div_ceil(unit).saturating_sub(1)).unwrap_or(u32::MAX);
     coalesce(&mut spans, gap)
 }
 
@@ -188,22 +208,34 @@ mod tests {
 
     #[test]
     fn plan_writes_joins_spans_only_when_a_call_costs_more_than_the_gap() {
-        assert_eq!(plan_writes(vec![], 4), vec![]);
-        assert_eq!(plan_writes(vec![3..5], 4), vec![3..5]);
+        assert_eq!(plan_writes(vec![], 4, WRITE_CALL_BYTES), vec![]);
+        // 0: off, every span is its own write.
+        assert_eq!(plan_writes(vec![0..1, 2..3], 4, 0), vec![0..1, 2..3]);
+        assert_eq!(plan_writes(vec![3..5], 4, WRITE_CALL_BYTES), vec![3..5]);
         // 4-byte indices: a gap of one call's worth of bytes stays (equal cost keeps the exact
         // bytes), one index less joins.
         let call = (WRITE_CALL_BYTES / 4) as u32;
         assert_eq!(
-            plan_writes(vec![0..1, 1 + call..2 + call], 4),
+            plan_writes(vec![0..1, 1 + call..2 + call], 4, WRITE_CALL_BYTES),
             vec![0..1, 1 + call..2 + call]
         );
         assert_eq!(
-            plan_writes(vec![0..1, call..1 + call, 2 * call..1 + 2 * call], 4),
+            plan_writes(
+                vec![0..1, call..1 + call, 2 * call..1 + 2 * call],
+                4,
+                WRITE_CALL_BYTES
+            ),
             vec![0..1 + 2 * call]
         );
         // 20-byte records: WRITE_CALL_BYTES / 20 = 409.6, so 410 records apart stay apart.
-        assert_eq!(plan_writes(vec![0..1, 411..412], 20), vec![0..1, 411..412]);
-        assert_eq!(plan_writes(vec![0..1, 410..411], 20), vec![0..411]);
+        assert_eq!(
+            plan_writes(vec![0..1, 411..412], 20, WRITE_CALL_BYTES),
+            vec![0..1, 411..412]
+        );
+        assert_eq!(
+            plan_writes(vec![0..1, 410..411], 20, WRITE_CALL_BYTES),
+            vec![0..411]
+        );
     }
 
     #[test]
