@@ -211,7 +211,10 @@ mod tests {
         assert_eq!(plan_writes(vec![], 4, WRITE_CALL_BYTES), vec![]);
         // 0: off, every span is its own write.
         assert_eq!(plan_writes(vec![0..1, 2..3], 4, 0), vec![0..1, 2..3]);
-        assert_eq!(plan_writes(vec![3..5], 4, WRITE_CALL_BYTES), vec![3..5]);
+        assert_eq!(
+            plan_writes(vec![3..5, 5000..5001], 4, WRITE_CALL_BYTES),
+            vec![3..5, 5000..5001]
+        );
         // 4-byte indices: a gap of one call's worth of bytes stays (equal cost keeps the exact
         // bytes), one index less joins.
         let call = (WRITE_CALL_BYTES / 4) as u32;
