@@ -1,19 +1,19 @@
 //! The CPU mirror of an [`Object`](super::Object)'s index buffer and the word-level diff that
 //! decides what [`Object::prepare`](super::Object::prepare) uploads: edits go to the mirror,
-//! only the words whose value changed are marked, marked spans closer than the merge gap
-//! become one span, and spans closer than one call's cost in bytes ([`WRITE_CALL_BYTES`]) go
-//! up as one `queue.write_buffer`.
+//! only the words whose value changed are marked, and marked spans closer than the merge gap
+//! (or, when turned on, than one call's cost in bytes, [`WRITE_CALL_BYTES`]) are sent as one
+//! `queue.write_buffer`.
 
 use std::ops::Range;
 
-/// Changed spans at most this many bytes apart are recorded as one span by default
+/// Changed spans at most this many bytes apart are uploaded as one write by default
 /// ([`Object::set_merge_gap`](super::Object::set_merge_gap) changes it).
 ///
-/// A frame switch rewrites whole strips, mostly to the values they already had: the diff
-/// records the words that differ, and this gap keeps its span list short. 32 bytes (8
-/// indices) was the upload trade-off measured in BENCHMARKS.md ("Figures behind constants")
-/// when every span was its own write; since [`WRITE_CALL_BYTES`] decides the writes, gaps
-/// below it no longer change what is uploaded.
+/// Each `queue.write_buffer` allocates a staging buffer and records a copy, so re-sending a
+/// few unchanged words beats a second call; but a frame switch rewrites whole strips, mostly
+/// to the values they already had, and a large gap re-sends those. 32 bytes (8 indices) is
+/// the trade-off measured in BENCHMARKS.md ("Figures behind constants"); with
+/// [`WRITE_CALL_BYTES`]'s joining on, gaps below that join anyway.
 pub const MERGE_GAP_BYTES: u64 = 32;
 
 /// What one `queue.write_buffer` call costs beyond the bytes it carries, in bytes:
