@@ -82,7 +82,7 @@ pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
 pub use records::{Draws, GROUP_INDICES};
 pub use render_target::{save_png, RenderTarget};
 pub use surface::decode_texture;
-pub use upload::{Upload, MERGE_GAP_BYTES};
+pub use upload::{Upload, MERGE_GAP_BYTES, WRITE_CALL_BYTES};
 
 use std::path::PathBuf;
 use thiserror::Error;

@@ -22,7 +22,8 @@
 //!   as `first_instance`) a record draws one region. A record ends at the last live index of
 //!   its group, so coarse levels do not read the restart tails after it.
 //! * The CPU keeps a mirror of both buffers. Edits go to the mirror and record the changed
-//!   spans; [`Object::prepare`] coalesces them into few `queue.write_buffer` calls, and
+//!   spans; [`Object::prepare`] coalesces them into few `queue.write_buffer` calls (fewer
+//!   still with [`Object::set_write_call_bytes`]: [`WRITE_CALL_BYTES`]), and
 //!   [`Object::render`] issues one `multi_draw_indexed_indirect` over all records.
 //!
 //! The object composes four parts, one file each: the draw records (`records.rs`), the
@@ -54,10 +55,10 @@ use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
 use super::pose::{default_mode, Pose};
 use super::records::{DrawRecords, ARGS_BYTES};
-use super::upload::{clip, coalesce, IndexMirror};
-#[allow(unused_imports)] // named in the docs
-use super::MERGE_GAP_BYTES;
+use super::upload::{clip, coalesce, plan_writes, IndexMirror};
 use super::{Draws, GpuError, Upload, GROUP_INDICES, RESTART};
+#[allow(unused_imports)] // named in the docs
+use super::{MERGE_GAP_BYTES, WRITE_CALL_BYTES};
 use crate::asset::{Asset, Surface};
 use crate::lodstrips::Dirty;
 use crate::morph::WeightTrack;
@@ -621,28 +622,42 @@ impl Object {
         self.asset.has_surface()
     }
 
-    /// Sets how far apart (in bytes of one buffer) two changed spans may lie and still be sent
-    /// as one `write_buffer` ([`MERGE_GAP_BYTES`] by default); it applies to changes made
+    /// Sets how far apart (in bytes of one buffer) two changed spans may lie and still be
+    /// recorded as one span ([`MERGE_GAP_BYTES`] by default); it applies to changes made
     /// after the call. 0 sends exactly the changed bytes in more calls; larger values send
-    /// fewer, bigger writes.
+    /// fewer, bigger writes. With [`set_write_call_bytes`](Self::set_write_call_bytes) on,
+    /// [`prepare`](Self::prepare) joins spans closer than that anyway.
     pub fn set_merge_gap(&mut self, bytes: u64) {
         self.mirror.set_merge_gap(bytes);
     }
 
+    /// Sets what one `write_buffer` call costs in bytes (0, the default: off;
+    /// [`WRITE_CALL_BYTES`] is the measured value): [`prepare`](Self::prepare) then joins
+    /// neighbouring spans of a buffer into one write when fewer unchanged bytes than this lie
+    /// between them, so a frame switch's thousands of spans cost a few calls, at the price of
+    /// re-sending unchanged words (see [`WRITE_CALL_BYTES`]).
+    pub fn set_write_call_bytes(&mut self, bytes: u64) {
+        self.mirror.set_write_call_bytes(bytes);
+    }
+
     /// Uploads everything changed since the last call: coalesced index spans, coalesced
-    /// indirect records and the uniforms, each with `queue.write_buffer`. Call before the
-    /// render pass that draws this object is submitted.
+    /// indirect records and the uniforms, each with `queue.write_buffer`. With
+    /// [`set_write_call_bytes`](Self::set_write_call_bytes) on, spans closer than that share
+    /// one write; the [`Upload`] lists the ranges actually written, unchanged words inside a
+    /// write included. Call before the render pass that draws this object is submitted.
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
         let mut upload = Upload::default();
         let args_gap =
             u32::try_from(self.mirror.merge_gap_bytes() / ARGS_BYTES).unwrap_or(u32::MAX);
-        for span in self.mirror.take_spans() {
+        let call_bytes = self.mirror.write_call_bytes();
+        for span in plan_writes(self.mirror.take_spans(), 4, call_bytes) {
             let data = &self.mirror.indices[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * 4..u64::from(span.end) * 4;
             queue.write_buffer(&self.index_buffer, bytes.start, bytemuck::cast_slice(data));
             upload.index_ranges.push(bytes);
         }
-        for span in coalesce(&mut self.records.dirty, args_gap) {
+        let records = coalesce(&mut self.records.dirty, args_gap);
+        for span in plan_writes(records, ARGS_BYTES, call_bytes) {
             let data = &self.records.args[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * ARGS_BYTES..u64::from(span.end) * ARGS_BYTES;
             queue.write_buffer(

@@ -1,7 +1,8 @@
 //! The CPU mirror of an [`Object`](super::Object)'s index buffer and the word-level diff that
 //! decides what [`Object::prepare`](super::Object::prepare) uploads: edits go to the mirror,
 //! only the words whose value changed are marked, and marked spans closer than the merge gap
-//! are sent as one `queue.write_buffer`.
+//! (or, when turned on, than one call's cost in bytes, [`WRITE_CALL_BYTES`]) are sent as one
+//! `queue.write_buffer`.
 
 use std::ops::Range;
 
@@ -11,8 +12,26 @@ use std::ops::Range;
 /// Each `queue.write_buffer` allocates a staging buffer and records a copy, so re-sending a
 /// few unchanged words beats a second call; but a frame switch rewrites whole strips, mostly
 /// to the values they already had, and a large gap re-sends those. 32 bytes (8 indices) is
-/// the trade-off measured in BENCHMARKS.md ("Figures behind constants").
+/// the trade-off measured in BENCHMARKS.md ("Figures behind constants"); with
+/// [`WRITE_CALL_BYTES`]'s joining on, gaps below that join anyway.
 pub const MERGE_GAP_BYTES: u64 = 32;
+
+/// What one `queue.write_buffer` call costs beyond the bytes it carries, in bytes:
+/// [`Object::prepare`](super::Object::prepare)'s cost model for a buffer's changed spans.
+///
+/// A call costs a fixed `c` (wgpu creates and maps a staging buffer per call and records a
+/// copy: about 2–3 µs on lavapipe, e.g. 1.5 ms of `prepare` for 707 writes, the median frame
+/// without a switch of the man → camel bench) plus `b` per byte (the copy into the staging
+/// memory and the GPU's copy, about 0.25 ns, i.e. 0.25 ms per MB). Joining two neighbouring
+/// spans into one write re-sends the `g` unchanged bytes between them and saves a call, so it
+/// pays when `g < c/b`; this constant is `c/b`, rounded down to a power of two. Dense spans (a
+/// frame switch rewrites thousands spread over the buffer) become one write of at most the
+/// buffer, O(bytes) instead of O(spans); an edit far from others keeps its exact bytes.
+///
+/// Off by default ([`Object::set_write_call_bytes`](super::Object::set_write_call_bytes)
+/// turns it on): joined writes re-send unchanged words, 43% of the index buffer per frame on
+/// the head's exponential sweep against issue 5's goal of at most 5%.
+pub const WRITE_CALL_BYTES: u64 = 8 * 1024;
 
 /// What one [`Object::prepare`](super::Object::prepare) sent to the GPU.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -63,6 +82,8 @@ pub(super) struct IndexMirror {
     /// Changed index spans (buffer positions) since the last prepare, unsorted.
     dirty: Vec<Range<u32>>,
     merge_gap_bytes: u64,
+    /// A write call's cost in bytes for `plan_writes` (0: off).
+    write_call_bytes: u64,
 }
 
 impl IndexMirror {
@@ -71,6 +92,7 @@ impl IndexMirror {
             indices,
             dirty: Vec::new(),
             merge_gap_bytes: MERGE_GAP_BYTES,
+            write_call_bytes: 0,
         }
     }
 
@@ -80,6 +102,14 @@ impl IndexMirror {
 
     pub(super) fn set_merge_gap(&mut self, bytes: u64) {
         self.merge_gap_bytes = bytes;
+    }
+
+    pub(super) fn write_call_bytes(&self) -> u64 {
+        self.write_call_bytes
+    }
+
+    pub(super) fn set_write_call_bytes(&mut self, bytes: u64) {
+        self.write_call_bytes = bytes;
     }
 
     /// The merge gap in indices.
@@ -141,6 +171,22 @@ fn diff_copy(
     }
 }
 
+/// The writes that send `spans` (ascending, disjoint, positions of `unit`-byte elements) at
+/// the least cost under [`WRITE_CALL_BYTES`]'s model: two neighbouring spans become one write
+/// when the unchanged elements between them cost less to re-send than the call they save.
+/// Each gap is decided alone, so dense spans (a frame switch) join into one write from the
+/// first to the last, while spans far apart keep their own writes and exact bytes.
+/// `call_bytes` is the call's cost in bytes; 0 keeps every span its own write.
+pub(super) fn plan_writes(
+    mut spans: Vec<Range<u32>>,
+    unit: u64,
+    call_bytes: u64,
+) -> Vec<Range<u32>> {
+    // A gap of `g` elements joins when `g * unit < call_bytes`.
+    let gap = u32::try_from(call_bytes.div_ceil(unit).saturating_sub(1)).unwrap_or(u32::MAX);
+    coalesce(&mut spans, gap)
+}
+
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
 pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>> {
     spans.sort_unstable_by_key(|span| span.start);
@@ -158,7 +204,42 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
 
 #[cfg(test)]
 mod tests {
-    use super::{coalesce, diff_copy};
+    use super::{coalesce, diff_copy, plan_writes, WRITE_CALL_BYTES};
+
+    #[test]
+    fn plan_writes_joins_spans_only_when_a_call_costs_more_than_the_gap() {
+        assert_eq!(plan_writes(vec![], 4, WRITE_CALL_BYTES), vec![]);
+        // 0: off, every span is its own write.
+        assert_eq!(plan_writes(vec![0..1, 2..3], 4, 0), vec![0..1, 2..3]);
+        assert_eq!(
+            plan_writes(vec![3..5, 5000..5001], 4, WRITE_CALL_BYTES),
+            vec![3..5, 5000..5001]
+        );
+        // 4-byte indices: a gap of one call's worth of bytes stays (equal cost keeps the exact
+        // bytes), one index less joins.
+        let call = (WRITE_CALL_BYTES / 4) as u32;
+        assert_eq!(
+            plan_writes(vec![0..1, 1 + call..2 + call], 4, WRITE_CALL_BYTES),
+            vec![0..1, 1 + call..2 + call]
+        );
+        assert_eq!(
+            plan_writes(
+                vec![0..1, call..1 + call, 2 * call..1 + 2 * call],
+                4,
+                WRITE_CALL_BYTES
+            ),
+            vec![0..1 + 2 * call]
+        );
+        // 20-byte records: WRITE_CALL_BYTES / 20 = 409.6, so 410 records apart stay apart.
+        assert_eq!(
+            plan_writes(vec![0..1, 411..412], 20, WRITE_CALL_BYTES),
+            vec![0..1, 411..412]
+        );
+        assert_eq!(
+            plan_writes(vec![0..1, 410..411], 20, WRITE_CALL_BYTES),
+            vec![0..411]
+        );
+    }
 
     #[test]
     fn coalesce_merges_overlapping_and_close_spans_only() {

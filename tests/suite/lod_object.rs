@@ -306,6 +306,9 @@ enum Move {
     Shade(bool),
     /// `set_merge_gap` in bytes.
     Gap(u64),
+    /// `set_write_call_bytes` (0: off; joined writes re-send unchanged words, which the
+    /// read-back must still show equal to the layout).
+    WriteCall(u64),
     /// Calls that must fail with a typed error and change nothing.
     Bad,
 }
@@ -321,6 +324,7 @@ fn move_strategy() -> impl proptest::strategy::Strategy<Value = Move> {
         1 => prop::option::of(budget).prop_map(Move::Draws),
         1 => any::<bool>().prop_map(Move::Shade),
         1 => prop::sample::select(vec![0u64, 8, 32, 256]).prop_map(Move::Gap),
+        1 => prop::sample::select(vec![0u64, 64, gpu::WRITE_CALL_BYTES]).prop_map(Move::WriteCall),
         1 => Just(Move::Bad),
     ]
 }
@@ -465,6 +469,7 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                     });
                 }
                 Move::Gap(bytes) => object.object_mut().set_merge_gap(bytes),
+                Move::WriteCall(bytes) => object.object_mut().set_write_call_bytes(bytes),
                 Move::Bad => {
                     let before = (
                         object.object().index_mirror().to_vec(),
