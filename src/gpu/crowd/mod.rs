@@ -252,7 +252,10 @@ fn keep_last_per_word(patches: &mut Vec<[u32; 2]>) {
     patches.sort_by_key(|p| p[0]);
     let mut kept = 0;
     for i in 0..patches.len() {
-        if patches.get(i + 1).is_some_and(|next| next[0] == patches[i][0]) {
+        if patches
+            .get(i + 1)
+            .is_some_and(|next| next[0] == patches[i][0])
+        {
             continue;
         }
         patches[kept] = patches[i];
@@ -266,7 +269,9 @@ fn keep_last_per_word(patches: &mut Vec<[u32; 2]>) {
 fn one_value_per_word(patches: &[[u32; 2]]) -> bool {
     let mut sorted = patches.to_vec();
     sorted.sort_unstable();
-    sorted.windows(2).all(|w| w[0][0] != w[1][0] || w[0][1] == w[1][1])
+    sorted
+        .windows(2)
+        .all(|w| w[0][0] != w[1][0] || w[0][1] == w[1][1])
 }
 
 /// The buffer a frame's patches go through, with the scatter's bind groups over it and the
