@@ -12,6 +12,27 @@
 //! runtime state beside them, as its paper does (each model edits its own structure per
 //! extraction); [`Baseline`] is what the bench and the tests drive.
 
+/// The [`Baseline`] region methods of a model whose [`Regions`] are the field `$field`.
+macro_rules! region_methods {
+    ($field:ident) => {
+        fn region_count(&self) -> usize {
+            self.$field.count()
+        }
+
+        fn region_capacity(&self, r: usize) -> usize {
+            self.$field.span(r).len()
+        }
+
+        fn region(&self, r: usize) -> &[u32] {
+            self.$field.get(r)
+        }
+
+        fn take_changed(&mut self) -> Vec<u32> {
+            self.$field.take_changed()
+        }
+    };
+}
+
 pub mod mts;
 pub mod pm;
 pub mod skip_strips;
@@ -59,10 +80,10 @@ pub enum Primitive {
 
 /// A multiresolution model with its runtime state: what the bench times and the tests walk.
 ///
-/// The model draws regions (a fixed index-buffer span each, `region_capacity` long); after
-/// [`set_lod`](Self::set_lod) a region's live contents are [`region`](Self::region), and every
-/// region whose contents changed since the last [`take_changed`](Self::take_changed) is in
-/// its answer.
+/// The model draws regions (a fixed index-buffer span each, `region_capacity` long);
+/// after [`set_lod`](Self::set_lod) a region's live contents are [`region`](Self::region),
+/// and every region whose contents changed since the last
+/// [`take_changed`](Self::take_changed) is in its answer.
 pub trait Baseline {
     /// The model's name in tables.
     fn name(&self) -> &'static str;
@@ -83,6 +104,76 @@ pub trait Baseline {
     fn model_bytes(&self) -> usize;
     /// Bytes of one instance's runtime state (live buffers, cursors, flags).
     fn state_bytes(&self) -> usize;
+}
+
+/// The baselines' runtime index buffer, behind their [`Baseline`] region methods: region `r`
+/// is `live[start[r]..start[r + 1]]`, of which the first `lengths[r]` indices are drawn, and
+/// the regions rewritten since the last [`take_changed`](Self::take_changed).
+#[derive(Clone, Debug)]
+pub struct Regions {
+    pub start: Vec<u32>,
+    pub live: Vec<u32>,
+    lengths: Vec<u32>,
+    changed: Vec<u32>,
+}
+
+impl Regions {
+    /// Regions of the given offsets (`start[0] = 0`, increasing), empty and unchanged.
+    pub fn new(start: Vec<u32>) -> Regions {
+        let total = start.last().copied().unwrap_or(0) as usize;
+        Regions {
+            lengths: vec![0; start.len().saturating_sub(1)],
+            live: vec![RESTART; total],
+            start,
+            changed: Vec::new(),
+        }
+    }
+
+    pub fn count(&self) -> usize {
+        self.lengths.len()
+    }
+
+    /// Region `r`'s span of `live`: its capacity.
+    pub fn span(&self, r: usize) -> std::ops::Range<usize> {
+        self.start[r] as usize..self.start[r + 1] as usize
+    }
+
+    /// Marks region `r` rewritten, its first `len` indices live.
+    pub fn set_len(&mut self, r: usize, len: usize) {
+        self.lengths[r] = len as u32;
+        self.changed.push(r as u32);
+    }
+
+    /// Region `r` becomes `indices` (at most its capacity).
+    pub fn write(&mut self, r: usize, indices: &[u32]) {
+        let start = self.start[r] as usize;
+        self.live[start..start + indices.len()].copy_from_slice(indices);
+        self.set_len(r, indices.len());
+    }
+
+    /// Region `r`'s live indices.
+    pub fn get(&self, r: usize) -> &[u32] {
+        let start = self.start[r] as usize;
+        &self.live[start..start + self.lengths[r] as usize]
+    }
+
+    /// Regions changed since the last call (each once, ascending).
+    pub fn take_changed(&mut self) -> Vec<u32> {
+        let mut changed = std::mem::take(&mut self.changed);
+        changed.sort_unstable();
+        changed.dedup();
+        changed
+    }
+
+    /// Forgets the changes so far (after a model's initial extraction).
+    pub fn clear_changed(&mut self) {
+        self.changed.clear();
+    }
+
+    /// Bytes of the live buffer, the lengths and the pending changes.
+    pub fn state_bytes(&self) -> usize {
+        4 * (self.live.len() + self.lengths.len() + self.changed.len())
+    }
 }
 
 /// Checks what every strip baseline is built from: `s0`'s offsets and indices, and `seq`.

@@ -21,7 +21,9 @@
 
 use std::collections::HashMap;
 
-use super::{check_inputs, push_display_strip, Baseline, BaselineError, Primitive, RESTART};
+use super::{
+    check_inputs, push_display_strip, Baseline, BaselineError, Primitive, Regions, RESTART,
+};
 use morphlod::collapse::CollapseSequence;
 use morphlod::strip::Strips;
 
@@ -51,16 +53,11 @@ pub struct Mts {
     /// (ascending): the display strip at LOD `l` differs from the one at `l - 1`.
     change_start: Vec<u32>,
     changes: Vec<u32>,
-    /// Region `s` of the live buffer is `region_start[s]..region_start[s + 1]`: the longest
-    /// the strip gets at any LOD.
-    region_start: Vec<u32>,
-    /// Runtime state: `ColumnNode::currentInd` of every node, the extracted strips and their
-    /// lengths, the LOD and the regions changed since the last `take_changed`.
+    /// Runtime state: `ColumnNode::currentInd` of every node, the LOD and the extracted
+    /// strips (region `s` is as long as the longest strip `s` gets at any LOD).
     current_ind: Vec<u32>,
-    live: Vec<u32>,
-    lengths: Vec<u32>,
     lod: usize,
-    changed: Vec<u32>,
+    regions: Regions,
 }
 
 /// One strip's graph while it is built.
@@ -206,13 +203,11 @@ impl Mts {
             arc_res: Vec::new(),
             change_start: vec![0],
             changes: Vec::new(),
-            region_start: vec![0],
             current_ind: Vec::new(),
-            live: Vec::new(),
-            lengths: Vec::new(),
             lod: 0,
-            changed: Vec::new(),
+            regions: Regions::new(Vec::new()),
         };
+        let mut region_start = vec![0];
         for (graph, strip_changes) in graphs.into_iter().zip(changes) {
             mts.node_vertex.extend_from_slice(&graph.vertex);
             mts.node_start.push(mts.node_vertex.len() as u32);
@@ -225,16 +220,15 @@ impl Mts {
             }
             mts.changes.extend(strip_changes);
             mts.change_start.push(mts.changes.len() as u32);
-            let end = mts.region_start.last().copied().unwrap_or(0) + graph.capacity as u32;
-            mts.region_start.push(end);
+            let end = region_start.last().copied().unwrap_or(0) + graph.capacity as u32;
+            region_start.push(end);
         }
         mts.current_ind = mts.arc_start[..mts.node_vertex.len()].to_vec();
-        mts.live = vec![RESTART; *mts.region_start.last().unwrap_or(&0) as usize];
-        mts.lengths = vec![0; strips];
+        mts.regions = Regions::new(region_start);
         for s in 0..strips {
             mts.extract(s);
         }
-        mts.changed.clear();
+        mts.regions.clear_changed();
         Ok(mts)
     }
 
@@ -252,7 +246,7 @@ impl Mts {
         let first = self.node_start[s] as usize;
         let nodes = first..self.node_start[s + 1] as usize;
         self.current_ind[nodes.clone()].copy_from_slice(&self.arc_start[nodes]);
-        let region = self.region_start[s] as usize..self.region_start[s + 1] as usize;
+        let region = self.regions.span(s);
         let capacity = region.len();
         let mut len = 0;
         let mut node = first + BEGIN as usize;
@@ -273,11 +267,10 @@ impl Mts {
                 break;
             }
             node = first + target as usize;
-            self.live[region.start + len] = self.node_vertex[node];
+            self.regions.live[region.start + len] = self.node_vertex[node];
             len += 1;
         }
-        self.lengths[s] = len as u32;
-        self.changed.push(s as u32);
+        self.regions.set_len(s, len);
     }
 }
 
@@ -310,7 +303,7 @@ impl Baseline for Mts {
         if lo == hi {
             return Ok(());
         }
-        for s in 0..self.lengths.len() {
+        for s in 0..self.regions.count() {
             if self.changes_between(s, lo, hi) {
                 self.extract(s);
             }
@@ -318,25 +311,7 @@ impl Baseline for Mts {
         Ok(())
     }
 
-    fn region_count(&self) -> usize {
-        self.lengths.len()
-    }
-
-    fn region_capacity(&self, r: usize) -> usize {
-        (self.region_start[r + 1] - self.region_start[r]) as usize
-    }
-
-    fn region(&self, r: usize) -> &[u32] {
-        let start = self.region_start[r] as usize;
-        &self.live[start..start + self.lengths[r] as usize]
-    }
-
-    fn take_changed(&mut self) -> Vec<u32> {
-        let mut changed = std::mem::take(&mut self.changed);
-        changed.sort_unstable();
-        changed.dedup();
-        changed
-    }
+    region_methods!(regions);
 
     fn model_bytes(&self) -> usize {
         4 * (self.node_start.len()
@@ -346,10 +321,10 @@ impl Baseline for Mts {
             + self.arc_res.len()
             + self.change_start.len()
             + self.changes.len()
-            + self.region_start.len())
+            + self.regions.start.len())
     }
 
     fn state_bytes(&self) -> usize {
-        4 * (self.current_ind.len() + self.live.len() + self.lengths.len() + self.changed.len()) + 8
+        4 * self.current_ind.len() + self.regions.state_bytes() + 8
     }
 }

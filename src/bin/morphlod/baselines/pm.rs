@@ -12,7 +12,7 @@
 //! direction searches the mesh. No strips: PM sends three indices per triangle, which is the
 //! rendering cost the LodStrips paper charges it with (its Table 2).
 
-use super::{Baseline, BaselineError, Primitive};
+use super::{Baseline, BaselineError, Primitive, Regions};
 use morphlod::collapse::CollapseSequence;
 
 /// Faces that are degenerate in the input never draw: they sort behind every live face.
@@ -32,10 +32,10 @@ pub struct ProgressiveMesh {
     live_faces: Vec<u32>,
     /// The face array at LOD 0, three indices per face, faces ordered by when they vanish.
     faces0: Vec<u32>,
-    /// Runtime state: the face array at the current LOD (edited in place) and the LOD.
-    faces: Vec<u32>,
+    /// Runtime state: the face array at the current LOD (one region, edited in place) and the
+    /// LOD.
+    faces: Regions,
     lod: usize,
-    changed: bool,
 }
 
 impl ProgressiveMesh {
@@ -137,10 +137,14 @@ impl ProgressiveMesh {
             corner_start,
             corners,
             live_faces,
-            faces: faces0.clone(),
+            faces: {
+                let mut faces = Regions::new(vec![0, faces0.len() as u32]);
+                faces.write(0, &faces0);
+                faces.clear_changed();
+                faces
+            },
             faces0,
             lod: 0,
-            changed: false,
         })
     }
 }
@@ -172,7 +176,7 @@ impl Baseline for ProgressiveMesh {
             let j = self.lod;
             let w = self.collapses[2 * j + 1];
             for i in self.corner_start[j]..self.corner_start[j + 1] {
-                self.faces[self.corners[i as usize] as usize] = w;
+                self.faces.live[self.corners[i as usize] as usize] = w;
             }
             self.lod += 1;
         }
@@ -181,33 +185,16 @@ impl Baseline for ProgressiveMesh {
             let j = self.lod - 1;
             let u = self.collapses[2 * j];
             for i in self.corner_start[j]..self.corner_start[j + 1] {
-                self.faces[self.corners[i as usize] as usize] = u;
+                self.faces.live[self.corners[i as usize] as usize] = u;
             }
             self.lod -= 1;
         }
-        self.changed = true;
+        self.faces
+            .set_len(0, 3 * self.live_faces[self.lod] as usize);
         Ok(())
     }
 
-    fn region_count(&self) -> usize {
-        1
-    }
-
-    fn region_capacity(&self, _r: usize) -> usize {
-        3 * self.live_faces[0] as usize
-    }
-
-    fn region(&self, _r: usize) -> &[u32] {
-        &self.faces[..3 * self.live_faces[self.lod] as usize]
-    }
-
-    fn take_changed(&mut self) -> Vec<u32> {
-        if std::mem::take(&mut self.changed) {
-            vec![0]
-        } else {
-            Vec::new()
-        }
-    }
+    region_methods!(faces);
 
     fn model_bytes(&self) -> usize {
         4 * (self.collapses.len()
@@ -218,6 +205,6 @@ impl Baseline for ProgressiveMesh {
     }
 
     fn state_bytes(&self) -> usize {
-        4 * self.faces.len() + 8
+        self.faces.state_bytes() + 8
     }
 }

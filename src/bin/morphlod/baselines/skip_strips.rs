@@ -28,15 +28,14 @@
 //!   triangle ever drawn is a triangle of some uniform LOD (no fold-over the simplifier did
 //!   not check).
 
-use super::{check_inputs, push_display_strip, Baseline, BaselineError, Primitive};
+use super::{check_inputs, push_display_strip, Baseline, BaselineError, Primitive, Regions};
 use morphlod::collapse::{CollapseSequence, NEVER};
 use morphlod::strip::Strips;
 
 /// A Skip Strip over strips `S0` and its current merges.
 #[derive(Clone, Debug)]
 pub struct SkipStrips {
-    /// The original strips: strip `s` is `s0[s0_start[s]..s0_start[s + 1]]`.
-    s0_start: Vec<u32>,
+    /// The original strips: strip `s` is `s0[regions.span(s)]`.
     s0: Vec<u32>,
     /// The vertex that merges at step `j` (its parent is `skips[skip_start[v]]`).
     merges: Vec<u32>,
@@ -62,8 +61,7 @@ pub struct SkipStrips {
     strip_start: Vec<u32>,
     strips_of: Vec<u32>,
     /// Runtime state: the active flag of every node's parent pointer, the merges applied, the
-    /// strips flagged as modified, the display strips (region `s` has the length of original
-    /// strip `s`, which no display strip exceeds) and their lengths.
+    /// strips flagged as modified and the display strips.
     active: Vec<bool>,
     /// The merges applied; a uniform LOD only while `uniform`.
     lod: usize,
@@ -76,9 +74,9 @@ pub struct SkipStrips {
     front_place: Vec<u32>,
     modified: Vec<bool>,
     modified_list: Vec<u32>,
-    live: Vec<u32>,
-    lengths: Vec<u32>,
-    changed: Vec<u32>,
+    /// The display strips: region `s` is original strip `s`'s span, which no display strip
+    /// exceeds.
+    regions: Regions,
     /// Scratch for one regenerated strip and for a pass over the active nodes list.
     mapped: Vec<u32>,
     display: Vec<u32>,
@@ -160,7 +158,6 @@ impl SkipStrips {
         }
         let (strip_start, strips_of) = flatten(&holding);
         let mut model = SkipStrips {
-            s0_start: s0.offsets.clone(),
             s0: s0.indices.clone(),
             merges: seq.collapses.iter().map(|c| c.u).collect(),
             skip_start,
@@ -182,9 +179,7 @@ impl SkipStrips {
             front_place: (0..n as u32).collect(),
             modified: vec![false; s0.len()],
             modified_list: Vec::new(),
-            live: vec![0; s0.indices.len()],
-            lengths: vec![0; s0.len()],
-            changed: Vec::new(),
+            regions: Regions::new(s0.offsets.clone()),
             mapped: Vec::new(),
             display: Vec::new(),
             scratch_front: Vec::new(),
@@ -192,7 +187,7 @@ impl SkipStrips {
         for s in 0..s0.len() {
             model.regenerate(s);
         }
-        model.changed.clear();
+        model.regions.clear_changed();
         Ok(model)
     }
 
@@ -375,7 +370,7 @@ impl SkipStrips {
 
     /// §4.2.2: rebuilds display strip `s` from original strip `s`.
     fn regenerate(&mut self, s: usize) {
-        let original = self.s0_start[s] as usize..self.s0_start[s + 1] as usize;
+        let original = self.regions.span(s);
         let mut mapped = std::mem::take(&mut self.mapped);
         mapped.clear();
         mapped.extend(
@@ -393,10 +388,7 @@ impl SkipStrips {
             self.display.len() <= original.len(),
             "display strip longer than its original"
         );
-        self.live[original.start..original.start + self.display.len()]
-            .copy_from_slice(&self.display);
-        self.lengths[s] = self.display.len() as u32;
-        self.changed.push(s as u32);
+        self.regions.write(s, &self.display);
     }
 }
 
@@ -521,28 +513,10 @@ impl Baseline for SkipStrips {
         Ok(())
     }
 
-    fn region_count(&self) -> usize {
-        self.lengths.len()
-    }
-
-    fn region_capacity(&self, r: usize) -> usize {
-        (self.s0_start[r + 1] - self.s0_start[r]) as usize
-    }
-
-    fn region(&self, r: usize) -> &[u32] {
-        let start = self.s0_start[r] as usize;
-        &self.live[start..start + self.lengths[r] as usize]
-    }
-
-    fn take_changed(&mut self) -> Vec<u32> {
-        let mut changed = std::mem::take(&mut self.changed);
-        changed.sort_unstable();
-        changed.dedup();
-        changed
-    }
+    region_methods!(regions);
 
     fn model_bytes(&self) -> usize {
-        4 * (self.s0_start.len()
+        4 * (self.regions.start.len()
             + self.s0.len()
             + self.merges.len()
             + self.skip_start.len()
@@ -556,7 +530,8 @@ impl Baseline for SkipStrips {
     fn state_bytes(&self) -> usize {
         self.active.len()
             + self.modified.len()
-            + 4 * (self.live.len() + self.lengths.len() + self.modified_list.len())
+            + 4 * self.modified_list.len()
+            + self.regions.state_bytes()
             + 8
     }
 }
