@@ -15,7 +15,7 @@ use std::path::Path;
 use crate::bench::{BenchReport, FrameRow, Sweep};
 use crate::bench_baselines::BaselinesReport;
 use morphlod::gpu::{CrowdBenchReport, FrameFigures};
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
@@ -63,9 +63,6 @@ const TRIANGLES: RGBColor = RGBColor(148, 103, 189);
 
 /// Draws one panel per sweep present in `report` and writes them as one PNG at `path`.
 pub fn write_plot(report: &BenchReport, path: &Path) -> Result<(), String> {
-    // Registering twice only replaces the same face, so repeated calls are harmless.
-    register_font(FAMILY, FontStyle::Normal, FONT)
-        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
     let sweeps: Vec<Sweep> = [Sweep::Linear, Sweep::Exponential]
         .into_iter()
         .filter(|&sweep| report.rows.iter().any(|row| row.sweep == sweep))
@@ -73,14 +70,32 @@ pub fn write_plot(report: &BenchReport, path: &Path) -> Result<(), String> {
     if sweeps.is_empty() {
         return Err("the bench report has no rows to plot".into());
     }
-    let height = PANEL_HEIGHT * sweeps.len() as u32;
+    write_panels(path, sweeps.len(), |panel, i| {
+        let rows: Vec<&FrameRow> = report
+            .rows
+            .iter()
+            .filter(|r| r.sweep == sweeps[i])
+            .collect();
+        draw_panel(panel, report, sweeps[i], &rows)
+    })
+}
+
+/// Draws `count` panels, one above the other, with `draw(panel, i)` and writes them as one
+/// PNG at `path`.
+fn write_panels(
+    path: &Path,
+    count: usize,
+    mut draw: impl FnMut(&Panel<'_>, usize) -> Result<(), Box<dyn std::error::Error>>,
+) -> Result<(), String> {
+    // Registering twice only replaces the same face, so repeated calls are harmless.
+    register_font(FAMILY, FontStyle::Normal, FONT)
+        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
+    let height = PANEL_HEIGHT * count as u32;
     let mut pixels = vec![255u8; (WIDTH * height * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
-        let panels = root.split_evenly((sweeps.len(), 1));
-        for (panel, &sweep) in panels.iter().zip(&sweeps) {
-            let rows: Vec<&FrameRow> = report.rows.iter().filter(|r| r.sweep == sweep).collect();
-            draw_panel(panel, report, sweep, &rows).map_err(|e| format!("plot: {e}"))?;
+        for (i, panel) in root.split_evenly((count, 1)).iter().enumerate() {
+            draw(panel, i).map_err(|e| format!("plot: {e}"))?;
         }
         root.present().map_err(|e| format!("plot: {e}"))?;
     }
@@ -91,8 +106,25 @@ pub fn write_plot(report: &BenchReport, path: &Path) -> Result<(), String> {
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 
+/// One panel of a figure.
+type Panel<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// The legend every chart here has: top right, on a light box.
+fn draw_legend<'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, BitMapBackend<'a>, CT>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FAMILY, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
 fn draw_panel(
-    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    area: &Panel<'_>,
     report: &BenchReport,
     sweep: Sweep,
     rows: &[&FrameRow],
@@ -158,14 +190,7 @@ fn draw_panel(
         .draw_secondary_series(LineSeries::new(triangles, style))?
         .label("triangles (right axis)")
         .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FAMILY, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
+    draw_legend(&mut chart)
 }
 
 /// Colours of the crowd bench's modes, by name; others grey.
@@ -190,31 +215,18 @@ const CROWD_PANELS: [(&str, Figure); 3] = [
 
 /// The crowd bench's modes per frame, one panel per figure, written as one PNG at `path`.
 pub fn write_crowd_plot(report: &CrowdBenchReport, path: &Path) -> Result<(), String> {
-    register_font(FAMILY, FontStyle::Normal, FONT)
-        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
     if report.modes.iter().all(|m| m.frames.is_empty()) {
         return Err("the crowd report has no frames to plot".into());
     }
-    let height = PANEL_HEIGHT * CROWD_PANELS.len() as u32;
-    let mut pixels = vec![255u8; (WIDTH * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
-        let panels = root.split_evenly((CROWD_PANELS.len(), 1));
-        for (panel, &(label, value)) in panels.iter().zip(&CROWD_PANELS) {
-            let label = label.replace("GPU time", &format!("GPU time ({})", report.gpu_timing));
-            draw_crowd_panel(panel, report, &label, value).map_err(|e| format!("plot: {e}"))?;
-        }
-        root.present().map_err(|e| format!("plot: {e}"))?;
-    }
-    let image = image::RgbImage::from_raw(WIDTH, height, pixels)
-        .ok_or("plot: the pixel buffer does not match the image size")?;
-    image
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| format!("{}: {e}", path.display()))
+    write_panels(path, CROWD_PANELS.len(), |panel, i| {
+        let (label, value) = CROWD_PANELS[i];
+        let label = label.replace("GPU time", &format!("GPU time ({})", report.gpu_timing));
+        draw_crowd_panel(panel, report, &label, value)
+    })
 }
 
 fn draw_crowd_panel(
-    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    area: &Panel<'_>,
     report: &CrowdBenchReport,
     label: &str,
     value: Figure,
@@ -272,14 +284,7 @@ fn draw_crowd_panel(
             .label(mode.mode)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FAMILY, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
+    draw_legend(&mut chart)
 }
 
 /// Colours of the baselines' models, by name.
@@ -295,8 +300,6 @@ fn model_colour(model: &str) -> RGBColor {
 /// The LodStrips paper's Fig. 1 for `report`: (a) vertices and (b) strips sent over the
 /// linear test's LOD fraction, one line per model (PM sends no strips), written at `path`.
 pub fn write_baselines_plot(report: &BaselinesReport, path: &Path) -> Result<(), String> {
-    register_font(FAMILY, FontStyle::Normal, FONT)
-        .map_err(|_| "the embedded plot font could not be parsed".to_string())?;
     let linear: Vec<_> = report
         .rows
         .iter()
@@ -310,76 +313,55 @@ pub fn write_baselines_plot(report: &BaselinesReport, path: &Path) -> Result<(),
         ("(a) vertices sent", |r| r.vertices as f64, true),
         ("(b) strips sent", |r| r.strips as f64, false),
     ];
-    let height = PANEL_HEIGHT * 2;
-    let mut pixels = vec![255u8; (WIDTH * height * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, height)).into_drawing_area();
-        let areas = root.split_evenly((2, 1));
-        for (area, (label, value, with_pm)) in areas.iter().zip(panels) {
-            let draw = || -> Result<(), Box<dyn std::error::Error>> {
-                let rows: Vec<_> = linear
-                    .iter()
-                    .filter(|r| with_pm || r.model != "PM")
-                    .collect();
-                let top = rows
-                    .iter()
-                    .map(|r| value(r))
-                    .fold(0.0f64, f64::max)
-                    .max(1.0)
-                    * 1.05;
-                // MTS and Skip Strips build the same display strips, so their lines coincide.
-                let caption = format!(
-                    "{label} by {} in the linear test ({} triangles; MTS under Skip Strips)",
-                    report.mesh, report.triangles
-                );
-                let mut chart = ChartBuilder::on(area)
-                    .caption(caption, (FAMILY, 18))
-                    .margin(12)
-                    .x_label_area_size(36)
-                    .y_label_area_size(80)
-                    .build_cartesian_2d(0.0..1.0, 0.0..top)?;
-                chart
-                    .configure_mesh()
-                    .x_desc("LOD (0 full detail, 1 the coarsest)")
-                    .y_desc(label)
-                    .x_label_formatter(&|x| format!("{x:.1}"))
-                    .y_label_formatter(&|y| format!("{y:.0}"))
-                    .label_style((FAMILY, 13))
-                    .axis_desc_style((FAMILY, 14))
-                    .light_line_style(RGBColor(235, 235, 235))
-                    .draw()?;
-                for s in &report.sizes {
-                    if !with_pm && s.model == "PM" {
-                        continue;
-                    }
-                    let points = rows
-                        .iter()
-                        .filter(|r| r.model == s.model)
-                        .map(|r| (r.lod as f64 / report.max_lod.max(1) as f64, value(r)));
-                    let style = model_colour(s.model).stroke_width(2);
-                    chart
-                        .draw_series(LineSeries::new(points, style))?
-                        .label(s.model)
-                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
-                }
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .label_font((FAMILY, 13))
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .draw()?;
-                Ok(())
-            };
-            draw().map_err(|e| format!("plot: {e}"))?;
+    write_panels(path, panels.len(), |area, i| {
+        let (label, value, with_pm) = panels[i];
+        let rows: Vec<_> = linear
+            .iter()
+            .filter(|r| with_pm || r.model != "PM")
+            .collect();
+        let top = rows
+            .iter()
+            .map(|r| value(r))
+            .fold(0.0f64, f64::max)
+            .max(1.0)
+            * 1.05;
+        // MTS and Skip Strips build the same display strips, so their lines coincide.
+        let caption = format!(
+            "{label} by {} in the linear test ({} triangles; MTS under Skip Strips)",
+            report.mesh, report.triangles
+        );
+        let mut chart = ChartBuilder::on(area)
+            .caption(caption, (FAMILY, 18))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(80)
+            .build_cartesian_2d(0.0..1.0, 0.0..top)?;
+        chart
+            .configure_mesh()
+            .x_desc("LOD (0 full detail, 1 the coarsest)")
+            .y_desc(label)
+            .x_label_formatter(&|x| format!("{x:.1}"))
+            .y_label_formatter(&|y| format!("{y:.0}"))
+            .label_style((FAMILY, 13))
+            .axis_desc_style((FAMILY, 14))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()?;
+        for s in &report.sizes {
+            if !with_pm && s.model == "PM" {
+                continue;
+            }
+            let points = rows
+                .iter()
+                .filter(|r| r.model == s.model)
+                .map(|r| (r.lod as f64 / report.max_lod.max(1) as f64, value(r)));
+            let style = model_colour(s.model).stroke_width(2);
+            chart
+                .draw_series(LineSeries::new(points, style))?
+                .label(s.model)
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], style));
         }
-        root.present().map_err(|e| format!("plot: {e}"))?;
-    }
-    let image = image::RgbImage::from_raw(WIDTH, height, pixels)
-        .ok_or("plot: the pixel buffer does not match the image size")?;
-    image
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| format!("{}: {e}", path.display()))
+        draw_legend(&mut chart)
+    })
 }
 
 #[cfg(test)]
