@@ -76,6 +76,17 @@ impl Rng {
     pub fn unit(&mut self) -> f32 {
         (self.next() >> 40) as f32 / (1u64 << 24) as f32
     }
+    /// The next LOD of a random walk from `l` over `0..=max`: a jump to either end (1/16
+    /// each) or anywhere (1/8), else 1–3 steps coarser (3/8) or finer (3/8).
+    pub fn walk_lod(&mut self, l: usize, max: usize) -> usize {
+        match self.below(16) {
+            0 => 0,
+            1 => max,
+            2 | 3 => self.below(max + 1),
+            4..=9 => (l + 1 + self.below(3)).min(max),
+            _ => l.saturating_sub(1 + self.below(3)),
+        }
+    }
 }
 
 pub fn mix(mut z: u64) -> u64 {

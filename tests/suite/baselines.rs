@@ -137,13 +137,7 @@ fn walk(name: &str, tris: &[[u32; 3]], seq: &CollapseSequence, steps: usize, see
         assert_eq!(mirror.hash(), reference[0], "{label} at LOD 0");
         for step in 0..steps {
             let l = model.lod();
-            let target = match rng.below(16) {
-                0 => 0,
-                1 => max,
-                2 | 3 => rng.below(max + 1),
-                4..=9 => (l + 1 + rng.below(3)).min(max),
-                _ => l.saturating_sub(1 + rng.below(3)),
-            };
+            let target = rng.walk_lod(l, max);
             model.set_lod(target).expect("LOD in range");
             assert_eq!(model.lod(), target, "{label}");
             mirror.update(model.as_mut());

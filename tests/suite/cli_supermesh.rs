@@ -355,41 +355,25 @@ fn bad_landmarks_name_the_line() {
     let dir = temp_dir("landmarks");
     let (a, b) = pair(&dir);
     let landmarks = dir.join("pairs.txt");
-    std::fs::write(&landmarks, "0 0\n3 x\n").unwrap();
-    let out = morphlod(&[
-        "supermesh",
-        a.to_str().unwrap(),
-        b.to_str().unwrap(),
-        "--landmarks",
-        landmarks.to_str().unwrap(),
-        "-o",
-        dir.join("s.glb").to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("pairs.txt") && stderr.contains("line 2"),
-        "{}",
-        text(&out)
-    );
-    // Out of range: the library's check, through the CLI.
-    std::fs::write(&landmarks, "0 100000\n").unwrap();
-    let out = morphlod(&[
-        "supermesh",
-        a.to_str().unwrap(),
-        b.to_str().unwrap(),
-        "--landmarks",
-        landmarks.to_str().unwrap(),
-        "-o",
-        dir.join("s.glb").to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("out of range") && stderr.contains("line 1"),
-        "{}",
-        text(&out)
-    );
+    // A line that does not parse, then one out of range (the library's check, through the CLI).
+    for (content, says) in [
+        ("0 0\n3 x\n", ["pairs.txt", "line 2"]),
+        ("0 100000\n", ["out of range", "line 1"]),
+    ] {
+        std::fs::write(&landmarks, content).unwrap();
+        let out = morphlod(&[
+            "supermesh",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--landmarks",
+            landmarks.to_str().unwrap(),
+            "-o",
+            dir.join("s.glb").to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(says.iter().all(|s| stderr.contains(s)), "{}", text(&out));
+    }
 }
 
 /// Each bad B mesh against a good A, through both commands: exit code 1, an error line

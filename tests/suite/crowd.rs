@@ -263,6 +263,19 @@ fn crowd_draws_the_pixels_of_lod_objects() -> Result<()> {
     Ok(())
 }
 
+/// The camera of the pixel tests: a 3 x 3 field of unit cells around the origin, seen from the
+/// front, z towards the camera.
+fn field_view_proj() -> Result<glam::Mat4> {
+    Ok(gpu::camera::fit_to_bounds(
+        [-1.5, -1.5, -0.6],
+        [1.5, 1.5, 0.6],
+        glam::Vec3::new(0.05, -0.08, -1.0),
+        1.0,
+        gpu::camera::Projection::Perspective { vertical_fov: 0.9 },
+    )?
+    .view_proj())
+}
+
 fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -> Result<()> {
     let (device, queue) = (ctx.device(), ctx.queue());
     let mut crowd = crowd_on(ctx, path)?;
@@ -270,15 +283,7 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
         .iter()
         .map(|k| crowd.add_asset(device, Arc::clone(&k.gpu), Arc::clone(&k.model), 4))
         .collect::<std::result::Result<_, _>>()?;
-    // A 3 x 3 field seen from the front, z towards the camera.
-    let view_proj = gpu::camera::fit_to_bounds(
-        [-1.5, -1.5, -0.6],
-        [1.5, 1.5, 0.6],
-        glam::Vec3::new(0.05, -0.08, -1.0),
-        1.0,
-        gpu::camera::Projection::Perspective { vertical_fov: 0.9 },
-    )?
-    .view_proj();
+    let view_proj = field_view_proj()?;
     crowd.set_view_proj(view_proj);
     let target = ctx.target(160, 160, wgpu::Color::BLUE);
 
@@ -1214,14 +1219,7 @@ fn discrete_lods_draw_each_instance_level() -> Result<()> {
         .iter()
         .map(|&m| crowd.add(asset, m))
         .collect::<std::result::Result<_, _>>()?;
-    let view_proj = gpu::camera::fit_to_bounds(
-        [-1.5, -1.5, -0.6],
-        [1.5, 1.5, 0.6],
-        glam::Vec3::new(0.05, -0.08, -1.0),
-        1.0,
-        gpu::camera::Projection::Perspective { vertical_fov: 0.9 },
-    )?
-    .view_proj();
+    let view_proj = field_view_proj()?;
     crowd.set_view_proj(view_proj);
     discrete.set_view_proj(view_proj);
     let target = ctx.target(160, 160, wgpu::Color::BLUE);

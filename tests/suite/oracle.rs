@@ -65,13 +65,7 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
     full(0, &mirror, &state);
     for step in 0..steps {
         let l = state.lod();
-        let target = match rng.below(16) {
-            0 => 0,
-            1 => max,
-            2 | 3 => rng.below(max + 1),
-            4..=9 => (l + 1 + rng.below(3)).min(max),
-            _ => l.saturating_sub(1 + rng.below(3)),
-        };
+        let target = rng.walk_lod(l, max);
         let target = if rng.below(4) == 0 && target == l {
             (l + 17).min(max)
         } else {
