@@ -623,14 +623,27 @@ impl Supermesh {
                 ));
             }
         }
-        let (mut b_aligned, mut alignment, turn) = stages.run(Stage::Align, || {
-            align_b(&ca.mesh, &cb.mesh, &mut embedded, &landmarks, options)
+        let (tables, (mut b_aligned, mut alignment, turn)) = stages.run(Stage::Align, || {
+            let tables = [
+                Tables::new(&ca.mesh, Side::A)?,
+                Tables::new(&cb.mesh, Side::B)?,
+            ];
+            let [ta, tb] = &tables;
+            let aligned = align_b(
+                (&ca.mesh, ta),
+                (&cb.mesh, tb),
+                &mut embedded,
+                &landmarks,
+                options,
+            )?;
+            Ok::<_, SupermeshError>((tables, aligned))
         })?;
+        let [ta, tb] = &tables;
         if same_size && landmarks.is_empty() {
             let mut seeds = renumbered::colour_seeds(&ca.mesh, &cb.mesh);
             seeds.extend(renumbered::sphere_seeds(&embedded.a, &b_aligned));
             if let Some(map) = renumbered::find(&ca.mesh, &cb.mesh, &seeds) {
-                alignment.after = final_residual(&ca.mesh, &cb.mesh, &embedded.a, &b_aligned);
+                alignment.after = final_residual((ta, &embedded.a), (&cb.mesh, tb, &b_aligned));
                 return Ok(renumbered_supermesh(
                     &ca,
                     &cb,
@@ -644,12 +657,12 @@ impl Supermesh {
         if options.align && !options.radial {
             stages.run(Stage::Refine, || {
                 refine_alignment(
-                    (&ca.mesh, &mut embedded.a),
-                    (&cb.mesh, &mut b_aligned),
+                    (&ca.mesh, ta, &mut embedded.a),
+                    (&cb.mesh, tb, &mut b_aligned),
                     &landmarks,
                     turn,
                 )
-            })?;
+            });
         }
         let (overlay, b_sphere, attempts) = stages.run(Stage::Overlay, || {
             overlay_with_retries(
@@ -661,7 +674,7 @@ impl Supermesh {
                 options,
             )
         })?;
-        alignment.after = final_residual(&ca.mesh, &cb.mesh, &embedded.a, &b_sphere);
+        alignment.after = final_residual((ta, &embedded.a), (&cb.mesh, tb, &b_sphere));
         if !landmarks.is_empty() {
             alignment.landmarks_after =
                 Some(align::landmark_angles(&embedded.a, &b_sphere, &landmarks));
@@ -907,38 +920,60 @@ fn normalised(mesh: &IndexedMesh, mass: &[f64]) -> Vec<DVec3> {
     mesh.positions.iter().map(|&p| frame.apply(p)).collect()
 }
 
+/// What the alignment and the refinement read of one cleaned mesh, built
+/// once: its vertex rings, vertex masses (a third of each triangle's area)
+/// and normalised positions (as in the correspondence measure).
+struct Tables {
+    rings: Vec<Vec<u32>>,
+    mass: Vec<f64>,
+    normalised: Vec<DVec3>,
+}
+
+impl Tables {
+    fn new(mesh: &IndexedMesh, side: Side) -> Result<Tables, SupermeshError> {
+        let rings = rings_of(mesh, side)?;
+        let mass = embed::vertex_masses(&mesh.positions, &mesh.triangles);
+        let normalised = normalised(mesh, &mass);
+        Ok(Tables {
+            rings,
+            mass,
+            normalised,
+        })
+    }
+}
+
+/// Each vertex's ring of neighbours; a mesh whose rings cannot be built
+/// was not embeddable either.
+fn rings_of(mesh: &IndexedMesh, side: Side) -> Result<Vec<Vec<u32>>, SupermeshError> {
+    embed::build_rings(mesh.vertex_count(), &mesh.triangles).map_err(|e| {
+        SupermeshError::Embedding {
+            mesh: side,
+            what: format!("{e:?}"),
+        }
+    })
+}
+
 /// Stage 3: both embeddings Möbius-normalised, then B's sphere rotated to
 /// the smallest `D`, or with landmarks mapped by their least-squares Möbius
 /// fit and its landmarks pulled exactly onto A's (see `align.rs`).
 fn align_b(
-    a: &IndexedMesh,
-    b: &IndexedMesh,
+    (a, ta): (&IndexedMesh, &Tables),
+    (b, tb): (&IndexedMesh, &Tables),
     embedded: &mut Embedded,
     landmarks: &[(u32, u32)],
     options: &SupermeshOptions,
 ) -> Result<(Vec<DVec3>, AlignmentReport, DMat3), SupermeshError> {
-    let (mass_a, mass_b) = (
-        embed::vertex_masses(&a.positions, &a.triangles),
-        embed::vertex_masses(&b.positions, &b.triangles),
-    );
-    let rings_of = |mesh: &IndexedMesh, side: Side| {
-        embed::build_rings(mesh.vertex_count(), &mesh.triangles).map_err(|e| {
-            SupermeshError::Embedding {
-                mesh: side,
-                what: format!("{e:?}"),
-            }
-        })
-    };
-    let (rings_a, rings) = (rings_of(a, Side::A)?, rings_of(b, Side::B)?);
+    let (mass_a, mass_b) = (&ta.mass, &tb.mass);
+    let (rings_a, rings) = (&ta.rings, &tb.rings);
     let mut report = AlignmentReport::default();
     // Centring moves shared points of radial embeddings apart: kept as they are.
     if options.align && !options.radial {
-        report.centroid_a = mobius::centre(&rings_a, &mut embedded.a, &mass_a, &a.triangles);
-        report.centroid_b = mobius::centre(&rings, &mut embedded.b, &mass_b, &b.triangles);
+        report.centroid_a = mobius::centre(rings_a, &mut embedded.a, mass_a, &a.triangles);
+        report.centroid_b = mobius::centre(rings, &mut embedded.b, mass_b, &b.triangles);
     }
-    let (qa, qb) = (normalised(a, &mass_a), normalised(b, &mass_b));
-    let samples = align::samples(&embedded.a, &qa, &mass_a, 4000);
-    let lookup = align::SurfaceLookup::new(&SphereMesh::new(&embedded.b, &b.triangles), &qb);
+    let (qa, qb) = (&ta.normalised, &tb.normalised);
+    let samples = align::samples(&embedded.a, qa, mass_a, 4000);
+    let lookup = align::SurfaceLookup::new(&SphereMesh::new(&embedded.b, &b.triangles), qb);
     report.before = align::residual(&samples, &lookup, DMat3::IDENTITY);
     report.after = report.before;
     let mut points = embedded.b.clone();
@@ -948,7 +983,7 @@ fn align_b(
     // body y-up: D 1.27 as placed, 0.17 turned), and the correspondence
     // follows the shapes; the refinement then works in the turned frame.
     let (rotation, turn) = if options.align {
-        let b_samples = align::samples(&embedded.b, &qb, &mass_b, 4000);
+        let b_samples = align::samples(&embedded.b, qb, mass_b, 4000);
         let extra = align::moment_candidates(&samples, &b_samples);
         let placed = align::search_rotation(&samples, &lookup, &extra, false);
         let turned = align::search_rotation(&samples, &lookup, &extra, true);
@@ -980,7 +1015,7 @@ fn align_b(
         .unzip();
     let fit = mobius::Mobius::fit(&from, &to);
     report.mobius_unreached = Some(mobius::warp(
-        &rings,
+        rings,
         &b.triangles,
         &mut points,
         &fit,
@@ -1005,11 +1040,11 @@ fn align_b(
             .collect()
     };
     let (pairs_a, pairs_b) = (index(0), index(1));
-    align::pull_landmarks(&mass_a, &rings_a, &mut embedded.a, &goals, &pairs_a, 400);
-    align::pull_landmarks(&mass_b, &rings, &mut points, &goals, &pairs_b, 400);
-    align::pull_landmarks(&mass_b, &rings, &mut points, &embedded.a, landmarks, 400);
+    align::pull_landmarks(mass_a, rings_a, &mut embedded.a, &goals, &pairs_a, 400);
+    align::pull_landmarks(mass_b, rings, &mut points, &goals, &pairs_b, 400);
+    align::pull_landmarks(mass_b, rings, &mut points, &embedded.a, landmarks, 400);
     let swapped: Vec<(u32, u32)> = landmarks.iter().map(|&(la, lb)| (lb, la)).collect();
-    align::pull_landmarks(&mass_a, &rings_a, &mut embedded.a, &points, &swapped, 400);
+    align::pull_landmarks(mass_a, rings_a, &mut embedded.a, &points, &swapped, 400);
     if let Some((pair, &(la, lb))) = landmarks
         .iter()
         .enumerate()
@@ -1026,13 +1061,13 @@ fn align_b(
     // (fold-rejecting, so every pair stays on one point).
     let (free_a, free_b) = free_vertices(embedded.a.len(), points.len(), landmarks);
     embed::relax(
-        &mass_a,
-        &rings_a,
+        mass_a,
+        rings_a,
         &mut embedded.a,
         &free_a,
         LANDMARK_RELAX_SWEEPS,
     );
-    embed::relax(&mass_b, &rings, &mut points, &free_b, LANDMARK_RELAX_SWEEPS);
+    embed::relax(mass_b, rings, &mut points, &free_b, LANDMARK_RELAX_SWEEPS);
     report.landmarks_after = Some(align::landmark_angles(&embedded.a, &points, landmarks));
     // The landmarks say which parts correspond, whatever the placement.
     Ok((points, report, DMat3::IDENTITY))
@@ -1062,26 +1097,15 @@ fn free_vertices(na: usize, nb: usize, landmarks: &[(u32, u32)]) -> (Vec<u32>, V
 /// `turn` takes A's normalised shape into B's frame (the identity unless B
 /// is placed differently, see [`align_b`]).
 fn refine_alignment(
-    (a, a_sphere): (&IndexedMesh, &mut [DVec3]),
-    (b, b_sphere): (&IndexedMesh, &mut [DVec3]),
+    (a, ta, a_sphere): (&IndexedMesh, &Tables, &mut [DVec3]),
+    (b, tb, b_sphere): (&IndexedMesh, &Tables, &mut [DVec3]),
     landmarks: &[(u32, u32)],
     turn: DMat3,
-) -> Result<(), SupermeshError> {
-    let rings_of = |mesh: &IndexedMesh, side: Side| {
-        embed::build_rings(mesh.vertex_count(), &mesh.triangles).map_err(|e| {
-            SupermeshError::Embedding {
-                mesh: side,
-                what: format!("{e:?}"),
-            }
-        })
-    };
-    let (rings_a, rings_b) = (rings_of(a, Side::A)?, rings_of(b, Side::B)?);
-    let (mass_a, mass_b) = (
-        embed::vertex_masses(&a.positions, &a.triangles),
-        embed::vertex_masses(&b.positions, &b.triangles),
-    );
-    let qa: Vec<DVec3> = normalised(a, &mass_a).iter().map(|&q| turn * q).collect();
-    let qb = normalised(b, &mass_b);
+) {
+    let (rings_a, rings_b) = (&ta.rings, &tb.rings);
+    let (mass_a, mass_b) = (&ta.mass, &tb.mass);
+    let qa: Vec<DVec3> = ta.normalised.iter().map(|&q| turn * q).collect();
+    let qb = &tb.normalised;
     let (free_a, free_b) = free_vertices(a_sphere.len(), b_sphere.len(), landmarks);
     let pinned = |n: usize, free: &[u32]| {
         let mut out = vec![true; n];
@@ -1100,13 +1124,12 @@ fn refine_alignment(
     );
     for _ in 0..REFINE_ROUNDS {
         let surface_a = align::Surface::new(a_sphere, &a.triangles, &qa);
-        align::refine(b_sphere, &rings_b, &qb, &surface_a, &pinned_b, &mut hints_b);
-        let surface_b = align::Surface::new(b_sphere, &b.triangles, &qb);
-        align::refine(a_sphere, &rings_a, &qa, &surface_b, &pinned_a, &mut hints_a);
-        embed::relax(&mass_a, &rings_a, a_sphere, &free_a, 1);
-        embed::relax(&mass_b, &rings_b, b_sphere, &free_b, 1);
+        align::refine(b_sphere, rings_b, qb, &surface_a, &pinned_b, &mut hints_b);
+        let surface_b = align::Surface::new(b_sphere, &b.triangles, qb);
+        align::refine(a_sphere, rings_a, &qa, &surface_b, &pinned_a, &mut hints_a);
+        embed::relax(mass_a, rings_a, a_sphere, &free_a, 1);
+        embed::relax(mass_b, rings_b, b_sphere, &free_b, 1);
     }
-    Ok(())
 }
 
 /// Stage 4: the overlay under a tiny random rotation of B, again under
@@ -1150,18 +1173,12 @@ fn overlay_with_retries(
 
 /// The alignment residual as overlaid (after landmarks and perturbation).
 fn final_residual(
-    a: &IndexedMesh,
-    b: &IndexedMesh,
-    a_sphere: &[DVec3],
-    b_sphere: &[DVec3],
+    (ta, a_sphere): (&Tables, &[DVec3]),
+    (b, tb, b_sphere): (&IndexedMesh, &Tables, &[DVec3]),
 ) -> Residual {
-    let (mass_a, mass_b) = (
-        embed::vertex_masses(&a.positions, &a.triangles),
-        embed::vertex_masses(&b.positions, &b.triangles),
-    );
-    let (qa, qb) = (normalised(a, &mass_a), normalised(b, &mass_b));
-    let samples = align::samples(a_sphere, &qa, &mass_a, 4000);
-    let lookup = align::SurfaceLookup::new(&SphereMesh::new(b_sphere, &b.triangles), &qb);
+    let samples = align::samples(a_sphere, &ta.normalised, &ta.mass, 4000);
+    let lookup =
+        align::SurfaceLookup::new(&SphereMesh::new(b_sphere, &b.triangles), &tb.normalised);
     align::residual(&samples, &lookup, DMat3::IDENTITY)
 }
 
@@ -1342,10 +1359,20 @@ mod tests {
         };
         let landmarks = [(0, 0), (40, 17)];
         let options = SupermeshOptions::default();
-        let (mut sb, _, turn) = align_b(&a, &b, &mut embedded, &landmarks, &options).unwrap();
+        let (ta, tb) = (
+            Tables::new(&a, Side::A).unwrap(),
+            Tables::new(&b, Side::B).unwrap(),
+        );
+        let (mut sb, _, turn) =
+            align_b((&a, &ta), (&b, &tb), &mut embedded, &landmarks, &options).unwrap();
         let before = vertex_d(&a, &b, &embedded.a, &sb);
         let pins = landmarks.map(|(la, lb)| (embedded.a[la as usize], sb[lb as usize]));
-        refine_alignment((&a, &mut embedded.a), (&b, &mut sb), &landmarks, turn).unwrap();
+        refine_alignment(
+            (&a, &ta, &mut embedded.a),
+            (&b, &tb, &mut sb),
+            &landmarks,
+            turn,
+        );
         let after = vertex_d(&a, &b, &embedded.a, &sb);
         println!("D over both sides' vertices {before:.4} -> {after:.4}");
         assert!(after < 0.8 * before, "{before} -> {after}");
@@ -1395,8 +1422,18 @@ mod tests {
                 .map(|(x, y)| x.angle_between(*y))
                 .sum::<f64>()
                 / sphere.len() as f64;
-            let (points, _, _) =
-                align_b(&a, &b, &mut embedded, &[], &SupermeshOptions::default()).unwrap();
+            let (ta, tb) = (
+                Tables::new(&a, Side::A).unwrap(),
+                Tables::new(&b, Side::B).unwrap(),
+            );
+            let (points, _, _) = align_b(
+                (&a, &ta),
+                (&b, &tb),
+                &mut embedded,
+                &[],
+                &SupermeshOptions::default(),
+            )
+            .unwrap();
             let after: f64 = embedded
                 .a
                 .iter()
