@@ -82,19 +82,19 @@ pub(crate) fn average_geodesic(
         return vec![0.0; n];
     }
     let count = sources.len() as f64;
-    sources
+    // Summed in source order, not by a parallel reduction: the same input
+    // gives the same bits, so the same tips and the same supermesh.
+    let distances: Vec<Vec<f64>> = sources
         .par_iter()
         .map(|&s| dijkstra(positions, rings, s))
-        .reduce(
-            || vec![0.0; n],
-            |mut a, b| {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += y;
-                }
-                a
-            },
-        )
-        .into_iter()
+        .collect();
+    let mut sum = vec![0.0; n];
+    for d in &distances {
+        for (x, y) in sum.iter_mut().zip(d) {
+            *x += y;
+        }
+    }
+    sum.into_iter()
         .map(|d| if d.is_finite() { d / count } else { 0.0 })
         .collect()
 }
