@@ -190,6 +190,7 @@ fn supermesh_glb_reads_back_bit_for_bit() {
         "Hausdorff t = 0 to A",
         "Hausdorff t = 1 to B",
         "alignment",
+        "limb tips",
         "stages",
     ] {
         assert!(stdout.contains(needle), "no '{needle}' in\n{}", text(&out));

@@ -643,3 +643,64 @@ fn the_fit_takes_a_turned_moved_scaled_copy_back_onto_the_mesh() {
     assert!(after.d < 1e-8 && after.d_placed < 1e-8, "{after:?}");
     assert!(!after.placement.differs(after.d), "{after:?}");
 }
+
+// ---------------------------------------------------------------- limb tips
+
+/// A UV sphere with a spike out of each direction in `spikes` (radius
+/// `1 + length · (1 − θ/0.45)²` within 0.45 rad of it, lengths 1.0, 1.25, …).
+fn spiked_sphere(spikes: &[DVec3]) -> IndexedMesh {
+    let sphere = blob(40, 80, 0.0, [1.0, 1.0, 1.0], 0);
+    deformed(&sphere, |p| {
+        let bump: f64 = spikes
+            .iter()
+            .enumerate()
+            .map(|(k, &d)| {
+                let x = (1.0 - p.angle_between(d) / 0.45).max(0.0);
+                (1.0 + 0.25 * k as f64) * x * x
+            })
+            .sum();
+        p * (1.0 + bump)
+    })
+}
+
+/// The tip finder on spheres with k spikes at random, well-separated
+/// directions: exactly k tips, one on each spike; a plain sphere has at
+/// most its global maximum (docs/DESIGN.md, "Alignment").
+#[test]
+fn limb_tips_are_the_spikes_of_a_spiked_sphere() {
+    use morphlod::morph::supermesh::limb_tips;
+    let plain = limb_tips(&blob(40, 80, 0.02, [1.0, 1.0, 1.0], 7)).unwrap();
+    assert!(plain.len() <= 1, "{plain:?}");
+    let mut rng = Rng(25);
+    for k in 1..=6 {
+        // Directions at least 1.2 rad apart, by rejection.
+        let mut spikes: Vec<DVec3> = Vec::new();
+        while spikes.len() < k {
+            let z = 2.0 * rng.unit() - 1.0;
+            let phi = std::f64::consts::TAU * rng.unit();
+            let r = (1.0 - z * z).sqrt();
+            let d = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+            if spikes.iter().all(|s| s.angle_between(d) > 1.2) {
+                spikes.push(d);
+            }
+        }
+        let mesh = spiked_sphere(&spikes);
+        let tips = limb_tips(&mesh).unwrap();
+        assert_eq!(tips.len(), k, "{k} spikes: tips {tips:?}");
+        for s in &spikes {
+            let on: Vec<u32> = tips
+                .iter()
+                .copied()
+                .filter(|&v| {
+                    let p = DVec3::from_array(mesh.positions[v as usize].map(f64::from));
+                    p.angle_between(*s) < 0.2
+                })
+                .collect();
+            assert_eq!(on.len(), 1, "{k} spikes: spike {s} has tips {on:?}");
+        }
+    }
+    // Not a closed surface: the supermesh's typed error, no panic.
+    let mut open = blob(6, 8, 0.0, [1.0, 1.0, 1.0], 1);
+    open.triangles.pop();
+    assert!(matches!(limb_tips(&open), Err(SupermeshError::Open { .. })));
+}

@@ -710,7 +710,8 @@ pub(crate) fn load_pair(
             | MorphError::TriangleMismatch { .. },
         ) => {
             let landmarks = read_landmarks(landmarks)?;
-            let (supermesh, report) = build_supermesh(&a.positions, &b.positions, &landmarks)?;
+            let (supermesh, report) =
+                build_supermesh(&a.positions, &b.positions, &landmarks, true)?;
             println!(
                 "{} and {} have different connectivity: built a supermesh ({} vertices, {} triangles, {} crossings)\n{report}",
                 a_path.display(),

@@ -31,6 +31,10 @@ pub struct SupermeshArgs {
     /// shape alone. Without it V(1) is B bit for bit, as given.
     #[arg(long)]
     pub fit: bool,
+    /// Without landmarks, keep the rotation search's alignment: do not pair the limb tips
+    /// of A and B (the report's `limb tips` line; docs/DESIGN.md, "Alignment").
+    #[arg(long)]
+    pub no_tips: bool,
     /// Surface samples per mesh for the Hausdorff distances of the report.
     #[arg(long, default_value_t = 50_000)]
     pub samples: usize,
@@ -50,11 +54,12 @@ pub fn read_landmarks(path: Option<&Path>) -> Result<Landmarks, String> {
 
 /// Builds the supermesh of `a` and `b` with a progress bar per stage (or a line per
 /// finished stage when stderr is not a terminal). An error about a landmark pair names
-/// its line in the landmarks file.
+/// its line in the landmarks file. `tips`: [`SupermeshOptions::tips`].
 pub fn build_supermesh(
     a: &IndexedMesh,
     b: &IndexedMesh,
     landmarks: &Landmarks,
+    tips: bool,
 ) -> Result<(Supermesh, SupermeshReport), String> {
     let terminal = std::io::stderr().is_terminal();
     let multi = MultiProgress::new();
@@ -96,6 +101,7 @@ pub fn build_supermesh(
     let options = SupermeshOptions {
         landmarks: landmarks.pairs.clone(),
         progress: Some(&progress),
+        tips,
         ..SupermeshOptions::default()
     };
     let built = Supermesh::build(a, b, &options);
@@ -154,7 +160,7 @@ pub fn supermesh(args: &SupermeshArgs) -> Result<(), String> {
     let options = LoadOptions::default();
     let a = load_mesh(&args.a, &options).map_err(|e| e.to_string())?;
     let b = load_mesh(&args.b, &options).map_err(|e| e.to_string())?;
-    let (mut supermesh, report) = build_supermesh(&a, &b, &landmarks)?;
+    let (mut supermesh, report) = build_supermesh(&a, &b, &landmarks, !args.no_tips)?;
     println!(
         "supermesh of {} and {}\n{report}",
         args.a.display(),

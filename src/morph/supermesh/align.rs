@@ -230,6 +230,29 @@ pub(crate) fn cost_by(samples: &[Sample], b: &SurfaceLookup, back: impl Fn(DVec3
         .sum()
 }
 
+/// `D` both ways, halved: A's samples against B's surface at `back(x)` for
+/// each sample's point `x`, and B's samples against A's surface at
+/// `forth(y)`, A's normalised shape turned by `turn` (the identity unless B
+/// is placed differently). One-way, a map that squeezes part of B away
+/// (a Möbius map through badly paired points) goes unseen.
+pub(crate) fn two_way_cost(
+    (a_samples, a): (&[Sample], &SurfaceLookup),
+    (b_samples, b): (&[Sample], &SurfaceLookup),
+    turn: DMat3,
+    back: &dyn Fn(DVec3) -> DVec3,
+    forth: &dyn Fn(DVec3) -> DVec3,
+) -> f64 {
+    let ab: f64 = a_samples
+        .iter()
+        .map(|&(s, q, w)| w * (turn * q - b.at(back(s))).length_squared())
+        .sum();
+    let ba: f64 = b_samples
+        .iter()
+        .map(|&(s, q, w)| w * (q - turn * a.at(forth(s))).length_squared())
+        .sum();
+    0.5 * (ab + ba)
+}
+
 /// [`cost_by`] with B's sphere turned by `rotation`; `turned`: with A's
 /// normalised samples first turned by [`shape_turn`] (D as it would be
 /// after fitting B onto A, blind to how B is placed).

@@ -160,6 +160,13 @@ impl Mobius {
         Mobius { m }
     }
 
+    /// The largest factor by which the map stretches lengths on the sphere
+    /// (`σ₁²` of the unit-determinant matrix; the smallest is its inverse).
+    pub fn stretch(&self) -> f64 {
+        let f: f64 = self.m.iter().flatten().map(|x| x.norm2()).sum();
+        0.5 * (f + (f * f - 4.0).max(0.0).sqrt())
+    }
+
     pub fn inverse(&self) -> Mobius {
         let m = &self.m;
         Mobius {
@@ -320,6 +327,34 @@ impl Mobius {
         }
         best
     }
+}
+
+/// A local descent of `cost` over Möbius maps from `start`: steps of
+/// `±step` along each of the six directions of sl(2, ℂ) ([`Mobius::small`],
+/// three turns and three boosts), the step halved when none lowers the
+/// cost, down to `step / 32`. Returns the lowest cost and its map.
+pub(crate) fn descend(start: Mobius, step: f64, cost: impl Fn(&Mobius) -> f64) -> (f64, Mobius) {
+    let (mut best, mut c) = (start, cost(&start));
+    let mut h = step;
+    while h > step / 32.0 {
+        let mut improved = false;
+        for k in 0..6 {
+            for sign in [1.0, -1.0] {
+                let mut x = [0.0; 6];
+                x[k] = sign * h;
+                let trial = Mobius::small(x).then_after(&best);
+                let tc = cost(&trial);
+                if tc < c {
+                    (best, c) = (trial, tc);
+                    improved = true;
+                }
+            }
+        }
+        if !improved {
+            h *= 0.5;
+        }
+    }
+    (c, best)
 }
 
 /// The rotation (as a Möbius map) that best takes `from` to `to` for one or

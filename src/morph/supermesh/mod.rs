@@ -20,7 +20,9 @@
 //!    of each mesh on the unit sphere (collapse to a tetrahedron, split back
 //!    with every step fold-rejecting by exact predicates). Both run at once.
 //! 3. [`Stage::Align`] (`align.rs`): normalise both shapes, rotate B's sphere
-//!    to match equal sphere points, optionally map landmark pairs together.
+//!    to match equal sphere points, or move it by the Möbius map of a
+//!    pairing of the limb tips when that matches better (`tips.rs`,
+//!    [`TipReport`]), or map landmark pairs together.
 //! 4. [`Stage::Refine`] (`align.rs`, `refine`): every vertex of either mesh
 //!    slides on its sphere toward lower D (the correspondence measure's
 //!    objective), fold-rejecting, landmarks pinned.
@@ -56,6 +58,7 @@ mod overlay;
 mod positions;
 mod renumbered;
 mod sphere;
+mod tips;
 
 use std::fmt;
 use std::time::Instant;
@@ -79,9 +82,10 @@ use sphere::SphereMesh;
 /// normalisation, rotation scored by D, Möbius landmark fit; 4: a shared
 /// connectivity used directly, the embeddings relaxed after the landmark
 /// drag; 5: Möbius maps applied to all vertices at once, the landmarks'
-/// Möbius fit applied whole, the refinement stage). Caches of built
-/// supermesh morphs put it in their key.
-pub const ALGORITHM_VERSION: u32 = 5;
+/// Möbius fit applied whole, the refinement stage; 6: limb tips paired,
+/// the best pairings' Möbius maps descended by D against the rotation
+/// search). Caches of built supermesh morphs put it in their key.
+pub const ALGORITHM_VERSION: u32 = 6;
 
 /// Sweeps of area-proportional relaxation of both embeddings after the
 /// landmark drag (man stood up → camel with the shipped landmarks: 0 → 30
@@ -93,6 +97,16 @@ const LANDMARK_RELAX_SWEEPS: usize = 150;
 /// Steps along the path from the identity to the landmarks' Möbius map
 /// ([`mobius::warp`]).
 const MOBIUS_STEPS: usize = 32;
+
+/// The largest stretch ([`mobius::Mobius::stretch`]) of a tip pairing's
+/// Möbius map that is scored: past it the fit is near singular (tips nearly
+/// on one point of either sphere), not a correspondence.
+const MAX_TIP_STRETCH: f64 = 100.0;
+
+/// The best tip pairings (by their fit's score) that get a local descent
+/// over Möbius maps ([`mobius::descend`]) before the comparison with the
+/// rotation search.
+const TIP_DESCENTS: usize = 2;
 
 /// Rounds of [`refine_alignment`] (man stood up → camel with the shipped
 /// landmarks: 0 / 5 / 20 rounds give s(½) 0.891 / 0.897 / 0.906).
@@ -197,6 +211,10 @@ pub struct SupermeshOptions<'a> {
     /// mesh and its refinement, whose shared points then coincide exactly on
     /// the sphere.
     pub radial: bool,
+    /// Whether, without landmarks, the limb tips of A and B are paired and
+    /// each pairing's Möbius map competes with the rotation search (on by
+    /// default; see [`TipReport`] and docs/DESIGN.md, "Alignment").
+    pub tips: bool,
     /// Called with each stage and its progress in `[0, 1]`; may be called
     /// from two threads at once (the embeddings run in parallel).
     pub progress: Option<&'a (dyn Fn(Stage, f32) + Sync)>,
@@ -211,6 +229,7 @@ impl Default for SupermeshOptions<'_> {
             align: true,
             reuse_connectivity: true,
             radial: false,
+            tips: true,
             progress: None,
         }
     }
@@ -225,6 +244,7 @@ impl fmt::Debug for SupermeshOptions<'_> {
             .field("align", &self.align)
             .field("reuse_connectivity", &self.reuse_connectivity)
             .field("radial", &self.radial)
+            .field("tips", &self.tips)
             .field("progress", &self.progress.is_some())
             .finish()
     }
@@ -251,6 +271,81 @@ pub struct AlignmentReport {
     /// their image (0: the map carried through whole).
     pub mobius_unreached: Option<usize>,
     pub landmarks_after: Option<Residual>,
+}
+
+/// One pair of limb tips: the vertex of A and of B (input indices) and
+/// their positions.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TipPair {
+    pub a: u32,
+    pub b: u32,
+    pub a_position: [f32; 3],
+    pub b_position: [f32; 3],
+}
+
+/// The limb-tip pairing of the automatic alignment (docs/DESIGN.md,
+/// "Alignment"): the tips found, how many pairings were scored, which one
+/// was kept (or none, when the rotation search's result scored better), and
+/// the scores: `D` both ways over the alignment's samples (A's against B's
+/// surface and B's against A's, halved), before the refinement.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TipReport {
+    /// A's and B's tips (input vertex indices), most prominent first.
+    pub tips_a: Vec<u32>,
+    pub tips_b: Vec<u32>,
+    /// Pairings scored (each by its Möbius fit; the best two also after a
+    /// descent over Möbius maps), besides the rotation.
+    pub candidates: usize,
+    /// The pairs kept; empty when the rotation search's result was kept.
+    pub pairs: Vec<TipPair>,
+    /// The kept alignment's score (the warped map's when a pairing won).
+    pub d: f64,
+    /// The rotation search's score.
+    pub rotation_d: f64,
+    /// The best score of the alignments not kept (the rotation's, a
+    /// pairing's fit, or the best pairing as warped); `None` with nothing
+    /// else scored.
+    pub runner_up_d: Option<f64>,
+    /// The kept pairing's Möbius stretch, after the descent (0 when none
+    /// was kept).
+    pub stretch: f64,
+}
+
+impl fmt::Display for TipReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "  limb tips         A {} {:?}, B {} {:?}; {} pairing(s) scored; ",
+            self.tips_a.len(),
+            self.tips_a,
+            self.tips_b.len(),
+            self.tips_b,
+            self.candidates
+        )?;
+        if self.pairs.is_empty() {
+            write!(f, "none: rotation search kept")?;
+        } else {
+            write!(f, "paired (Möbius stretch {:.2})", self.stretch)?;
+        }
+        let runner_up = self
+            .runner_up_d
+            .map_or("none".to_string(), |d| format!("{d:.4}"));
+        write!(
+            f,
+            "; D both ways {:.4} (runner-up {runner_up}, rotation search {:.4})",
+            self.d, self.rotation_d
+        )?;
+        for p in &self.pairs {
+            let [x, y, z] = p.a_position;
+            let [u, v, w] = p.b_position;
+            write!(
+                f,
+                "\n    tip A {} ({x:.3}, {y:.3}, {z:.3}) -> B {} ({u:.3}, {v:.3}, {w:.3})",
+                p.a, p.b
+            )?;
+        }
+        Ok(())
+    }
 }
 
 /// How the supermesh's triangulation was made.
@@ -295,6 +390,9 @@ pub struct SupermeshReport {
     /// Random rotations the overlay needed (1 unless input was degenerate).
     pub overlay_attempts: usize,
     pub alignment: AlignmentReport,
+    /// The limb-tip pairing, when it ran (automatic alignment: no landmarks,
+    /// [`SupermeshOptions::tips`] and `align` on, `radial` off).
+    pub tips: Option<TipReport>,
     /// Evenness of A's and B's sphere embeddings.
     pub embedding: [EmbeddingQuality; 2],
     /// How good the correspondence is ([`measure`] of `V(0)`, `V(1)`).
@@ -374,6 +472,9 @@ impl fmt::Display for SupermeshReport {
             "  Möbius centring   area centroid A {:.2e} → {:.2e}, B {:.2e} → {:.2e}",
             a.centroid_a.0, a.centroid_a.1, a.centroid_b.0, a.centroid_b.1
         )?;
+        if let Some(tips) = &self.tips {
+            writeln!(f, "{tips}")?;
+        }
         if let (Some(b), Some(c)) = (a.landmarks_before, a.landmarks_after) {
             let fit = a.landmarks_fit.unwrap_or_default();
             writeln!(
@@ -623,33 +724,45 @@ impl Supermesh {
                 ));
             }
         }
-        let (mut b_aligned, mut alignment, turn) = stages.run(Stage::Align, || {
-            align_b(&ca.mesh, &cb.mesh, &mut embedded, &landmarks, options)
-        })?;
+        let (tables, (mut b_aligned, mut alignment, turn, mut tips)) =
+            stages.run(Stage::Align, || {
+                let tables = [
+                    Tables::new(&ca.mesh, Side::A)?,
+                    Tables::new(&cb.mesh, Side::B)?,
+                ];
+                let [ta, tb] = &tables;
+                let aligned = align_b(
+                    (&ca.mesh, ta),
+                    (&cb.mesh, tb),
+                    &mut embedded,
+                    &landmarks,
+                    options,
+                )?;
+                Ok::<_, SupermeshError>((tables, aligned))
+            })?;
+        let [ta, tb] = &tables;
+        if let Some(tips) = &mut tips {
+            input_indices(tips, &ca, &cb);
+        }
         if same_size && landmarks.is_empty() {
             let mut seeds = renumbered::colour_seeds(&ca.mesh, &cb.mesh);
             seeds.extend(renumbered::sphere_seeds(&embedded.a, &b_aligned));
             if let Some(map) = renumbered::find(&ca.mesh, &cb.mesh, &seeds) {
-                alignment.after = final_residual(&ca.mesh, &cb.mesh, &embedded.a, &b_aligned);
-                return Ok(renumbered_supermesh(
-                    &ca,
-                    &cb,
-                    &embedded,
-                    &map,
-                    alignment,
-                    stages.seconds,
-                ));
+                alignment.after = final_residual((ta, &embedded.a), (&cb.mesh, tb, &b_aligned));
+                let (supermesh, report) =
+                    renumbered_supermesh(&ca, &cb, &embedded, &map, alignment, stages.seconds);
+                return Ok((supermesh, SupermeshReport { tips, ..report }));
             }
         }
         if options.align && !options.radial {
             stages.run(Stage::Refine, || {
                 refine_alignment(
-                    (&ca.mesh, &mut embedded.a),
-                    (&cb.mesh, &mut b_aligned),
+                    (&ca.mesh, ta, &mut embedded.a),
+                    (&cb.mesh, tb, &mut b_aligned),
                     &landmarks,
                     turn,
                 )
-            })?;
+            });
         }
         let (overlay, b_sphere, attempts) = stages.run(Stage::Overlay, || {
             overlay_with_retries(
@@ -661,7 +774,7 @@ impl Supermesh {
                 options,
             )
         })?;
-        alignment.after = final_residual(&ca.mesh, &cb.mesh, &embedded.a, &b_sphere);
+        alignment.after = final_residual((ta, &embedded.a), (&cb.mesh, tb, &b_sphere));
         if !landmarks.is_empty() {
             alignment.landmarks_after =
                 Some(align::landmark_angles(&embedded.a, &b_sphere, &landmarks));
@@ -674,6 +787,7 @@ impl Supermesh {
             coincident: overlay.coincident,
             overlay_attempts: attempts,
             alignment,
+            tips,
             stage_seconds: stages.seconds,
             ..report(&ca, &cb, &embedded, &supermesh)
         };
@@ -907,38 +1021,60 @@ fn normalised(mesh: &IndexedMesh, mass: &[f64]) -> Vec<DVec3> {
     mesh.positions.iter().map(|&p| frame.apply(p)).collect()
 }
 
+/// What the alignment and the refinement read of one cleaned mesh, built
+/// once: its vertex rings, vertex masses (a third of each triangle's area)
+/// and normalised positions (as in the correspondence measure).
+struct Tables {
+    rings: Vec<Vec<u32>>,
+    mass: Vec<f64>,
+    normalised: Vec<DVec3>,
+}
+
+impl Tables {
+    fn new(mesh: &IndexedMesh, side: Side) -> Result<Tables, SupermeshError> {
+        let rings = rings_of(mesh, side)?;
+        let mass = embed::vertex_masses(&mesh.positions, &mesh.triangles);
+        let normalised = normalised(mesh, &mass);
+        Ok(Tables {
+            rings,
+            mass,
+            normalised,
+        })
+    }
+}
+
+/// Each vertex's ring of neighbours; a mesh whose rings cannot be built
+/// was not embeddable either.
+fn rings_of(mesh: &IndexedMesh, side: Side) -> Result<Vec<Vec<u32>>, SupermeshError> {
+    embed::build_rings(mesh.vertex_count(), &mesh.triangles).map_err(|e| {
+        SupermeshError::Embedding {
+            mesh: side,
+            what: format!("{e:?}"),
+        }
+    })
+}
+
 /// Stage 3: both embeddings Möbius-normalised, then B's sphere rotated to
 /// the smallest `D`, or with landmarks mapped by their least-squares Möbius
 /// fit and its landmarks pulled exactly onto A's (see `align.rs`).
 fn align_b(
-    a: &IndexedMesh,
-    b: &IndexedMesh,
+    (a, ta): (&IndexedMesh, &Tables),
+    (b, tb): (&IndexedMesh, &Tables),
     embedded: &mut Embedded,
     landmarks: &[(u32, u32)],
     options: &SupermeshOptions,
-) -> Result<(Vec<DVec3>, AlignmentReport, DMat3), SupermeshError> {
-    let (mass_a, mass_b) = (
-        embed::vertex_masses(&a.positions, &a.triangles),
-        embed::vertex_masses(&b.positions, &b.triangles),
-    );
-    let rings_of = |mesh: &IndexedMesh, side: Side| {
-        embed::build_rings(mesh.vertex_count(), &mesh.triangles).map_err(|e| {
-            SupermeshError::Embedding {
-                mesh: side,
-                what: format!("{e:?}"),
-            }
-        })
-    };
-    let (rings_a, rings) = (rings_of(a, Side::A)?, rings_of(b, Side::B)?);
+) -> Result<Aligned, SupermeshError> {
+    let (mass_a, mass_b) = (&ta.mass, &tb.mass);
+    let (rings_a, rings) = (&ta.rings, &tb.rings);
     let mut report = AlignmentReport::default();
     // Centring moves shared points of radial embeddings apart: kept as they are.
     if options.align && !options.radial {
-        report.centroid_a = mobius::centre(&rings_a, &mut embedded.a, &mass_a, &a.triangles);
-        report.centroid_b = mobius::centre(&rings, &mut embedded.b, &mass_b, &b.triangles);
+        report.centroid_a = mobius::centre(rings_a, &mut embedded.a, mass_a, &a.triangles);
+        report.centroid_b = mobius::centre(rings, &mut embedded.b, mass_b, &b.triangles);
     }
-    let (qa, qb) = (normalised(a, &mass_a), normalised(b, &mass_b));
-    let samples = align::samples(&embedded.a, &qa, &mass_a, 4000);
-    let lookup = align::SurfaceLookup::new(&SphereMesh::new(&embedded.b, &b.triangles), &qb);
+    let (qa, qb) = (&ta.normalised, &tb.normalised);
+    let samples = align::samples(&embedded.a, qa, mass_a, 4000);
+    let lookup = align::SurfaceLookup::new(&SphereMesh::new(&embedded.b, &b.triangles), qb);
     report.before = align::residual(&samples, &lookup, DMat3::IDENTITY);
     report.after = report.before;
     let mut points = embedded.b.clone();
@@ -948,7 +1084,7 @@ fn align_b(
     // body y-up: D 1.27 as placed, 0.17 turned), and the correspondence
     // follows the shapes; the refinement then works in the turned frame.
     let (rotation, turn) = if options.align {
-        let b_samples = align::samples(&embedded.b, &qb, &mass_b, 4000);
+        let b_samples = align::samples(&embedded.b, qb, mass_b, 4000);
         let extra = align::moment_candidates(&samples, &b_samples);
         let placed = align::search_rotation(&samples, &lookup, &extra, false);
         let turned = align::search_rotation(&samples, &lookup, &extra, true);
@@ -962,6 +1098,15 @@ fn align_b(
     } else {
         (DMat3::IDENTITY, DMat3::IDENTITY)
     };
+    let mut tips = None;
+    if landmarks.is_empty() && options.tips && options.align && !options.radial {
+        let (warped, tip_report) =
+            pair_tips((a, ta, &embedded.a), (b, tb, &embedded.b), rotation, turn);
+        tips = Some(tip_report);
+        if let Some(warped) = warped {
+            return Ok((warped, report, turn, tips));
+        }
+    }
     if !align::rotate(&mut points, &b.triangles, rotation) {
         return Err(SupermeshError::Embedding {
             mesh: Side::B,
@@ -969,7 +1114,7 @@ fn align_b(
         });
     }
     if landmarks.is_empty() {
-        return Ok((points, report, turn));
+        return Ok((points, report, turn, tips));
     }
     // Landmarks: from the automatic alignment, the landmarks' least-squares
     // Möbius map (exact for three pairs), then the drag for what it leaves.
@@ -980,7 +1125,7 @@ fn align_b(
         .unzip();
     let fit = mobius::Mobius::fit(&from, &to);
     report.mobius_unreached = Some(mobius::warp(
-        &rings,
+        rings,
         &b.triangles,
         &mut points,
         &fit,
@@ -1005,11 +1150,11 @@ fn align_b(
             .collect()
     };
     let (pairs_a, pairs_b) = (index(0), index(1));
-    align::pull_landmarks(&mass_a, &rings_a, &mut embedded.a, &goals, &pairs_a, 400);
-    align::pull_landmarks(&mass_b, &rings, &mut points, &goals, &pairs_b, 400);
-    align::pull_landmarks(&mass_b, &rings, &mut points, &embedded.a, landmarks, 400);
+    align::pull_landmarks(mass_a, rings_a, &mut embedded.a, &goals, &pairs_a, 400);
+    align::pull_landmarks(mass_b, rings, &mut points, &goals, &pairs_b, 400);
+    align::pull_landmarks(mass_b, rings, &mut points, &embedded.a, landmarks, 400);
     let swapped: Vec<(u32, u32)> = landmarks.iter().map(|&(la, lb)| (lb, la)).collect();
-    align::pull_landmarks(&mass_a, &rings_a, &mut embedded.a, &points, &swapped, 400);
+    align::pull_landmarks(mass_a, rings_a, &mut embedded.a, &points, &swapped, 400);
     if let Some((pair, &(la, lb))) = landmarks
         .iter()
         .enumerate()
@@ -1026,16 +1171,183 @@ fn align_b(
     // (fold-rejecting, so every pair stays on one point).
     let (free_a, free_b) = free_vertices(embedded.a.len(), points.len(), landmarks);
     embed::relax(
-        &mass_a,
-        &rings_a,
+        mass_a,
+        rings_a,
         &mut embedded.a,
         &free_a,
         LANDMARK_RELAX_SWEEPS,
     );
-    embed::relax(&mass_b, &rings, &mut points, &free_b, LANDMARK_RELAX_SWEEPS);
+    embed::relax(mass_b, rings, &mut points, &free_b, LANDMARK_RELAX_SWEEPS);
     report.landmarks_after = Some(align::landmark_angles(&embedded.a, &points, landmarks));
     // The landmarks say which parts correspond, whatever the placement.
-    Ok((points, report, DMat3::IDENTITY))
+    Ok((points, report, DMat3::IDENTITY, None))
+}
+
+/// What [`align_b`] gives: B's aligned sphere points, the report, the turn
+/// of A's normalised shape into B's frame (the identity unless B is placed
+/// differently) and the limb-tip pairing's report (cleaned indices).
+type Aligned = (Vec<DVec3>, AlignmentReport, DMat3, Option<TipReport>);
+
+/// The limb-tip pairing (`tips.rs`; docs/DESIGN.md, "Alignment"): every
+/// candidate pairing's least-squares Möbius map of B's tip sphere points
+/// onto A's, scored by `D` both ways without moving a vertex (B's surface
+/// read at the map's inverse); the best [`TIP_DESCENTS`] then descend over
+/// Möbius maps by that score ([`mobius::descend`], on 1000 samples a side,
+/// within [`MAX_TIP_STRETCH`]); the best, if it scores under the rotation
+/// search's `rotation`, is warped whole ([`mobius::warp`]) and scored again
+/// as warped. Returns B's warped sphere points when that still beats the
+/// rotation, and the report (cleaned vertex indices).
+fn pair_tips(
+    (a, ta, a_sphere): (&IndexedMesh, &Tables, &[DVec3]),
+    (b, tb, b_sphere): (&IndexedMesh, &Tables, &[DVec3]),
+    rotation: DMat3,
+    turn: DMat3,
+) -> (Option<Vec<DVec3>>, TipReport) {
+    let tips_a = tips::find(&a.positions, &ta.rings, &ta.mass);
+    let tips_b = tips::find(&b.positions, &tb.rings, &tb.mass);
+    let pa: Vec<DVec3> = tips_a
+        .iter()
+        .map(|&v| turn * ta.normalised[v as usize])
+        .collect();
+    let pb: Vec<DVec3> = tips_b.iter().map(|&v| tb.normalised[v as usize]).collect();
+    let candidates = tips::pairings(&pa, &pb);
+    let samples_a = align::samples(a_sphere, &ta.normalised, &ta.mass, 4000);
+    let samples_b = align::samples(b_sphere, &tb.normalised, &tb.mass, 4000);
+    let surface = |sphere: &[DVec3], mesh: &IndexedMesh, t: &Tables| {
+        align::SurfaceLookup::new(&SphereMesh::new(sphere, &mesh.triangles), &t.normalised)
+    };
+    let (lookup_a, lookup_b) = (surface(a_sphere, a, ta), surface(b_sphere, b, tb));
+    let score = |back: &dyn Fn(DVec3) -> DVec3, forth: &dyn Fn(DVec3) -> DVec3| {
+        align::two_way_cost(
+            (&samples_a, &lookup_a),
+            (&samples_b, &lookup_b),
+            turn,
+            back,
+            forth,
+        )
+    };
+    let inverse = rotation.transpose();
+    let rotation_d = score(&|x| inverse * x, &|y| rotation * y);
+    let mut scored: Vec<(f64, mobius::Mobius, usize)> = candidates
+        .iter()
+        .enumerate()
+        .filter_map(|(k, pairs)| {
+            let (from, to): (Vec<DVec3>, Vec<DVec3>) = pairs
+                .iter()
+                .map(|&(i, j)| (b_sphere[tips_b[j] as usize], a_sphere[tips_a[i] as usize]))
+                .unzip();
+            let map = mobius::Mobius::fit(&from, &to);
+            let stretch = map.stretch();
+            if stretch.is_nan() || stretch > MAX_TIP_STRETCH {
+                return None;
+            }
+            let back = map.inverse();
+            let d = score(&|x| back.apply(x), &|y| map.apply(y));
+            (!d.is_nan()).then_some((d, map, k))
+        })
+        .collect();
+    scored.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.2.cmp(&y.2)));
+    // The fit lines up the tips, not the shapes between them: the best few
+    // descend by D (on fewer samples), within the stretch cap.
+    let few_a = align::samples(a_sphere, &ta.normalised, &ta.mass, 1000);
+    let few_b = align::samples(b_sphere, &tb.normalised, &tb.mass, 1000);
+    for entry in scored.iter_mut().take(TIP_DESCENTS) {
+        let (_, map) = mobius::descend(entry.1, 0.1, |m| {
+            if m.stretch() > MAX_TIP_STRETCH {
+                return f64::INFINITY;
+            }
+            let back = m.inverse();
+            align::two_way_cost(
+                (&few_a, &lookup_a),
+                (&few_b, &lookup_b),
+                turn,
+                &|x| back.apply(x),
+                &|y| m.apply(y),
+            )
+        });
+        let back = map.inverse();
+        let d = score(&|x| back.apply(x), &|y| map.apply(y));
+        if d < entry.0 {
+            (entry.0, entry.1) = (d, map);
+        }
+    }
+    scored.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.2.cmp(&y.2)));
+    let mut report = TipReport {
+        tips_a: tips_a.clone(),
+        tips_b: tips_b.clone(),
+        candidates: candidates.len(),
+        d: rotation_d,
+        rotation_d,
+        runner_up_d: scored.first().map(|s| s.0),
+        ..TipReport::default()
+    };
+    let Some(&(fit_d, map, k)) = scored.first() else {
+        return (None, report);
+    };
+    if fit_d >= rotation_d {
+        return (None, report);
+    }
+    let mut warped = b_sphere.to_vec();
+    mobius::warp(&tb.rings, &b.triangles, &mut warped, &map, MOBIUS_STEPS, 4);
+    let samples_w = align::samples(&warped, &tb.normalised, &tb.mass, 4000);
+    let lookup_w = surface(&warped, b, tb);
+    let warped_d = align::two_way_cost(
+        (&samples_a, &lookup_a),
+        (&samples_w, &lookup_w),
+        turn,
+        &|x| x,
+        &|y| y,
+    );
+    if warped_d.is_nan() || warped_d >= rotation_d {
+        report.runner_up_d = Some(warped_d);
+        return (None, report);
+    }
+    report.d = warped_d;
+    report.runner_up_d = Some(scored.get(1).map_or(rotation_d, |s| s.0.min(rotation_d)));
+    report.stretch = map.stretch();
+    report.pairs = candidates[k]
+        .iter()
+        .map(|&(i, j)| {
+            let (va, vb) = (tips_a[i], tips_b[j]);
+            TipPair {
+                a: va,
+                b: vb,
+                a_position: a.positions[va as usize],
+                b_position: b.positions[vb as usize],
+            }
+        })
+        .collect();
+    (Some(warped), report)
+}
+
+/// The tip report's vertices in the input meshes' indices.
+fn input_indices(report: &mut TipReport, ca: &Cleaned, cb: &Cleaned) {
+    for v in &mut report.tips_a {
+        *v = ca.vertex_map[*v as usize];
+    }
+    for v in &mut report.tips_b {
+        *v = cb.vertex_map[*v as usize];
+    }
+    for p in &mut report.pairs {
+        p.a = ca.vertex_map[p.a as usize];
+        p.b = cb.vertex_map[p.b as usize];
+    }
+}
+
+/// The limb tips of a mesh (docs/DESIGN.md, "Alignment"): the prominent
+/// local maxima of its average geodesic distance, most prominent first, at
+/// most eight; input vertex indices. A sphere-like mesh has one (its
+/// global maximum). The mesh must pass the supermesh's checks (closed,
+/// manifold, genus 0, one component); its errors name mesh A.
+pub fn limb_tips(mesh: &IndexedMesh) -> Result<Vec<u32>, SupermeshError> {
+    let cleaned = check::prepare(mesh, Side::A)?;
+    let tables = Tables::new(&cleaned.mesh, Side::A)?;
+    Ok(
+        tips::find(&cleaned.mesh.positions, &tables.rings, &tables.mass)
+            .into_iter()
+            .map(|v| cleaned.vertex_map[v as usize])
+            .collect(),
+    )
 }
 
 /// The vertices of A and of B in no landmark pair.
@@ -1062,26 +1374,15 @@ fn free_vertices(na: usize, nb: usize, landmarks: &[(u32, u32)]) -> (Vec<u32>, V
 /// `turn` takes A's normalised shape into B's frame (the identity unless B
 /// is placed differently, see [`align_b`]).
 fn refine_alignment(
-    (a, a_sphere): (&IndexedMesh, &mut [DVec3]),
-    (b, b_sphere): (&IndexedMesh, &mut [DVec3]),
+    (a, ta, a_sphere): (&IndexedMesh, &Tables, &mut [DVec3]),
+    (b, tb, b_sphere): (&IndexedMesh, &Tables, &mut [DVec3]),
     landmarks: &[(u32, u32)],
     turn: DMat3,
-) -> Result<(), SupermeshError> {
-    let rings_of = |mesh: &IndexedMesh, side: Side| {
-        embed::build_rings(mesh.vertex_count(), &mesh.triangles).map_err(|e| {
-            SupermeshError::Embedding {
-                mesh: side,
-                what: format!("{e:?}"),
-            }
-        })
-    };
-    let (rings_a, rings_b) = (rings_of(a, Side::A)?, rings_of(b, Side::B)?);
-    let (mass_a, mass_b) = (
-        embed::vertex_masses(&a.positions, &a.triangles),
-        embed::vertex_masses(&b.positions, &b.triangles),
-    );
-    let qa: Vec<DVec3> = normalised(a, &mass_a).iter().map(|&q| turn * q).collect();
-    let qb = normalised(b, &mass_b);
+) {
+    let (rings_a, rings_b) = (&ta.rings, &tb.rings);
+    let (mass_a, mass_b) = (&ta.mass, &tb.mass);
+    let qa: Vec<DVec3> = ta.normalised.iter().map(|&q| turn * q).collect();
+    let qb = &tb.normalised;
     let (free_a, free_b) = free_vertices(a_sphere.len(), b_sphere.len(), landmarks);
     let pinned = |n: usize, free: &[u32]| {
         let mut out = vec![true; n];
@@ -1100,13 +1401,12 @@ fn refine_alignment(
     );
     for _ in 0..REFINE_ROUNDS {
         let surface_a = align::Surface::new(a_sphere, &a.triangles, &qa);
-        align::refine(b_sphere, &rings_b, &qb, &surface_a, &pinned_b, &mut hints_b);
-        let surface_b = align::Surface::new(b_sphere, &b.triangles, &qb);
-        align::refine(a_sphere, &rings_a, &qa, &surface_b, &pinned_a, &mut hints_a);
-        embed::relax(&mass_a, &rings_a, a_sphere, &free_a, 1);
-        embed::relax(&mass_b, &rings_b, b_sphere, &free_b, 1);
+        align::refine(b_sphere, rings_b, qb, &surface_a, &pinned_b, &mut hints_b);
+        let surface_b = align::Surface::new(b_sphere, &b.triangles, qb);
+        align::refine(a_sphere, rings_a, &qa, &surface_b, &pinned_a, &mut hints_a);
+        embed::relax(mass_a, rings_a, a_sphere, &free_a, 1);
+        embed::relax(mass_b, rings_b, b_sphere, &free_b, 1);
     }
-    Ok(())
 }
 
 /// Stage 4: the overlay under a tiny random rotation of B, again under
@@ -1150,18 +1450,12 @@ fn overlay_with_retries(
 
 /// The alignment residual as overlaid (after landmarks and perturbation).
 fn final_residual(
-    a: &IndexedMesh,
-    b: &IndexedMesh,
-    a_sphere: &[DVec3],
-    b_sphere: &[DVec3],
+    (ta, a_sphere): (&Tables, &[DVec3]),
+    (b, tb, b_sphere): (&IndexedMesh, &Tables, &[DVec3]),
 ) -> Residual {
-    let (mass_a, mass_b) = (
-        embed::vertex_masses(&a.positions, &a.triangles),
-        embed::vertex_masses(&b.positions, &b.triangles),
-    );
-    let (qa, qb) = (normalised(a, &mass_a), normalised(b, &mass_b));
-    let samples = align::samples(a_sphere, &qa, &mass_a, 4000);
-    let lookup = align::SurfaceLookup::new(&SphereMesh::new(b_sphere, &b.triangles), &qb);
+    let samples = align::samples(a_sphere, &ta.normalised, &ta.mass, 4000);
+    let lookup =
+        align::SurfaceLookup::new(&SphereMesh::new(b_sphere, &b.triangles), &tb.normalised);
     align::residual(&samples, &lookup, DMat3::IDENTITY)
 }
 
@@ -1311,6 +1605,94 @@ mod tests {
         IndexedMesh::new(positions, t)
     }
 
+    /// An icosphere with spikes out of the icosahedron's vertices `at`
+    /// (lengths 1.0, 1.3, …, so no turn of the sphere maps the spikes onto
+    /// each other), a little radial noise.
+    fn spiked(level: u32, seed: u64, at: &[usize]) -> IndexedMesh {
+        let mut mesh = blob(level, seed);
+        let dir = |p: [f32; 3]| DVec3::from_array(p.map(f64::from)).normalize();
+        let spikes: Vec<DVec3> = at.iter().map(|&v| dir(mesh.positions[v])).collect();
+        let mut state = seed;
+        for p in &mut mesh.positions {
+            let q = dir(*p);
+            let bump: f64 = spikes
+                .iter()
+                .enumerate()
+                .map(|(k, &d)| {
+                    let x = (1.0 - q.angle_between(d) / 0.5).max(0.0);
+                    (1.0 + 0.3 * k as f64) * x * x
+                })
+                .sum();
+            let noise = 0.02 * (sphere::next_unit(&mut state) - 0.5);
+            *p = (q * (1.0 + noise + bump)).as_vec3().to_array();
+        }
+        mesh
+    }
+
+    /// The limb-tip pairing on a spiked mesh and a scaled copy with its
+    /// vertices shuffled whose sphere embedding is the mesh's under a Möbius
+    /// warp and a rotation, against a wrong rotation: every tip is paired
+    /// with its twin, and the warped map is the identity correspondence
+    /// (D ≈ 0, each vertex on its twin's sphere point).
+    #[test]
+    fn tip_pairing_recovers_the_identity_of_a_warped_shuffled_copy() {
+        let a = spiked(3, 5, &[0, 3, 5, 8, 10]);
+        let n = a.vertex_count();
+        // B vertex i is A vertex order[i].
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut state = 99u64;
+        for i in (1..n).rev() {
+            let j = (sphere::next_unit(&mut state) * (i + 1) as f64) as usize % (i + 1);
+            order.swap(i, j);
+        }
+        let mut twin = vec![0u32; n];
+        for (new, &old) in order.iter().enumerate() {
+            twin[old as usize] = new as u32;
+        }
+        let b = IndexedMesh::new(
+            order
+                .iter()
+                .map(|&v| a.positions[v as usize].map(|c| 2.0 * c - 0.5))
+                .collect(),
+            a.triangles
+                .iter()
+                .map(|t| t.map(|v| twin[v as usize]))
+                .collect(),
+        );
+        let sa = embed::embed(&a.positions, &a.triangles, &mut |_| {}).unwrap();
+        let mut sb: Vec<DVec3> = order.iter().map(|&v| sa[v as usize]).collect();
+        let rings = embed::build_rings(n, &b.triangles).unwrap();
+        let warp = mobius::Mobius::small([0.3, -0.1, 0.2, 0.2, -0.1, 0.3]);
+        assert_eq!(mobius::warp(&rings, &b.triangles, &mut sb, &warp, 8, 4), 0);
+        assert!(align::rotate(
+            &mut sb,
+            &b.triangles,
+            align::random_rotation(3, 1.0)
+        ));
+        let (ta, tb) = (
+            Tables::new(&a, Side::A).unwrap(),
+            Tables::new(&b, Side::B).unwrap(),
+        );
+        let wrong = DMat3::from_rotation_x(1.5);
+        let (warped, report) = pair_tips((&a, &ta, &sa), (&b, &tb, &sb), wrong, DMat3::IDENTITY);
+        println!("{report}");
+        assert!(
+            report.tips_a.len() >= 5 && report.tips_b.len() >= 5,
+            "{report}"
+        );
+        assert!(report.pairs.len() >= 5, "{report}");
+        for p in &report.pairs {
+            assert_eq!(p.b, twin[p.a as usize], "{report}");
+        }
+        assert!(report.d < 1e-3 && report.rotation_d > 0.1, "{report}");
+        let warped = warped.expect("the pairing beats a wrong rotation");
+        let mean: f64 = (0..n)
+            .map(|v| sa[v].angle_between(warped[twin[v] as usize]))
+            .sum::<f64>()
+            / n as f64;
+        assert!(mean < 1e-3, "mean angle between twins {mean}");
+    }
+
     /// Each side's vertices against the other's surface at their sphere
     /// points: `Σ m ‖q − other(x)‖² / Σ m` over A's and over B's vertices.
     fn vertex_d(a: &IndexedMesh, b: &IndexedMesh, sa: &[DVec3], sb: &[DVec3]) -> f64 {
@@ -1342,10 +1724,20 @@ mod tests {
         };
         let landmarks = [(0, 0), (40, 17)];
         let options = SupermeshOptions::default();
-        let (mut sb, _, turn) = align_b(&a, &b, &mut embedded, &landmarks, &options).unwrap();
+        let (ta, tb) = (
+            Tables::new(&a, Side::A).unwrap(),
+            Tables::new(&b, Side::B).unwrap(),
+        );
+        let (mut sb, _, turn, _) =
+            align_b((&a, &ta), (&b, &tb), &mut embedded, &landmarks, &options).unwrap();
         let before = vertex_d(&a, &b, &embedded.a, &sb);
         let pins = landmarks.map(|(la, lb)| (embedded.a[la as usize], sb[lb as usize]));
-        refine_alignment((&a, &mut embedded.a), (&b, &mut sb), &landmarks, turn).unwrap();
+        refine_alignment(
+            (&a, &ta, &mut embedded.a),
+            (&b, &tb, &mut sb),
+            &landmarks,
+            turn,
+        );
         let after = vertex_d(&a, &b, &embedded.a, &sb);
         println!("D over both sides' vertices {before:.4} -> {after:.4}");
         assert!(after < 0.8 * before, "{before} -> {after}");
@@ -1395,8 +1787,18 @@ mod tests {
                 .map(|(x, y)| x.angle_between(*y))
                 .sum::<f64>()
                 / sphere.len() as f64;
-            let (points, _, _) =
-                align_b(&a, &b, &mut embedded, &[], &SupermeshOptions::default()).unwrap();
+            let (ta, tb) = (
+                Tables::new(&a, Side::A).unwrap(),
+                Tables::new(&b, Side::B).unwrap(),
+            );
+            let (points, _, _, _) = align_b(
+                (&a, &ta),
+                (&b, &tb),
+                &mut embedded,
+                &[],
+                &SupermeshOptions::default(),
+            )
+            .unwrap();
             let after: f64 = embedded
                 .a
                 .iter()
