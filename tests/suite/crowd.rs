@@ -15,7 +15,8 @@
 //!   carry the slot where the path says, lie in its slot range, start and end at live
 //!   indices, and free records draw nothing.
 //!   Where a moved instance's live strips fit its compact area (`CrowdRecords`), its record
-//!   reads their packed copy: the live indices and one restart between two strips, nothing else.
+//!   reads their packed copy: the live indices and one restart between two strips, nothing else;
+//!   records go from the compact copy back to the regions (patched only when read again).
 //! * `crowd_records_read_only_live_indices`: the same walk with a compact area as large as the
 //!   regions (every moved instance's record reads only its live indices and the restarts
 //!   between strips) and without one (every record reads the regions).
@@ -481,6 +482,10 @@ fn buffers_decode_to_each_instance_mesh(
     let mut removed: Vec<InstanceId> = Vec::new();
     // Instances moved since they were added (the others still draw S0 from their regions).
     let mut moved: Vec<InstanceId> = Vec::new();
+    // Instances whose record read the compact copy at the last check, and how many went back
+    // to their regions after it (the regions are patched only when read again).
+    let mut compact: Vec<InstanceId> = Vec::new();
+    let mut returns = 0;
     for step in 0..40 {
         // Adds and removes: keep between 2 and all slots busy.
         if step % 4 == 0 || live.len() < 2 {
@@ -550,6 +555,13 @@ fn buffers_decode_to_each_instance_mesh(
                     "{records:?}, step {step}, {id:?}: {indices} live indices, {strips} strips, record reads {}",
                     slot.read
                 );
+                let was_compact = compact.contains(id);
+                compact.retain(|c| c != id);
+                if slot.compact {
+                    compact.push(*id);
+                } else if was_compact {
+                    returns += 1;
+                }
                 if fits && moved.contains(id) {
                     assert!(slot.compact, "{why}");
                     assert_eq!(slot.read, packed, "{why}");
@@ -567,6 +579,12 @@ fn buffers_decode_to_each_instance_mesh(
                 }
             }
         }
+    }
+    if records.compact_share > 0.0 && records.compact_share < 1.0 {
+        assert!(
+            returns > 0,
+            "no record went from the compact copy back to the regions"
+        );
     }
     Ok(())
 }

@@ -330,9 +330,12 @@ struct Member {
     state: DeformingState,
     /// Live length of every region as the GPU holds it.
     uploaded: Vec<u32>,
+    /// The runtime's [`DeformingState::changes`] as of the last upload of its strips (to the
+    /// regions or to the compact copy).
+    changes: u64,
     /// A move asked by `set`, applied by its parallel pass.
     pending: Option<(f32, Lod)>,
-    /// Moved since the last prepare: its dirty log has not been uploaded.
+    /// Moved since the last prepare: its strips may have changed.
     moved: bool,
     /// Added since the last prepare: its slots need `S0`.
     fresh: bool,
@@ -658,6 +661,7 @@ impl Crowd {
         a.blocks[slot as usize] = InstanceBlock::new(model);
         a.dirty_blocks.add(slot);
         a.members[slot as usize] = Some(Member {
+            changes: state.changes(),
             state,
             uploaded,
             pending: None,
@@ -855,9 +859,11 @@ impl Crowd {
                     );
                 }
             }
-            // Moved instances whose strips changed: their index patches, their compact copy
-            // where it is drawn, and their record's patches, in parallel; then one list of
-            // each.
+            // Moved instances whose strips changed: their compact copy where it is drawn, else
+            // their region patches, and their record's patches, in parallel; then one list of
+            // each. While the compact copy is drawn the regions are not read, so their patches
+            // wait in the runtime's dirty log (which coalesces per strip: a position changed
+            // in many frames is sent once) until a record reads the regions again.
             let layout = &a.layout;
             let key = (self.path, a.gpu.vertex_count(), per);
             let moved: Vec<(Patches, Patches)> = a
@@ -868,25 +874,28 @@ impl Crowd {
                 .filter_map(|(slot, (member, record))| {
                     let member = member.as_mut().filter(|m| m.moved)?;
                     member.moved = false;
-                    let dirty = member.state.take_dirty();
-                    let changed = !dirty.ranges.is_empty() || !dirty.lengths.is_empty();
+                    // Unchanged strips keep their slots, record and compact copy.
+                    let changes = member.state.changes();
+                    if changes == member.changes {
+                        return None;
+                    }
+                    member.changes = changes;
                     let (mut patches, mut record_patches) = (Vec::new(), Vec::new());
                     let slot = slot as u32;
-                    layout.patches(
-                        slot * per,
-                        &member.state,
-                        &dirty,
-                        &mut member.uploaded,
-                        &mut patches,
-                    );
-                    // Unchanged strips keep their record (and compact copy, if drawn).
-                    if changed {
-                        let drawn = layout.record(&member.uploaded);
-                        if drawn.compact {
-                            layout.compact_patches(slot * per, &member.state, &mut patches);
-                        }
-                        set_record(key, slot, Some(drawn), record, &mut record_patches);
+                    let drawn = layout.record(member.state.lengths());
+                    if drawn.compact {
+                        layout.compact_patches(slot * per, &member.state, &mut patches);
+                    } else {
+                        let dirty = member.state.take_dirty();
+                        layout.patches(
+                            slot * per,
+                            &member.state,
+                            &dirty,
+                            &mut member.uploaded,
+                            &mut patches,
+                        );
                     }
+                    set_record(key, slot, Some(drawn), record, &mut record_patches);
                     Some((patches, record_patches))
                 })
                 .collect();

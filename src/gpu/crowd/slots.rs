@@ -96,9 +96,10 @@ impl SlotLayout {
         self.runtime.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// The record of an instance whose regions hold strips of `lengths`: the compact copy
-    /// where its live strips and the restarts between them fit the compact area, else the
-    /// regions from the first live index to the last (restart tails between them included).
+    /// The record of an instance whose strips have `lengths`: the compact copy where its live
+    /// strips and the restarts between them fit the compact area, else the regions from the
+    /// first live index to the last (restart tails between them included), which must then
+    /// hold those strips.
     pub(super) fn record(&self, lengths: &[u32]) -> SlotRecord {
         let live = lengths.iter().filter(|&&len| len > 0);
         let packed = live
