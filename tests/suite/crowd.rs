@@ -625,7 +625,7 @@ fn index_patches_name_each_word_once() -> Result<()> {
         })
         .collect();
     crowd.prepare(device, queue);
-    let mut rng = common::Rng(0xd15_7111c7);
+    let mut rng = common::Rng(0xd_1571_11c7);
     let (mut patches, mut overlapping) = (0, 0);
     for step in 0..30 {
         for round in 0..1 + usize::from(step % 3 == 0) {

@@ -866,38 +866,44 @@ impl Crowd {
             // in many frames is sent once) until a record reads the regions again.
             let layout = &a.layout;
             let key = (self.path, a.gpu.vertex_count(), per);
+            // One pair of lists per piece of work rayon splits off, not per instance: a frame
+            // with hundreds of changed instances makes (and grows) a few lists, not hundreds.
             let moved: Vec<(Patches, Patches)> = a
                 .members
                 .par_iter_mut()
                 .zip(a.records.par_iter_mut())
                 .enumerate()
-                .filter_map(|(slot, (member, record))| {
-                    let member = member.as_mut().filter(|m| m.moved)?;
-                    member.moved = false;
-                    // Unchanged strips keep their slots, record and compact copy.
-                    let changes = member.state.changes();
-                    if changes == member.changes {
-                        return None;
-                    }
-                    member.changes = changes;
-                    let (mut patches, mut record_patches) = (Vec::new(), Vec::new());
-                    let slot = slot as u32;
-                    let drawn = layout.record(member.state.lengths());
-                    if drawn.compact {
-                        layout.compact_patches(slot * per, &member.state, &mut patches);
-                    } else {
-                        let dirty = member.state.take_dirty();
-                        layout.patches(
-                            slot * per,
-                            &member.state,
-                            &dirty,
-                            &mut member.uploaded,
-                            &mut patches,
-                        );
-                    }
-                    set_record(key, slot, Some(drawn), record, &mut record_patches);
-                    Some((patches, record_patches))
-                })
+                .fold(
+                    || (Vec::new(), Vec::new()),
+                    |(mut patches, mut record_patches), (slot, (member, record))| {
+                        let Some(member) = member.as_mut().filter(|m| m.moved) else {
+                            return (patches, record_patches);
+                        };
+                        member.moved = false;
+                        // Unchanged strips keep their slots, record and compact copy.
+                        let changes = member.state.changes();
+                        if changes == member.changes {
+                            return (patches, record_patches);
+                        }
+                        member.changes = changes;
+                        let slot = slot as u32;
+                        let drawn = layout.record(member.state.lengths());
+                        if drawn.compact {
+                            layout.compact_patches(slot * per, &member.state, &mut patches);
+                        } else {
+                            let dirty = member.state.take_dirty();
+                            layout.patches(
+                                slot * per,
+                                &member.state,
+                                &dirty,
+                                &mut member.uploaded,
+                                &mut patches,
+                            );
+                        }
+                        set_record(key, slot, Some(drawn), record, &mut record_patches);
+                        (patches, record_patches)
+                    },
+                )
                 .collect();
             a.patches.clear();
             for (patches, records) in moved {
