@@ -617,6 +617,12 @@ impl DeformingState {
         self.state.heap_bytes()
     }
 
+    /// A count that grows whenever the strips change (see [`StripsState::changes`]): equal
+    /// readings mean nothing changed in between, whether or not the dirty log was taken.
+    pub fn changes(&self) -> u64 {
+        self.state.changes()
+    }
+
     /// Hands the dirty log to the uploader and clears it. After a rebuild it
     /// names, per strip, the span of the positions whose value changed and the
     /// strips whose length changed.

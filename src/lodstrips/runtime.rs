@@ -56,6 +56,8 @@ pub struct StripsState {
     scratch: Vec<usize>,
     /// Strips of the current step's rewrite groups (resizes name strips by group).
     group_strips: Vec<u32>,
+    /// Bumped by every mark of the dirty log ([`changes`](Self::changes)).
+    changes: u64,
 }
 
 thread_local! {
@@ -173,6 +175,7 @@ impl StripsState {
             len_strips: Vec::new(),
             scratch: Vec::new(),
             group_strips: Vec::new(),
+            changes: 0,
         }
     }
 
@@ -375,10 +378,19 @@ impl StripsState {
         out
     }
 
+    /// A count that grows whenever the dirty log gets a position or a length, taken or not:
+    /// two equal readings mean the strips did not change in between, so an uploader can leave
+    /// the dirty log to accumulate (it coalesces per strip) and still know whether anything
+    /// changed since its last look.
+    pub fn changes(&self) -> u64 {
+        self.changes
+    }
+
     fn mark(&mut self, strip: usize, start: u32, end: u32) {
         if start >= end {
             return;
         }
+        self.changes += 1;
         if self.dirty_lo[strip] == u32::MAX {
             self.dirty_strips.push(strip as u32);
         }
@@ -387,6 +399,7 @@ impl StripsState {
     }
 
     fn mark_len(&mut self, strip: usize) {
+        self.changes += 1;
         if !self.len_changed[strip] {
             self.len_changed[strip] = true;
             self.len_strips.push(strip as u32);

@@ -15,10 +15,13 @@
 //!   carry the slot where the path says, lie in its slot range, start and end at live
 //!   indices, and free records draw nothing.
 //!   Where a moved instance's live strips fit its compact area (`CrowdRecords`), its record
-//!   reads their packed copy: the live indices and one restart between two strips, nothing else.
+//!   reads their packed copy: the live indices and one restart between two strips, nothing else;
+//!   records go from the compact copy back to the regions (patched only when read again).
 //! * `crowd_records_read_only_live_indices`: the same walk with a compact area as large as the
 //!   regions (every moved instance's record reads only its live indices and the restarts
 //!   between strips) and without one (every record reads the regions).
+//! * `index_patches_name_each_word_once`: over a random walk, a frame's index patches number
+//!   exactly the distinct words the instances' dirty logs name (no word sent twice).
 //! * `instances_sharing_a_frame_draw_their_reference_meshes`: most instances switching to one
 //!   `(frame, LOD)` together (rebuilt in one run of that frame), one at another LOD of it, one
 //!   at another frame, one left alone: each instance's buffers read back draw the reference
@@ -63,7 +66,7 @@ use morphlod::gpu::{
     GpuAsset, GpuError, InstanceId, LodObject, RenderTarget,
 };
 use morphlod::simplify::PoseError;
-use morphlod::{Asset, Builder, DeformingModel, Lod};
+use morphlod::{Asset, Builder, DeformingModel, DeformingState, Lod};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
@@ -484,6 +487,10 @@ fn buffers_decode_to_each_instance_mesh(
     let mut removed: Vec<InstanceId> = Vec::new();
     // Instances moved since they were added (the others still draw S0 from their regions).
     let mut moved: Vec<InstanceId> = Vec::new();
+    // Instances whose record read the compact copy at the last check, and how many went back
+    // to their regions after it (the regions are patched only when read again).
+    let mut compact: Vec<InstanceId> = Vec::new();
+    let mut returns = 0;
     for step in 0..40 {
         // Adds and removes: keep between 2 and all slots busy.
         if step % 4 == 0 || live.len() < 2 {
@@ -553,6 +560,13 @@ fn buffers_decode_to_each_instance_mesh(
                     "{records:?}, step {step}, {id:?}: {indices} live indices, {strips} strips, record reads {}",
                     slot.read
                 );
+                let was_compact = compact.contains(id);
+                compact.retain(|c| c != id);
+                if slot.compact {
+                    compact.push(*id);
+                } else if was_compact {
+                    returns += 1;
+                }
                 if fits && moved.contains(id) {
                     assert!(slot.compact, "{why}");
                     assert_eq!(slot.read, packed, "{why}");
@@ -571,6 +585,94 @@ fn buffers_decode_to_each_instance_mesh(
             }
         }
     }
+    if records.compact_share > 0.0 && records.compact_share < 1.0 {
+        assert!(
+            returns > 0,
+            "no record went from the compact copy back to the regions"
+        );
+    }
+    Ok(())
+}
+
+/// Each index word a `prepare` patches is named once: over a random walk (frame switches, LOD
+/// jumps, some instances moved twice between two prepares) the frame's index patches number
+/// exactly the distinct words the instances' dirty logs name: per strip the dirty range within
+/// its live length and every position between its uploaded and its live length, counted here
+/// from a copy of each instance's runtime moved the same way. Without a compact area, so the
+/// region patches are all a frame sends. (A dirty range and a strip's growth overlap: before,
+/// the words in both were sent twice.)
+#[test]
+fn index_patches_name_each_word_once() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let kind = Kind::new(&ctx, grid_asset(11, 6, 0.5))?;
+    let mut crowd = crowd_on(&ctx, paths(&ctx)[0])?;
+    crowd.set_records(CrowdRecords { compact_share: 0.0 });
+    let count = 4;
+    let asset = crowd.add_asset(
+        device,
+        Arc::clone(&kind.gpu),
+        Arc::clone(&kind.model),
+        count,
+    )?;
+    let ids: Vec<InstanceId> = (0..count)
+        .map(|_| crowd.add(asset, glam::Mat4::IDENTITY))
+        .collect::<std::result::Result<_, _>>()?;
+    // Each instance's copy and the lengths its slots hold on the GPU.
+    let mut copies: Vec<(DeformingState, Vec<u32>)> = ids
+        .iter()
+        .map(|_| {
+            let state = DeformingState::new(&kind.model);
+            let lengths = state.lengths().to_vec();
+            (state, lengths)
+        })
+        .collect();
+    crowd.prepare(device, queue);
+    let mut rng = common::Rng(0xd_1571_11c7);
+    let (mut patches, mut overlapping) = (0, 0);
+    for step in 0..30 {
+        for round in 0..1 + usize::from(step % 3 == 0) {
+            let mut moves: Vec<(InstanceId, f32, Lod)> = Vec::new();
+            for &id in &ids {
+                if round == 1 || rng.below(4) != 0 {
+                    moves.push((id, rng.unit(), Lod::Fraction(rng.unit())));
+                }
+            }
+            crowd.set(&moves)?;
+            for &(id, t, lod) in &moves {
+                copies[id.slot() as usize].0.set(&kind.model, t, lod)?;
+            }
+        }
+        let upload = crowd.prepare(device, queue);
+        let mut words = 0;
+        for (&id, (state, uploaded)) in ids.iter().zip(&mut copies) {
+            assert_eq!(state.indices(), crowd.state(id)?.indices(), "step {step}");
+            let dirty = state.take_dirty();
+            let lengths = state.lengths();
+            let mut named = std::collections::BTreeSet::new();
+            for range in &dirty.ranges {
+                let live = lengths[range.strip as usize];
+                named.extend((range.start..range.end.min(live)).map(|i| (range.strip, i)));
+            }
+            for &strip in &dirty.lengths {
+                let (old, new) = (uploaded[strip as usize], lengths[strip as usize]);
+                let grown = (old.min(new)..old.max(new)).map(|i| (strip, i));
+                overlapping += grown.clone().filter(|w| named.contains(w)).count();
+                named.extend(grown);
+                uploaded[strip as usize] = new;
+            }
+            words += named.len() as u64;
+        }
+        assert_eq!(
+            upload.patches, words,
+            "step {step}: index patches against words"
+        );
+        patches += words;
+    }
+    // The walk does overlap ranges and growths, so the count can tell.
+    assert!(overlapping > 0, "{patches} words patched, none overlapping");
     Ok(())
 }
 

@@ -264,14 +264,12 @@ fn keep_last_per_word(patches: &mut Vec<[u32; 2]>) {
     patches.truncate(kept);
 }
 
-/// Whether no word is patched twice with different values (the same value twice is harmless
-/// in any order).
-fn one_value_per_word(patches: &[[u32; 2]]) -> bool {
-    let mut sorted = patches.to_vec();
-    sorted.sort_unstable();
-    sorted
-        .windows(2)
-        .all(|w| w[0][0] != w[1][0] || w[0][1] == w[1][1])
+/// Whether no word is patched twice (a word sent twice is wasted bytes, and with two values
+/// a race: the scatter's invocations run in any order).
+fn each_word_once(patches: &[[u32; 2]]) -> bool {
+    let mut words: Vec<u32> = patches.iter().map(|p| p[0]).collect();
+    words.sort_unstable();
+    words.windows(2).all(|w| w[0] != w[1])
 }
 
 /// The buffer a frame's patches go through, with the scatter's bind groups over it and the
@@ -332,9 +330,12 @@ struct Member {
     state: DeformingState,
     /// Live length of every region as the GPU holds it.
     uploaded: Vec<u32>,
+    /// The runtime's [`DeformingState::changes`] as of the last upload of its strips (to the
+    /// regions or to the compact copy).
+    changes: u64,
     /// A move asked by `set`, applied by its parallel pass.
     pending: Option<(f32, Lod)>,
-    /// Moved since the last prepare: its dirty log has not been uploaded.
+    /// Moved since the last prepare: its strips may have changed.
     moved: bool,
     /// Added since the last prepare: its slots need `S0`.
     fresh: bool,
@@ -660,6 +661,7 @@ impl Crowd {
         a.blocks[slot as usize] = InstanceBlock::new(model);
         a.dirty_blocks.add(slot);
         a.members[slot as usize] = Some(Member {
+            changes: state.changes(),
             state,
             uploaded,
             pending: None,
@@ -857,40 +859,51 @@ impl Crowd {
                     );
                 }
             }
-            // Moved instances whose strips changed: their index patches, their compact copy
-            // where it is drawn, and their record's patches, in parallel; then one list of
-            // each.
+            // Moved instances whose strips changed: their compact copy where it is drawn, else
+            // their region patches, and their record's patches, in parallel; then one list of
+            // each. While the compact copy is drawn the regions are not read, so their patches
+            // wait in the runtime's dirty log (which coalesces per strip: a position changed
+            // in many frames is sent once) until a record reads the regions again.
             let layout = &a.layout;
             let key = (self.path, a.gpu.vertex_count(), per);
+            // One pair of lists per piece of work rayon splits off, not per instance: a frame
+            // with hundreds of changed instances makes (and grows) a few lists, not hundreds.
             let moved: Vec<(Patches, Patches)> = a
                 .members
                 .par_iter_mut()
                 .zip(a.records.par_iter_mut())
                 .enumerate()
-                .filter_map(|(slot, (member, record))| {
-                    let member = member.as_mut().filter(|m| m.moved)?;
-                    member.moved = false;
-                    let dirty = member.state.take_dirty();
-                    let changed = !dirty.ranges.is_empty() || !dirty.lengths.is_empty();
-                    let (mut patches, mut record_patches) = (Vec::new(), Vec::new());
-                    let slot = slot as u32;
-                    layout.patches(
-                        slot * per,
-                        &member.state,
-                        &dirty,
-                        &mut member.uploaded,
-                        &mut patches,
-                    );
-                    // Unchanged strips keep their record (and compact copy, if drawn).
-                    if changed {
-                        let drawn = layout.record(&member.uploaded);
+                .fold(
+                    || (Vec::new(), Vec::new()),
+                    |(mut patches, mut record_patches), (slot, (member, record))| {
+                        let Some(member) = member.as_mut().filter(|m| m.moved) else {
+                            return (patches, record_patches);
+                        };
+                        member.moved = false;
+                        // Unchanged strips keep their slots, record and compact copy.
+                        let changes = member.state.changes();
+                        if changes == member.changes {
+                            return (patches, record_patches);
+                        }
+                        member.changes = changes;
+                        let slot = slot as u32;
+                        let drawn = layout.record(member.state.lengths());
                         if drawn.compact {
                             layout.compact_patches(slot * per, &member.state, &mut patches);
+                        } else {
+                            let dirty = member.state.take_dirty();
+                            layout.patches(
+                                slot * per,
+                                &member.state,
+                                &dirty,
+                                &mut member.uploaded,
+                                &mut patches,
+                            );
                         }
                         set_record(key, slot, Some(drawn), record, &mut record_patches);
-                    }
-                    Some((patches, record_patches))
-                })
+                        (patches, record_patches)
+                    },
+                )
                 .collect();
             a.patches.clear();
             for (patches, records) in moved {
@@ -1078,16 +1091,13 @@ impl CrowdAsset {
         // The scatter's invocations run in any order on a real GPU (lavapipe runs them in
         // order, NVIDIA does not), so a word may get only one value a frame. A slot's record
         // can change several times between two prepares (removed, then added again), so its
-        // words keep their last value; an index word patched twice (a dirty range and a
-        // strip's growth) gets the same value both times (checked in debug builds, which the
-        // tests run on lavapipe).
+        // words keep their last value; index patches name each word once by construction
+        // (`SlotLayout::patches`). Both checked in debug builds, which the tests run on
+        // lavapipe.
         if what == Patched::Records {
             keep_last_per_word(&mut patches);
         }
-        debug_assert!(
-            one_value_per_word(&patches),
-            "{what:?}: a word patched twice with different values"
-        );
+        debug_assert!(each_word_once(&patches), "{what:?}: a word patched twice");
         if let Some(&last) = patches.last() {
             // Whole workgroups: the last patch repeated (same slot, same value).
             let padded = patches.len().next_multiple_of(SCATTER_GROUP as usize);

@@ -96,9 +96,10 @@ impl SlotLayout {
         self.runtime.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// The record of an instance whose regions hold strips of `lengths`: the compact copy
-    /// where its live strips and the restarts between them fit the compact area, else the
-    /// regions from the first live index to the last (restart tails between them included).
+    /// The record of an instance whose strips have `lengths`: the compact copy where its live
+    /// strips and the restarts between them fit the compact area, else the regions from the
+    /// first live index to the last (restart tails between them included), which must then
+    /// hold those strips.
     pub(super) fn record(&self, lengths: &[u32]) -> SlotRecord {
         let live = lengths.iter().filter(|&&len| len > 0);
         let packed = live
@@ -159,8 +160,8 @@ impl SlotLayout {
     /// (the strips of `uploaded` lengths, as of the last upload) to `state`'s current strips,
     /// given `dirty`, everything the runtime changed since (its contract: every changed
     /// position of a live strip lies in a range, every strip whose length changed is listed).
-    /// Updates `uploaded`. Positions a strip left get [`RESTART`]; a position never gets two
-    /// different values, so the patches may be applied in any order.
+    /// Updates `uploaded`. Positions a strip left get [`RESTART`]; a position gets at most one
+    /// patch (so the patches may be applied in any order, and no word is sent twice).
     pub(super) fn patches(
         &self,
         base: u32,
@@ -176,8 +177,10 @@ impl SlotLayout {
         };
         for range in &dirty.ranges {
             let r = range.strip as usize;
-            let live = lengths[r];
-            copy(r, range.start.min(live), range.end.min(live), out);
+            // Past the shorter of the two lengths the loop below writes every position (the
+            // growth, or restarts over what the strip left): each position once.
+            let kept = lengths[r].min(uploaded[r]);
+            copy(r, range.start.min(kept), range.end.min(kept), out);
         }
         for &strip in &dirty.lengths {
             let r = strip as usize;
@@ -278,6 +281,14 @@ mod tests {
                     layout.compact_patches(base, &state, &mut patches);
                     compacted += 1;
                 }
+                let mut slots: Vec<u32> = patches.iter().map(|p| p[0]).collect();
+                slots.sort_unstable();
+                slots.dedup();
+                assert_eq!(
+                    slots.len(),
+                    patches.len(),
+                    "step {step}: a slot patched twice"
+                );
                 for &[slot, value] in patches.iter().rev() {
                     gpu[slot as usize] = value;
                 }
