@@ -1,4 +1,5 @@
-// morphlod: a frame's index edits of a crowd asset, applied on the GPU (gpu::Crowd::prepare).
+// morphlod: a frame's index edits applied on the GPU: `scatter` for a crowd asset
+// (gpu::Crowd::prepare), `scatter_runs` (below) for an object (gpu::Object::prepare).
 //
 // The CPU gathers every changed index slot of every instance into one list of (slot, value)
 // patches, uploaded with one write; one invocation applies one patch. No loop and no bounds
@@ -16,4 +17,49 @@ fn scatter(
 ) {
     let edit = patches[id.x + id.y * groups.x * 64u];
     indices[edit.x] = edit.y;
+}
+
+// gpu::Object::prepare's runs (`scatter_runs`): each patch is the header of a run of 1 to 16
+// consecutive words of the index buffer, so a run costs 8 bytes plus 4 per word, not 8 per
+// word. A single word carries its value inline: [word | 1 << 31, value]; a longer run is
+// [first word, (v << 4) | (length - 1)] with its values at u32 v, v + 1, .. of this same list
+// (after the headers). Each invocation makes 16 stores, unrolled; store k of a shorter run
+// repeats the run's last word (same word, same value): no loop and no branch. The list is
+// padded to whole workgroups by repeating its last header.
+
+fn run_value(at: u32) -> u32 {
+    let pair = patches[at >> 1u];
+    return select(pair.x, pair.y, (at & 1u) == 1u);
+}
+
+fn run_store(run: vec2<u32>, k: u32) {
+    let single = run.x >= 0x80000000u;
+    let i = min(k, select(run.y & 15u, 0u, single));
+    // An inline word's offset is meaningless; the read is bounds-checked and not selected.
+    let value = select(run_value((run.y >> 4u) + i), run.y, single);
+    indices[(run.x & 0x7fffffffu) + i] = value;
+}
+
+@compute @workgroup_size(16)
+fn scatter_runs(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let run = patches[id.x + id.y * groups.x * 16u];
+    run_store(run, 0u);
+    run_store(run, 1u);
+    run_store(run, 2u);
+    run_store(run, 3u);
+    run_store(run, 4u);
+    run_store(run, 5u);
+    run_store(run, 6u);
+    run_store(run, 7u);
+    run_store(run, 8u);
+    run_store(run, 9u);
+    run_store(run, 10u);
+    run_store(run, 11u);
+    run_store(run, 12u);
+    run_store(run, 13u);
+    run_store(run, 14u);
+    run_store(run, 15u);
 }

@@ -96,7 +96,8 @@ impl LodObject {
         Ok(())
     }
 
-    /// Uploads what changed since the last call (index and indirect spans, uniforms).
+    /// Uploads what changed since the last call (index words, indirect records, uniforms; see
+    /// [`Object::prepare`], which may submit the index scatter on `queue`).
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
         self.object.prepare(queue)
     }

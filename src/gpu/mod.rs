@@ -64,6 +64,7 @@ mod pose;
 mod readback;
 mod records;
 mod render_target;
+mod scatter;
 mod surface;
 mod upload;
 

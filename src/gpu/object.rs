@@ -22,9 +22,10 @@
 //!   as `first_instance`) a record draws one region. A record ends at the last live index of
 //!   its group, so coarse levels do not read the restart tails after it.
 //! * The CPU keeps a mirror of both buffers. Edits go to the mirror and record the changed
-//!   spans; [`Object::prepare`] coalesces them into few `queue.write_buffer` calls (fewer
-//!   still with [`Object::set_write_call_bytes`]: [`WRITE_CALL_BYTES`]), and
-//!   [`Object::render`] issues one `multi_draw_indexed_indirect` over all records.
+//!   words; [`Object::prepare`] sends them as a few `queue.write_buffer` calls and, in a frame
+//!   of many spans, one list of runs applied by a compute scatter (the cost model of
+//!   [`WRITE_CALL_BYTES`]), and [`Object::render`] issues one `multi_draw_indexed_indirect`
+//!   over all records.
 //!
 //! The object composes four parts, one file each: the draw records (`records.rs`), the
 //! index mirror and its upload diff (`upload.rs`), the uniforms and morph targets
@@ -55,7 +56,8 @@ use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
 use super::pose::{default_mode, Pose};
 use super::records::{DrawRecords, ARGS_BYTES};
-use super::upload::{clip, coalesce, plan_writes, IndexMirror};
+use super::scatter::{Scatter, RUN_GROUP, RUN_WORDS};
+use super::upload::{clip, coalesce, plan_upload, run_list_bytes, IndexMirror};
 use super::{Draws, GpuError, Upload, GROUP_INDICES, RESTART};
 #[allow(unused_imports)] // named in the docs
 use super::{MERGE_GAP_BYTES, WRITE_CALL_BYTES};
@@ -95,6 +97,22 @@ pub struct Object {
     records: DrawRecords,
     /// Uniforms, morph targets and the bind group.
     pose: Pose,
+    /// The index scatter, and what it needs to run in `prepare`.
+    scatter: ObjectScatter,
+}
+
+/// What [`Object::prepare`] sends index runs with: the device (to make the list's buffer and
+/// record the dispatch), the scatter pipelines, the list's buffer and its bind group over the
+/// index buffer (made on the first frame that scatters, grown on demand).
+struct ObjectScatter {
+    device: wgpu::Device,
+    scatter: Scatter,
+    /// The largest run list one dispatch may carry; 0 where the index buffer is larger than
+    /// one storage binding (the scatter binds it whole): writes only.
+    max_list_bytes: u64,
+    patch_buffer: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// The frame's run list (scratch): headers, then values.
+    list: Vec<u32>,
 }
 
 impl Object {
@@ -228,8 +246,10 @@ impl Object {
         let index_buffer = device.create_buffer_init(&BufferInitDescriptor {
             label: Some("morphlod indices"),
             contents: bytemuck::cast_slice(index_contents),
-            // COPY_SRC: tests and tools can copy the buffer back to check what the GPU holds.
+            // STORAGE: the scatter patches it; COPY_SRC: tests and tools can copy the buffer
+            // back to check what the GPU holds.
             usage: wgpu::BufferUsages::INDEX
+                | wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_DST
                 | wgpu::BufferUsages::COPY_SRC,
         });
@@ -251,6 +271,18 @@ impl Object {
             (Topology::List, true) => pipeline.surface_list().clone(),
         };
         let pose = Pose::new(device, pipeline, vertex_count, asset.surface());
+        let fits = index_buffer.size() <= device.limits().max_storage_buffer_binding_size;
+        let scatter = ObjectScatter {
+            device: device.clone(),
+            scatter: pipeline.scatter().clone(),
+            max_list_bytes: if fits {
+                Scatter::max_run_list_bytes(device)
+            } else {
+                0
+            },
+            patch_buffer: None,
+            list: Vec::new(),
+        };
         Ok(Object {
             pipeline: render_pipeline,
             topology,
@@ -265,6 +297,7 @@ impl Object {
             mirror: IndexMirror::new(indices),
             records,
             pose,
+            scatter,
         })
     }
 
@@ -623,41 +656,48 @@ impl Object {
     }
 
     /// Sets how far apart (in bytes of one buffer) two changed spans may lie and still be
-    /// recorded as one span ([`MERGE_GAP_BYTES`] by default); it applies to changes made
-    /// after the call. 0 sends exactly the changed bytes in more calls; larger values send
-    /// fewer, bigger writes. With [`set_write_call_bytes`](Self::set_write_call_bytes) on,
-    /// [`prepare`](Self::prepare) joins spans closer than that anyway.
+    /// sent as one write when [`prepare`](Self::prepare) sends a frame by writes only (a frame
+    /// of few spans, or an index buffer larger than one storage binding), and two changed
+    /// indirect records ([`MERGE_GAP_BYTES`] by default). 0 sends exactly the changed bytes in
+    /// more calls; larger values send fewer, bigger writes.
     pub fn set_merge_gap(&mut self, bytes: u64) {
         self.mirror.set_merge_gap(bytes);
     }
 
-    /// Sets what one `write_buffer` call costs in bytes (0, the default: off;
-    /// [`WRITE_CALL_BYTES`] is the measured value): [`prepare`](Self::prepare) then joins
-    /// neighbouring spans of a buffer into one write when fewer unchanged bytes than this lie
-    /// between them, so a frame switch's thousands of spans cost a few calls, at the price of
-    /// re-sending unchanged words (see [`WRITE_CALL_BYTES`]).
-    pub fn set_write_call_bytes(&mut self, bytes: u64) {
-        self.mirror.set_write_call_bytes(bytes);
-    }
-
-    /// Uploads everything changed since the last call: coalesced index spans, coalesced
-    /// indirect records and the uniforms, each with `queue.write_buffer`. With
-    /// [`set_write_call_bytes`](Self::set_write_call_bytes) on, spans closer than that share
-    /// one write; the [`Upload`] lists the ranges actually written, unchanged words inside a
-    /// write included. Call before the render pass that draws this object is submitted.
+    /// Uploads everything changed since the last call: the changed index words, the changed
+    /// indirect records (coalesced by the merge gap, one `queue.write_buffer` each) and the
+    /// uniforms. Call before the render pass that draws this object is submitted.
+    ///
+    /// The index words go by the cheaper of two plans under the cost model of
+    /// [`WRITE_CALL_BYTES`]: a frame of few changed spans as writes (spans closer than the
+    /// merge gap joined); a frame of many through the index scatter (`shaders/scatter.wgsl`,
+    /// `scatter_runs`): runs of consecutive changed words (neighbouring spans joined where the
+    /// words between them cost less than a run's header) listed as one header per run of up to
+    /// 16 words and their values, uploaded with one write and applied by one compute dispatch,
+    /// with only runs of more than ~16 k words still written directly. That dispatch is
+    /// recorded here and **submitted on `queue`** in a small command buffer of its own, so
+    /// queue order keeps every frame's edits in order whatever the caller submits next. Such a
+    /// frame costs a few calls and O(changed words) of CPU whatever the number of spans, and
+    /// sends at most about twice the changed words' bytes (a single word: 8 bytes). The
+    /// [`Upload`] lists what was actually sent: the ranges written, the words sent through the
+    /// scatter and the list's bytes.
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
         let mut upload = Upload::default();
-        let args_gap =
-            u32::try_from(self.mirror.merge_gap_bytes() / ARGS_BYTES).unwrap_or(u32::MAX);
-        let call_bytes = self.mirror.write_call_bytes();
-        for span in plan_writes(self.mirror.take_spans(), 4, call_bytes) {
+        let gap = u32::try_from(self.mirror.merge_gap_bytes() / 4).unwrap_or(u32::MAX);
+        let spans = self.mirror.take_spans();
+        let plan = plan_upload(&spans, gap, self.scatter.max_list_bytes);
+        for span in plan.writes {
             let data = &self.mirror.indices[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * 4..u64::from(span.end) * 4;
             queue.write_buffer(&self.index_buffer, bytes.start, bytemuck::cast_slice(data));
             upload.index_ranges.push(bytes);
         }
-        let records = coalesce(&mut self.records.dirty, args_gap);
-        for span in plan_writes(records, ARGS_BYTES, call_bytes) {
+        if !plan.runs.is_empty() {
+            self.scatter(queue, &plan.runs, &mut upload);
+        }
+        let args_gap =
+            u32::try_from(self.mirror.merge_gap_bytes() / ARGS_BYTES).unwrap_or(u32::MAX);
+        for span in coalesce(&mut self.records.dirty, args_gap) {
             let data = &self.records.args[span.start as usize..span.end as usize];
             let bytes = u64::from(span.start) * ARGS_BYTES..u64::from(span.end) * ARGS_BYTES;
             queue.write_buffer(
@@ -673,6 +713,96 @@ impl Object {
         upload.offset_writes = pose.offset_writes;
         upload.texture_bytes = self.asset.upload(queue);
         upload
+    }
+
+    /// Sends the words of `runs` (disjoint, their list within `max_list_bytes`) through the
+    /// scatter: one write of the run list, one dispatch of `scatter_runs`, submitted on
+    /// `queue`. The list (`shaders/scatter.wgsl`): one header per run of up to
+    /// [`RUN_WORDS`] words, a single word with its value inline, padded to whole workgroups by
+    /// repeating the last header; then the longer runs' values.
+    fn scatter(&mut self, queue: &wgpu::Queue, runs: &[Range<u32>], upload: &mut Upload) {
+        let s = &mut self.scatter;
+        let indices = &self.mirror.indices;
+        let bytes = run_list_bytes(runs);
+        let headers: usize = runs
+            .iter()
+            .map(|r| (r.end - r.start).div_ceil(RUN_WORDS) as usize)
+            .sum();
+        let padded = headers.next_multiple_of(RUN_GROUP as usize);
+        s.list.clear();
+        s.list.reserve(bytes as usize / 4);
+        // Values start after the padded headers, in u32s of the list.
+        let mut value_at = 2 * padded as u32;
+        for run in runs {
+            upload.scattered_words += u64::from(run.end - run.start);
+            if run.end - run.start == 1 {
+                s.list
+                    .extend([run.start | 1 << 31, indices[run.start as usize]]);
+                continue;
+            }
+            for first in (run.start..run.end).step_by(RUN_WORDS as usize) {
+                let len = (run.end - first).min(RUN_WORDS);
+                s.list.extend([first, value_at << 4 | (len - 1)]);
+                value_at += len;
+            }
+        }
+        let last = [s.list[s.list.len() - 2], s.list[s.list.len() - 1]];
+        for _ in headers..padded {
+            s.list.extend(last);
+        }
+        for run in runs.iter().filter(|r| r.end - r.start > 1) {
+            s.list
+                .extend_from_slice(&indices[run.start as usize..run.end as usize]);
+        }
+        // Whole `[u32; 2]` elements.
+        if s.list.len() % 2 == 1 {
+            s.list.push(0);
+        }
+        debug_assert_eq!(s.list.len() as u64 * 4, bytes);
+        if s.patch_buffer
+            .as_ref()
+            .is_none_or(|(b, _)| b.size() < bytes)
+        {
+            // `max_list_bytes` keeps the list within one binding; so does the rounding.
+            let max = s.device.limits().max_storage_buffer_binding_size;
+            let buffer = s.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("morphlod index runs"),
+                size: bytes.next_power_of_two().min(max).max(bytes),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let group = s.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("morphlod index scatter"),
+                layout: &s.scatter.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: self.index_buffer.as_entire_binding(),
+                    },
+                ],
+            });
+            s.patch_buffer = Some((buffer, group));
+        }
+        let (buffer, group) = s.patch_buffer.as_ref().expect("made above");
+        queue.write_buffer(buffer, 0, bytemuck::cast_slice(&s.list));
+        let mut encoder = s
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("morphlod index scatter"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&s.scatter.runs);
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(padded as u32 / RUN_GROUP, 1, 1);
+        }
+        queue.submit([encoder.finish()]);
+        upload.scatter_bytes = bytes;
+        upload.scatters = 1;
     }
 
     /// Draws every record with exactly one `multi_draw_indexed_indirect` (the indirect buffer

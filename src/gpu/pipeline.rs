@@ -6,6 +6,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use super::scatter::Scatter;
+
 /// The WGSL source of the morph shader: `shaders/shade.wgsl` (the shading it shares with the
 /// crowd) followed by `shaders/morph.wgsl`.
 pub const MORPH_WGSL: &str = concat!(
@@ -158,10 +160,11 @@ pub(crate) fn vertex_buffers(surface: bool) -> Vec<Option<wgpu::VertexBufferLayo
 }
 
 /// The morph render pipelines: for position-only objects and for objects with a surface, each
-/// for triangle strips and lists.
+/// for triangle strips and lists; and the index scatter their objects upload with.
 pub struct MorphPipeline {
     plain: Variant,
     surface: Variant,
+    scatter: Scatter,
     /// The colour format is not sRGB: the textured mode encodes its output itself.
     encode_srgb: bool,
 }
@@ -219,6 +222,7 @@ impl MorphPipeline {
         MorphPipeline {
             plain: Variant::new(device, &shader, formats, Layout::Plain),
             surface: Variant::new(device, &shader, formats, Layout::Surface),
+            scatter: Scatter::new(device),
             encode_srgb: !color_format.is_srgb(),
         }
     }
@@ -255,6 +259,11 @@ impl MorphPipeline {
     /// The triangle-list pipeline of objects with a surface.
     pub fn surface_list(&self) -> &wgpu::RenderPipeline {
         &self.surface.list
+    }
+
+    /// The index scatter ([`super::Object::prepare`] sends scattered words through it).
+    pub(crate) fn scatter(&self) -> &Scatter {
+        &self.scatter
     }
 
     /// Whether the textured mode encodes to sRGB (the colour format is linear).

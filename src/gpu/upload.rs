@@ -1,43 +1,62 @@
-//! The CPU mirror of an [`Object`](super::Object)'s index buffer and the word-level diff that
-//! decides what [`Object::prepare`](super::Object::prepare) uploads: edits go to the mirror,
-//! only the words whose value changed are marked, and marked spans closer than the merge gap
-//! (or, when turned on, than one call's cost in bytes, [`WRITE_CALL_BYTES`]) are sent as one
-//! `queue.write_buffer`.
+//! The CPU mirror of an [`Object`](super::Object)'s index buffer, the word-level diff that
+//! decides what [`Object::prepare`](super::Object::prepare) uploads (edits go to the mirror,
+//! only the words whose value changed are marked), and the cost model that sends a frame's
+//! changed spans as `queue.write_buffer` calls, as patches of the index scatter, or both
+//! ([`plan_upload`]).
 
 use std::ops::Range;
 
-/// Changed spans at most this many bytes apart are uploaded as one write by default
-/// ([`Object::set_merge_gap`](super::Object::set_merge_gap) changes it).
+use super::scatter::{RUN_GROUP, RUN_WORDS};
+
+/// Changed spans at most this many bytes apart are uploaded as one write when a frame goes by
+/// writes only ([`Object::set_merge_gap`](super::Object::set_merge_gap) changes it), and
+/// changed indirect records this close share a write.
 ///
 /// Each `queue.write_buffer` allocates a staging buffer and records a copy, so re-sending a
 /// few unchanged words beats a second call; but a frame switch rewrites whole strips, mostly
 /// to the values they already had, and a large gap re-sends those. 32 bytes (8 indices) is
-/// the trade-off measured in BENCHMARKS.md ("Figures behind constants"); with
-/// [`WRITE_CALL_BYTES`]'s joining on, gaps below that join anyway.
+/// the trade-off measured in BENCHMARKS.md ("Figures behind constants"). A frame of many
+/// spans goes through the scatter instead, which sends exactly the changed words.
 pub const MERGE_GAP_BYTES: u64 = 32;
 
-/// What one `queue.write_buffer` call costs beyond the bytes it carries, in bytes:
-/// [`Object::prepare`](super::Object::prepare)'s cost model for a buffer's changed spans.
+/// What one `queue.write_buffer` call costs beyond the bytes it carries, in bytes: the
+/// constant of [`Object::prepare`](super::Object::prepare)'s cost model.
 ///
 /// A call costs a fixed `c` (wgpu creates and maps a staging buffer per call and records a
 /// copy: about 2–3 µs on lavapipe, e.g. 1.5 ms of `prepare` for 707 writes, the median frame
 /// without a switch of the man → camel bench) plus `b` per byte (the copy into the staging
-/// memory and the GPU's copy, about 0.25 ns, i.e. 0.25 ms per MB). Joining two neighbouring
-/// spans into one write re-sends the `g` unchanged bytes between them and saves a call, so it
-/// pays when `g < c/b`; this constant is `c/b`, rounded down to a power of two. Dense spans (a
-/// frame switch rewrites thousands spread over the buffer) become one write of at most the
-/// buffer, O(bytes) instead of O(spans); an edit far from others keeps its exact bytes.
-///
-/// Off by default ([`Object::set_write_call_bytes`](super::Object::set_write_call_bytes)
-/// turns it on): joined writes re-send unchanged words, 43% of the index buffer per frame on
-/// the head's exponential sweep against issue 5's goal of at most 5%.
+/// memory and the GPU's copy, about 0.25 ns, i.e. 0.25 ms per MB); this constant is `c/b`,
+/// rounded down to a power of two. A word sent through the scatter costs 4 bytes plus its
+/// run's header (8 bytes per run of up to 16 words; a single word 8 bytes in all) and no
+/// call, a word inside a write 4 bytes and the call, so a write pays only for a run of more
+/// than about 16,000 words.
 pub const WRITE_CALL_BYTES: u64 = 8 * 1024;
+
+/// What a frame's scatter costs beyond its run list, in bytes of the same model: the list's
+/// own write plus a command buffer (encoder, one dispatch, `queue.submit`), taken as one more
+/// call. A frame of one or two spans therefore goes by writes only.
+pub(super) const SCATTER_CALL_BYTES: u64 = 2 * WRITE_CALL_BYTES;
+
+/// Bytes of one run header (`scatter_runs`: `[first word, value offset and length]`, or a
+/// single word and its value).
+pub(super) const RUN_HEADER_BYTES: u64 = 8;
 
 /// What one [`Object::prepare`](super::Object::prepare) sent to the GPU.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Upload {
-    /// Byte ranges of the index buffer written, one per `write_buffer` call, ascending.
+    /// Byte ranges of the index buffer written directly, one per `write_buffer` call,
+    /// ascending (words sent as patches are not in them).
     pub index_ranges: Vec<Range<u64>>,
+    /// Index words sent through the scatter: the changed words of its runs, and the unchanged
+    /// words between spans that a run joined (see [`WRITE_CALL_BYTES`]).
+    pub scattered_words: u64,
+    /// Bytes of the scatter's run list written: 8 per header (one per run of up to 16 words,
+    /// padded to whole workgroups of 16 by repeating the last) and 4 per value (a single
+    /// word's value rides in its header); 0 without a scatter.
+    pub scatter_bytes: u64,
+    /// Scatter dispatches, each after one `write_buffer` of its run list and submitted in its
+    /// own command buffer by `prepare` (0 or 1).
+    pub scatters: usize,
     /// Byte ranges of the indirect buffer written, one per `write_buffer` call, ascending.
     pub indirect_ranges: Vec<Range<u64>>,
     /// Bytes of uniforms written (0 or the whole block).
@@ -57,33 +76,36 @@ impl Upload {
         self.geometry_bytes() + self.uniform_bytes + self.offset_bytes + self.texture_bytes
     }
 
-    /// Bytes of index and indirect data written: what a LOD change cost, without the uniforms
-    /// that every frame of an animation rewrites anyway.
+    /// Bytes of index and indirect data written, patch lists included: what a LOD change
+    /// cost, without the uniforms that every frame of an animation rewrites anyway.
     pub fn geometry_bytes(&self) -> u64 {
         let sum = |ranges: &[Range<u64>]| ranges.iter().map(|r| r.end - r.start).sum::<u64>();
-        sum(&self.index_ranges) + sum(&self.indirect_ranges)
+        sum(&self.index_ranges) + sum(&self.indirect_ranges) + self.scatter_bytes
+    }
+
+    /// Number of `write_buffer` calls of index and indirect data, patch lists included.
+    pub fn geometry_writes(&self) -> usize {
+        self.index_ranges.len() + self.indirect_ranges.len() + self.scatters
     }
 
     /// Number of `queue.write_buffer` and `write_texture` calls.
     pub fn writes(&self) -> usize {
-        self.index_ranges.len()
-            + self.indirect_ranges.len()
+        self.geometry_writes()
             + usize::from(self.uniform_bytes > 0)
             + self.offset_writes
             + usize::from(self.texture_bytes > 0)
     }
 }
 
-/// The whole index buffer as the GPU will hold it after the next upload, and the spans
+/// The whole index buffer as the GPU will hold it after the next upload, and the words
 /// changed since the last one.
 pub(super) struct IndexMirror {
     /// CPU mirror of the whole index buffer (equal to the GPU after prepare).
     pub(super) indices: Vec<u32>,
-    /// Changed index spans (buffer positions) since the last prepare, unsorted.
+    /// Spans of changed words (buffer positions) since the last prepare, unsorted; every
+    /// word of a span changed.
     dirty: Vec<Range<u32>>,
     merge_gap_bytes: u64,
-    /// A write call's cost in bytes for `plan_writes` (0: off).
-    write_call_bytes: u64,
 }
 
 impl IndexMirror {
@@ -92,7 +114,6 @@ impl IndexMirror {
             indices,
             dirty: Vec::new(),
             merge_gap_bytes: MERGE_GAP_BYTES,
-            write_call_bytes: 0,
         }
     }
 
@@ -104,30 +125,15 @@ impl IndexMirror {
         self.merge_gap_bytes = bytes;
     }
 
-    pub(super) fn write_call_bytes(&self) -> u64 {
-        self.write_call_bytes
-    }
-
-    pub(super) fn set_write_call_bytes(&mut self, bytes: u64) {
-        self.write_call_bytes = bytes;
-    }
-
-    /// The merge gap in indices.
-    fn gap_indices(&self) -> u32 {
-        u32::try_from(self.merge_gap_bytes / 4).unwrap_or(u32::MAX)
-    }
-
     /// Writes `new(i)` at buffer positions `at..at + len` and marks the words that changed.
     pub(super) fn write(&mut self, at: u32, len: u32, new: impl Fn(usize) -> u32) {
-        let gap = self.gap_indices();
         let span = at as usize..(at + len) as usize;
-        diff_copy(&mut self.indices[span], at, gap, &mut self.dirty, new);
+        diff_copy(&mut self.indices[span], at, &mut self.dirty, new);
     }
 
-    /// The changed spans, coalesced, as index ranges; empties the list.
+    /// The changed spans, sorted and merged where they overlap or touch; empties the list.
     pub(super) fn take_spans(&mut self) -> Vec<Range<u32>> {
-        let gap = self.gap_indices();
-        coalesce(&mut self.dirty, gap)
+        coalesce(&mut self.dirty, 0)
     }
 }
 
@@ -136,55 +142,163 @@ pub(super) fn clip(range: Range<u32>, live: u32) -> Range<u32> {
     range.start.min(live)..range.end.min(live)
 }
 
-/// Writes `new(i)` into `mirror[i]` for every `i` and pushes the changed positions onto
-/// `spans` as buffer positions (`at` is the buffer position of `mirror[0]`). A run of more
-/// than `gap` unchanged words between two changes closes a span: a frame switch rewrites
-/// whole strips, mostly to the values they had, and should upload the words that differ, not
-/// everything from the first to the last. Runs of at most `gap` stay inside a span, as
-/// [`coalesce`] would merge them anyway.
-fn diff_copy(
-    mirror: &mut [u32],
-    at: u32,
-    gap: u32,
-    spans: &mut Vec<Range<u32>>,
-    new: impl Fn(usize) -> u32,
-) {
-    // The open span, as positions in `mirror`: first and last changed.
-    let mut open: Option<(usize, usize)> = None;
+/// Writes `new(i)` into `mirror[i]` for every `i` and pushes every run of changed positions
+/// onto `spans` as buffer positions (`at` is the buffer position of `mirror[0]`): a frame
+/// switch rewrites whole strips, mostly to the values they had, and only the words that
+/// differ are uploaded.
+fn diff_copy(mirror: &mut [u32], at: u32, spans: &mut Vec<Range<u32>>, new: impl Fn(usize) -> u32) {
+    // The first position of the open run of changed words.
+    let mut open: Option<usize> = None;
     for (i, slot) in mirror.iter_mut().enumerate() {
         let value = new(i);
         if *slot == value {
+            if let Some(first) = open.take() {
+                spans.push(at + first as u32..at + i as u32);
+            }
             continue;
         }
         *slot = value;
-        open = match open {
-            Some((first, last)) if i - last - 1 <= gap as usize => Some((first, i)),
-            Some((first, last)) => {
-                spans.push(at + first as u32..at + last as u32 + 1);
-                Some((i, i))
-            }
-            None => Some((i, i)),
-        };
+        open.get_or_insert(i);
     }
-    if let Some((first, last)) = open {
-        spans.push(at + first as u32..at + last as u32 + 1);
+    if let Some(first) = open {
+        spans.push(at + first as u32..at + mirror.len() as u32);
     }
 }
 
-/// The writes that send `spans` (ascending, disjoint, positions of `unit`-byte elements) at
-/// the least cost under [`WRITE_CALL_BYTES`]'s model: two neighbouring spans become one write
-/// when the unchanged elements between them cost less to re-send than the call they save.
-/// Each gap is decided alone, so dense spans (a frame switch) join into one write from the
-/// first to the last, while spans far apart keep their own writes and exact bytes.
-/// `call_bytes` is the call's cost in bytes; 0 keeps every span its own write.
-pub(super) fn plan_writes(
-    mut spans: Vec<Range<u32>>,
-    unit: u64,
-    call_bytes: u64,
-) -> Vec<Range<u32>> {
-    // A gap of `g` elements joins when `g * unit < call_bytes`.
-    let gap = u32::try_from(call_bytes.div_ceil(unit).saturating_sub(1)).unwrap_or(u32::MAX);
-    coalesce(&mut spans, gap)
+/// How a frame's changed index words go to the GPU: `writes` (ascending, disjoint ranges of
+/// positions, one `write_buffer` each) and `runs` (ascending, disjoint ranges sent through the
+/// scatter, each as headers of up to [`RUN_WORDS`] words); both may include unchanged words
+/// between the spans they join (sent with their current value, which the GPU already holds).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(super) struct UploadPlan {
+    pub(super) writes: Vec<Range<u32>>,
+    pub(super) runs: Vec<Range<u32>>,
+    /// The plan's cost in bytes of the model ([`WRITE_CALL_BYTES`] per write,
+    /// [`SCATTER_CALL_BYTES`] for a scatter, bytes sent).
+    pub(super) cost: u64,
+}
+
+/// Bytes a scatter's list takes for `runs`: headers (padded to whole workgroups) and values.
+pub(super) fn run_list_bytes(runs: &[Range<u32>]) -> u64 {
+    let (mut headers, mut values) = (0u64, 0u64);
+    for run in runs {
+        let len = u64::from(run.end - run.start);
+        headers += len.div_ceil(u64::from(RUN_WORDS));
+        // A single word rides in its header.
+        values += if len == 1 { 0 } else { len };
+    }
+    RUN_HEADER_BYTES * headers.next_multiple_of(u64::from(RUN_GROUP))
+        + 4 * values.next_multiple_of(2)
+}
+
+/// The cheaper of two plans for `spans` (ascending, disjoint, not touching:
+/// [`IndexMirror::take_spans`]), under the model of [`WRITE_CALL_BYTES`]:
+///
+/// * **writes only**: the spans merged where at most `gap` words apart (the merge gap), one
+///   write each: what a frame of one or two spans costs least as;
+/// * **hybrid** ([`cheapest_split`]): runs of neighbouring spans sent through the scatter or
+///   written, whichever the model finds cheaper, plus one scatter.
+///
+/// `max_list_bytes` is the largest run list one scatter may carry
+/// ([`super::scatter::Scatter::max_run_list_bytes`]; 0: no scatter, writes only).
+pub(super) fn plan_upload(spans: &[Range<u32>], gap: u32, max_list_bytes: u64) -> UploadPlan {
+    let writes = coalesce(&mut spans.to_vec(), gap);
+    let cost = writes
+        .iter()
+        .map(|w| WRITE_CALL_BYTES + 4 * u64::from(w.end - w.start))
+        .sum();
+    let writes_only = UploadPlan {
+        writes,
+        runs: Vec::new(),
+        cost,
+    };
+    if max_list_bytes == 0 || spans.len() < 2 {
+        return writes_only;
+    }
+    let (mut hybrid, _) = cheapest_split(spans);
+    let list = run_list_bytes(&hybrid.runs);
+    hybrid.cost = hybrid
+        .writes
+        .iter()
+        .map(|w| WRITE_CALL_BYTES + 4 * u64::from(w.end - w.start))
+        .sum::<u64>()
+        + if hybrid.runs.is_empty() {
+            0
+        } else {
+            SCATTER_CALL_BYTES + list
+        };
+    // A list past one binding (millions of changed words in a frame): writes only.
+    if hybrid.cost < writes_only.cost && list <= max_list_bytes {
+        hybrid
+    } else {
+        writes_only
+    }
+}
+
+/// The cheapest split of `spans` into runs sent through the scatter and writes, each joining
+/// consecutive spans (with the unchanged words between them), before the scatter's fixed cost;
+/// returns it with its cost in half-bytes of the model. A run of `L` words is priced
+/// `8 + 4.5 L` bytes (its headers, at most `8 ⌈L/16⌉ ≤ 8 + L/2`, and its values), a single
+/// word 8, a write `c + 4 L`. Dynamic programming over the spans: `best[j]` is the least
+/// cost of the first `j`; span `j` is a single word, or ends a run or a write that starts at
+/// span `i ≤ j`, whose cost splits into a part of `j` and a part of `i`, so the best `i` of
+/// each is a running minimum: O(spans). Joining spans pays where the unchanged words between
+/// them cost less than a header (runs) or a call (writes); a single word or a short run
+/// costs at most twice its changed words' 4 bytes, and a join is taken only where cheaper
+/// than the parts, so a frame sends at most about twice its changed bytes.
+pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
+    // Half-bytes, so that 4.5 bytes a word is whole.
+    const WRITE: i64 = 2 * WRITE_CALL_BYTES as i64;
+    const HEADER: i64 = 2 * RUN_HEADER_BYTES as i64;
+    // How span j (1-based) is sent.
+    #[derive(Clone, Copy)]
+    enum Choice {
+        Single,
+        RunFrom(usize),
+        WriteFrom(usize),
+    }
+    let n = spans.len();
+    let mut best = vec![0i64; n + 1];
+    let mut choice = vec![Choice::Single; n + 1];
+    // min over i ≤ j of best[i − 1] − k start_i (k = 9 for runs, 8 for writes), and its i.
+    let mut run: Option<(i64, usize)> = None;
+    let mut write: Option<(i64, usize)> = None;
+    for j in 1..=n {
+        let span = &spans[j - 1];
+        let (start, end) = (i64::from(span.start), i64::from(span.end));
+        for (open, k) in [(&mut run, 9), (&mut write, 8)] {
+            let from = best[j - 1] - k * start;
+            if open.is_none_or(|(value, _)| from < value) {
+                *open = Some((from, j));
+            }
+        }
+        let (run_from, i_run) = run.expect("set above");
+        let (write_from, i_write) = write.expect("set above");
+        let mut pick = (HEADER + 9 * end + run_from, Choice::RunFrom(i_run));
+        let write = WRITE + 8 * end + write_from;
+        if write < pick.0 {
+            pick = (write, Choice::WriteFrom(i_write));
+        }
+        if end - start == 1 && best[j - 1] + HEADER < pick.0 {
+            pick = (best[j - 1] + HEADER, Choice::Single);
+        }
+        let (cost, pick) = pick;
+        (best[j], choice[j]) = (cost, pick);
+    }
+    let mut plan = UploadPlan::default();
+    let mut j = n;
+    while j > 0 {
+        let (i, into) = match choice[j] {
+            Choice::Single => (j, &mut plan.runs),
+            Choice::RunFrom(i) => (i, &mut plan.runs),
+            Choice::WriteFrom(i) => (i, &mut plan.writes),
+        };
+        into.push(spans[i - 1].start..spans[j - 1].end);
+        j = i - 1;
+    }
+    plan.writes.reverse();
+    plan.runs.reverse();
+    (plan, best[n] as u64)
 }
 
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
@@ -204,41 +318,153 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
 
 #[cfg(test)]
 mod tests {
-    use super::{coalesce, diff_copy, plan_writes, WRITE_CALL_BYTES};
+    use super::{
+        cheapest_split, coalesce, diff_copy, plan_upload, run_list_bytes, UploadPlan,
+        SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
+    };
+    use std::ops::Range;
+
+    fn words(ranges: &[Range<u32>]) -> u64 {
+        ranges.iter().map(|r| u64::from(r.end - r.start)).sum()
+    }
+
+    /// Every changed word is sent once: runs and writes are disjoint and cover every span.
+    fn assert_covers(plan: &UploadPlan, spans: &[Range<u32>]) {
+        let within = |ranges: &[Range<u32>], span: &Range<u32>| {
+            ranges
+                .iter()
+                .any(|r| r.start <= span.start && span.end <= r.end)
+        };
+        for span in spans {
+            assert!(
+                within(&plan.runs, span) != within(&plan.writes, span),
+                "{span:?} sent once: {plan:?}"
+            );
+        }
+        for w in &plan.writes {
+            assert!(
+                !plan.runs.iter().any(|p| p.start < w.end && w.start < p.end),
+                "a write over a run: {plan:?}"
+            );
+        }
+    }
 
     #[test]
-    fn plan_writes_joins_spans_only_when_a_call_costs_more_than_the_gap() {
-        assert_eq!(plan_writes(vec![], 4, WRITE_CALL_BYTES), vec![]);
-        // 0: off, every span is its own write.
-        assert_eq!(plan_writes(vec![0..1, 2..3], 4, 0), vec![0..1, 2..3]);
-        assert_eq!(
-            plan_writes(vec![3..5, 5000..5001], 4, WRITE_CALL_BYTES),
-            vec![3..5, 5000..5001]
-        );
-        // 4-byte indices: a gap of one call's worth of bytes stays (equal cost keeps the exact
-        // bytes), one index less joins.
-        let call = (WRITE_CALL_BYTES / 4) as u32;
-        assert_eq!(
-            plan_writes(vec![0..1, 1 + call..2 + call], 4, WRITE_CALL_BYTES),
-            vec![0..1, 1 + call..2 + call]
-        );
-        assert_eq!(
-            plan_writes(
-                vec![0..1, call..1 + call, 2 * call..1 + 2 * call],
-                4,
-                WRITE_CALL_BYTES
-            ),
-            vec![0..1 + 2 * call]
-        );
-        // 20-byte records: WRITE_CALL_BYTES / 20 = 409.6, so 410 records apart stay apart.
-        assert_eq!(
-            plan_writes(vec![0..1, 411..412], 20, WRITE_CALL_BYTES),
-            vec![0..1, 411..412]
-        );
-        assert_eq!(
-            plan_writes(vec![0..1, 410..411], 20, WRITE_CALL_BYTES),
-            vec![0..411]
-        );
+    fn few_spans_go_by_writes_merged_by_the_gap() {
+        assert_eq!(plan_upload(&[], 8, 1 << 20), UploadPlan::default());
+        let plan = plan_upload(&[3..5, 9..10], 8, 1 << 20);
+        assert_eq!(plan.writes, vec![3..10]);
+        assert!(plan.runs.is_empty());
+        let plan = plan_upload(&[3..5, 20..21], 8, 1 << 20);
+        assert_eq!(plan.writes, vec![3..5, 20..21]);
+        assert_eq!(plan.cost, 2 * WRITE_CALL_BYTES + 12);
+    }
+
+    #[test]
+    fn many_spans_go_through_the_scatter_and_huge_runs_are_written() {
+        // 500 single words 100 apart: one scatter of 500 headers (values inline), not 500
+        // calls.
+        let spans: Vec<Range<u32>> = (0..500).map(|i| i * 100..i * 100 + 1).collect();
+        let plan = plan_upload(&spans, 8, 1 << 20);
+        assert!(plan.writes.is_empty(), "{:?}", plan.writes);
+        assert_eq!(plan.runs, spans);
+        assert_eq!(run_list_bytes(&plan.runs), 8 * 512);
+        assert_eq!(plan.cost, SCATTER_CALL_BYTES + 8 * 512);
+        // Without a scatter, or past its list size: one write per span.
+        assert_eq!(plan_upload(&spans, 8, 0).writes.len(), 500);
+        assert_eq!(plan_upload(&spans, 8, 8 * 511).writes.len(), 500);
+        // Spans of 3 words 1 apart join into runs (the unchanged word costs 4 bytes, a
+        // header 8); runs of 3 words 3 apart do not.
+        for (apart, joined) in [(1, true), (3, false)] {
+            let dense: Vec<Range<u32>> = (0..100)
+                .map(|i| (3 + apart) * i..(3 + apart) * i + 3)
+                .collect();
+            let plan = plan_upload(&dense, 0, 1 << 20);
+            assert!(plan.writes.is_empty());
+            assert_covers(&plan, &dense);
+            assert_eq!(plan.runs.len() == 1, joined, "{apart}: {:?}", plan.runs);
+        }
+        // A run of 20,000 changed words among them is cheaper as a write (80 KB + a call
+        // against 90 KB through the scatter); one of 10,000 is not.
+        for (run, written) in [(20_000u32, true), (10_000, false)] {
+            let mut spans = spans.clone();
+            spans.push(60_000..60_000 + run);
+            let plan = plan_upload(&spans, 8, 1 << 20);
+            assert_covers(&plan, &spans);
+            let one_write = plan.writes.len() == 1 && plan.writes[0] == (60_000..60_000 + run);
+            assert_eq!(one_write, written, "{run}: {:?}", plan.writes);
+        }
+    }
+
+    #[test]
+    fn the_split_is_the_cheapest_and_sends_about_twice_the_changed_words_at_most() {
+        // Against every split of a few spans: each span is a single word (if it is one),
+        // opens a run, opens a write, or extends the open run or write.
+        let mut seed = 0x9E37_79B9_u64;
+        let mut next = |below: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % u64::from(below)) as u32
+        };
+        for case in 0..300 {
+            let n = 1 + next(6) as usize;
+            let mut spans = Vec::new();
+            let mut at = 0u32;
+            for _ in 0..n {
+                // Gaps and lengths around the break-even points (a header, a call).
+                at += 1 + next([3, 40, 6000][case % 3]);
+                let len = 1 + next([3, 30, 20_000][case % 3]);
+                spans.push(at..at + len);
+                at += len;
+            }
+            let (plan, cost) = cheapest_split(&spans);
+            assert_covers(&plan, &spans);
+            // Half-bytes: a run 16 + 9 per word, a single word 16, a write 2c + 8 per word.
+            let price = |kind: u32, range: &Range<u32>| {
+                let len = u64::from(range.end - range.start);
+                match kind {
+                    0 => 16,
+                    1 => 16 + 9 * len,
+                    _ => 2 * WRITE_CALL_BYTES + 8 * len,
+                }
+            };
+            let mut least = u64::MAX;
+            for code in 0..5u32.pow(n as u32) {
+                let (mut total, mut c) = (0u64, code);
+                let mut open: Option<(u32, Range<u32>)> = None;
+                let mut valid = true;
+                for span in &spans {
+                    let pick = c % 5;
+                    c /= 5;
+                    match (pick, open.as_mut()) {
+                        (3 | 4, Some((kind, range))) if *kind == pick - 2 => range.end = span.end,
+                        (3 | 4, _) => valid = false,
+                        (0, _) if span.end - span.start != 1 => valid = false,
+                        _ => {
+                            total += open.take().map_or(0, |(k, r)| price(k, &r));
+                            if pick == 0 {
+                                total += price(0, span);
+                            } else {
+                                open = Some((pick, span.clone()));
+                            }
+                        }
+                    }
+                }
+                total += open.map_or(0, |(k, r)| price(k, &r));
+                if valid {
+                    least = least.min(total);
+                }
+            }
+            assert_eq!(cost, least, "case {case}: {spans:?}");
+            let changed = words(&spans);
+            let sent = 4 * words(&plan.writes) + run_list_bytes(&plan.runs);
+            // Twice the changed bytes, plus the padding of the headers (at most 15) and values.
+            assert!(
+                sent <= 8 * changed + 15 * 8 + 4,
+                "case {case}: {sent} bytes for {changed} changed words: {plan:?}"
+            );
+        }
     }
 
     #[test]
@@ -253,26 +479,17 @@ mod tests {
     }
 
     #[test]
-    fn diff_copy_splits_at_unchanged_runs_longer_than_the_gap() {
+    fn diff_copy_marks_exactly_the_changed_words() {
         let old = [0u32, 1, 2, 3, 4, 5, 6, 7, 8, 9];
-        let new = [0u32, 9, 2, 9, 4, 5, 6, 9, 8, 0];
-        // Spans as (start, end) buffer positions.
-        let expected: [(u32, &[(u32, u32)]); 3] = [
-            (0, &[(101, 102), (103, 104), (107, 108), (109, 110)]),
-            (1, &[(101, 104), (107, 110)]),
-            (3, &[(101, 110)]),
-        ];
-        for (gap, expected) in expected {
-            let mut mirror = old;
-            let mut spans = Vec::new();
-            diff_copy(&mut mirror, 100, gap, &mut spans, |i| new[i]);
-            assert_eq!(mirror, new);
-            let spans: Vec<(u32, u32)> = spans.iter().map(|s| (s.start, s.end)).collect();
-            assert_eq!(spans, expected, "gap {gap}");
-        }
+        let new = [0u32, 9, 9, 3, 4, 5, 6, 9, 8, 0];
         let mut mirror = old;
         let mut spans = Vec::new();
-        diff_copy(&mut mirror, 0, 0, &mut spans, |i| old[i]);
+        diff_copy(&mut mirror, 100, &mut spans, |i| new[i]);
+        assert_eq!(mirror, new);
+        assert_eq!(spans, vec![101..103, 107..108, 109..110]);
+        let mut mirror = old;
+        let mut spans = Vec::new();
+        diff_copy(&mut mirror, 0, &mut spans, |i| old[i]);
         assert!(spans.is_empty(), "an unchanged copy marks nothing");
     }
 }

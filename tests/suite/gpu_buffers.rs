@@ -12,8 +12,15 @@
 //!   weight animation, built by `Builder`) over a random walk of `(t, lod)` with frame switches;
 //!   at every step the reference mesh of frame `k = round(t (|r| - 1))` at the current LOD.
 //! * `exponential_sweep_uploads_at_most_5_percent`: the upload goal of issue 5 asserted:
-//!   mean index + indirect bytes per frame over the bench's exponential sweep ≤ 5% of the
-//!   full index buffer.
+//!   mean index + indirect bytes per frame (writes and patch lists, as sent) over the bench's
+//!   exponential sweep ≤ 5% of the full index buffer.
+//! * `scattered_edits_are_patched_and_every_patch_lands`: frames of many scattered edits go
+//!   through the index scatter (exactly the changed words, huge runs as writes, few spans as
+//!   writes only), and the buffer read back equals the mirror with every changed word at its
+//!   new value: a dropped or misplaced patch fails.
+//! * `lod_walk_with_frame_switches_reads_back_as_the_mirror`: the head's `LodObject` over a
+//!   random walk of LOD steps and frame switches; after every `prepare` the GPU index buffer
+//!   equals the mirror, and the walk used both the scatter and writes-only frames.
 //!
 //! GPU set-up: `common::gpu::Gpu` (fails without an adapter when `CI` is set: `morphlod::ci::is_ci`).
 
@@ -25,7 +32,7 @@ use std::sync::Arc;
 use common::gpu::Gpu;
 use common::Rng;
 use morphlod::collapse::canonical_multiset;
-use morphlod::gpu::{Draws, LodObject, Object, Topology};
+use morphlod::gpu::{Draws, LodObject, Object, Topology, Upload, RESTART};
 use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, LoadOptions};
 use morphlod::lodstrips::{LodStrips, StripsState};
@@ -246,4 +253,200 @@ fn model_max(object: &LodObject) -> usize {
         .frame_changes(k)
         .expect("the current frame exists")
         .max_lod()
+}
+
+/// Reads the index buffer back and checks it against the mirror: every word the frame changed
+/// (against `before`, the buffer read back after the previous frame) must hold its new value,
+/// so a patch dropped, misplaced or run before an older write fails here. Returns the buffer
+/// and the number of changed words outside the frame's direct writes (what the scatter
+/// carried).
+fn check_readback(
+    gpu: &Gpu,
+    object: &Object,
+    before: &[u32],
+    upload: &Upload,
+    what: &str,
+) -> (Vec<u32>, u64) {
+    let after = gpu.read_words(object.index_buffer());
+    let mirror = object.index_mirror();
+    if let Some(at) = (0..mirror.len()).find(|&i| after[i] != mirror[i]) {
+        panic!(
+            "{what}: the GPU index buffer differs from the mirror at word {at}: {} (was {}), \
+             mirror {}; {upload:?}",
+            after[at], before[at], mirror[at]
+        );
+    }
+    let written = |i: usize| {
+        upload
+            .index_ranges
+            .iter()
+            .any(|r| r.start <= 4 * i as u64 && 4 * (i as u64) < r.end)
+    };
+    let changed = (0..mirror.len())
+        .filter(|&i| before[i] != mirror[i] && !written(i))
+        .count() as u64;
+    (after, changed)
+}
+
+#[test]
+fn scattered_edits_are_patched_and_every_patch_lands() {
+    let Some(gpu) = Gpu::new() else {
+        return;
+    };
+    // 300 small regions [0, 1, 2, 3] (5 slots each with the separator), then one of 20,000.
+    const SMALL: usize = 300;
+    const LONG: usize = 20_000;
+    let mut regions = vec![vec![0u32, 1, 2, 3]; SMALL];
+    regions.push((0..LONG as u32).map(|i| i % 4).collect());
+    let v: Vec<[f32; 3]> = vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+    let mut object = Object::new(
+        gpu.device(),
+        &gpu.pipeline,
+        Topology::Strip,
+        &v,
+        &v,
+        &regions,
+    )
+    .expect("the object uploads");
+    object.prepare(gpu.queue());
+    let mut before = gpu.read_words(object.index_buffer());
+    assert!(before == object.index_mirror());
+
+    // Frame 1: the last index of every third small region, 100 words 15 slots apart: one
+    // header each with its value inline, no write (100 writes would cost 100 calls), padded
+    // to 112 headers.
+    for r in (0..SMALL).step_by(3) {
+        object.write_region(r, &[0, 1, 2, 1]).expect("fits");
+    }
+    let upload = object.prepare(gpu.queue());
+    assert_eq!(
+        (
+            upload.index_ranges.len(),
+            upload.scattered_words,
+            upload.scatter_bytes,
+            upload.scatters
+        ),
+        (0, 100, 112 * 8, 1),
+        "{upload:?}"
+    );
+    let (after, patched) = check_readback(&gpu, &object, &before, &upload, "frame 1");
+    assert_eq!(patched, 100, "every patch carries a changed word");
+    before = after;
+
+    // Frames 2 and 3, prepared back to back before anything is read: the same words changed
+    // back, plus the long region rewritten (a run of 20,000 changed words: one write), then
+    // other scattered words (two per region, 2 apart: two single-word headers) and one word
+    // inside the long run. Queue order must apply frame 2's list before frame 3's overwrites
+    // the patch buffer.
+    for r in (0..SMALL).step_by(3) {
+        object.write_region(r, &[0, 1, 2, 3]).expect("fits");
+    }
+    let shifted: Vec<u32> = (0..LONG as u32).map(|i| (i + 1) % 4).collect();
+    object.write_region(SMALL, &shifted).expect("fits");
+    let frame2 = object.prepare(gpu.queue());
+    let long_start = 4 * object.region_range(SMALL).expect("exists").start as u64;
+    assert_eq!(
+        frame2.index_ranges,
+        vec![long_start..long_start + 4 * LONG as u64],
+        "{frame2:?}"
+    );
+    assert_eq!((frame2.scattered_words, frame2.scatters), (100, 1));
+    for r in (1..SMALL).step_by(3) {
+        object.write_region(r, &[3, 1, 2, 0]).expect("fits");
+    }
+    let mut long = shifted.clone();
+    long[2500] = 3 - long[2500];
+    object.write_region(SMALL, &long).expect("fits");
+    let frame3 = object.prepare(gpu.queue());
+    assert!(frame3.index_ranges.is_empty(), "{frame3:?}");
+    assert_eq!((frame3.scattered_words, frame3.scatters), (201, 1));
+    let both = Upload {
+        index_ranges: frame2.index_ranges.clone(),
+        ..Upload::default()
+    };
+    let (after, patched) = check_readback(&gpu, &object, &before, &both, "frames 2 and 3");
+    // Against the buffer after frame 1: frame 2's 100 words (back to their first values) and
+    // frame 3's 200 in the small regions; frame 3's word in the long run lies in frame 2's
+    // write, which this count leaves out.
+    assert_eq!(patched, 300, "changed words outside the long run's write");
+    before = after;
+
+    // Frame 4: one region emptied (one span): a write, no scatter.
+    object.write_region(7, &[]).expect("fits");
+    let upload = object.prepare(gpu.queue());
+    assert_eq!(
+        (upload.scattered_words, upload.scatters),
+        (0, 0),
+        "{upload:?}"
+    );
+    let start = 4 * object.region_range(7).expect("exists").start as u64;
+    assert_eq!(upload.index_ranges, vec![start..start + 16]);
+    let (_, patched) = check_readback(&gpu, &object, &before, &upload, "frame 4");
+    assert_eq!(patched, 0);
+    assert_eq!(object.index_mirror()[start as usize / 4], RESTART);
+}
+
+#[test]
+fn lod_walk_with_frame_switches_reads_back_as_the_mirror() {
+    let Some(gpu) = Gpu::new() else {
+        return;
+    };
+    const FRAMES: usize = 6;
+    let morph = head_morph();
+    let (asset, _) = Builder::new(&morph)
+        .frames(FRAMES)
+        .build()
+        .expect("the head builds");
+    let model = Arc::new(DeformingModel::new(&asset).expect("the built asset is valid"));
+    let mut object = LodObject::new(gpu.device(), &gpu.pipeline, &asset, Arc::clone(&model))
+        .expect("the head uploads");
+    object.prepare(gpu.queue());
+    let mut before = gpu.read_words(object.object().index_buffer());
+    let mut rng = Rng(0x5CA7_7E12);
+    let (mut t, mut fraction) = (0.0f32, 0.0f32);
+    let (mut scattered, mut written_only, mut switches, mut patched_words) = (0, 0, 0, 0u64);
+    for step in 0..50 {
+        let lod = match rng.below(4) {
+            // One to three collapses finer or coarser at the same t.
+            0 | 1 => {
+                let lod = object.state().lod();
+                let steps = 1 + rng.below(3);
+                Lod::Steps(if rng.below(2) == 0 {
+                    lod.saturating_sub(steps)
+                } else {
+                    lod + steps
+                })
+            }
+            // Another sampled frame, LOD kept.
+            2 => {
+                t = rng.unit();
+                Lod::Fraction(fraction)
+            }
+            // A jump in both.
+            _ => {
+                (t, fraction) = (rng.unit(), rng.unit());
+                Lod::Fraction(fraction)
+            }
+        };
+        let frame = object.state().frame();
+        object.set(t, lod).expect("t in [0, 1]");
+        switches += usize::from(object.state().frame() != frame);
+        let upload = object.prepare(gpu.queue());
+        let what = format!("step {step}: t {t}, {lod:?}");
+        let (after, patched) = check_readback(&gpu, object.object(), &before, &upload, &what);
+        assert!(
+            patched <= upload.scattered_words,
+            "{what}: {patched} changed words outside the writes, {} words scattered",
+            upload.scattered_words
+        );
+        patched_words += patched;
+        scattered += upload.scatters;
+        written_only += usize::from(upload.scatters == 0 && !upload.index_ranges.is_empty());
+        before = after;
+    }
+    assert!(
+        switches >= 10 && scattered >= 5 && written_only >= 5 && patched_words > 0,
+        "the walk must switch frames ({switches}) and use the scatter ({scattered} frames, \
+         {patched_words} changed words patched) and writes only ({written_only} frames)"
+    );
 }

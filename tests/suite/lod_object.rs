@@ -306,9 +306,6 @@ enum Move {
     Shade(bool),
     /// `set_merge_gap` in bytes.
     Gap(u64),
-    /// `set_write_call_bytes` (0: off; joined writes re-send unchanged words, which the
-    /// read-back must still show equal to the layout).
-    WriteCall(u64),
     /// Calls that must fail with a typed error and change nothing.
     Bad,
 }
@@ -324,7 +321,6 @@ fn move_strategy() -> impl proptest::strategy::Strategy<Value = Move> {
         1 => prop::option::of(budget).prop_map(Move::Draws),
         1 => any::<bool>().prop_map(Move::Shade),
         1 => prop::sample::select(vec![0u64, 8, 32, 256]).prop_map(Move::Gap),
-        1 => prop::sample::select(vec![0u64, 64, gpu::WRITE_CALL_BYTES]).prop_map(Move::WriteCall),
         1 => Just(Move::Bad),
     ]
 }
@@ -418,6 +414,8 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
         ..Config::default()
     });
     let walks = proptest::collection::vec(move_strategy(), 1..40);
+    // Frames that used the index scatter and frames that went by writes only, over all walks.
+    let (scattered, written_only) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
     let result = runner.run(&walks, |moves| {
         let mut object = LodObject::new(device, pipeline, &asset, Arc::clone(&model))
             .expect("the grid asset uploads");
@@ -469,7 +467,6 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                     });
                 }
                 Move::Gap(bytes) => object.object_mut().set_merge_gap(bytes),
-                Move::WriteCall(bytes) => object.object_mut().set_write_call_bytes(bytes),
                 Move::Bad => {
                     let before = (
                         object.object().index_mirror().to_vec(),
@@ -546,13 +543,17 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                 // What the GPU holds, copied back: the uploads must have brought both buffers
                 // to the layout built from scratch.
                 let upload: Upload = object.prepare(queue);
+                scattered.set(scattered.get() + upload.scatters);
+                written_only.set(
+                    written_only.get()
+                        + usize::from(upload.scatters == 0 && !upload.index_ranges.is_empty()),
+                );
                 let gpu_indices = ctx.read_words(object.object().index_buffer());
                 let gpu_records = ctx.read_words(object.object().indirect_buffer());
                 assert!(
                     gpu_indices == indices,
                     "{what}: the GPU index buffer differs from the layout built from scratch \
-                     (uploaded {:?})",
-                    upload.index_ranges
+                     (uploaded {upload:?})"
                 );
                 assert_eq!(
                     &gpu_records[..words.len()],
@@ -567,5 +568,11 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
     if let Err(failure) = result {
         panic!("{failure}");
     }
+    assert!(
+        scattered.get() > 0 && written_only.get() > 0,
+        "the walks must upload by the scatter ({} frames) and by writes only ({} frames)",
+        scattered.get(),
+        written_only.get()
+    );
     Ok(())
 }

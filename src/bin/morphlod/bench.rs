@@ -85,8 +85,6 @@ pub struct BenchOptions {
     /// How every object is shaded (an asset without a surface draws faceted whatever this
     /// says).
     pub shade: ShadeMode,
-    /// [`morphlod::gpu::Object::set_write_call_bytes`] of the LOD object (0: off).
-    pub write_call_bytes: u64,
 }
 
 impl Default for BenchOptions {
@@ -96,7 +94,6 @@ impl Default for BenchOptions {
             size: 512,
             repeats: 3,
             shade: ShadeMode::Textured,
-            write_call_bytes: 0,
         }
     }
 }
@@ -211,9 +208,6 @@ pub fn run_bench(
         let mut strips = LodObject::new(device, &pipeline, asset, Arc::clone(model))?;
         strips.set_view_proj(camera);
         strips.set_shade_mode(options.shade);
-        strips
-            .object_mut()
-            .set_write_call_bytes(options.write_call_bytes);
         // Warm-up: first draws create pipelines' backing state and fill caches.
         strips.prepare(queue);
         gpu_frame(device, queue, &target, strips.object())?;
@@ -272,7 +266,7 @@ pub fn run_bench(
                 set_us,
                 prepare_us,
                 upload_bytes: upload.geometry_bytes(),
-                upload_writes: upload.index_ranges.len() + upload.indirect_ranges.len(),
+                upload_writes: upload.geometry_writes(),
                 draws,
                 records: strips.object().indirect_args().len(),
                 strips_ms,
@@ -591,7 +585,6 @@ mod tests {
                 size: 48,
                 repeats: 2,
                 shade: ShadeMode::Textured,
-                write_call_bytes: 0,
             },
         )?;
         let original: Vec<[u32; 3]> = (0..asset.s0.len())

@@ -182,11 +182,6 @@ struct BenchArgs {
     /// Draws of each object per frame; the fastest counts (the first also carries the uploads).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u16).range(1..))]
     repeats: u16,
-    /// What one `write_buffer` call costs in bytes for the LOD object's uploads
-    /// (`gpu::Object::set_write_call_bytes`; 0: off, every changed span its own write; 8192 is
-    /// `gpu::WRITE_CALL_BYTES`, the measured value).
-    #[arg(long, default_value_t = 0)]
-    write_call_bytes: u64,
     /// How every object is shaded (as `render --color`); the strips are also timed faceted
     /// each frame, for the cost of the shading.
     #[arg(long, value_enum, default_value_t = Colour::Textured)]
@@ -892,7 +887,6 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         size: args.size,
         repeats: usize::from(args.repeats),
         shade: args.shade.shade(),
-        write_call_bytes: args.write_call_bytes,
     };
     let report = run_bench(&context, &asset, &model, &options).map_err(|e| e.to_string())?;
     print!("{}", report.summary());

@@ -6,6 +6,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::gpu::pipeline::{render_pipeline, vertex_buffers, Formats};
+use crate::gpu::scatter::Scatter;
 
 /// The WGSL source of the crowd shader: `shaders/shade.wgsl` followed by `shaders/crowd.wgsl`.
 pub const CROWD_WGSL: &str = concat!(
@@ -13,11 +14,8 @@ pub const CROWD_WGSL: &str = concat!(
     include_str!("../../../shaders/crowd.wgsl")
 );
 
-/// The WGSL source of the index scatter (`shaders/scatter.wgsl`).
-pub const SCATTER_WGSL: &str = include_str!("../../../shaders/scatter.wgsl");
-
-/// Patches one scatter workgroup applies (`@workgroup_size` in `scatter.wgsl`).
-pub(super) const SCATTER_GROUP: u32 = 64;
+pub(super) use crate::gpu::scatter::SCATTER_GROUP;
+pub use crate::gpu::scatter::SCATTER_WGSL;
 
 /// The scene block (`Scene` in `crowd.wgsl`): camera and light, shared by every asset.
 #[repr(C)]
@@ -228,22 +226,11 @@ impl CrowdPipeline {
             },
             count: None,
         };
-        // Patches are [slot, value] pairs: 8 bytes each.
-        let scatter_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("crowd scatter"),
-            entries: &[storage(0, true, 8), storage(1, false, 4)],
-        });
-        let scatter_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("scatter.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SCATTER_WGSL.into()),
-        });
-        let scatter = compute(
-            device,
-            "crowd scatter",
-            &[&scatter_layout],
-            &scatter_module,
-            "scatter",
-        );
+        let Scatter {
+            layout: scatter_layout,
+            pipeline: scatter,
+            ..
+        } = Scatter::new(device);
 
         let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("crowd probe"),
