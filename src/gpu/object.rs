@@ -771,20 +771,12 @@ impl Object {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let group = s.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("morphlod index scatter"),
-                layout: &s.scatter.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: buffer.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: self.index_buffer.as_entire_binding(),
-                    },
-                ],
-            });
+            let group = s.scatter.bind_group(
+                &s.device,
+                "morphlod index scatter",
+                &buffer,
+                &self.index_buffer,
+            );
             s.patch_buffer = Some((buffer, group));
         }
         let (buffer, group) = s.patch_buffer.as_ref().expect("made above");

@@ -30,16 +30,7 @@ pub(crate) struct Scatter {
 
 impl Scatter {
     pub(crate) fn new(device: &wgpu::Device) -> Scatter {
-        let storage = |binding, read_only, size| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: wgpu::BufferSize::new(size),
-            },
-            count: None,
-        };
+        let storage = compute_storage;
         // Patches are [word, value] pairs: 8 bytes each.
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("morphlod scatter"),
@@ -71,6 +62,30 @@ impl Scatter {
         }
     }
 
+    /// The bind group that applies the patches in `patches` to `target`.
+    pub(crate) fn bind_group(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        patches: &wgpu::Buffer,
+        target: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: patches.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: target.as_entire_binding(),
+                },
+            ],
+        })
+    }
+
     /// The most bytes one `scatter_runs` list may have on this device: one storage binding,
     /// and no more headers (8 bytes each) than one dimension of workgroups dispatches.
     pub(crate) fn max_run_list_bytes(device: &wgpu::Device) -> u64 {
@@ -78,5 +93,23 @@ impl Scatter {
         let by_dispatch =
             u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(RUN_GROUP) * 8;
         limits.max_storage_buffer_binding_size.min(by_dispatch)
+    }
+}
+
+/// A storage buffer binding of a compute stage, at least `size` bytes.
+pub(crate) fn compute_storage(
+    binding: u32,
+    read_only: bool,
+    size: u64,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(size),
+        },
+        count: None,
     }
 }

@@ -39,7 +39,7 @@ use morphlod::lodstrips::{LodStrips, StripsState};
 use morphlod::morph::Morph;
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
-use morphlod::{Builder, DeformingModel, Lod};
+use morphlod::{Asset, Builder, DeformingModel, Lod};
 
 fn asset_path(name: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -54,6 +54,17 @@ fn head_morph() -> Morph {
         &MorphSource::Animation("morph".into()),
     )
     .expect("the head's animation loads")
+}
+
+/// The head's animation built with `frames` sampled frames, and its shared model.
+fn head_asset(frames: usize) -> (Morph, Asset, Arc<DeformingModel>) {
+    let morph = head_morph();
+    let (asset, _) = Builder::new(&morph)
+        .frames(frames)
+        .build()
+        .expect("the head builds");
+    let model = Arc::new(DeformingModel::new(&asset).expect("the built asset is valid"));
+    (morph, asset, model)
 }
 
 /// Fails with the first differences between two canonical multisets.
@@ -152,13 +163,8 @@ fn lod_object_draws_frame_k_over_a_walk_with_frame_switches() {
         return;
     };
     const FRAMES: usize = 6;
-    let morph = head_morph();
+    let (morph, asset, model) = head_asset(FRAMES);
     let tris = morph.triangles();
-    let (asset, _) = Builder::new(&morph)
-        .frames(FRAMES)
-        .build()
-        .expect("the head builds");
-    let model = Arc::new(DeformingModel::new(&asset).expect("the built asset is valid"));
     let mut object = LodObject::new(gpu.device(), &gpu.pipeline, &asset, Arc::clone(&model))
         .expect("the head uploads");
     let vertices = asset.v0.len();
@@ -214,12 +220,7 @@ fn exponential_sweep_uploads_at_most_5_percent() {
     // LOD fraction (1024^x - 1) / 1023; bytes are index + indirect writes of `prepare`,
     // against a full upload of S0's indices.
     const SWEEP: usize = 240;
-    let morph = head_morph();
-    let (asset, _) = Builder::new(&morph)
-        .frames(16)
-        .build()
-        .expect("the head builds");
-    let model = Arc::new(DeformingModel::new(&asset).expect("the built asset is valid"));
+    let (_, asset, model) = head_asset(16);
     let mut object =
         LodObject::new(gpu.device(), &gpu.pipeline, &asset, model).expect("the head uploads");
     object.prepare(gpu.queue());
@@ -392,12 +393,7 @@ fn lod_walk_with_frame_switches_reads_back_as_the_mirror() {
         return;
     };
     const FRAMES: usize = 6;
-    let morph = head_morph();
-    let (asset, _) = Builder::new(&morph)
-        .frames(FRAMES)
-        .build()
-        .expect("the head builds");
-    let model = Arc::new(DeformingModel::new(&asset).expect("the built asset is valid"));
+    let (_, asset, model) = head_asset(FRAMES);
     let mut object = LodObject::new(gpu.device(), &gpu.pipeline, &asset, Arc::clone(&model))
         .expect("the head uploads");
     object.prepare(gpu.queue());

@@ -1122,7 +1122,7 @@ impl CrowdAsset {
                 let mut encoder = device.create_command_encoder(&Default::default());
                 {
                     let mut pass = encoder.begin_compute_pass(&Default::default());
-                    pass.set_pipeline(&pipeline.scatter);
+                    pass.set_pipeline(&pipeline.scatter.pipeline);
                     pass.set_bind_group(0, group, &[]);
                     pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
                 }
@@ -1158,20 +1158,9 @@ impl CrowdAsset {
                 mapped_at_creation: false,
             });
             let group = |target: &wgpu::Buffer| {
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("crowd scatter"),
-                    layout: &pipeline.scatter_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: buffer.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: target.as_entire_binding(),
-                        },
-                    ],
-                })
+                pipeline
+                    .scatter
+                    .bind_group(device, "crowd scatter", &buffer, target)
             };
             self.patch_buffer = Some(PatchBuffer {
                 indices: group(&self.index_buffer),

@@ -6,7 +6,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::gpu::pipeline::{render_pipeline, vertex_buffers, Formats};
-use crate::gpu::scatter::Scatter;
+use crate::gpu::scatter::{compute_storage, Scatter};
 
 /// The WGSL source of the crowd shader: `shaders/shade.wgsl` followed by `shaders/crowd.wgsl`.
 pub const CROWD_WGSL: &str = concat!(
@@ -189,8 +189,7 @@ pub(super) struct CrowdPipeline {
     /// Colour and depth formats and culling every render pipeline of this crowd uses.
     formats: Formats,
     renders: Vec<(Variant, wgpu::RenderPipeline)>,
-    pub(super) scatter_layout: wgpu::BindGroupLayout,
-    pub(super) scatter: wgpu::ComputePipeline,
+    pub(super) scatter: Scatter,
     pub(super) probe_layout: wgpu::BindGroupLayout,
     pub(super) probe: wgpu::ComputePipeline,
 }
@@ -216,22 +215,6 @@ impl CrowdPipeline {
             immediate_size: 0,
         });
 
-        let storage = |binding, read_only, size| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: wgpu::BufferSize::new(size),
-            },
-            count: None,
-        };
-        let Scatter {
-            layout: scatter_layout,
-            pipeline: scatter,
-            ..
-        } = Scatter::new(device);
-
         let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("crowd probe"),
             entries: &[
@@ -245,7 +228,7 @@ impl CrowdPipeline {
                     },
                     count: None,
                 },
-                storage(1, false, 4),
+                compute_storage(1, false, 4),
             ],
         });
         let probe = compute(
@@ -265,8 +248,7 @@ impl CrowdPipeline {
                 cull_mode,
             },
             renders: Vec::new(),
-            scatter_layout,
-            scatter,
+            scatter: Scatter::new(device),
             probe_layout,
             probe,
         }
