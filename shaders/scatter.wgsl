@@ -1,31 +1,17 @@
-// morphlod: a frame's index edits applied on the GPU: `scatter` for a crowd asset
-// (gpu::Crowd::prepare), `scatter_runs` (below) for an object (gpu::Object::prepare).
+// morphlod: index edits applied on the GPU, for gpu::Object::prepare (a frame's changed words
+// of an object's index buffer) and gpu::Crowd::prepare (an asset's index slots and records).
 //
-// The CPU gathers every changed index slot of every instance into one list of (slot, value)
-// patches, uploaded with one write; one invocation applies one patch. No loop and no bounds
-// branch: the list is padded to whole workgroups by repeating its last patch (same slot, same
-// value, so the order of the duplicates does not matter). The dispatch is 2D when the
-// workgroups exceed one dimension's limit; patches are numbered row by row.
+// The CPU gathers the changed words into one list, uploaded with one write, and one dispatch
+// applies it. Each entry of the list is the header of a run of 1 to 16 consecutive words, so a
+// run costs 8 bytes plus 4 per word, not 8 per word. A single word carries its value inline:
+// [word | 1 << 31, value]; a longer run is [first word, (v << 4) | (length - 1)] with its values
+// at u32 v, v + 1, .. of this same list (after the headers). Each invocation makes 16 stores,
+// unrolled; store k of a shorter run repeats the run's last word (same word, same value): no
+// loop and no branch. The list is padded to whole workgroups by repeating its last header. Runs
+// never share a word (the invocations run in any order on a real GPU).
 
 @group(0) @binding(0) var<storage, read> patches: array<vec2<u32>>;
 @group(0) @binding(1) var<storage, read_write> indices: array<u32>;
-
-@compute @workgroup_size(64)
-fn scatter(
-    @builtin(global_invocation_id) id: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-) {
-    let edit = patches[id.x + id.y * groups.x * 64u];
-    indices[edit.x] = edit.y;
-}
-
-// gpu::Object::prepare's runs (`scatter_runs`): each patch is the header of a run of 1 to 16
-// consecutive words of the index buffer, so a run costs 8 bytes plus 4 per word, not 8 per
-// word. A single word carries its value inline: [word | 1 << 31, value]; a longer run is
-// [first word, (v << 4) | (length - 1)] with its values at u32 v, v + 1, .. of this same list
-// (after the headers). Each invocation makes 16 stores, unrolled; store k of a shorter run
-// repeats the run's last word (same word, same value): no loop and no branch. The list is
-// padded to whole workgroups by repeating its last header.
 
 fn run_value(at: u32) -> u32 {
     let pair = patches[at >> 1u];

@@ -56,7 +56,7 @@ use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
 use super::pose::{default_mode, Pose};
 use super::records::{DrawRecords, ARGS_BYTES};
-use super::scatter::{Scatter, RUN_GROUP, RUN_WORDS};
+use super::scatter::{encode_runs, Scatter, RUN_GROUP};
 use super::upload::{clip, coalesce, plan_upload, run_list_bytes, IndexMirror};
 use super::{Draws, GpuError, Upload, GROUP_INDICES, RESTART};
 #[allow(unused_imports)] // named in the docs
@@ -717,47 +717,17 @@ impl Object {
 
     /// Sends the words of `runs` (disjoint, their list within `max_list_bytes`) through the
     /// scatter: one write of the run list, one dispatch of `scatter_runs`, submitted on
-    /// `queue`. The list (`shaders/scatter.wgsl`): one header per run of up to
-    /// [`RUN_WORDS`] words, a single word with its value inline, padded to whole workgroups by
-    /// repeating the last header; then the longer runs' values.
+    /// `queue` (the list: [`encode_runs`]).
     fn scatter(&mut self, queue: &wgpu::Queue, runs: &[Range<u32>], upload: &mut Upload) {
         let s = &mut self.scatter;
         let indices = &self.mirror.indices;
         let bytes = run_list_bytes(runs);
-        let headers: usize = runs
-            .iter()
-            .map(|r| (r.end - r.start).div_ceil(RUN_WORDS) as usize)
-            .sum();
-        let padded = headers.next_multiple_of(RUN_GROUP as usize);
-        s.list.clear();
-        s.list.reserve(bytes as usize / 4);
-        // Values start after the padded headers, in u32s of the list.
-        let mut value_at = 2 * padded as u32;
-        for run in runs {
-            upload.scattered_words += u64::from(run.end - run.start);
-            if run.end - run.start == 1 {
-                s.list
-                    .extend([run.start | 1 << 31, indices[run.start as usize]]);
-                continue;
-            }
-            for first in (run.start..run.end).step_by(RUN_WORDS as usize) {
-                let len = (run.end - first).min(RUN_WORDS);
-                s.list.extend([first, value_at << 4 | (len - 1)]);
-                value_at += len;
-            }
-        }
-        let last = [s.list[s.list.len() - 2], s.list[s.list.len() - 1]];
-        for _ in headers..padded {
-            s.list.extend(last);
-        }
-        for run in runs.iter().filter(|r| r.end - r.start > 1) {
-            s.list
-                .extend_from_slice(&indices[run.start as usize..run.end as usize]);
-        }
-        // Whole `[u32; 2]` elements.
-        if s.list.len() % 2 == 1 {
-            s.list.push(0);
-        }
+        let padded = encode_runs(
+            runs.iter()
+                .map(|r| (r.start, &indices[r.start as usize..r.end as usize])),
+            &mut s.list,
+        );
+        upload.scattered_words += runs.iter().map(|r| u64::from(r.end - r.start)).sum::<u64>();
         debug_assert_eq!(s.list.len() as u64 * 4, bytes);
         if s.patch_buffer
             .as_ref()
@@ -790,7 +760,7 @@ impl Object {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_pipeline(&s.scatter.runs);
             pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(padded as u32 / RUN_GROUP, 1, 1);
+            pass.dispatch_workgroups(padded / RUN_GROUP, 1, 1);
         }
         queue.submit([encoder.finish()]);
         upload.scatter_bytes = bytes;

@@ -1,14 +1,10 @@
-//! The index scatter (`shaders/scatter.wgsl`): a list of patches, uploaded with one write,
-//! applied by one compute dispatch. A [`super::Crowd`] patches its assets' index slots and
-//! records with `[word, value]` pairs (`scatter`); an [`super::Object`] sends a frame's index
-//! edits as runs of consecutive words (`scatter_runs`, [`super::Object::prepare`]).
+//! The index scatter (`shaders/scatter.wgsl`): a list of runs of consecutive words, uploaded
+//! with one write, applied by one compute dispatch ([`encode_runs`]). An [`super::Object`]
+//! sends a frame's index edits this way ([`super::Object::prepare`]); a [`super::Crowd`] its
+//! assets' index slots and records.
 
 /// The WGSL source of the index scatter (`shaders/scatter.wgsl`).
 pub const SCATTER_WGSL: &str = include_str!("../../shaders/scatter.wgsl");
-
-/// Patches one scatter workgroup applies (`@workgroup_size` of `scatter`); a list is
-/// padded to whole workgroups by repeating its last patch.
-pub(crate) const SCATTER_GROUP: u32 = 64;
 
 /// Run headers one `scatter_runs` workgroup applies (its `@workgroup_size`): small, since the
 /// list is padded to whole workgroups and an object's frame may have few runs.
@@ -17,24 +13,21 @@ pub(crate) const RUN_GROUP: u32 = 16;
 /// The most words one run header covers (the stores one `scatter_runs` invocation makes).
 pub(crate) const RUN_WORDS: u32 = 16;
 
-/// The scatter's compute pipelines and the layout of their bind group (binding 0: the patches,
+/// The scatter's compute pipeline and the layout of its bind group (binding 0: the run list,
 /// read-only storage of `[u32; 2]`; binding 1: the patched buffer, read-write storage of `u32`).
 #[derive(Clone, Debug)]
 pub(crate) struct Scatter {
     pub(crate) layout: wgpu::BindGroupLayout,
-    /// `[word, value]` pairs, one invocation each.
-    pub(crate) pipeline: wgpu::ComputePipeline,
     /// Runs of up to [`RUN_WORDS`] words, one invocation each.
     pub(crate) runs: wgpu::ComputePipeline,
 }
 
 impl Scatter {
     pub(crate) fn new(device: &wgpu::Device) -> Scatter {
-        let storage = compute_storage;
-        // Patches are [word, value] pairs: 8 bytes each.
+        // Headers are [u32; 2]: 8 bytes each.
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("morphlod scatter"),
-            entries: &[storage(0, true, 8), storage(1, false, 4)],
+            entries: &[compute_storage(0, true, 8), compute_storage(1, false, 4)],
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("scatter.wgsl"),
@@ -45,24 +38,18 @@ impl Scatter {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let entry = |name| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(name),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(name),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        Scatter {
-            pipeline: entry("scatter"),
-            runs: entry("scatter_runs"),
-            layout,
-        }
+        let runs = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("scatter_runs"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("scatter_runs"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Scatter { runs, layout }
     }
 
-    /// The bind group that applies the patches in `patches` to `target`.
+    /// The bind group that applies the run list in `patches` to `target`.
     pub(crate) fn bind_group(
         &self,
         device: &wgpu::Device,
@@ -96,6 +83,52 @@ impl Scatter {
     }
 }
 
+/// Encodes `runs` (each a first word below 2³¹ and its values, at least one; disjoint) as a
+/// `scatter_runs` list in `list` (cleared first): one header per [`RUN_WORDS`] words of a run,
+/// a single word with its value inline, the headers padded to whole workgroups by repeating
+/// the last one; then the longer runs' values, and a zero to whole `[u32; 2]` elements.
+/// Returns the padded header count (the dispatch is that over [`RUN_GROUP`] workgroups), 0
+/// for no runs (and an empty list).
+pub(crate) fn encode_runs<'a, I>(runs: I, list: &mut Vec<u32>) -> u32
+where
+    I: Iterator<Item = (u32, &'a [u32])> + Clone,
+{
+    list.clear();
+    let headers: usize = runs
+        .clone()
+        .map(|(_, values)| values.len().div_ceil(RUN_WORDS as usize))
+        .sum();
+    if headers == 0 {
+        return 0;
+    }
+    let padded = headers.next_multiple_of(RUN_GROUP as usize);
+    // Values start after the padded headers, in u32s of the list.
+    let mut value_at = 2 * padded as u32;
+    for (first, values) in runs.clone() {
+        debug_assert!(first < 1 << 31, "word {first} does not fit a run header");
+        if let [value] = values {
+            list.extend([first | 1 << 31, *value]);
+            continue;
+        }
+        for (k, chunk) in values.chunks(RUN_WORDS as usize).enumerate() {
+            let len = chunk.len() as u32;
+            list.extend([first + k as u32 * RUN_WORDS, value_at << 4 | (len - 1)]);
+            value_at += len;
+        }
+    }
+    let last = [list[list.len() - 2], list[list.len() - 1]];
+    for _ in headers..padded {
+        list.extend(last);
+    }
+    for (_, values) in runs.filter(|(_, values)| values.len() > 1) {
+        list.extend_from_slice(values);
+    }
+    if list.len() % 2 == 1 {
+        list.push(0);
+    }
+    padded as u32
+}
+
 /// A storage buffer binding of a compute stage, at least `size` bytes.
 pub(crate) fn compute_storage(
     binding: u32,
@@ -111,5 +144,63 @@ pub(crate) fn compute_storage(
             min_binding_size: wgpu::BufferSize::new(size),
         },
         count: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What `scatter_runs` does with `list` (its first `headers` pairs), written from the
+    /// shader's comment: each header stores 16 words, the k-th clamped to the run's last.
+    fn apply(list: &[u32], headers: u32, buffer: &mut [u32]) {
+        for h in 0..headers as usize {
+            let (x, y) = (list[2 * h], list[2 * h + 1]);
+            let single = x >= 1 << 31;
+            for k in 0..RUN_WORDS {
+                let i = k.min(if single { 0 } else { y & 15 });
+                let value = if single {
+                    y
+                } else {
+                    list[((y >> 4) + i) as usize]
+                };
+                buffer[((x & 0x7fff_ffff) + i) as usize] = value;
+            }
+        }
+    }
+
+    #[test]
+    fn encoded_runs_store_exactly_their_words() {
+        // Runs of 1, 2, 16, 17 and 40 words with gaps, one of them at word 0.
+        let lengths = [1usize, 2, 16, 17, 40, 1, 3];
+        let mut runs = Vec::new();
+        let mut values = Vec::new();
+        let mut at = 0u32;
+        for (r, &len) in lengths.iter().enumerate() {
+            let start = values.len();
+            values.extend((0..len as u32).map(|k| 1000 * (r as u32 + 1) + k));
+            runs.push((at, start..values.len()));
+            at += len as u32 + 1 + r as u32;
+        }
+        let mut list = Vec::new();
+        let headers = encode_runs(
+            runs.iter().map(|(f, r)| (*f, &values[r.clone()])),
+            &mut list,
+        );
+        assert_eq!(headers % RUN_GROUP, 0);
+        assert_eq!(list.len() % 2, 0);
+        // Lone words ride in their header: 8 bytes; longer runs 8 a header plus 4 a word.
+        let words: usize = lengths.iter().sum();
+        assert!(4 * list.len() <= 8 * words + 8 * RUN_GROUP as usize);
+        let mut buffer = vec![u32::MAX; at as usize + 16];
+        apply(&list, headers, &mut buffer);
+        let mut expected = vec![u32::MAX; buffer.len()];
+        for (first, range) in &runs {
+            let f = *first as usize;
+            expected[f..f + range.len()].copy_from_slice(&values[range.clone()]);
+        }
+        assert_eq!(buffer, expected);
+        assert_eq!(encode_runs(std::iter::empty(), &mut list), 0);
+        assert!(list.is_empty());
     }
 }

@@ -52,12 +52,13 @@ pub use self::bench::{
 };
 pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
-use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant, SCATTER_GROUP};
+use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant};
 use self::slots::{SlotLayout, SlotRecord};
 use super::asset::GpuAsset;
 use super::commands::RenderCommands;
 use super::pose::{clamp_t, default_mode};
 use super::records::ARGS_BYTES;
+use super::scatter::{encode_runs, Scatter, RUN_GROUP};
 use super::GpuError;
 use crate::deform::{rebuild_all, DeformingModel, DeformingState, Lod, Plan, SetError, Strategy};
 use crate::lodstrips::Survivors;
@@ -154,8 +155,9 @@ impl InstanceId {
 pub struct CrowdUpload {
     /// Index slots patched (by the scatter), over all assets; record words not counted.
     pub patches: u64,
-    /// Bytes written: patches of index slots and of record words (8 per patch, padded to
-    /// whole workgroups), new instances' `S0`, instance blocks, the scene block and textures.
+    /// Bytes written: run lists of index slots and of record words (8 per lone word, 8 per run
+    /// of up to 16 consecutive words plus 4 a word, headers padded to whole workgroups), new
+    /// instances' `S0`, instance blocks, the scene block and textures.
     pub bytes: u64,
     /// `queue.write_buffer` and `write_texture` calls.
     pub writes: usize,
@@ -244,6 +246,11 @@ struct CrowdAsset {
     /// The record words changed since the last prepare, as `[word, value]` patches of the
     /// indirect buffer.
     record_patches: Vec<[u32; 2]>,
+    /// Scratch of a scatter: the patches' values, their runs of consecutive words (first
+    /// word, values' range) and the encoded run list.
+    run_values: Vec<u32>,
+    runs: Vec<(u32, std::ops::Range<usize>)>,
+    run_list: Vec<u32>,
 }
 
 /// Leaves one patch per word, the last pushed (a stable sort by word keeps each word's
@@ -579,6 +586,9 @@ impl Crowd {
             dirty_blocks: Span::EMPTY,
             patches: Vec::new(),
             record_patches: Vec::new(),
+            run_values: Vec::new(),
+            runs: Vec::new(),
+            run_list: Vec::new(),
         });
         Ok(AssetId(id))
     }
@@ -1098,37 +1108,51 @@ impl CrowdAsset {
             keep_last_per_word(&mut patches);
         }
         debug_assert!(each_word_once(&patches), "{what:?}: a word patched twice");
-        if let Some(&last) = patches.last() {
-            // Whole workgroups: the last patch repeated (same slot, same value).
-            let padded = patches.len().next_multiple_of(SCATTER_GROUP as usize);
-            patches.resize(padded, last);
-            // A frame that moves many instances far (the first LOD frame of a crowd) can pass
-            // one binding's or one dispatch's limit: then it goes in chunks, each written and
-            // submitted before the next reuses the buffer.
-            let limits = device.limits();
-            let by_binding = limits.max_storage_buffer_binding_size / 8;
-            let by_dispatch =
-                u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(SCATTER_GROUP);
-            let chunk = (by_binding.min(by_dispatch) as usize / SCATTER_GROUP as usize).max(1)
-                * SCATTER_GROUP as usize;
-            for part in patches.chunks(chunk) {
-                let size = std::mem::size_of_val(part) as u64;
-                let buffer = self.patch_buffer(device, pipeline, size);
-                upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(part));
-                let group = match what {
-                    Patched::Indices => &buffer.indices,
-                    Patched::Records => &buffer.records,
-                };
-                let mut encoder = device.create_command_encoder(&Default::default());
-                {
-                    let mut pass = encoder.begin_compute_pass(&Default::default());
-                    pass.set_pipeline(&pipeline.scatter.pipeline);
-                    pass.set_bind_group(0, group, &[]);
-                    pass.dispatch_workgroups(part.len() as u32 / SCATTER_GROUP, 1, 1);
+        // A frame that moves many instances far (the first LOD frame of a crowd) can pass one
+        // binding's or one dispatch's limit: then it goes in chunks, each written and
+        // submitted before the next reuses the buffer. A patch takes at most 8 bytes of a run
+        // list, plus the headers' padding.
+        let chunk = ((Scatter::max_run_list_bytes(device) / 8) as usize)
+            .saturating_sub(RUN_GROUP as usize)
+            .max(1);
+        for part in patches.chunks(chunk) {
+            // Consecutive words in the list make one run (a compact copy and a record are
+            // patched in order): 8 bytes for a lone word, 8 plus 4 a word for a run.
+            self.run_values.clear();
+            self.run_values.extend(part.iter().map(|p| p[1]));
+            self.runs.clear();
+            for (i, p) in part.iter().enumerate() {
+                match self.runs.last_mut() {
+                    Some((first, values)) if *first + (i - values.start) as u32 == p[0] => {
+                        values.end = i + 1;
+                    }
+                    _ => self.runs.push((p[0], i..i + 1)),
                 }
-                queue.submit([encoder.finish()]);
-                upload.dispatches += 1;
             }
+            let values = &self.run_values;
+            let headers = encode_runs(
+                self.runs
+                    .iter()
+                    .map(|(first, range)| (*first, &values[range.clone()])),
+                &mut self.run_list,
+            );
+            let list = std::mem::take(&mut self.run_list);
+            let buffer = self.patch_buffer(device, pipeline, 4 * list.len() as u64);
+            upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(&list));
+            let group = match what {
+                Patched::Indices => &buffer.indices,
+                Patched::Records => &buffer.records,
+            };
+            let mut encoder = device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&pipeline.scatter.runs);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(headers / RUN_GROUP, 1, 1);
+            }
+            queue.submit([encoder.finish()]);
+            upload.dispatches += 1;
+            self.run_list = list;
         }
         patches.clear();
         match what {

@@ -14,7 +14,6 @@ pub const CROWD_WGSL: &str = concat!(
     include_str!("../../../shaders/crowd.wgsl")
 );
 
-pub(super) use crate::gpu::scatter::SCATTER_GROUP;
 pub use crate::gpu::scatter::SCATTER_WGSL;
 
 /// The scene block (`Scene` in `crowd.wgsl`): camera and light, shared by every asset.

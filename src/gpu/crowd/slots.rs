@@ -10,8 +10,8 @@
 //! draws that copy instead of the regions, whose restart tails would be most of what it reads.
 //! The CPU keeps no mirror of the slots: what the GPU holds is known from the runtime's strips
 //! as of the last upload, and the runtime's dirty log says which positions may differ since.
-//! A patch is `[slot, value]`; a frame's patches of all instances are applied by one scatter
-//! dispatch.
+//! A patch is `[slot, value]`; a frame's patches of all instances are encoded as runs of
+//! consecutive slots and applied by one scatter dispatch.
 
 use crate::deform::{DeformingModel, DeformingState};
 use crate::lodstrips::Dirty;
