@@ -132,19 +132,6 @@ fn quantized_and_compressed_exports_validate_and_keep_the_lods() {
     }
 }
 
-/// The diagonal of the base pose's bounding box.
-fn diagonal(points: &[[f32; 3]]) -> f32 {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f32>().sqrt()
-}
-
 fn distance(a: [f32; 3], b: [f32; 3]) -> f32 {
     (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f32>().sqrt()
 }
@@ -161,7 +148,7 @@ fn a_quantized_export_round_trips_through_the_gltf_crate() {
     let gltf = gltf::Gltf::from_slice_without_validation(&export.glb).unwrap();
     let blob = gltf.blob.clone().unwrap();
     let morph = face();
-    let bound = MAX_ERROR * diagonal(morph.base());
+    let bound = MAX_ERROR * common::diagonal(morph.base()) as f32;
     for (node, lod) in gltf.nodes().zip(&export.lods) {
         let (translation, _, scale) = node.transform().decomposed();
         assert_eq!(translation, grid.offset);
