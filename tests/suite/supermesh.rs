@@ -148,14 +148,6 @@ fn area(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> f64 {
         .sum()
 }
 
-fn diagonal(mesh: &IndexedMesh) -> f64 {
-    let (lo, hi) = mesh.bounds().unwrap();
-    (0..3)
-        .map(|k| ((hi[k] - lo[k]) as f64).powi(2))
-        .sum::<f64>()
-        .sqrt()
-}
-
 fn orient(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let p = |v: DVec3| robust::Coord3D {
         x: v.x,
@@ -293,7 +285,7 @@ fn check(a: &IndexedMesh, b: &IndexedMesh, s: &Supermesh, r: &SupermeshReport, s
             samples,
         )
         .unwrap();
-        let diag = diagonal(mesh);
+        let diag = common::diagonal(&mesh.positions);
         println!(
             "  {name}: Hausdorff {:.3e} = {:.3e} of the diagonal, area {sa:.9} vs {ma:.9}",
             h.hausdorff,
