@@ -289,9 +289,10 @@ struct PatchBuffer {
 /// `[slot, value]` patches of the index buffer, or `[word, value]` of the indirect buffer.
 type Patches = Vec<[u32; 2]>;
 
-/// Slots per piece of work of `set`'s parallel pass: each moved instance there costs a pose
-/// and a plan (about a microsecond, or a step or two of its strips), so smaller pieces cost the
-/// pool more in splitting and waking threads than they gain; 1000 instances make 16 pieces.
+/// Slots per piece of work of `set`'s parallel pass: a moved instance there costs a pose, a
+/// plan and at most a few steps of its strips (its frame switch is left to the rebuild pass),
+/// so smaller pieces cost the pool more in splitting and waking threads than they gain; 1000
+/// instances make 16 pieces.
 const MOVES_PER_PIECE: usize = 64;
 
 /// Changed instances per piece of work of `prepare`'s patch pass (a compact copy or region
