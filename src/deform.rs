@@ -62,6 +62,16 @@ impl Lod {
         let units_per_pixel = 2.0 * distance * (fov_y * 0.5).tan() / viewport_height;
         Lod::MaxError(pixels * units_per_pixel)
     }
+
+    /// `lod`, or [`SetError::LodNaN`] where it holds NaN: the one LOD
+    /// [`DeformingModel::resolve`] refuses (so a caller can check a move
+    /// without resolving it).
+    pub(crate) fn check(self) -> Result<Lod, SetError> {
+        match self {
+            Lod::Fraction(v) | Lod::MaxError(v) if v.is_nan() => Err(SetError::LodNaN(self)),
+            lod => Ok(lod),
+        }
+    }
 }
 
 /// How [`DeformingState::set_with`] reaches the requested state.
@@ -347,12 +357,10 @@ impl DeformingModel {
     pub fn resolve(&self, k: usize, lod: Lod) -> Result<usize, SetError> {
         let frame = &self.frames[k.min(self.frames.len() - 1)];
         let max = frame.changes.max_lod();
-        let l = match lod {
+        let l = match lod.check()? {
             Lod::Steps(l) => l.min(max),
-            Lod::Fraction(f) if f.is_nan() => return Err(SetError::LodNaN(lod)),
             Lod::Fraction(f) => ((f.clamp(0.0, 1.0) * max as f32).round() as usize).min(max),
             Lod::Triangles(budget) => frame.changes.finest_within(budget),
-            Lod::MaxError(e) if e.is_nan() => return Err(SetError::LodNaN(lod)),
             Lod::MaxError(e) => frame.coarsest_within(e),
         };
         Ok(match (&frame.boundaries, lod) {

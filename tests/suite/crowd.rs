@@ -20,6 +20,9 @@
 //! * `crowd_records_read_only_live_indices`: the same walk with a compact area as large as the
 //!   regions (every moved instance's record reads only its live indices and the restarts
 //!   between strips) and without one (every record reads the regions).
+//! * `patches_past_one_binding_go_in_chunks`: on a device whose storage bindings just hold the
+//!   index buffer, frames whose patches need several scatter chunks (all recorded in one
+//!   command buffer per prepare) still leave buffers that draw each instance's mesh.
 //! * `index_patches_name_each_word_once`: over a random walk, a frame's index patches number
 //!   exactly the distinct words the instances' dirty logs name (no word sent twice).
 //! * `instances_sharing_a_frame_draw_their_reference_meshes`: most instances switching to one
@@ -591,6 +594,100 @@ fn buffers_decode_to_each_instance_mesh(
             "no record went from the compact copy back to the regions"
         );
     }
+    Ok(())
+}
+
+/// A frame whose patches pass what one scatter may bind goes in chunks, each written to the
+/// patch buffer after the previous chunk's dispatch was submitted (a prepare records every
+/// scatter in one command buffer, so a chunk that reused the buffer before that submission
+/// would overwrite the previous chunk's patches). On a device whose storage bindings just hold
+/// the index buffer, without a compact area, instances jumping between full detail and their
+/// coarsest LOD (most region words patched) need several chunks; after every prepare the
+/// buffers read back draw each instance's mesh.
+#[test]
+fn patches_past_one_binding_go_in_chunks() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let asset = grid_asset(11, 6, 0.5);
+    let capacity = 4;
+    let regions_only = CrowdRecords { compact_share: 0.0 };
+    let per = {
+        let kind = Kind::new(&ctx, asset.clone())?;
+        let mut probe = crowd_on(&ctx, paths(&ctx)[0])?;
+        probe.set_records(regions_only);
+        let id = probe.add_asset(ctx.device(), kind.gpu, kind.model, capacity)?;
+        probe.slots_per_instance(id)
+    };
+    // Storage bindings of the index buffer's size (rounded up to 256 bytes), no more.
+    let binding = (u64::from(capacity * per) * 4).next_multiple_of(256);
+    let adapter = ctx.ctx.adapter.clone();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_features: adapter.features() & gpu::Context::FEATURES,
+        required_limits: wgpu::Limits {
+            max_storage_buffer_binding_size: binding,
+            ..adapter.limits()
+        },
+        ..Default::default()
+    }))?;
+    let pipeline = gpu::MorphPipeline::new(
+        &device,
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+    );
+    let small = Gpu {
+        ctx: gpu::Context {
+            instance: ctx.ctx.instance.clone(),
+            adapter,
+            device,
+            queue,
+        },
+        pipeline,
+    };
+    let kind = Kind::new(&small, asset)?;
+    let n = kind.gpu.vertex_count();
+    let (device, queue) = (small.device(), small.queue());
+    let mut crowd = crowd_on(&small, paths(&small)[0])?;
+    crowd.set_records(regions_only);
+    let id = crowd.add_asset(
+        device,
+        Arc::clone(&kind.gpu),
+        Arc::clone(&kind.model),
+        capacity,
+    )?;
+    assert_eq!(crowd.slots_per_instance(id), per);
+    let instances: Vec<InstanceId> = (0..capacity)
+        .map(|_| crowd.add(id, glam::Mat4::IDENTITY))
+        .collect::<std::result::Result<_, _>>()?;
+    let mut most = 0;
+    for step in 0..8 {
+        // The coarsest LOD at one frame, full detail, the coarsest at another frame...
+        let (t, lod) = match step % 2 {
+            0 => (step as f32 / 8.0, Lod::Fraction(1.0)),
+            _ => (0.0, Lod::Steps(0)),
+        };
+        let moves: Vec<_> = instances.iter().map(|&i| (i, t, lod)).collect();
+        crowd.set(&moves)?;
+        let upload = crowd.prepare(device, queue);
+        most = most.max(upload.dispatches);
+        let drawn = drawn_per_slot(&small, &crowd, id, n);
+        for &i in &instances {
+            let state = crowd.state(i)?;
+            let expected: Vec<[u32; 3]> = (0..state.lengths().len())
+                .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
+                .collect();
+            assert_eq!(
+                drawn[i.slot() as usize].triangles,
+                expected,
+                "step {step}, {i:?}"
+            );
+        }
+    }
+    // One dispatch for the records, more than one for the index patches.
+    assert!(
+        most > 2,
+        "no frame needed more than one chunk: {most} dispatches at most"
+    );
     Ok(())
 }
 

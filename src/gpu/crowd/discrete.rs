@@ -314,8 +314,8 @@ impl DiscreteCrowd {
         self.own
             .par_iter_mut()
             .zip(moves)
-            .for_each(|(block, &(t, _))| {
-                block.set_pose(track, clamp_t(t).expect("checked time"));
+            .for_each_init(Vec::new, |weights, (block, &(t, _))| {
+                block.set_pose(track, clamp_t(t).expect("checked time"), weights);
             });
         self.chosen[..levels.len()].copy_from_slice(&levels);
         // A counting sort: the blocks of level l at first[l]..first[l + 1].

@@ -226,9 +226,9 @@ struct CrowdAsset {
     /// Its render pipeline (number in the crowd's [`CrowdPipeline`]) and vertex entry point.
     render: usize,
     variant: Variant,
-    /// The patch list's GPU buffer and the scatter's bind groups over it and the index,
-    /// resp. indirect buffer; grown on demand.
-    patch_buffer: Option<PatchBuffer>,
+    /// The patch lists' GPU buffers, for the index buffer and for the indirect buffer, with
+    /// the scatter's bind group over each; grown on demand.
+    patch_buffers: [Option<PatchBuffer>; 2],
     /// Instance of each slot (`None`: free).
     members: Vec<Option<Member>>,
     /// Generation of each slot, bumped when its instance is removed.
@@ -279,16 +279,25 @@ fn each_word_once(patches: &[[u32; 2]]) -> bool {
     words.windows(2).all(|w| w[0] != w[1])
 }
 
-/// The buffer a frame's patches go through, with the scatter's bind groups over it and the
-/// asset's index buffer, resp. indirect buffer.
+/// The buffer a frame's patches of one of the asset's buffers go through, with the scatter's
+/// bind group over it and that buffer.
 struct PatchBuffer {
     buffer: wgpu::Buffer,
-    indices: wgpu::BindGroup,
-    records: wgpu::BindGroup,
+    group: wgpu::BindGroup,
 }
 
 /// `[slot, value]` patches of the index buffer, or `[word, value]` of the indirect buffer.
 type Patches = Vec<[u32; 2]>;
+
+/// Slots per piece of work of `set`'s parallel pass: a moved instance there costs a pose, a
+/// plan and at most a few steps of its strips (its frame switch is left to the rebuild pass),
+/// so smaller pieces cost the pool more in splitting and waking threads than they gain; 1000
+/// instances make 16 pieces.
+const MOVES_PER_PIECE: usize = 64;
+
+/// Changed instances per piece of work of `prepare`'s patch pass (a compact copy or region
+/// patches each, microseconds); fewer than one piece are patched on the calling thread.
+const CHANGED_PER_PIECE: usize = 16;
 
 /// Which buffer of an asset a scatter patches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -576,7 +585,7 @@ impl Crowd {
             bind_group,
             render,
             variant,
-            patch_buffer: None,
+            patch_buffers: [None, None],
             members: (0..capacity).map(|_| None).collect(),
             generations: vec![0; capacity as usize],
             free: (0..capacity).rev().collect(),
@@ -732,19 +741,22 @@ impl Crowd {
     /// [`WEIGHT_SLOTS`]). Everything is checked first: on error nothing moved. An instance
     /// named twice takes its last move.
     pub fn set(&mut self, moves: &[(InstanceId, f32, Lod)]) -> Result<(), CrowdError> {
+        // What a move can be refused for (the LOD is resolved once, in the parallel pass).
         for &(id, t, lod) in moves {
             let a = self.member_asset(id)?;
-            let k = a.model.frame_at(t)?;
-            a.model.resolve(k, lod)?;
+            a.model.frame_at(t)?;
+            lod.check()?;
         }
+        let mut moved = vec![false; self.assets.len()];
         for &(id, t, lod) in moves {
             let a = &mut self.assets[id.asset as usize];
             if let Some(member) = &mut a.members[id.slot as usize] {
                 member.pending = Some((t, lod));
             }
             a.dirty_blocks.add(id.slot);
+            moved[id.asset as usize] = true;
         }
-        for a in &mut self.assets {
+        for (a, _) in self.assets.iter_mut().zip(moved).filter(|(_, m)| *m) {
             let (model, track) = (&a.model, a.gpu.track());
             // In parallel: every moved instance's pose and plan; the moves that step are made
             // here, the rebuilds (frame switches) are gathered.
@@ -753,11 +765,12 @@ impl Crowd {
                 .par_iter_mut()
                 .zip(a.blocks.par_iter_mut())
                 .enumerate()
-                .filter_map(|(slot, (member, block))| {
+                .with_min_len(MOVES_PER_PIECE)
+                .map_init(Vec::new, |weights, (slot, (member, block))| {
                     let member = member.as_mut()?;
                     let (t, lod) = member.pending.take()?;
                     member.moved = true;
-                    block.set_pose(track, clamp_t(t).expect("checked time"));
+                    block.set_pose(track, clamp_t(t).expect("checked time"), weights);
                     // Checked above: cannot fail.
                     let plan = (member.state)
                         .plan(model, t, lod, Strategy::Auto)
@@ -768,7 +781,11 @@ impl Crowd {
                     member.state.apply(model, plan, &mut Survivors::new());
                     None
                 })
+                .flatten_iter()
                 .collect();
+            if rebuilds.is_empty() {
+                continue;
+            }
             // The rebuilds, by frame: instances switching to one frame share its survivors.
             let mut plans = rebuilds.into_iter().peekable();
             let mut jobs = Vec::with_capacity(plans.len());
@@ -851,14 +868,23 @@ impl Crowd {
                 bytemuck::bytes_of(&self.scene),
             );
         }
+        // One encoder for every asset's scatter dispatches, submitted once at the end.
+        let mut scatters = None;
         for a in &mut self.assets {
             let texture = a.gpu.upload(queue);
             upload.bytes += texture;
             upload.writes += usize::from(texture > 0);
-            // New instances: their slots get S0.
             let per = a.layout.per_instance();
-            for (slot, member) in a.members.iter_mut().enumerate() {
-                if let Some(member) = member.as_mut().filter(|m| m.fresh) {
+            // One sequential pass (a flag and a counter compare per slot): new instances get
+            // S0, and the moved instances whose strips changed are gathered, so that only they
+            // go to the thread pool; a frame where none changed (a shared sequence at a steady
+            // LOD) wakes no thread.
+            let mut changed = Vec::new();
+            for (slot, (member, record)) in a.members.iter_mut().zip(&mut a.records).enumerate() {
+                let Some(member) = member.as_mut() else {
+                    continue;
+                };
+                if member.fresh {
                     member.fresh = false;
                     let offset = u64::from(slot as u32 * per) * 4;
                     upload.write(
@@ -868,61 +894,77 @@ impl Crowd {
                         bytemuck::cast_slice(a.layout.s0()),
                     );
                 }
+                if !std::mem::take(&mut member.moved) {
+                    continue;
+                }
+                // Unchanged strips keep their slots, record and compact copy.
+                let changes = member.state.changes();
+                if changes != member.changes {
+                    member.changes = changes;
+                    changed.push((slot as u32, member, record));
+                }
             }
-            // Moved instances whose strips changed: their compact copy where it is drawn, else
-            // their region patches, and their record's patches, in parallel; then one list of
-            // each. While the compact copy is drawn the regions are not read, so their patches
-            // wait in the runtime's dirty log (which coalesces per strip: a position changed
-            // in many frames is sent once) until a record reads the regions again.
+            // The changed instances: their compact copy where it is drawn, else their region
+            // patches, and their record's patches. While the compact copy is drawn the regions
+            // are not read, so their patches wait in the runtime's dirty log (which coalesces
+            // per strip: a position changed in many frames is sent once) until a record reads
+            // the regions again.
             let layout = &a.layout;
             let key = (self.path, a.gpu.vertex_count(), per);
-            // One pair of lists per piece of work rayon splits off, not per instance: a frame
-            // with hundreds of changed instances makes (and grows) a few lists, not hundreds.
-            let moved: Vec<(Patches, Patches)> = a
-                .members
-                .par_iter_mut()
-                .zip(a.records.par_iter_mut())
-                .enumerate()
-                .fold(
-                    || (Vec::new(), Vec::new()),
-                    |(mut patches, mut record_patches), (slot, (member, record))| {
-                        let Some(member) = member.as_mut().filter(|m| m.moved) else {
-                            return (patches, record_patches);
-                        };
-                        member.moved = false;
-                        // Unchanged strips keep their slots, record and compact copy.
-                        let changes = member.state.changes();
-                        if changes == member.changes {
-                            return (patches, record_patches);
-                        }
-                        member.changes = changes;
-                        let slot = slot as u32;
-                        let drawn = layout.record(member.state.lengths());
-                        if drawn.compact {
-                            layout.compact_patches(slot * per, &member.state, &mut patches);
-                        } else {
-                            let dirty = member.state.take_dirty();
-                            layout.patches(
-                                slot * per,
-                                &member.state,
-                                &dirty,
-                                &mut member.uploaded,
-                                &mut patches,
-                            );
-                        }
-                        set_record(key, slot, Some(drawn), record, &mut record_patches);
-                        (patches, record_patches)
-                    },
-                )
-                .collect();
+            let patch = |(mut patches, mut record_patches): (Patches, Patches),
+                         (slot, member, record): (
+                u32,
+                &mut Member,
+                &mut DrawIndexedIndirectArgs,
+            )| {
+                let drawn = layout.record(member.state.lengths());
+                if drawn.compact {
+                    layout.compact_patches(slot * per, &member.state, &mut patches);
+                } else {
+                    let dirty = member.state.take_dirty();
+                    layout.patches(
+                        slot * per,
+                        &member.state,
+                        &dirty,
+                        &mut member.uploaded,
+                        &mut patches,
+                    );
+                }
+                set_record(key, slot, Some(drawn), record, &mut record_patches);
+                (patches, record_patches)
+            };
             a.patches.clear();
-            for (patches, records) in moved {
-                a.patches.extend_from_slice(&patches);
-                a.record_patches.extend_from_slice(&records);
+            if changed.len() < CHANGED_PER_PIECE {
+                // Less than one piece of work: straight into the asset's lists.
+                let lists = (
+                    std::mem::take(&mut a.patches),
+                    std::mem::take(&mut a.record_patches),
+                );
+                (a.patches, a.record_patches) = changed.into_iter().fold(lists, patch);
+            } else {
+                // One pair of lists per piece of work rayon splits off, not per instance: a
+                // frame with hundreds of changed instances makes (and grows) a few lists.
+                let lists: Vec<(Patches, Patches)> = changed
+                    .into_par_iter()
+                    .with_min_len(CHANGED_PER_PIECE)
+                    .fold(|| (Vec::new(), Vec::new()), &patch)
+                    .collect();
+                for (patches, records) in lists {
+                    a.patches.extend_from_slice(&patches);
+                    a.record_patches.extend_from_slice(&records);
+                }
             }
             upload.patches += a.patches.len() as u64;
-            a.scatter(device, queue, &self.pipeline, Patched::Indices, &mut upload);
-            a.scatter(device, queue, &self.pipeline, Patched::Records, &mut upload);
+            for what in [Patched::Indices, Patched::Records] {
+                a.scatter(
+                    device,
+                    queue,
+                    &self.pipeline,
+                    what,
+                    &mut scatters,
+                    &mut upload,
+                );
+            }
             if let Some(range) = a.dirty_blocks.take() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
@@ -933,6 +975,9 @@ impl Crowd {
                     bytemuck::cast_slice(blocks),
                 );
             }
+        }
+        if let Some(encoder) = scatters {
+            queue.submit([encoder.finish()]);
         }
         upload
     }
@@ -1084,14 +1129,17 @@ impl Crowd {
 }
 
 impl CrowdAsset {
-    /// Applies this frame's patches of `what` (then empties the list): written to the patch
-    /// buffer and scattered by one dispatch, submitted on `queue`.
+    /// Applies this frame's patches of `what` (then empties the list): written to its patch
+    /// buffer and scattered by one dispatch, recorded in `encoder` (made if `None`), which the
+    /// caller submits on `queue` (one submission for every asset and both kinds of patches:
+    /// each kind has its own patch buffer).
     fn scatter(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         pipeline: &CrowdPipeline,
         what: Patched,
+        encoder: &mut Option<wgpu::CommandEncoder>,
         upload: &mut CrowdUpload,
     ) {
         let mut patches = std::mem::take(match what {
@@ -1115,7 +1163,12 @@ impl CrowdAsset {
         let chunk = ((Scatter::max_run_list_bytes(device) / 8) as usize)
             .saturating_sub(RUN_GROUP as usize)
             .max(1);
-        for part in patches.chunks(chunk) {
+        for (i, part) in patches.chunks(chunk).enumerate() {
+            if i > 0 {
+                if let Some(previous) = encoder.take() {
+                    queue.submit([previous.finish()]);
+                }
+            }
             // Consecutive words in the list make one run (a compact copy and a record are
             // patched in order): 8 bytes for a lone word, 8 plus 4 a word for a run.
             self.run_values.clear();
@@ -1137,20 +1190,16 @@ impl CrowdAsset {
                 &mut self.run_list,
             );
             let list = std::mem::take(&mut self.run_list);
-            let buffer = self.patch_buffer(device, pipeline, 4 * list.len() as u64);
+            let buffer = self.patch_buffer(device, pipeline, what, 4 * list.len() as u64);
             upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(&list));
-            let group = match what {
-                Patched::Indices => &buffer.indices,
-                Patched::Records => &buffer.records,
-            };
-            let mut encoder = device.create_command_encoder(&Default::default());
+            let encoder =
+                encoder.get_or_insert_with(|| device.create_command_encoder(&Default::default()));
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&pipeline.scatter.runs);
-                pass.set_bind_group(0, group, &[]);
+                pass.set_bind_group(0, &buffer.group, &[]);
                 pass.dispatch_workgroups(headers / RUN_GROUP, 1, 1);
             }
-            queue.submit([encoder.finish()]);
             upload.dispatches += 1;
             self.run_list = list;
         }
@@ -1161,15 +1210,20 @@ impl CrowdAsset {
         }
     }
 
-    /// The patch buffer, of at least `bytes`: grown (to the next power of two) when smaller.
+    /// The patch buffer of `what`, of at least `bytes`: grown (to the next power of two) when
+    /// smaller.
     fn patch_buffer(
         &mut self,
         device: &wgpu::Device,
         pipeline: &CrowdPipeline,
+        what: Patched,
         bytes: u64,
     ) -> &PatchBuffer {
-        if self
-            .patch_buffer
+        let (slot, target) = match what {
+            Patched::Indices => (0, &self.index_buffer),
+            Patched::Records => (1, &self.indirect_buffer),
+        };
+        if self.patch_buffers[slot]
             .as_ref()
             .is_none_or(|p| p.buffer.size() < bytes)
         {
@@ -1181,18 +1235,12 @@ impl CrowdAsset {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let group = |target: &wgpu::Buffer| {
-                pipeline
-                    .scatter
-                    .bind_group(device, "crowd scatter", &buffer, target)
-            };
-            self.patch_buffer = Some(PatchBuffer {
-                indices: group(&self.index_buffer),
-                records: group(&self.indirect_buffer),
+            self.patch_buffers[slot] = Some(PatchBuffer {
+                group: (pipeline.scatter).bind_group(device, "crowd scatter", &buffer, target),
                 buffer,
             });
         }
-        self.patch_buffer.as_ref().expect("made above")
+        self.patch_buffers[slot].as_ref().expect("made above")
     }
 }
 

@@ -72,13 +72,18 @@ impl InstanceBlock {
     }
 
     /// Sets the pose at time `t` (clamped, not NaN): for an asset with a weight `track`, its
-    /// weights at `t` in the slots and `t = 0`; else `t` and no weights.
-    pub(super) fn set_pose(&mut self, track: Option<&crate::morph::WeightTrack>, t: f32) {
+    /// weights at `t` in the slots and `t = 0`; else `t` and no weights. `scratch` holds the
+    /// weights on the way (one per thread, not one allocation per instance and frame).
+    pub(super) fn set_pose(
+        &mut self,
+        track: Option<&crate::morph::WeightTrack>,
+        t: f32,
+        scratch: &mut Vec<f32>,
+    ) {
         match track {
             Some(track) => {
-                let mut weights = Vec::with_capacity(track.targets());
-                track.offsets_at(t, &mut weights);
-                self.set_weights(&weights);
+                track.offsets_at(t, scratch);
+                self.set_weights(scratch);
                 self.t = 0.0;
             }
             None => self.t = t,
@@ -88,18 +93,34 @@ impl InstanceBlock {
     /// Fills the weight slots with the `WEIGHT_SLOTS` weights of largest magnitude of
     /// `weights` (one per target), in ascending target order, the rest at weight 0.
     pub(super) fn set_weights(&mut self, weights: &[f32]) {
-        let mut order: Vec<u32> = (0..weights.len() as u32)
-            .filter(|&k| weights[k as usize] != 0.0)
-            .collect();
-        if order.len() > WEIGHT_SLOTS {
+        let nonzero = (0..weights.len() as u32).filter(|&k| weights[k as usize] != 0.0);
+        // At most WEIGHT_SLOTS nonzero (every asset of at most 8 targets): all of them, in
+        // order, without an allocation.
+        let mut few = [0u32; WEIGHT_SLOTS];
+        let mut count = 0;
+        let mut many: Vec<u32> = Vec::new();
+        for k in nonzero.clone() {
+            if count == WEIGHT_SLOTS {
+                many = nonzero.collect();
+                break;
+            }
+            few[count] = k;
+            count += 1;
+        }
+        if !many.is_empty() {
             // Largest magnitude first, lower target first on ties: deterministic.
-            order.sort_by(|&a, &b| {
+            many.sort_by(|&a, &b| {
                 let (wa, wb) = (weights[a as usize].abs(), weights[b as usize].abs());
                 wb.total_cmp(&wa).then(a.cmp(&b))
             });
-            order.truncate(WEIGHT_SLOTS);
+            many.truncate(WEIGHT_SLOTS);
+            many.sort_unstable();
         }
-        order.sort_unstable();
+        let order = if many.is_empty() {
+            &few[..count]
+        } else {
+            &many[..]
+        };
         self.weights = [0.0; WEIGHT_SLOTS];
         self.targets = [0; 2];
         for (slot, &k) in order.iter().enumerate() {
