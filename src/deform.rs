@@ -638,3 +638,120 @@ impl DeformingState {
         self.state.take_dirty()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simplify::{simplify, SimplifyOptions};
+    use crate::strip::stripify;
+
+    /// A grid of `n × n` quads, a wave that grows from `t = 0` to `t = 1`, sampled at
+    /// `frames` frames: each frame's sequence differs, so a frame switch rewrites most strips.
+    fn wave_asset(n: u32, frames: usize) -> Asset {
+        let pos = |x: u32, y: u32, t: f32| {
+            let (fx, fy) = (x as f32, y as f32);
+            [
+                fx,
+                fy,
+                t * (0.7 * fx).sin() * (0.5 * fy).cos() + 0.02 * fx * fy,
+            ]
+        };
+        let side = n + 1;
+        let mut tris = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                let a = y * side + x;
+                tris.push([a, a + 1, a + side + 1]);
+                tris.push([a, a + side + 1, a + side]);
+            }
+        }
+        let at = |t: f32| -> Vec<[f32; 3]> {
+            (0..side * side)
+                .map(|i| pos(i % side, i / side, t))
+                .collect()
+        };
+        let vertices = (side * side) as usize;
+        Asset {
+            v0: at(0.0),
+            v1: at(1.0),
+            s0: stripify(&tris, vertices),
+            frames: (0..frames)
+                .map(|k| {
+                    let t = k as f32 / (frames - 1) as f32;
+                    Arc::new(simplify(&at(t), &tris, &SimplifyOptions::default()))
+                })
+                .collect(),
+            blend: None,
+            surface: None,
+        }
+    }
+
+    /// A rebuild cut into chunks on the thread pool (what one large object's frame switch
+    /// does) leaves the buffer, lengths and dirty log of a rebuild on one thread, and the
+    /// buffer of stepping there, over a random walk of frame switches and LOD jumps. Chunks
+    /// of 1–64 slots, so that chunks start at empty strips, hold one strip, or many; every
+    /// third move reuses one survivor table, which is not flat after it links forward (that
+    /// rebuild stays on one thread and must give the same).
+    #[test]
+    fn chunked_rebuild_equals_one_thread_and_steps() {
+        let asset = wave_asset(24, 5);
+        let model = DeformingModel::new(&asset).expect("model builds");
+        let (mut one, mut chunked, mut steps) = (
+            DeformingState::new(&model),
+            DeformingState::new(&model),
+            DeformingState::new(&model),
+        );
+        let mut seed = 0x2545_f491_u32;
+        let mut unit = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut shared = Survivors::new();
+        let mut switches = 0;
+        for step in 0..150 {
+            let t = unit();
+            let lod = match step % 7 {
+                0 => Lod::Fraction(0.0),
+                1 => Lod::Fraction(1.0),
+                _ => Lod::Fraction(unit()),
+            };
+            let plan = one
+                .plan(&model, t, lod, Strategy::Rebuild)
+                .expect("valid request");
+            switches += usize::from(plan.frame != one.frame());
+            one.apply(&model, plan, &mut Survivors::new());
+            let frame = &model.frames[plan.frame].changes;
+            let chunk = 1 + (unit() * 64.0) as usize;
+            let mut fresh = Survivors::new();
+            let anc = if step % 3 == 0 {
+                &mut shared
+            } else {
+                &mut fresh
+            };
+            chunked
+                .state
+                .rebuild_in_chunks(&model.layout, frame, plan.lod, anc, chunk);
+            chunked.frame = plan.frame;
+            steps
+                .set_with(&model, t, lod, Strategy::Steps)
+                .expect("valid request");
+            assert_eq!(chunked.indices(), one.indices(), "step {step}");
+            assert_eq!(chunked.lengths(), one.lengths(), "step {step}");
+            assert_eq!(
+                (chunked.lod(), chunked.triangle_count()),
+                (one.lod(), one.triangle_count()),
+                "step {step}"
+            );
+            assert_eq!(chunked.take_dirty(), one.take_dirty(), "step {step}");
+            assert_eq!(chunked.changes(), one.changes(), "step {step}");
+            // Stepping leaves other values in the regions' tails; the live strips are equal.
+            assert_eq!(steps.lengths(), one.lengths(), "step {step}");
+            for s in 0..one.lengths().len() {
+                assert_eq!(steps.strip(s), one.strip(s), "step {step}, strip {s}");
+            }
+        }
+        assert!(switches > 50, "{switches} frame switches");
+    }
+}

@@ -48,16 +48,100 @@ pub struct StripsState {
     /// Stream position where step `lod` starts.
     cursor: usize,
     triangles: u32,
-    dirty_lo: Vec<u32>,
-    dirty_hi: Vec<u32>,
-    dirty_strips: Vec<u32>,
-    len_changed: Vec<bool>,
-    len_strips: Vec<u32>,
+    log: DirtyLog,
     scratch: Vec<usize>,
     /// Strips of the current step's rewrite groups (resizes name strips by group).
     group_strips: Vec<u32>,
-    /// Bumped by every mark of the dirty log ([`changes`](Self::changes)).
+}
+
+/// The dirty log of a [`StripsState`]: per strip the span of positions written and whether
+/// its live length changed, with the strips in the order they were first marked.
+#[derive(Clone, Debug)]
+struct DirtyLog {
+    lo: Vec<u32>,
+    hi: Vec<u32>,
+    strips: Vec<u32>,
+    len_changed: Vec<bool>,
+    len_strips: Vec<u32>,
+    /// Bumped by every mark ([`StripsState::changes`]).
     changes: u64,
+}
+
+/// One mark a rebuild makes for a strip: its live length changed, or its positions
+/// `start..end` did. A rebuild split over threads collects each chunk's marks and applies
+/// them in strip order afterwards, so the log is the one a single thread makes.
+#[derive(Clone, Copy, Debug)]
+enum Mark {
+    Len(u32),
+    Span(u32, u32, u32),
+}
+
+impl DirtyLog {
+    fn new(strips: usize) -> DirtyLog {
+        DirtyLog {
+            lo: vec![u32::MAX; strips],
+            hi: vec![0; strips],
+            strips: Vec::new(),
+            len_changed: vec![false; strips],
+            len_strips: Vec::new(),
+            changes: 0,
+        }
+    }
+
+    fn heap_bytes(&self) -> usize {
+        (self.lo.capacity() + self.hi.capacity() + self.strips.capacity()) * 4
+            + self.len_strips.capacity() * 4
+            + self.len_changed.capacity()
+    }
+
+    fn apply(&mut self, mark: Mark) {
+        match mark {
+            Mark::Len(s) => self.mark_len(s as usize),
+            Mark::Span(s, start, end) => self.mark(s as usize, start, end),
+        }
+    }
+
+    fn mark(&mut self, strip: usize, start: u32, end: u32) {
+        if start >= end {
+            return;
+        }
+        self.changes += 1;
+        if self.lo[strip] == u32::MAX {
+            self.strips.push(strip as u32);
+        }
+        self.lo[strip] = self.lo[strip].min(start);
+        self.hi[strip] = self.hi[strip].max(end);
+    }
+
+    fn mark_len(&mut self, strip: usize) {
+        self.changes += 1;
+        if !self.len_changed[strip] {
+            self.len_changed[strip] = true;
+            self.len_strips.push(strip as u32);
+        }
+    }
+
+    fn take(&mut self) -> Dirty {
+        let mut out = Dirty::default();
+        self.strips.sort_unstable();
+        for &s in &self.strips {
+            let i = s as usize;
+            out.ranges.push(DirtyRange {
+                strip: s,
+                start: self.lo[i],
+                end: self.hi[i],
+            });
+            self.lo[i] = u32::MAX;
+            self.hi[i] = 0;
+        }
+        self.strips.clear();
+        self.len_strips.sort_unstable();
+        for &s in &self.len_strips {
+            self.len_changed[s as usize] = false;
+        }
+        out.lengths = std::mem::take(&mut self.len_strips);
+        out
+    }
 }
 
 thread_local! {
@@ -85,6 +169,9 @@ pub(crate) struct Survivors<'a> {
     frame: Option<&'a FrameChanges>,
     /// Collapses linked.
     lod: usize,
+    /// Whether every vertex points straight at its root (after a start from scratch, until
+    /// collapses are linked forward).
+    flat: bool,
     parent: Vec<u32>,
 }
 
@@ -94,6 +181,7 @@ impl<'a> Survivors<'a> {
         Survivors {
             frame: None,
             lod: 0,
+            flat: false,
             parent: SURVIVORS.take(),
         }
     }
@@ -115,12 +203,22 @@ impl<'a> Survivors<'a> {
             }
             self.frame = Some(frame);
             self.lod = lod;
+            self.flat = true;
+        }
+        if self.lod < lod {
+            self.flat = false;
         }
         for step in self.lod..lod {
             let (u, w) = frame.collapse(step);
             self.parent[u as usize] = w;
         }
         self.lod = lod;
+    }
+
+    /// The survivor table when it is flat (every vertex's entry is its survivor, so it
+    /// can be read from many threads at once), else `None`.
+    fn flat(&self) -> Option<&[u32]> {
+        self.flat.then_some(&self.parent[..])
     }
 
     /// The survivor of `v` at the LOD reached.
@@ -168,14 +266,9 @@ impl StripsState {
             lod: 0,
             cursor: 0,
             triangles: layout.triangles_at_0,
-            dirty_lo: vec![u32::MAX; strips],
-            dirty_hi: vec![0; strips],
-            dirty_strips: Vec::new(),
-            len_changed: vec![false; strips],
-            len_strips: Vec::new(),
+            log: DirtyLog::new(strips),
             scratch: Vec::new(),
             group_strips: Vec::new(),
-            changes: 0,
         }
     }
 
@@ -221,12 +314,8 @@ impl StripsState {
         let words = self.region_offsets.capacity()
             + self.indices.capacity()
             + self.lens.capacity()
-            + self.dirty_lo.capacity()
-            + self.dirty_hi.capacity()
-            + self.dirty_strips.capacity()
-            + self.len_strips.capacity()
             + self.group_strips.capacity();
-        words * 4 + self.len_changed.capacity() + self.scratch.capacity() * size_of::<usize>()
+        words * 4 + self.log.heap_bytes() + self.scratch.capacity() * size_of::<usize>()
     }
 
     /// Total live indices over all strips.
@@ -270,6 +359,10 @@ impl StripsState {
     /// per strip the positions from the first to the last whose value changed,
     /// and the positions a strip grew by (a crowd's instances switching between
     /// neighbouring frames keep most of their indices, so uploads shrink).
+    ///
+    /// A large state rebuilt from scratch off the thread pool (one object's frame switch)
+    /// is split over the pool's threads ([`PARALLEL_SLOTS`]); a crowd's rebuilds, already
+    /// spread over the pool by `deform::rebuild_all`, stay on their thread.
     pub(crate) fn rebuild<'a>(
         &mut self,
         layout: &StripLayout,
@@ -277,78 +370,91 @@ impl StripsState {
         lod: usize,
         anc: &mut Survivors<'a>,
     ) {
+        let threads = rayon::current_num_threads();
+        let slots = layout.s0.len();
+        let chunk =
+            if threads > 1 && slots >= PARALLEL_SLOTS && rayon::current_thread_index().is_none() {
+                // A few chunks a thread, so that chunks of mostly empty strips even out.
+                slots.div_ceil(4 * threads).max(PARALLEL_SLOTS / 4)
+            } else {
+                usize::MAX
+            };
+        self.rebuild_in_chunks(layout, frame, lod, anc, chunk);
+    }
+
+    /// [`rebuild`](Self::rebuild) with the strips cut into chunks of about `chunk_slots`
+    /// slots of `S0` rebuilt in parallel (`usize::MAX`: on the calling thread). Chunks need
+    /// a survivor table that is read-only ([`Survivors::flat`]); otherwise the rebuild stays on
+    /// the calling thread. Either way the buffer and the dirty log are the same.
+    pub(crate) fn rebuild_in_chunks<'a>(
+        &mut self,
+        layout: &StripLayout,
+        frame: &'a FrameChanges,
+        lod: usize,
+        anc: &mut Survivors<'a>,
+        chunk_slots: usize,
+    ) {
         let lod = lod.min(frame.max_lod());
         anc.reach(layout.vertex_count as usize, frame, lod);
         let l = lod as u32;
-        let copies = frame.copy_count();
-        // The anchor of copy `ci` (past the last copy: beyond every slot).
-        let anchor = |ci: usize| {
-            if ci < copies {
-                frame.copy_after.get(ci) as usize
-            } else {
-                usize::MAX
-            }
-        };
-        // `ci` is the first copy anchored in the strip being read, when `synced`; after a
-        // skipped strip it is found again by binary search.
-        let mut ci = 0;
-        let mut synced = true;
-        for s in 0..layout.strip_count() {
-            let start = layout.region_offsets[s] as usize;
-            let old = self.lens[s] as usize;
-            if frame.strip_death.get(s) <= l {
-                synced = false;
-                if old != 0 {
-                    self.lens[s] = 0;
-                    self.mark_len(s);
-                }
-                continue;
-            }
-            if !synced {
-                ci = frame.first_copy_from(start);
-                synced = true;
-            }
-            let end = layout.region_offsets[s + 1] as usize;
-            let mut next_after = anchor(ci);
-            // Writes `v` at the next position, noting the changed span `lo..hi`.
-            let (mut q, mut lo, mut hi) = (start, usize::MAX, 0);
-            let mut put = |indices: &mut [u32], v: u32| {
-                if q - start >= old || indices[q] != v {
-                    indices[q] = v;
-                    lo = lo.min(q - start);
-                    hi = q - start + 1;
-                }
-                q += 1;
-            };
-            let mut p = start;
-            while p < end {
-                // `S0` slots up to the next copy anchor, then its copies.
-                let stop = if next_after < end {
-                    next_after + 1
-                } else {
-                    end
-                };
-                for slot in p..stop {
-                    if frame.death.get(slot) > l {
-                        put(&mut self.indices, anc.find(layout.s0[slot]));
+        let strips = layout.strip_count();
+        match anc.flat() {
+            Some(root) if chunk_slots < layout.s0.len() => {
+                use rayon::prelude::*;
+                // Cut the strips (and their regions and lengths) into chunks at strip bounds.
+                let mut chunks = Vec::new();
+                let (mut indices, mut lens) = (&mut self.indices[..], &mut self.lens[..]);
+                let mut first = 0;
+                while first < strips {
+                    let base = layout.region_offsets[first] as usize;
+                    let mut last = first + 1;
+                    while last < strips && layout.region_offsets[last] as usize - base < chunk_slots
+                    {
+                        last += 1;
                     }
+                    let slots = layout.region_offsets[last] as usize - base;
+                    let (head, tail) = std::mem::take(&mut indices).split_at_mut(slots);
+                    let (head_lens, tail_lens) =
+                        std::mem::take(&mut lens).split_at_mut(last - first);
+                    chunks.push((first..last, head, head_lens));
+                    (indices, lens) = (tail, tail_lens);
+                    first = last;
                 }
-                p = stop;
-                while next_after == stop - 1 {
-                    if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
-                        put(&mut self.indices, anc.find(frame.copy_value.get(ci)));
-                    }
-                    ci += 1;
-                    next_after = anchor(ci);
+                let marks: Vec<Vec<Mark>> = chunks
+                    .into_par_iter()
+                    .map(|(range, indices, lens)| {
+                        let mut marks = Vec::new();
+                        rebuild_strips(
+                            layout,
+                            frame,
+                            l,
+                            range,
+                            indices,
+                            lens,
+                            |v| root[v as usize],
+                            |m| {
+                                marks.push(m);
+                            },
+                        );
+                        marks
+                    })
+                    .collect();
+                for mark in marks.into_iter().flatten() {
+                    self.log.apply(mark);
                 }
             }
-            let live = (q - start) as u32;
-            if live != self.lens[s] {
-                self.lens[s] = live;
-                self.mark_len(s);
-            }
-            if lo < hi {
-                self.mark(s, lo as u32, hi as u32);
+            _ => {
+                let log = &mut self.log;
+                rebuild_strips(
+                    layout,
+                    frame,
+                    l,
+                    0..strips,
+                    &mut self.indices,
+                    &mut self.lens,
+                    |v| anc.find(v),
+                    |m| log.apply(m),
+                );
             }
         }
         self.lod = lod;
@@ -357,25 +463,7 @@ impl StripsState {
 
     /// Hands the dirty log to the uploader and clears it.
     pub fn take_dirty(&mut self) -> Dirty {
-        let mut out = Dirty::default();
-        self.dirty_strips.sort_unstable();
-        for &s in &self.dirty_strips {
-            let i = s as usize;
-            out.ranges.push(DirtyRange {
-                strip: s,
-                start: self.dirty_lo[i],
-                end: self.dirty_hi[i],
-            });
-            self.dirty_lo[i] = u32::MAX;
-            self.dirty_hi[i] = 0;
-        }
-        self.dirty_strips.clear();
-        self.len_strips.sort_unstable();
-        for &s in &self.len_strips {
-            self.len_changed[s as usize] = false;
-        }
-        out.lengths = std::mem::take(&mut self.len_strips);
-        out
+        self.log.take()
     }
 
     /// A count that grows whenever the dirty log gets a position or a length, taken or not:
@@ -383,27 +471,7 @@ impl StripsState {
     /// the dirty log to accumulate (it coalesces per strip) and still know whether anything
     /// changed since its last look.
     pub fn changes(&self) -> u64 {
-        self.changes
-    }
-
-    fn mark(&mut self, strip: usize, start: u32, end: u32) {
-        if start >= end {
-            return;
-        }
-        self.changes += 1;
-        if self.dirty_lo[strip] == u32::MAX {
-            self.dirty_strips.push(strip as u32);
-        }
-        self.dirty_lo[strip] = self.dirty_lo[strip].min(start);
-        self.dirty_hi[strip] = self.dirty_hi[strip].max(end);
-    }
-
-    fn mark_len(&mut self, strip: usize) {
-        self.changes += 1;
-        if !self.len_changed[strip] {
-            self.len_changed[strip] = true;
-            self.len_strips.push(strip as u32);
-        }
+        self.log.changes
     }
 
     /// Applies step `self.lod`: rewrites `u → w`, then the resizes in order.
@@ -422,8 +490,8 @@ impl StripsState {
             let region = &mut self.indices[base..base + live];
             let new_live = cut(region, i, len, kind);
             self.lens[strip] = new_live as u32;
-            self.mark(strip, i as u32, new_live as u32);
-            self.mark_len(strip);
+            self.log.mark(strip, i as u32, new_live as u32);
+            self.log.mark_len(strip);
         }
         // Skip the footer, which holds the length just read.
         at += varint::len_u32((at - self.cursor) as u32);
@@ -469,8 +537,8 @@ impl StripsState {
             region.copy_within(i + kind_len(kind)..live, i + len);
             restore_removed(s, &mut at, region, i, len);
             self.lens[strip] = new_live as u32;
-            self.mark(strip, i as u32, new_live as u32);
-            self.mark_len(strip);
+            self.log.mark(strip, i as u32, new_live as u32);
+            self.log.mark_len(strip);
         }
         self.rewrite(model, rewrites, groups, u);
         self.cursor = start;
@@ -496,9 +564,106 @@ impl StripsState {
                 self.indices[base + pos as usize] = value;
                 lo = lo.min(pos);
             }
-            self.mark(strip, lo, pos + 1);
+            self.log.mark(strip, lo, pos + 1);
         }
         at
+    }
+}
+
+/// States at least this many slots of `S0` (about 1 MB of index buffer at 4 bytes a slot,
+/// a 100k-vertex mesh) rebuild on several threads when they can. Below it a rebuild takes
+/// under a millisecond on one thread, and the split's overhead (tasks, collected marks)
+/// would eat what the threads save.
+pub(crate) const PARALLEL_SLOTS: usize = 1 << 16;
+
+/// The rebuild of strips `strips` (see [`StripsState::rebuild`]) over their regions
+/// `indices` (from the first strip's region start) and live lengths `lens`, at `l` collapses
+/// of `frame`, the survivor of a vertex given by `find`; what changed goes to `mark`, strip
+/// by strip in order (its length, then its span).
+#[allow(clippy::too_many_arguments)]
+fn rebuild_strips(
+    layout: &StripLayout,
+    frame: &FrameChanges,
+    l: u32,
+    strips: std::ops::Range<usize>,
+    indices: &mut [u32],
+    lens: &mut [u32],
+    mut find: impl FnMut(u32) -> u32,
+    mut mark: impl FnMut(Mark),
+) {
+    let copies = frame.copy_count();
+    // The anchor of copy `ci` (past the last copy: beyond every slot).
+    let anchor = |ci: usize| {
+        if ci < copies {
+            frame.copy_after.get(ci) as usize
+        } else {
+            usize::MAX
+        }
+    };
+    let base = layout.region_offsets[strips.start] as usize;
+    let first = strips.start;
+    // `ci` is the first copy anchored in the strip being read, when `synced`; after a
+    // skipped strip (and at the first) it is found by binary search.
+    let mut ci = 0;
+    let mut synced = false;
+    for s in strips {
+        let start = layout.region_offsets[s] as usize;
+        let old = lens[s - first] as usize;
+        if frame.strip_death.get(s) <= l {
+            synced = false;
+            if old != 0 {
+                lens[s - first] = 0;
+                mark(Mark::Len(s as u32));
+            }
+            continue;
+        }
+        if !synced {
+            ci = frame.first_copy_from(start);
+            synced = true;
+        }
+        let end = layout.region_offsets[s + 1] as usize;
+        let mut next_after = anchor(ci);
+        // Writes `v` at the next position, noting the changed span `lo..hi`.
+        let (mut q, mut lo, mut hi) = (start, usize::MAX, 0);
+        let mut put = |indices: &mut [u32], v: u32| {
+            let at = q - base;
+            if q - start >= old || indices[at] != v {
+                indices[at] = v;
+                lo = lo.min(q - start);
+                hi = q - start + 1;
+            }
+            q += 1;
+        };
+        let mut p = start;
+        while p < end {
+            // `S0` slots up to the next copy anchor, then its copies.
+            let stop = if next_after < end {
+                next_after + 1
+            } else {
+                end
+            };
+            for slot in p..stop {
+                if frame.death.get(slot) > l {
+                    put(indices, find(layout.s0[slot]));
+                }
+            }
+            p = stop;
+            while next_after == stop - 1 {
+                if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
+                    put(indices, find(frame.copy_value.get(ci)));
+                }
+                ci += 1;
+                next_after = anchor(ci);
+            }
+        }
+        let live = (q - start) as u32;
+        if live != lens[s - first] {
+            lens[s - first] = live;
+            mark(Mark::Len(s as u32));
+        }
+        if lo < hi {
+            mark(Mark::Span(s as u32, lo as u32, hi as u32));
+        }
     }
 }
 
