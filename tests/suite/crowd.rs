@@ -446,11 +446,11 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
     Ok(())
 }
 
-/// The record of an instance whose live strips fit its compact area reads them and one
-/// restart between two, nothing else: with a compact area as large as the regions every
-/// moved instance's record does (a record that read a strip's restart tail, or past the last
-/// live index, reads more); without one none does, and the regions still decode to each
-/// instance's mesh.
+/// The record of an instance whose live strips fit its compact area reads its compact copy:
+/// the live strips, a restart between two and the restarts of the places strips left, at
+/// most 1.5× the packed count: with a compact area as large as the regions every moved
+/// instance's record does (a record that read the regions' restart tails reads more);
+/// without one none does, and the regions still decode to each instance's mesh.
 #[test]
 fn crowd_records_read_only_live_indices() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
@@ -569,7 +569,8 @@ fn buffers_decode_to_each_instance_mesh(
                 }
                 if fits && moved.contains(id) {
                     assert!(slot.compact, "{why}");
-                    assert_eq!(slot.read, packed, "{why}");
+                    // Strips keep their places: a few restarts more, at most 1.5× packed.
+                    assert!(slot.read >= packed && slot.read <= packed * 3 / 2, "{why}");
                 } else {
                     assert!(!slot.compact, "{why}");
                     assert!(slot.read >= packed, "{why}");
