@@ -551,7 +551,8 @@ fn buffers_decode_to_each_instance_mesh(
                 // In any order (a compact copy keeps moved strips at its end), each triangle
                 // as drawn (its winding).
                 let mut got = slot.triangles.clone();
-                (got.sort_unstable(), expected.sort_unstable());
+                got.sort_unstable();
+                expected.sort_unstable();
                 assert_eq!(got, expected, "{path:?}, step {step}, {id:?}");
                 assert_eq!(expected.len(), state.triangle_count());
                 // Where the live strips fit the compact area, the record reads them and
