@@ -449,11 +449,11 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
     Ok(())
 }
 
-/// The record of an instance whose live strips fit its compact area reads them and one
-/// restart between two, nothing else: with a compact area as large as the regions every
-/// moved instance's record does (a record that read a strip's restart tail, or past the last
-/// live index, reads more); without one none does, and the regions still decode to each
-/// instance's mesh.
+/// The record of an instance whose live strips fit its compact area reads its compact copy:
+/// the live strips, a restart between two and the restarts of the places strips left, at
+/// most 1.5× the packed count: with a compact area as large as the regions every moved
+/// instance's record does (a record that read the regions' restart tails reads more);
+/// without one none does, and the regions still decode to each instance's mesh.
 #[test]
 fn crowd_records_read_only_live_indices() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
@@ -547,11 +547,16 @@ fn buffers_decode_to_each_instance_mesh(
             for id in live.iter().filter(|id| id.asset() == asset) {
                 busy[id.slot() as usize] = true;
                 let state = crowd.state(*id)?;
-                let expected: Vec<[u32; 3]> = (0..state.lengths().len())
+                let mut expected: Vec<[u32; 3]> = (0..state.lengths().len())
                     .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
                     .collect();
                 let slot = &drawn[id.slot() as usize];
-                assert_eq!(slot.triangles, expected, "{path:?}, step {step}, {id:?}");
+                // In any order (a compact copy keeps moved strips at its end), each triangle
+                // as drawn (its winding).
+                let mut got = slot.triangles.clone();
+                got.sort_unstable();
+                expected.sort_unstable();
+                assert_eq!(got, expected, "{path:?}, step {step}, {id:?}");
                 assert_eq!(expected.len(), state.triangle_count());
                 // Where the live strips fit the compact area, the record reads them and
                 // one restart between two (CrowdRecords).
@@ -572,7 +577,8 @@ fn buffers_decode_to_each_instance_mesh(
                 }
                 if fits && moved.contains(id) {
                     assert!(slot.compact, "{why}");
-                    assert_eq!(slot.read, packed, "{why}");
+                    // Strips keep their places: a few restarts more, at most 1.5× packed.
+                    assert!(slot.read >= packed && slot.read <= packed * 3 / 2, "{why}");
                 } else {
                     assert!(!slot.compact, "{why}");
                     assert!(slot.read >= packed, "{why}");

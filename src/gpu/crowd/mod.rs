@@ -11,13 +11,14 @@
 //!   dirty log says what to upload.
 //!
 //! An instance's slots hold its strips in fixed regions (patched in place) and a compact area:
-//! where its live strips fit there (a coarse LOD), its record draws their packed copy, so it
-//! reads the live indices only, not the restart tails of the regions ([`CrowdRecords`]).
+//! where its live strips fit there (a coarse LOD), its record draws their copy (each strip in
+//! a place it keeps while it fits), so it reads the live indices and a few restarts, not the
+//! restart tails of the regions ([`CrowdRecords`]).
 //!
 //! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon);
 //! [`prepare`](Crowd::prepare) gathers per asset the index patches of every moved instance
-//! (O(changed indices) for the regions, the live indices for a changed compact copy, in
-//! parallel), uploads them with one write and applies them with one compute dispatch, does
+//! (O(changed indices) for the regions and for the compact copy, whose live indices only where
+//! it is repacked; in parallel), uploads them with one write and applies them with one compute dispatch, does
 //! the same with the changed words of the records, and writes the changed instance blocks as
 //! one contiguous range; [`render`](Crowd::render) binds each asset and issues its one
 //! multi-draw. The caller owns device, queue and pass, as with an [`Object`](super::Object).
@@ -53,7 +54,7 @@ pub use self::bench::{
 pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant};
-use self::slots::{SlotLayout, SlotRecord};
+use self::slots::{Places, SlotLayout, SlotRecord};
 use super::asset::GpuAsset;
 use super::commands::RenderCommands;
 use super::pose::{clamp_t, default_mode};
@@ -102,10 +103,12 @@ pub enum CrowdError {
 /// An instance's index slots hold its strips in fixed regions, one per strip of `S0` with room
 /// for its full length (patched at O(changed indices)); at a coarse LOD most of those slots
 /// are restarts. Each slot range also has a compact area of `compact_share` of the regions'
-/// slots: where the live strips, one restart between two, fit in it, `prepare` copies them
-/// there (whenever they change) and the instance's one draw record reads that copy, i.e. the
-/// live indices and nothing else; otherwise it reads the regions from the first live index to
-/// the last. The area shrinks (to nothing at most) where `capacity` slot ranges would pass the
+/// slots: where the live strips, one restart between two, fit in it, `prepare` keeps a copy
+/// of them there (each strip in a place it keeps while it fits, patched as it changes; packed
+/// anew where the copy would read more than 1.5× the packed count) and the instance's one draw
+/// record reads that copy, i.e. the live indices, a restart between two strips and the
+/// restarts where strips shrank or left; otherwise it reads the regions from the first live
+/// index to the last. The area shrinks (to nothing at most) where `capacity` slot ranges would pass the
 /// device's buffer or storage binding size ([`Crowd::compact_slots`] says what an asset got;
 /// llvmpipe binds 128 MiB: 1000 bodies keep 1,621 slots each). docs/DESIGN.md, "Crowds", has
 /// the measurement behind the default.
@@ -184,8 +187,9 @@ pub struct CrowdStats {
     /// Triangles the instances draw.
     pub triangles: usize,
     /// Indices the records read, restarts included (as of the last prepare): an instance
-    /// drawn from its compact copy reads its live indices and one restart between two strips,
-    /// one drawn from its regions also the restart tails between its first and last live index.
+    /// drawn from its compact copy reads its live indices, one restart between two strips and
+    /// the restarts of its strips' places (at most 1.5× the first two), one drawn from its
+    /// regions also the restart tails between its first and last live index.
     pub indices: u64,
     /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
     /// summed over assets' slots in use.
@@ -346,6 +350,8 @@ struct Member {
     state: DeformingState,
     /// Live length of every region as the GPU holds it.
     uploaded: Vec<u32>,
+    /// Its strips' places in the compact copy, and what its regions lack.
+    places: Places,
     /// The runtime's [`DeformingState::changes`] as of the last upload of its strips (to the
     /// regions or to the compact copy).
     changes: u64,
@@ -360,7 +366,10 @@ struct Member {
 impl Member {
     /// Heap bytes of the instance: its runtime and lengths, and itself.
     fn heap_bytes(&self) -> usize {
-        size_of::<Member>() + self.state.heap_bytes() + self.uploaded.capacity() * 4
+        size_of::<Member>()
+            + self.state.heap_bytes()
+            + self.uploaded.capacity() * 4
+            + self.places.heap_bytes()
     }
 }
 
@@ -683,6 +692,7 @@ impl Crowd {
             changes: state.changes(),
             state,
             uploaded,
+            places: Places::default(),
             pending: None,
             moved: false,
             fresh: true,
@@ -904,11 +914,11 @@ impl Crowd {
                     changed.push((slot as u32, member, record));
                 }
             }
-            // The changed instances: their compact copy where it is drawn, else their region
-            // patches, and their record's patches. While the compact copy is drawn the regions
-            // are not read, so their patches wait in the runtime's dirty log (which coalesces
-            // per strip: a position changed in many frames is sent once) until a record reads
-            // the regions again.
+            // The changed instances: the patches of their compact copy where it is drawn (in
+            // the strips' places), else of their regions, and their record's patches. While
+            // the compact copy is drawn the regions are not read: what changed in them waits
+            // in the instance's `Places` (coalesced per strip: a position changed in many
+            // frames is sent once) until a record reads the regions again.
             let layout = &a.layout;
             let key = (self.path, a.gpu.vertex_count(), per);
             let patch = |(mut patches, mut record_patches): (Patches, Patches),
@@ -917,19 +927,13 @@ impl Crowd {
                 &mut Member,
                 &mut DrawIndexedIndirectArgs,
             )| {
-                let drawn = layout.record(member.state.lengths());
-                if drawn.compact {
-                    layout.compact_patches(slot * per, &member.state, &mut patches);
-                } else {
-                    let dirty = member.state.take_dirty();
-                    layout.patches(
-                        slot * per,
-                        &member.state,
-                        &dirty,
-                        &mut member.uploaded,
-                        &mut patches,
-                    );
-                }
+                let drawn = layout.upload(
+                    slot * per,
+                    &mut member.state,
+                    &mut member.places,
+                    &mut member.uploaded,
+                    &mut patches,
+                );
                 set_record(key, slot, Some(drawn), record, &mut record_patches);
                 (patches, record_patches)
             };
@@ -1150,7 +1154,7 @@ impl CrowdAsset {
         // order, NVIDIA does not), so a word may get only one value a frame. A slot's record
         // can change several times between two prepares (removed, then added again), so its
         // words keep their last value; index patches name each word once by construction
-        // (`SlotLayout::patches`). Both checked in debug builds, which the tests run on
+        // (`SlotLayout::upload`). Both checked in debug builds, which the tests run on
         // lavapipe.
         if what == Patched::Records {
             keep_last_per_word(&mut patches);

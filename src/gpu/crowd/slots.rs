@@ -6,16 +6,18 @@
 //! slot that always holds [`RESTART`]: the layout of a strip [`Object`](super::super::Object),
 //! so one record draws all its strips (restarts separate them), and patches keep it current
 //! at O(changed indices). Then its compact area: where the instance's live strips fit in it
-//! (a coarse LOD), they are copied there packed, one restart between two, and its record
-//! draws that copy instead of the regions, whose restart tails would be most of what it reads.
+//! (a coarse LOD), they are copied there, each in a place of its own ([`Places`]) that it
+//! keeps while it fits, and its record draws that copy instead of the regions, whose restart
+//! tails would be most of what it reads.
 //! The CPU keeps no mirror of the slots: what the GPU holds is known from the runtime's strips
 //! as of the last upload, and the runtime's dirty log says which positions may differ since.
 //! A patch is `[slot, value]`; a frame's patches of all instances are encoded as runs of
 //! consecutive slots and applied by one scatter dispatch.
 
 use crate::deform::{DeformingModel, DeformingState};
-use crate::lodstrips::Dirty;
+use crate::lodstrips::{Dirty, DirtyRange};
 
+use super::super::scatter::RUN_WORDS;
 use super::super::RESTART;
 
 /// Where the regions of one instance lie, relative to its first slot.
@@ -38,6 +40,90 @@ pub(super) struct SlotRecord {
     /// Reads the compact area (else the regions).
     pub(super) compact: bool,
 }
+
+/// Where an instance's live strips lie in its compact area, and which parts of its regions
+/// the GPU lacks. Empty (no heap) until the instance is first drawn from its copy.
+///
+/// Strip `r` has a place: `at[r]..at[r] + room[r]` of the compact area, holding its `len[r]`
+/// indices as of the last upload and [`RESTART`] over the rest, followed by a separator slot
+/// that holds [`RESTART`] (so a place starts after a restart, like a region: a strip decodes
+/// with the same parity, and two never join). `room[r] = 0`: no place. Places lie one after
+/// another from slot 0 up to `used`, with abandoned places (all restarts) between them.
+#[derive(Default)]
+pub(super) struct Places {
+    at: Vec<u32>,
+    room: Vec<u32>,
+    len: Vec<u32>,
+    /// The end of the used part (the record reads within `0..used` of the compact area, from
+    /// its first live index to its last).
+    used: u32,
+    /// The copy holds the strips as of the last upload (false while the regions are drawn:
+    /// then the copy is repacked when a record reads it again).
+    current: bool,
+    /// Per strip, the part `stale_lo..stale_hi` of its region that changed while the copy
+    /// was drawn (`stale_lo = u32::MAX`: none); its length is compared with the uploaded one.
+    stale_lo: Vec<u32>,
+    stale_hi: Vec<u32>,
+    /// Some region is stale.
+    stale: bool,
+    /// Full rewrites of the copy (tests count them).
+    #[cfg(test)]
+    repacks: u32,
+}
+
+impl Places {
+    /// Heap bytes of the table.
+    pub(super) fn heap_bytes(&self) -> usize {
+        4 * (self.at.capacity()
+            + self.room.capacity()
+            + self.len.capacity()
+            + self.stale_lo.capacity()
+            + self.stale_hi.capacity())
+    }
+
+    /// Notes the changes of `dirty` as not yet in the regions.
+    fn mark_stale(&mut self, strips: usize, dirty: &Dirty) {
+        if self.stale_lo.len() != strips {
+            self.stale_lo = vec![u32::MAX; strips];
+            self.stale_hi = vec![0; strips];
+        }
+        for range in &dirty.ranges {
+            let r = range.strip as usize;
+            self.stale_lo[r] = self.stale_lo[r].min(range.start);
+            self.stale_hi[r] = self.stale_hi[r].max(range.end);
+        }
+        self.stale = true;
+    }
+
+    /// The changes of the regions since they were last patched (the dirty log's contract),
+    /// `dirty`'s included; clears the stale marks.
+    fn take_stale(&mut self, dirty: Dirty, uploaded: &[u32], lengths: &[u32]) -> Dirty {
+        self.mark_stale(lengths.len(), &dirty);
+        self.stale = false;
+        let mut out = Dirty::default();
+        for (r, (lo, hi)) in self.stale_lo.iter_mut().zip(&mut self.stale_hi).enumerate() {
+            if *lo < *hi {
+                out.ranges.push(DirtyRange {
+                    strip: r as u32,
+                    start: *lo,
+                    end: *hi,
+                });
+            }
+            (*lo, *hi) = (u32::MAX, 0);
+        }
+        out.lengths = (0..lengths.len() as u32)
+            .filter(|&r| uploaded[r as usize] != lengths[r as usize])
+            .collect();
+        out
+    }
+}
+
+/// The copy is repacked where its record would read more than this many times the packed
+/// count (live indices and one restart between two strips), in eighths.
+const READ_BOUND_EIGHTHS: u32 = 12;
+
+/// Restarts after a strip in its place, in eighths of its length, so that it can grow there.
+const SLACK_EIGHTHS: u32 = 0;
 
 impl SlotLayout {
     /// The slots of `model`'s instances, with a compact area of `compact_share` (clamped to
@@ -96,25 +182,166 @@ impl SlotLayout {
         self.runtime.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// The record of an instance whose strips have `lengths`: the compact copy where its live
-    /// strips and the restarts between them fit the compact area, else the regions from the
-    /// first live index to the last (restart tails between them included), which must then
-    /// hold those strips.
-    pub(super) fn record(&self, lengths: &[u32]) -> SlotRecord {
-        let live = lengths.iter().filter(|&&len| len > 0);
-        let packed = live
-            .clone()
-            .map(|&len| len + 1)
-            .sum::<u32>()
-            .saturating_sub(1);
+    /// Takes `state`'s dirty log, appends to `out` the patches that bring the slots at `base`
+    /// to its current strips and returns the record that draws them. Where the live strips
+    /// and one restart between two fit the compact area, the record reads the copy: moves are
+    /// patched in the strips' places at O(changed) (a strip that grew past its room moves to
+    /// the end of the used part), and the copy is rewritten packed where it was not current,
+    /// would pass the area or the record would read more than [`READ_BOUND_EIGHTHS`]/8 of the
+    /// packed count; the regions' changes wait in `places`. Else the record reads the regions
+    /// from the first live index to the last, brought up to date (`uploaded`: their lengths).
+    pub(super) fn upload(
+        &self,
+        base: u32,
+        state: &mut DeformingState,
+        places: &mut Places,
+        uploaded: &mut [u32],
+        out: &mut Vec<[u32; 2]>,
+    ) -> SlotRecord {
+        let dirty = state.take_dirty();
+        let lengths = state.lengths();
+        let packed = packed(lengths);
         if packed > 0 && packed <= self.compact {
+            places.mark_stale(lengths.len(), &dirty);
+            let mark = out.len();
+            // Moved in their places where that fits and sends fewer bytes than a repack.
+            if !(places.current
+                && self.move_places(base, state, &dirty, places, packed, out)
+                && run_bytes(&out[mark..]) <= run_bytes_of_one(packed))
+            {
+                out.truncate(mark);
+                self.repack(base, state, places, packed, out);
+            }
+            // From the first live index of the copy to the last.
+            let (mut first, mut end) = (u32::MAX, 0);
+            for (r, &len) in lengths.iter().enumerate().filter(|(_, &len)| len > 0) {
+                first = first.min(places.at[r]);
+                end = end.max(places.at[r] + len);
+            }
             return SlotRecord {
-                first: self.regions(),
-                count: packed,
+                first: self.regions() + first,
+                count: end - first,
                 compact: true,
             };
         }
+        places.current = false;
+        let dirty = if places.stale {
+            places.take_stale(dirty, uploaded, lengths)
+        } else {
+            dirty
+        };
+        self.patches(base, state, &dirty, uploaded, out);
         self.region_record(lengths)
+    }
+
+    /// Appends the patches of `dirty` (the changes since the copy of the instance at `base`
+    /// was last written) to `out`, each strip in its place or moved to the end of the used
+    /// part; false where the used part would pass the compact area or the read bound (the
+    /// caller then repacks; `places` and `out` are left partly written).
+    fn move_places(
+        &self,
+        base: u32,
+        state: &DeformingState,
+        dirty: &Dirty,
+        places: &mut Places,
+        packed: u32,
+        out: &mut Vec<[u32; 2]>,
+    ) -> bool {
+        let (indices, lengths) = (state.indices(), state.lengths());
+        let area = base + self.regions();
+        let bound = (packed * READ_BOUND_EIGHTHS / 8).min(self.compact);
+        let copy = |r: usize, from: u32, to: u32, at: u32, out: &mut Vec<[u32; 2]>| {
+            let source = self.runtime[r];
+            out.extend((from..to).map(|i| [area + at + i, indices[(source + i) as usize]]));
+        };
+        let restarts = |from: u32, to: u32, out: &mut Vec<[u32; 2]>| {
+            out.extend((area + from..area + to).map(|slot| [slot, RESTART]));
+        };
+        for (r, range, resized) in by_strip(dirty) {
+            let (old, new, at) = (places.len[r], lengths[r], places.at[r]);
+            if new <= places.room[r] {
+                // Past the shorter of the two lengths the growth or the restarts below write
+                // every position; in slot order, so that a range and the growth after it make
+                // one run.
+                if let Some((start, end)) = range {
+                    let kept = new.min(old);
+                    copy(r, start.min(kept), end.min(kept), at, out);
+                }
+                if new > old {
+                    copy(r, old, new, at, out);
+                } else {
+                    restarts(at + new, at + old, out);
+                }
+            } else {
+                // Grown past its room (or born; its length changed, so `resized`): its old
+                // place becomes restarts, it moves to the end, after a separator.
+                debug_assert!(resized);
+                restarts(at, at + old, out);
+                let room = new + new * SLACK_EIGHTHS / 8;
+                let start = if places.used > 0 { places.used + 1 } else { 0 };
+                if start + room > bound {
+                    return false;
+                }
+                if start > 0 {
+                    restarts(start - 1, start, out);
+                }
+                copy(r, 0, new, start, out);
+                restarts(start + new, start + room, out);
+                (places.at[r], places.room[r], places.used) = (start, room, start + room);
+            }
+            places.len[r] = new;
+        }
+        places.used <= bound
+    }
+
+    /// Appends to `out` the patches that write `state`'s live strips packed into the compact
+    /// area of the instance at `base`, each in a new place (with [`SLACK_EIGHTHS`] of room to
+    /// grow where that fits the area and the read bound); `packed` (their packed count) fits.
+    fn repack(
+        &self,
+        base: u32,
+        state: &DeformingState,
+        places: &mut Places,
+        packed: u32,
+        out: &mut Vec<[u32; 2]>,
+    ) {
+        let (indices, lengths) = (state.indices(), state.lengths());
+        let slack = lengths
+            .iter()
+            .map(|&len| len * SLACK_EIGHTHS / 8)
+            .sum::<u32>();
+        let bound = (packed * READ_BOUND_EIGHTHS / 8).min(self.compact);
+        let slack_eighths = if packed + slack <= bound {
+            SLACK_EIGHTHS
+        } else {
+            0
+        };
+        let n = lengths.len();
+        for v in [&mut places.at, &mut places.room, &mut places.len] {
+            v.clear();
+            v.resize(n, 0);
+        }
+        let area = base + self.regions();
+        let mut at = 0;
+        for (r, &len) in lengths.iter().enumerate().filter(|(_, &len)| len > 0) {
+            if at > 0 {
+                out.push([area + at, RESTART]);
+                at += 1;
+            }
+            let room = len + len * slack_eighths / 8;
+            let source = self.runtime[r] as usize;
+            let strip = &indices[source..source + len as usize];
+            out.extend(strip.iter().zip(area + at..).map(|(&v, slot)| [slot, v]));
+            out.extend((area + at + len..area + at + room).map(|slot| [slot, RESTART]));
+            (places.at[r], places.room[r], places.len[r]) = (at, room, len);
+            at += room;
+        }
+        places.used = at;
+        places.current = true;
+        #[cfg(test)]
+        {
+            places.repacks += 1;
+        }
     }
 
     /// The record that reads the regions of strips of `lengths` from the first live index to
@@ -130,29 +357,6 @@ impl SlotLayout {
             first,
             count: end - first,
             compact: false,
-        }
-    }
-
-    /// Appends to `out` the patches that write `state`'s live strips packed into the compact
-    /// area of the instance at `base` (one restart between two strips; the caller checked
-    /// that they fit, [`record`](Self::record)).
-    pub(super) fn compact_patches(
-        &self,
-        base: u32,
-        state: &DeformingState,
-        out: &mut Vec<[u32; 2]>,
-    ) {
-        let (indices, lengths) = (state.indices(), state.lengths());
-        let mut at = base + self.regions();
-        for (r, &len) in lengths.iter().enumerate().filter(|(_, &len)| len > 0) {
-            if at > base + self.regions() {
-                out.push([at, RESTART]);
-                at += 1;
-            }
-            let source = self.runtime[r] as usize;
-            let strip = &indices[source..source + len as usize];
-            out.extend(strip.iter().zip(at..).map(|(&v, slot)| [slot, v]));
-            at += len;
         }
     }
 
@@ -175,16 +379,14 @@ impl SlotLayout {
             let (slot, source) = (base + self.starts[r], self.runtime[r]);
             out.extend((from..to).map(|i| [slot + i, indices[(source + i) as usize]]));
         };
-        for range in &dirty.ranges {
-            let r = range.strip as usize;
-            // Past the shorter of the two lengths the loop below writes every position (the
-            // growth, or restarts over what the strip left): each position once.
-            let kept = lengths[r].min(uploaded[r]);
-            copy(r, range.start.min(kept), range.end.min(kept), out);
-        }
-        for &strip in &dirty.lengths {
-            let r = strip as usize;
+        for (r, range, _) in by_strip(dirty) {
             let (old, new) = (uploaded[r], lengths[r]);
+            // Past the shorter of the two lengths the growth or the restarts below write every
+            // position; in slot order, so that a range and the growth after it make one run.
+            if let Some((start, end)) = range {
+                let kept = new.min(old);
+                copy(r, start.min(kept), end.min(kept), out);
+            }
             if new > old {
                 copy(r, old, new, out);
             } else {
@@ -194,6 +396,59 @@ impl SlotLayout {
             uploaded[r] = new;
         }
     }
+}
+
+/// Bytes of `patches` in the scatter's run list, where consecutive slots in the list make a
+/// run ([`super::super::scatter::encode_runs`]: 8 for a lone word; 8 per [`RUN_WORDS`] words
+/// and 4 a word for a longer run).
+fn run_bytes(patches: &[[u32; 2]]) -> u32 {
+    let mut bytes = 0;
+    let mut run = 0;
+    for (i, p) in patches.iter().enumerate() {
+        if i > 0 && patches[i - 1][0] + 1 != p[0] {
+            bytes += run_bytes_of_one(run);
+            run = 0;
+        }
+        run += 1;
+    }
+    bytes + run_bytes_of_one(run)
+}
+
+/// Bytes of one run of `words` consecutive words.
+fn run_bytes_of_one(words: u32) -> u32 {
+    match words {
+        0 => 0,
+        1 => 8,
+        n => 8 * n.div_ceil(RUN_WORDS) + 4 * n,
+    }
+}
+
+/// Every strip `dirty` names, in ascending order, once: its changed range (if any) and
+/// whether its length changed. (Its lists are sorted; were they not, each strip would still
+/// come once per list, only not merged.)
+fn by_strip(dirty: &Dirty) -> impl Iterator<Item = (usize, Option<(u32, u32)>, bool)> + '_ {
+    let mut ranges = dirty.ranges.iter().peekable();
+    let mut lengths = dirty.lengths.iter().peekable();
+    std::iter::from_fn(move || {
+        let (range, length) = (ranges.peek().map(|r| r.strip), lengths.peek().copied());
+        let strip = match (range, length) {
+            (None, None) => return None,
+            (Some(a), Some(&b)) => a.min(b),
+            (Some(a), None) => a,
+            (None, Some(&b)) => b,
+        };
+        let range = ranges
+            .next_if(|r| r.strip == strip)
+            .map(|r| (r.start, r.end));
+        let resized = lengths.next_if(|&&l| l == strip).is_some();
+        Some((strip as usize, range, resized))
+    })
+}
+
+/// The slots of the live strips of `lengths` packed: their lengths and one restart between two.
+fn packed(lengths: &[u32]) -> u32 {
+    let live = lengths.iter().filter(|&&len| len > 0);
+    live.map(|&len| len + 1).sum::<u32>().saturating_sub(1)
 }
 
 #[cfg(test)]
@@ -238,24 +493,132 @@ mod tests {
         slots
     }
 
-    /// Over a walk with frame switches and LOD jumps, applying the patches in reverse order
-    /// (any order must do) to the previous slots gives the regions built from scratch; the
-    /// record reads the live strips and the restarts between them only where they fit the
-    /// compact area (its copy), else from the first live index to the last.
+    /// The triangles `words` draw as triangle strips cut by [`RESTART`] (odd triangles of a
+    /// strip flipped), degenerate ones left out, each turned to start at its least index
+    /// (orientation kept), sorted.
+    fn triangles(words: &[u32]) -> Vec<[u32; 3]> {
+        let mut out = Vec::new();
+        for strip in words.split(|&w| w == RESTART) {
+            for (i, w) in strip.windows(3).enumerate() {
+                let t = if i % 2 == 0 {
+                    [w[0], w[1], w[2]]
+                } else {
+                    [w[1], w[0], w[2]]
+                };
+                if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                    continue;
+                }
+                let m = (0..3).min_by_key(|&k| t[k]).expect("three");
+                out.push([t[m], t[(m + 1) % 3], t[(m + 2) % 3]]);
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+
+    /// The triangles of the state's strips, each decoded on its own.
+    fn reference(state: &DeformingState) -> Vec<[u32; 3]> {
+        let mut out: Vec<[u32; 3]> = (0..state.lengths().len())
+            .flat_map(|r| triangles(state.strip(r).expect("strip")))
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
+    /// One instance's slots on a simulated GPU (its neighbours' slots must stay 0).
+    struct Gpu {
+        words: Vec<u32>,
+        base: u32,
+        end: u32,
+    }
+
+    impl Gpu {
+        fn new(layout: &SlotLayout) -> Gpu {
+            let base = 3 * layout.per_instance();
+            let end = base + layout.per_instance();
+            // The compact area starts as 0s: a word read but never written draws vertex 0.
+            let mut words = vec![0u32; end as usize + 5];
+            words[base as usize..(base + layout.regions()) as usize].copy_from_slice(layout.s0());
+            Gpu { words, base, end }
+        }
+
+        /// Applies `patches` in reverse order (any order must do), each word once.
+        fn apply(&mut self, patches: &[[u32; 2]]) {
+            let mut slots: Vec<u32> = patches.iter().map(|p| p[0]).collect();
+            slots.sort_unstable();
+            slots.dedup();
+            assert_eq!(slots.len(), patches.len(), "a slot patched twice");
+            for &[slot, value] in patches.iter().rev() {
+                self.words[slot as usize] = value;
+            }
+            let (base, end) = (self.base as usize, self.end as usize);
+            assert!(
+                self.words[..base]
+                    .iter()
+                    .chain(&self.words[end..])
+                    .all(|&w| w == 0),
+                "other slots untouched"
+            );
+        }
+
+        fn read(&self, record: SlotRecord) -> &[u32] {
+            &self.words[(self.base + record.first) as usize..][..record.count as usize]
+        }
+    }
+
+    /// One upload of `state`'s changes, checked: the record draws exactly the state's
+    /// triangles (with parity); where it reads the regions they are the regions built from
+    /// scratch, with nothing before the first live index or after the last; it reads the
+    /// compact copy exactly where the packed strips fit, and then at most the read bound.
+    fn upload_checked(
+        layout: &SlotLayout,
+        state: &mut DeformingState,
+        places: &mut Places,
+        uploaded: &mut [u32],
+        gpu: &mut Gpu,
+        step: usize,
+    ) -> SlotRecord {
+        let mut patches = Vec::new();
+        let record = layout.upload(gpu.base, state, places, uploaded, &mut patches);
+        gpu.apply(&patches);
+        let read = gpu.read(record);
+        assert_eq!(triangles(read), reference(state), "step {step}");
+        let packed = packed(state.lengths());
+        assert_eq!(
+            record.compact,
+            packed > 0 && packed <= layout.compact_slots()
+        );
+        if record.compact {
+            assert!(record.first >= layout.regions());
+            assert!(record.count >= packed);
+            assert!(
+                record.count <= packed * READ_BOUND_EIGHTHS / 8,
+                "step {step}"
+            );
+        } else {
+            let (base, regions) = (gpu.base as usize, (gpu.base + layout.regions()) as usize);
+            assert_eq!(
+                &gpu.words[base..regions],
+                from_scratch(layout, state).as_slice(),
+                "step {step}"
+            );
+            assert_eq!(uploaded, state.lengths());
+        }
+        assert!(read.first() != Some(&RESTART) && read.last() != Some(&RESTART));
+        record
+    }
+
+    /// Over a walk with frame switches and LOD jumps (moves accumulating between uploads),
+    /// the record draws the state's strips: from the compact copy exactly where they fit it,
+    /// else from the regions, which are then those built from scratch.
     #[test]
     fn patches_bring_the_slots_to_the_current_strips() {
         let model = model();
         for share in [0.0, 0.3, 1.0] {
             let layout = SlotLayout::new(&model, share);
             let mut state = DeformingState::new(&model);
-            let base = 3 * layout.per_instance();
-            let (regions, end) = (base + layout.regions(), base + layout.per_instance());
-            let mut gpu = vec![0u32; end as usize + 5];
-            gpu[base as usize..regions as usize].copy_from_slice(layout.s0());
-            assert_eq!(
-                &gpu[base as usize..regions as usize],
-                from_scratch(&layout, &state).as_slice()
-            );
+            let mut gpu = Gpu::new(&layout);
+            let mut places = Places::default();
             let mut uploaded = layout.s0_lengths();
             let walk = [
                 (0.0, 0.5),
@@ -273,59 +636,15 @@ mod tests {
                 if step % 2 == 1 {
                     state.set(&model, 1.0 - t, Lod::Fraction(0.3)).expect("set");
                 }
-                let dirty = state.take_dirty();
-                let mut patches = Vec::new();
-                layout.patches(base, &state, &dirty, &mut uploaded, &mut patches);
-                let record = layout.record(&uploaded);
-                if record.compact {
-                    layout.compact_patches(base, &state, &mut patches);
-                    compacted += 1;
-                }
-                let mut slots: Vec<u32> = patches.iter().map(|p| p[0]).collect();
-                slots.sort_unstable();
-                slots.dedup();
-                assert_eq!(
-                    slots.len(),
-                    patches.len(),
-                    "step {step}: a slot patched twice"
+                let record = upload_checked(
+                    &layout,
+                    &mut state,
+                    &mut places,
+                    &mut uploaded,
+                    &mut gpu,
+                    step,
                 );
-                for &[slot, value] in patches.iter().rev() {
-                    gpu[slot as usize] = value;
-                }
-                assert!(
-                    gpu[..base as usize]
-                        .iter()
-                        .chain(&gpu[end as usize..])
-                        .all(|&w| w == 0),
-                    "other slots untouched"
-                );
-                assert_eq!(
-                    &gpu[base as usize..regions as usize],
-                    from_scratch(&layout, &state).as_slice(),
-                    "step {step}"
-                );
-                assert_eq!(uploaded, state.lengths());
-                // What the record reads draws the strips; it starts and ends at a live index.
-                let read = &gpu[(base + record.first) as usize..][..record.count as usize];
-                let strips: Vec<&[u32]> = (0..uploaded.len())
-                    .filter_map(|r| state.strip(r).filter(|s| !s.is_empty()))
-                    .collect();
-                let drawn: Vec<&[u32]> = read
-                    .split(|&w| w == RESTART)
-                    .filter(|s| !s.is_empty())
-                    .collect();
-                assert_eq!(drawn, strips, "share {share}, step {step}");
-                assert!(read.first() != Some(&RESTART) && read.last() != Some(&RESTART));
-                let live: u32 = uploaded.iter().sum();
-                let packed = live + strips.len().saturating_sub(1) as u32;
-                assert_eq!(
-                    record.compact,
-                    packed > 0 && packed <= layout.compact_slots()
-                );
-                if record.compact {
-                    // Nothing but the live indices and one restart between two strips.
-                    assert_eq!(record.count, packed);
-                }
+                compacted += usize::from(record.compact);
             }
             // Without a compact area never; with one as large as the regions always.
             assert_eq!(compacted == 0, share == 0.0);
@@ -333,5 +652,73 @@ mod tests {
                 assert_eq!(compacted, walk.len());
             }
         }
+    }
+
+    /// Over a long random walk (small LOD steps up and down, jumps, frame switches) every
+    /// way a strip of the compact copy moves happens, each upload checked as above: a move
+    /// within its room, to the end of the used part, a death, a birth, a repack, and records
+    /// going back to the regions and to the copy again.
+    #[test]
+    fn places_follow_a_long_random_walk() {
+        let model = model();
+        let layout = SlotLayout::new(&model, 0.6);
+        let mut state = DeformingState::new(&model);
+        let mut gpu = Gpu::new(&layout);
+        let mut places = Places::default();
+        let mut uploaded = layout.s0_lengths();
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut random = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let (mut t, mut lod) = (0.0f32, 0.5f32);
+        let (mut within, mut to_end, mut deaths, mut births, mut back) = (0, 0, 0, 0, 0);
+        let mut was_compact = false;
+        for step in 0..400 {
+            let roll = random();
+            if roll < 0.1 {
+                lod = random();
+            } else {
+                lod = (lod + 0.08 * (random() - 0.5)).clamp(0.0, 1.0);
+            }
+            if roll > 0.7 {
+                t = random();
+            }
+            state.set(&model, t, Lod::Fraction(lod)).expect("set");
+            let before = (places.at.clone(), places.room.clone(), places.len.clone());
+            let (repacks, current) = (places.repacks, places.current);
+            let record = upload_checked(
+                &layout,
+                &mut state,
+                &mut places,
+                &mut uploaded,
+                &mut gpu,
+                step,
+            );
+            back += usize::from(was_compact && !record.compact);
+            was_compact = record.compact;
+            if !(record.compact && current && places.repacks == repacks) {
+                continue;
+            }
+            for r in 0..places.len.len() {
+                let (at, len) = (before.0[r], before.2[r]);
+                let new = places.len[r];
+                within += usize::from(at == places.at[r] && len != new && len > 0 && new > 0);
+                to_end += usize::from(at != places.at[r] && len > 0);
+                deaths += usize::from(len > 0 && new == 0);
+                births += usize::from(len == 0 && new > 0);
+            }
+        }
+        let counts = [
+            within,
+            to_end,
+            deaths,
+            births,
+            places.repacks as usize,
+            back,
+        ];
+        assert!(counts.iter().all(|&n| n > 0), "{counts:?}");
     }
 }
