@@ -169,6 +169,25 @@ fn paths(ctx: &Gpu) -> Vec<CrowdPath> {
     paths
 }
 
+/// Adds `kind` to `crowd` with room for `count` instances and fills it at the identity.
+fn fill(
+    ctx: &Gpu,
+    crowd: &mut Crowd,
+    kind: &Kind,
+    count: u32,
+) -> Result<(AssetId, Vec<InstanceId>)> {
+    let asset = crowd.add_asset(
+        ctx.device(),
+        Arc::clone(&kind.gpu),
+        Arc::clone(&kind.model),
+        count,
+    )?;
+    let ids = (0..count)
+        .map(|_| crowd.add(asset, glam::Mat4::IDENTITY))
+        .collect::<std::result::Result<_, _>>()?;
+    Ok((asset, ids))
+}
+
 /// An empty crowd on `path` drawing into a `RenderTarget`.
 fn crowd_on(ctx: &Gpu, path: CrowdPath) -> Result<Crowd> {
     let crowd = Crowd::with_path(
@@ -655,16 +674,8 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
     let (device, queue) = (small.device(), small.queue());
     let mut crowd = crowd_on(&small, paths(&small)[0])?;
     crowd.set_records(regions_only);
-    let id = crowd.add_asset(
-        device,
-        Arc::clone(&kind.gpu),
-        Arc::clone(&kind.model),
-        capacity,
-    )?;
+    let (id, instances) = fill(&small, &mut crowd, &kind, capacity)?;
     assert_eq!(crowd.slots_per_instance(id), per);
-    let instances: Vec<InstanceId> = (0..capacity)
-        .map(|_| crowd.add(id, glam::Mat4::IDENTITY))
-        .collect::<std::result::Result<_, _>>()?;
     let mut most = 0;
     for step in 0..8 {
         // The coarsest LOD at one frame, full detail, the coarsest at another frame...
@@ -714,15 +725,7 @@ fn index_patches_name_each_word_once() -> Result<()> {
     let mut crowd = crowd_on(&ctx, paths(&ctx)[0])?;
     crowd.set_records(CrowdRecords { compact_share: 0.0 });
     let count = 4;
-    let asset = crowd.add_asset(
-        device,
-        Arc::clone(&kind.gpu),
-        Arc::clone(&kind.model),
-        count,
-    )?;
-    let ids: Vec<InstanceId> = (0..count)
-        .map(|_| crowd.add(asset, glam::Mat4::IDENTITY))
-        .collect::<std::result::Result<_, _>>()?;
+    let (_, ids) = fill(&ctx, &mut crowd, &kind, count)?;
     // Each instance's copy and the lengths its slots hold on the GPU.
     let mut copies: Vec<(DeformingState, Vec<u32>)> = ids
         .iter()
@@ -801,15 +804,7 @@ fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
     let path = paths(&ctx)[0];
     let mut crowd = crowd_on(&ctx, path)?;
     let count = 12;
-    let asset = crowd.add_asset(
-        device,
-        Arc::clone(&kind.gpu),
-        Arc::clone(&kind.model),
-        count,
-    )?;
-    let ids: Vec<InstanceId> = (0..count)
-        .map(|_| crowd.add(asset, glam::Mat4::IDENTITY))
-        .collect::<std::result::Result<_, _>>()?;
+    let (asset, ids) = fill(&ctx, &mut crowd, &kind, count)?;
     let mut rng = common::Rng(0xc0ffee);
     let frame_t = |k: usize| k as f32 / (frames - 1) as f32;
     for step in 0..24 {
@@ -1047,10 +1042,7 @@ fn check_blending(ctx: &Gpu, kind: &Kind, times: &[[f32; 3]]) -> Result<Blended>
         RenderTarget::COLOR_FORMAT,
         Some(RenderTarget::DEPTH_FORMAT),
     );
-    let asset = crowd.add_asset(device, Arc::clone(&kind.gpu), Arc::clone(&kind.model), 3)?;
-    let ids: Vec<InstanceId> = (0..3)
-        .map(|_| crowd.add(asset, glam::Mat4::IDENTITY))
-        .collect::<std::result::Result<_, _>>()?;
+    let (_, ids) = fill(ctx, &mut crowd, kind, 3)?;
     let mut seen = Blended::default();
     for &ts in times {
         let moves: Vec<_> = ids
@@ -1310,15 +1302,7 @@ fn host_memory_per_instance_is_bounded() -> Result<()> {
         RenderTarget::COLOR_FORMAT,
         Some(RenderTarget::DEPTH_FORMAT),
     );
-    let asset = crowd.add_asset(
-        device,
-        Arc::clone(&kind.gpu),
-        Arc::clone(&kind.model),
-        count,
-    )?;
-    let ids: Vec<InstanceId> = (0..count)
-        .map(|_| crowd.add(asset, glam::Mat4::IDENTITY))
-        .collect::<std::result::Result<_, _>>()?;
+    let (_, ids) = fill(&ctx, &mut crowd, &kind, count)?;
     // Every instance switches frames at several LODs (rebuilds and steps: the dirty lists and
     // step scratch reach their size) and uploads each time.
     for (t, lod) in [(1.0, 0.5), (0.0, 0.9), (1.0, 0.1), (0.0, 0.0)] {
