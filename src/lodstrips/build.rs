@@ -401,6 +401,7 @@ impl<'a> Replay<'a> {
         // first: the entries alive at a LOD are a prefix, so a rebuild reads those only.
         let (mut by_death, mut widest) = (Vec::with_capacity(total + copies.len()), 0);
         let mut first_copy = 0;
+        let mut strip_copies = Vec::with_capacity(self.region_offsets.len());
         for (s, w) in self.region_offsets.windows(2).enumerate() {
             let (start, end) = (w[0] as usize, w[1] as usize);
             let last_copy = first_copy
@@ -408,6 +409,7 @@ impl<'a> Replay<'a> {
                     .iter()
                     .take_while(|c| (c.after as usize) < end)
                     .count();
+            strip_copies.push(first_copy as u32);
             let at = by_death.len();
             by_death.extend((0..end - start).map(|i| (lod(self.tokens.death[start + i]), 2 * i)));
             by_death.extend((first_copy..last_copy).map(|c| (lod(copies[c].death), 2 * (c - first_copy) + 1)));
@@ -416,6 +418,7 @@ impl<'a> Replay<'a> {
             debug_assert!(by_death[at..].first().map_or(0, |e| e.0) == strip_death[s]);
             first_copy = last_copy;
         }
+        strip_copies.push(first_copy as u32);
         let mut strips_by_death: Vec<u32> = (0..strip_death.len() as u32).collect();
         strips_by_death.sort_by_key(|&s| std::cmp::Reverse(strip_death[s as usize]));
         let triangle_samples = (0..self.cursors.len())
@@ -441,6 +444,7 @@ impl<'a> Replay<'a> {
                 (2 * widest).saturating_sub(1) as u32,
                 by_death.iter().map(|&(_, tag)| tag as u32),
             ),
+            strip_copies: Narrow::new(copies.len() as u32, strip_copies),
             strips_by_death: Narrow::new(
                 strips_by_death.len().saturating_sub(1) as u32,
                 strips_by_death,

@@ -158,11 +158,14 @@ pub struct FrameChanges {
     strip_death: Narrow,
     /// Per strip, its entries sorted by death, latest first (ties in entry order), at the
     /// strip's entries' place in the order of all entries (strip `s`'s from
-    /// `region_offsets[s] + first_copy_from(region_offsets[s])`): slot `start + i` as `2i`,
+    /// `region_offsets[s] + strip_copies[s]`): slot `start + i` as `2i`,
     /// the strip's `i`-th copy as `2i + 1`. The entries alive at LOD `l` are the prefix
     /// whose deaths exceed `l` (less the copies not born yet), so a rebuild at a coarse LOD
     /// reads those and not the strip's dead ones.
     by_death: Narrow,
+    /// Per strip, its first copy (`strip count + 1` entries, the last the copy count): a
+    /// strip's copies are `strip_copies[s]..strip_copies[s + 1]`.
+    strip_copies: Narrow,
     /// The strips sorted by `strip_death`, latest first: those not empty at LOD `l` are a
     /// prefix.
     strips_by_death: Narrow,
@@ -266,6 +269,7 @@ impl FrameChanges {
             + self.copy_death.byte_size()
             + self.strip_death.byte_size()
             + self.by_death.byte_size()
+            + self.strip_copies.byte_size()
             + self.strips_by_death.byte_size()
     }
 
@@ -318,18 +322,10 @@ impl FrameChanges {
         self.death.len() + self.copy_count() + layout.vertex_count() + lod.min(self.max_lod())
     }
 
-    /// The first copy anchored at `S0` slot `slot` or after it (copies are sorted by anchor).
-    fn first_copy_from(&self, slot: usize) -> usize {
-        let (mut lo, mut hi) = (0, self.copy_count());
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if (self.copy_after.get(mid) as usize) < slot {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
-        }
-        lo
+    /// The first copy of strip `s` (its copies are sorted by anchor, after earlier strips').
+    #[inline]
+    fn first_copy(&self, s: usize) -> usize {
+        self.strip_copies.get(s) as usize
     }
 }
 

@@ -615,27 +615,20 @@ fn rebuild_strips(
         for j in 0..alive {
             let s = frame.strips_by_death.get(j) as usize;
             if strips.contains(&s) {
-                strip(s, frame.first_copy_from(layout.region_offsets[s] as usize), lens);
+                strip(s, frame.first_copy(s), lens);
             }
         }
     } else {
-        // `ci`, the first copy of the strip, carries over from a strip read whole to the
-        // next; otherwise it is found by binary search.
-        let mut ci = None;
         for s in strips {
-            if frame.strip_death.get(s) <= l {
-                ci = None;
-                continue;
+            if frame.strip_death.get(s) > l {
+                strip(s, frame.first_copy(s), lens);
             }
-            let c = ci.unwrap_or_else(|| frame.first_copy_from(layout.region_offsets[s] as usize));
-            ci = strip(s, c, lens);
         }
     }
 }
 
 /// Rebuilds strip `s` (not empty at `l`, its first copy `ci`) in `region` (its region and
-/// on) at `l` collapses of `frame`, `len` its live length; returns the first copy of the
-/// next strip when it read every entry of the strip, else `None`.
+/// on) at `l` collapses of `frame`, `len` its live length.
 ///
 /// A strip with at most an eighth of its `S0` slots' worth of entries alive reads the
 /// alive ones from its `by_death` prefix, then puts them in the strip's order (a sort of
@@ -653,7 +646,7 @@ fn rebuild_strip(
         &mut impl FnMut(Mark),
         &mut Vec<u64>,
     ),
-) -> Option<usize> {
+) {
     let start = layout.region_offsets[s] as usize;
     let end = layout.region_offsets[s + 1] as usize;
     let old = *len as usize;
@@ -692,7 +685,7 @@ fn rebuild_strip(
             }
         }
     }
-    let next = if few {
+    if few {
         keys.sort_unstable();
         for &k in keys.iter() {
             let v = if k & COPY == 0 {
@@ -702,7 +695,6 @@ fn rebuild_strip(
             };
             put(region, find(v));
         }
-        None
     } else {
         let copies = frame.copy_count();
         // The anchor of copy `c` (past the last copy: beyond every slot).
@@ -737,8 +729,7 @@ fn rebuild_strip(
                 next_after = anchor(ci);
             }
         }
-        Some(ci)
-    };
+    }
     if q as u32 != *len {
         *len = q as u32;
         mark(Mark::Len(s as u32));
@@ -746,7 +737,6 @@ fn rebuild_strip(
     if lo < hi {
         mark(Mark::Span(s as u32, lo as u32, hi as u32));
     }
-    next
 }
 
 /// Cuts `region[i..i+len]` (the live part of a strip is all of `region`),
