@@ -412,7 +412,9 @@ impl<'a> Replay<'a> {
             strip_copies.push(first_copy as u32);
             let at = by_death.len();
             by_death.extend((0..end - start).map(|i| (lod(self.tokens.death[start + i]), 2 * i)));
-            by_death.extend((first_copy..last_copy).map(|c| (lod(copies[c].death), 2 * (c - first_copy) + 1)));
+            by_death.extend(
+                (first_copy..last_copy).map(|c| (lod(copies[c].death), 2 * (c - first_copy) + 1)),
+            );
             by_death[at..].sort_unstable_by_key(|&(d, tag)| (std::cmp::Reverse(d), tag));
             widest = widest.max(by_death.len() - at);
             debug_assert!(by_death[at..].first().map_or(0, |e| e.0) == strip_death[s]);
