@@ -615,8 +615,10 @@ fn rebuild_strips(
     let mut keys = Vec::new();
     let mut strip = |s: usize, ci: usize, lens: &mut [u32]| {
         let region = &mut indices[layout.region_offsets[s] as usize - base..];
-        let args = (&mut find, &mut mark, &mut keys);
-        rebuild_strip(layout, frame, l, s, ci, region, &mut lens[s - first], args)
+        let len = &mut lens[s - first];
+        rebuild_strip(
+            layout, frame, l, s, ci, region, len, &mut find, &mut mark, &mut keys,
+        )
     };
     let alive = frame.strips_alive(l);
     if alive * 4 < strips.len() {
@@ -641,6 +643,7 @@ fn rebuild_strips(
 /// A strip with at most an eighth of its `S0` slots' worth of entries alive reads the
 /// alive ones from its `by_death` prefix, then puts them in the strip's order (a sort of
 /// those few); otherwise it reads every entry, slots and copies in order.
+#[allow(clippy::too_many_arguments)]
 fn rebuild_strip(
     layout: &StripLayout,
     frame: &FrameChanges,
@@ -649,11 +652,9 @@ fn rebuild_strip(
     ci: usize,
     region: &mut [u32],
     len: &mut u32,
-    (find, mark, keys): (
-        &mut impl FnMut(u32) -> u32,
-        &mut impl FnMut(Mark),
-        &mut Vec<u64>,
-    ),
+    find: &mut impl FnMut(u32) -> u32,
+    mark: &mut impl FnMut(Mark),
+    keys: &mut Vec<u64>,
 ) {
     let start = layout.region_offsets[s] as usize;
     let end = layout.region_offsets[s + 1] as usize;
@@ -677,7 +678,7 @@ fn rebuild_strip(
     for j in at..at + (end - start) / 8 {
         let tag = frame.by_death.get(j) as usize;
         let i = tag / 2;
-        if tag % 2 == 0 {
+        if tag & 1 == 0 {
             if frame.death.get(start + i) <= l {
                 few = true;
                 break;
