@@ -754,4 +754,77 @@ mod tests {
         }
         assert!(switches > 50, "{switches} frame switches");
     }
+
+    /// The wave model of `wave_asset(24, 6)`, built once for the property test.
+    fn wave_model() -> &'static DeformingModel {
+        static MODEL: std::sync::OnceLock<DeformingModel> = std::sync::OnceLock::new();
+        MODEL.get_or_init(|| DeformingModel::new(&wave_asset(24, 6)).expect("model builds"))
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(24))]
+
+        /// Over a random walk of frame switches (the same frame, a neighbour up or down, a
+        /// jump) at LODs from full detail to the coarsest, rebuilt or moved the cheaper way,
+        /// every state equals a fresh one stepped from `S0` to its frame and LOD, and its
+        /// dirty log replayed onto a copy of its buffer gives its strips: rebuilds that read
+        /// only the strips and entries alive before and after leave nothing out.
+        #[test]
+        fn frame_switch_walks_equal_stepping_from_s0(
+            moves in proptest::collection::vec(
+                (0u8..4, 0u8..64, 0.0f32..1.0, proptest::bool::weighted(0.8)),
+                1..40,
+            )
+        ) {
+            let model = wave_model();
+            let frames = model.frame_count();
+            let mut state = DeformingState::new(model);
+            let (mut mirror, mut mirror_lens) = (state.indices().to_vec(), state.lengths().to_vec());
+            for (i, &(kind, pick, f, rebuild)) in moves.iter().enumerate() {
+                let k = state.frame();
+                let frame = match kind {
+                    0 => k,
+                    1 => (k + 1).min(frames - 1),
+                    2 => k.saturating_sub(1),
+                    _ => pick as usize % frames,
+                };
+                let t = frame as f32 / (frames - 1) as f32;
+                let lod = match pick % 4 {
+                    0 => Lod::Fraction(0.0),
+                    1 => Lod::Fraction(1.0),
+                    2 => Lod::Fraction(f),
+                    _ => Lod::Fraction(1.0 - 0.1 * f),
+                };
+                let strategy = if rebuild { Strategy::Rebuild } else { Strategy::Auto };
+                state.set_with(model, t, lod, strategy).expect("valid request");
+                let mut fresh = DeformingState::new(model);
+                fresh.set_with(model, t, lod, Strategy::Steps).expect("valid request");
+                proptest::prop_assert_eq!(state.frame(), frame);
+                proptest::prop_assert_eq!(
+                    (state.lod(), state.triangle_count()),
+                    (fresh.lod(), fresh.triangle_count()),
+                    "move {}", i
+                );
+                proptest::prop_assert_eq!(state.lengths(), fresh.lengths(), "move {}", i);
+                let offsets = state.region_offsets().to_vec();
+                for s in 0..offsets.len() - 1 {
+                    proptest::prop_assert_eq!(state.strip(s), fresh.strip(s), "move {}, strip {}", i, s);
+                }
+                let dirty = state.take_dirty();
+                for r in &dirty.ranges {
+                    let o = offsets[r.strip as usize] as usize;
+                    let span = o + r.start as usize..o + r.end as usize;
+                    mirror[span.clone()].copy_from_slice(&state.indices()[span]);
+                }
+                for &s in &dirty.lengths {
+                    mirror_lens[s as usize] = state.lengths()[s as usize];
+                }
+                proptest::prop_assert_eq!(&mirror_lens[..], state.lengths(), "move {}", i);
+                for s in 0..offsets.len() - 1 {
+                    let live = offsets[s] as usize..(offsets[s] + mirror_lens[s]) as usize;
+                    proptest::prop_assert_eq!(Some(&mirror[live]), state.strip(s), "move {}, strip {}", i, s);
+                }
+            }
+        }
+    }
 }

@@ -156,6 +156,19 @@ pub struct FrameChanges {
     /// among its slots and copies): a rebuild at that LOD or coarser skips the strip
     /// without reading its entries.
     strip_death: Narrow,
+    /// Per strip, its entries sorted by death, latest first (ties in entry order), at the
+    /// strip's entries' place in the order of all entries (strip `s`'s from
+    /// `region_offsets[s] + strip_copies[s]`): slot `start + i` as `2i`,
+    /// the strip's `i`-th copy as `2i + 1`. The entries alive at LOD `l` are the prefix
+    /// whose deaths exceed `l` (less the copies not born yet), so a rebuild at a coarse LOD
+    /// reads those and not the strip's dead ones.
+    by_death: Narrow,
+    /// Per strip, its first copy (`strip count + 1` entries, the last the copy count): a
+    /// strip's copies are `strip_copies[s]..strip_copies[s + 1]`.
+    strip_copies: Narrow,
+    /// The strips sorted by `strip_death`, latest first: those not empty at LOD `l` are a
+    /// prefix.
+    strips_by_death: Narrow,
 }
 
 /// Every this many steps the stream position is kept, so a rebuilt state
@@ -255,6 +268,23 @@ impl FrameChanges {
             + self.copy_birth.byte_size()
             + self.copy_death.byte_size()
             + self.strip_death.byte_size()
+            + self.by_death.byte_size()
+            + self.strip_copies.byte_size()
+            + self.strips_by_death.byte_size()
+    }
+
+    /// How many strips are not empty at LOD `l` (the prefix of `strips_by_death`).
+    fn strips_alive(&self, l: u32) -> usize {
+        let (mut lo, mut hi) = (0, self.strips_by_death.len());
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.strip_death.get(self.strips_by_death.get(mid) as usize) > l {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
     }
 
     /// Stream position where step `lod` starts and the triangles drawn there:
@@ -292,18 +322,10 @@ impl FrameChanges {
         self.death.len() + self.copy_count() + layout.vertex_count() + lod.min(self.max_lod())
     }
 
-    /// The first copy anchored at `S0` slot `slot` or after it (copies are sorted by anchor).
-    fn first_copy_from(&self, slot: usize) -> usize {
-        let (mut lo, mut hi) = (0, self.copy_count());
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if (self.copy_after.get(mid) as usize) < slot {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
-        }
-        lo
+    /// The first copy of strip `s` (its copies are sorted by anchor, after earlier strips').
+    #[inline]
+    fn first_copy(&self, s: usize) -> usize {
+        self.strip_copies.get(s) as usize
     }
 }
 

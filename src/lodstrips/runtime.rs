@@ -578,8 +578,13 @@ pub(crate) const PARALLEL_SLOTS: usize = 1 << 16;
 
 /// The rebuild of strips `strips` (see [`StripsState::rebuild`]) over their regions
 /// `indices` (from the first strip's region start) and live lengths `lens`, at `l` collapses
-/// of `frame`, the survivor of a vertex given by `find`; what changed goes to `mark`, strip
-/// by strip in order (its length, then its span).
+/// of `frame`, the survivor of a vertex given by `find`; what changed goes to `mark` (per
+/// strip its length, then its span).
+///
+/// Its work follows what is alive before and after, not the mesh: the strips empty at `l`
+/// cost one look at their old length; when few strips are alive at `l` they are taken from
+/// the frame's `strips_by_death` prefix rather than found by a pass over `strips`; and a
+/// strip that has few entries alive at `l` reads them from its `by_death` prefix ([`rebuild_strip`]).
 #[allow(clippy::too_many_arguments)]
 fn rebuild_strips(
     layout: &StripLayout,
@@ -591,49 +596,126 @@ fn rebuild_strips(
     mut find: impl FnMut(u32) -> u32,
     mut mark: impl FnMut(Mark),
 ) {
-    let copies = frame.copy_count();
-    // The anchor of copy `ci` (past the last copy: beyond every slot).
-    let anchor = |ci: usize| {
-        if ci < copies {
-            frame.copy_after.get(ci) as usize
-        } else {
-            usize::MAX
-        }
-    };
-    let base = layout.region_offsets[strips.start] as usize;
     let first = strips.start;
-    // `ci` is the first copy anchored in the strip being read, when `synced`; after a
-    // skipped strip (and at the first) it is found by binary search.
-    let mut ci = 0;
-    let mut synced = false;
-    for s in strips {
-        let start = layout.region_offsets[s] as usize;
-        let old = lens[s - first] as usize;
-        if frame.strip_death.get(s) <= l {
-            synced = false;
-            if old != 0 {
-                lens[s - first] = 0;
-                mark(Mark::Len(s as u32));
-            }
+    let base = layout.region_offsets[first] as usize;
+    // Most strips are empty before and after: skip them 16 at a time (an OR the compiler
+    // vectorises) rather than look each one up.
+    for (c, chunk) in lens.chunks_mut(16).enumerate() {
+        if chunk.iter().fold(0, |a, &n| a | n) == 0 {
             continue;
         }
-        if !synced {
-            ci = frame.first_copy_from(start);
-            synced = true;
-        }
-        let end = layout.region_offsets[s + 1] as usize;
-        let mut next_after = anchor(ci);
-        // Writes `v` at the next position, noting the changed span `lo..hi`.
-        let (mut q, mut lo, mut hi) = (start, usize::MAX, 0);
-        let mut put = |indices: &mut [u32], v: u32| {
-            let at = q - base;
-            if q - start >= old || indices[at] != v {
-                indices[at] = v;
-                lo = lo.min(q - start);
-                hi = q - start + 1;
+        for (i, len) in chunk.iter_mut().enumerate() {
+            let s = first + 16 * c + i;
+            if *len != 0 && frame.strip_death.get(s) <= l {
+                *len = 0;
+                mark(Mark::Len(s as u32));
             }
-            q += 1;
+        }
+    }
+    let mut keys = Vec::new();
+    let mut strip = |s: usize, ci: usize, lens: &mut [u32]| {
+        let region = &mut indices[layout.region_offsets[s] as usize - base..];
+        let len = &mut lens[s - first];
+        rebuild_strip(
+            layout, frame, l, s, ci, region, len, &mut find, &mut mark, &mut keys,
+        )
+    };
+    let alive = frame.strips_alive(l);
+    if alive * 4 < strips.len() {
+        for j in 0..alive {
+            let s = frame.strips_by_death.get(j) as usize;
+            if strips.contains(&s) {
+                strip(s, frame.first_copy(s), lens);
+            }
+        }
+    } else {
+        for s in strips {
+            if frame.strip_death.get(s) > l {
+                strip(s, frame.first_copy(s), lens);
+            }
+        }
+    }
+}
+
+/// Rebuilds strip `s` (not empty at `l`, its first copy `ci`) in `region` (its region and
+/// on) at `l` collapses of `frame`, `len` its live length.
+///
+/// A strip with at most an eighth of its `S0` slots' worth of entries alive reads the
+/// alive ones from its `by_death` prefix, then puts them in the strip's order (a sort of
+/// those few); otherwise it reads every entry, slots and copies in order.
+#[allow(clippy::too_many_arguments)]
+fn rebuild_strip(
+    layout: &StripLayout,
+    frame: &FrameChanges,
+    l: u32,
+    s: usize,
+    ci: usize,
+    region: &mut [u32],
+    len: &mut u32,
+    find: &mut impl FnMut(u32) -> u32,
+    mark: &mut impl FnMut(Mark),
+    keys: &mut Vec<u64>,
+) {
+    let start = layout.region_offsets[s] as usize;
+    let end = layout.region_offsets[s + 1] as usize;
+    let old = *len as usize;
+    // Writes `v` at the next position, noting the changed span `lo..hi`.
+    let (mut q, mut lo, mut hi) = (0, usize::MAX, 0);
+    let mut put = |region: &mut [u32], v: u32| {
+        if q >= old || region[q] != v {
+            region[q] = v;
+            lo = lo.min(q);
+            hi = q + 1;
+        }
+        q += 1;
+    };
+    // The prefix of the strip's entries by death that is alive at `l`, as sort keys in the
+    // strip's order: a slot's by its index, a copy's after its anchor slot, in copy order.
+    const COPY: u64 = 1 << 31;
+    keys.clear();
+    let mut few = false;
+    let at = start + ci;
+    for j in at..at + (end - start) / 8 {
+        let tag = frame.by_death.get(j) as usize;
+        let i = tag / 2;
+        if tag & 1 == 0 {
+            if frame.death.get(start + i) <= l {
+                few = true;
+                break;
+            }
+            keys.push(((start + i) as u64) << 32);
+        } else {
+            if frame.copy_death.get(ci + i) <= l {
+                few = true;
+                break;
+            }
+            if frame.copy_birth.get(ci + i) <= l {
+                keys.push(u64::from(frame.copy_after.get(ci + i)) << 32 | COPY | i as u64);
+            }
+        }
+    }
+    if few {
+        keys.sort_unstable();
+        for &k in keys.iter() {
+            let v = if k & COPY == 0 {
+                layout.s0[(k >> 32) as usize]
+            } else {
+                frame.copy_value.get(ci + (k & (COPY - 1)) as usize)
+            };
+            put(region, find(v));
+        }
+    } else {
+        let copies = frame.copy_count();
+        // The anchor of copy `c` (past the last copy: beyond every slot).
+        let anchor = |c: usize| {
+            if c < copies {
+                frame.copy_after.get(c) as usize
+            } else {
+                usize::MAX
+            }
         };
+        let mut ci = ci;
+        let mut next_after = anchor(ci);
         let mut p = start;
         while p < end {
             // `S0` slots up to the next copy anchor, then its copies.
@@ -644,26 +726,25 @@ fn rebuild_strips(
             };
             for slot in p..stop {
                 if frame.death.get(slot) > l {
-                    put(indices, find(layout.s0[slot]));
+                    put(region, find(layout.s0[slot]));
                 }
             }
             p = stop;
             while next_after == stop - 1 {
                 if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
-                    put(indices, find(frame.copy_value.get(ci)));
+                    put(region, find(frame.copy_value.get(ci)));
                 }
                 ci += 1;
                 next_after = anchor(ci);
             }
         }
-        let live = (q - start) as u32;
-        if live != lens[s - first] {
-            lens[s - first] = live;
-            mark(Mark::Len(s as u32));
-        }
-        if lo < hi {
-            mark(Mark::Span(s as u32, lo as u32, hi as u32));
-        }
+    }
+    if q as u32 != *len {
+        *len = q as u32;
+        mark(Mark::Len(s as u32));
+    }
+    if lo < hi {
+        mark(Mark::Span(s as u32, lo as u32, hi as u32));
     }
 }
 
