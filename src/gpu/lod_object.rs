@@ -88,7 +88,7 @@ impl LodObject {
         // The object was made from this model's S0 and the weight track was checked against the
         // targets in `new`: neither call can fail for a state of this model.
         self.object
-            .apply_dirty(&dirty, self.state.indices(), self.state.lengths())
+            .apply_own_dirty(&dirty, self.state.indices(), self.state.lengths())
             .expect("the object's regions are the model's strips");
         self.object
             .set_pose(t, self.track.as_ref())

@@ -470,6 +470,35 @@ impl Object {
         indices: &[u32],
         lengths: &[u32],
     ) -> Result<(), GpuError> {
+        self.check_layout(indices, lengths)?;
+        self.check_dirty(dirty, indices, lengths)?;
+        self.apply_checked(dirty, indices, lengths);
+        Ok(())
+    }
+
+    /// [`apply_dirty`](Self::apply_dirty) for a runtime whose every index is known to be in
+    /// range and every live length within its region: the state of the model this object was
+    /// made from (its indices are `S0`'s, checked when the object was made, or their
+    /// survivors; its strips never outgrow `S0`). Only the layout is checked; reading every
+    /// changed index again (a quarter of `apply_dirty` at a frame switch) is left to debug
+    /// builds.
+    pub(crate) fn apply_own_dirty(
+        &mut self,
+        dirty: &Dirty,
+        indices: &[u32],
+        lengths: &[u32],
+    ) -> Result<(), GpuError> {
+        self.check_layout(indices, lengths)?;
+        debug_assert!(
+            self.check_dirty(dirty, indices, lengths).is_ok(),
+            "a runtime of this object's model gave an index out of range"
+        );
+        self.apply_checked(dirty, indices, lengths);
+        Ok(())
+    }
+
+    /// That a runtime's buffer and lengths have this object's layout.
+    fn check_layout(&self, indices: &[u32], lengths: &[u32]) -> Result<(), GpuError> {
         let regions = self.region_count();
         let capacity =
             self.mirror.indices.len() - regions * separator_slots(self.topology) as usize;
@@ -481,7 +510,12 @@ impl Object {
                 regions,
             });
         }
-        // Check pass: region numbers, capacities, and the indices each range will copy.
+        Ok(())
+    }
+
+    /// The check pass of [`apply_dirty`](Self::apply_dirty), its layout checked: region
+    /// numbers, capacities, and the indices each range will copy.
+    fn check_dirty(&self, dirty: &Dirty, indices: &[u32], lengths: &[u32]) -> Result<(), GpuError> {
         for &strip in &dirty.lengths {
             let region = strip as usize;
             let (span, live) = self.check_live_length(region, lengths)?;
@@ -506,17 +540,27 @@ impl Object {
             let source = self.runtime_span(region, span.start, copied);
             check_indices(region, &indices[source], self.vertex_count, self.strips())?;
         }
-        // Apply pass: nothing below can fail.
-        for range in &dirty.ranges {
-            let region = range.strip as usize;
-            let start = self.region_starts[region];
-            let copied = clip(range.start..range.end, lengths[region]);
-            let source = &indices[self.runtime_span(region, start, copied.clone())];
-            self.mirror
-                .write(start + copied.start, copied.end - copied.start, |i| {
-                    source[i]
-                });
-        }
+        Ok(())
+    }
+
+    /// The apply pass of [`apply_dirty`](Self::apply_dirty), on a checked `dirty`: nothing
+    /// here can fail. The ranges' diffs go to the mirror together, on the thread pool at a
+    /// large frame switch ([`IndexMirror::write_all`]).
+    fn apply_checked(&mut self, dirty: &Dirty, indices: &[u32], lengths: &[u32]) {
+        let writes: Vec<(u32, &[u32])> = dirty
+            .ranges
+            .iter()
+            .map(|range| {
+                let region = range.strip as usize;
+                let start = self.region_starts[region];
+                let copied = clip(range.start..range.end, lengths[region]);
+                (
+                    start + copied.start,
+                    &indices[self.runtime_span(region, start, copied)],
+                )
+            })
+            .collect();
+        self.mirror.write_all(&writes);
         for &strip in &dirty.lengths {
             let region = strip as usize;
             let start = self.region_starts[region];
@@ -526,7 +570,6 @@ impl Object {
         }
         self.records
             .update_touched(&self.region_starts, &self.lengths);
-        Ok(())
     }
 
     /// Positions `within` (relative to the region start) of `region` in a runtime's packed

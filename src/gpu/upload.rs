@@ -131,11 +131,85 @@ impl IndexMirror {
         diff_copy(&mut self.indices[span], at, &mut self.dirty, new);
     }
 
+    /// Writes every `(at, values)` of `writes` as [`write`](Self::write) would, one after the
+    /// other: the same mirror and the same changed spans in the same order. Writes that lie
+    /// ascending and apart, of at least [`PARALLEL_WORDS`] words in all, are diffed on the
+    /// thread pool in chunks of consecutive writes (one object's frame switch: a few hundred
+    /// thousand words); each chunk collects its spans and they are appended in order.
+    pub(super) fn write_all(&mut self, writes: &[(u32, &[u32])]) {
+        let words: usize = writes.iter().map(|(_, values)| values.len()).sum();
+        let threads = rayon::current_num_threads();
+        let apart = writes
+            .windows(2)
+            .all(|w| w[0].0 as usize + w[0].1.len() <= w[1].0 as usize);
+        if threads > 1
+            && words >= PARALLEL_WORDS
+            && rayon::current_thread_index().is_none()
+            && apart
+        {
+            self.write_in_chunks(writes, words.div_ceil(4 * threads).max(PARALLEL_WORDS / 4));
+        } else {
+            for &(at, values) in writes {
+                self.write(at, values.len() as u32, |i| values[i]);
+            }
+        }
+    }
+
+    /// [`write_all`](Self::write_all) of ascending, disjoint `writes` cut into chunks of
+    /// consecutive writes of about `chunk_words` words, diffed in parallel.
+    fn write_in_chunks(&mut self, writes: &[(u32, &[u32])], chunk_words: usize) {
+        use rayon::prelude::*;
+        // Each chunk: its writes, and the part of the mirror from its first write's position
+        // to its last write's end.
+        let mut chunks = Vec::new();
+        let (mut rest, mut base) = (&mut self.indices[..], 0usize);
+        let mut first = 0;
+        while first < writes.len() {
+            let (mut last, mut words) = (first, 0);
+            while last < writes.len() && (last == first || words < chunk_words) {
+                words += writes[last].1.len();
+                last += 1;
+            }
+            let from = writes[first].0 as usize;
+            let (end_at, end_values) = writes[last - 1];
+            let to = end_at as usize + end_values.len();
+            let (_, tail) = std::mem::take(&mut rest).split_at_mut(from - base);
+            let (part, tail) = tail.split_at_mut(to - from);
+            chunks.push((&writes[first..last], from, part));
+            (rest, base) = (tail, to);
+            first = last;
+        }
+        let spans: Vec<Vec<Range<u32>>> = chunks
+            .into_par_iter()
+            .map(|(writes, from, part)| {
+                let mut spans = Vec::new();
+                for &(at, values) in writes {
+                    let offset = at as usize - from;
+                    diff_copy(
+                        &mut part[offset..offset + values.len()],
+                        at,
+                        &mut spans,
+                        |i| values[i],
+                    );
+                }
+                spans
+            })
+            .collect();
+        for chunk in spans {
+            self.dirty.extend(chunk);
+        }
+    }
+
     /// The changed spans, sorted and merged where they overlap or touch; empties the list.
     pub(super) fn take_spans(&mut self) -> Vec<Range<u32>> {
         coalesce(&mut self.dirty, 0)
     }
 }
+
+/// Words of one [`IndexMirror::write_all`] from which its diff is split over the thread
+/// pool: below it (every frame without a switch) the diff takes well under 0.1 ms on one
+/// thread and the split's tasks would cost what they save.
+pub(super) const PARALLEL_WORDS: usize = 1 << 15;
 
 /// The part of `range` below `live` (empty when it starts past it).
 pub(super) fn clip(range: Range<u32>, live: u32) -> Range<u32> {
@@ -303,7 +377,10 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
 
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
 pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>> {
-    spans.sort_unstable_by_key(|span| span.start);
+    // A stable sort merges the ascending runs it finds in linear time: the spans of a frame
+    // arrive as a few such runs (the dirty ranges in strip order, then the resizes), which
+    // an unstable sort sorts from scratch. Equal starts merge below either way.
+    spans.sort_by_key(|span| span.start);
     let mut merged: Vec<Range<u32>> = Vec::with_capacity(spans.len());
     for span in spans.drain(..) {
         match merged.last_mut() {
@@ -319,7 +396,7 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
 #[cfg(test)]
 mod tests {
     use super::{
-        cheapest_split, coalesce, diff_copy, plan_upload, run_list_bytes, UploadPlan,
+        cheapest_split, coalesce, diff_copy, plan_upload, run_list_bytes, IndexMirror, UploadPlan,
         SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
     };
     use std::ops::Range;
@@ -476,6 +553,51 @@ mod tests {
         assert_eq!(coalesce(&mut spans, 6), vec![0..12, 30..31]);
         let mut spans = vec![5..9, 6..7];
         assert_eq!(coalesce(&mut spans, 0), vec![5..9]);
+    }
+
+    /// The diff split over the pool in chunks (a large frame switch's) leaves the mirror and
+    /// the changed spans, in order, of the writes made one after the other, over random
+    /// ascending writes (some empty, some touching) of values mostly equal to the mirror's,
+    /// cut into chunks of 1 to 300 words; and `write_all` itself, whichever way it goes.
+    #[test]
+    fn chunked_writes_equal_writes_one_after_the_other() {
+        let mut seed = 0x2545_f491_u32;
+        let mut next = |below: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed % below
+        };
+        for case in 0..200 {
+            let size = 50 + next(3000) as usize;
+            let old: Vec<u32> = (0..size).map(|_| next(8)).collect();
+            let new: Vec<u32> = old
+                .iter()
+                .map(|&v| if next(4) == 0 { next(8) } else { v })
+                .collect();
+            let mut writes: Vec<(u32, &[u32])> = Vec::new();
+            let mut at = next(20) as usize;
+            while at < size {
+                let len = (next(60) as usize).min(size - at);
+                writes.push((at as u32, &new[at..at + len]));
+                at += len + next(3) as usize * next(30) as usize;
+            }
+            let mut serial = IndexMirror::new(old.clone());
+            for &(at, values) in &writes {
+                serial.write(at, values.len() as u32, |i| values[i]);
+            }
+            let mut chunked = IndexMirror::new(old.clone());
+            chunked.write_in_chunks(&writes, 1 + next(300) as usize);
+            assert_eq!(chunked.indices, serial.indices, "case {case}");
+            assert_eq!(chunked.dirty, serial.dirty, "case {case}");
+            let mut all = IndexMirror::new(old.clone());
+            all.write_all(&writes);
+            assert_eq!(
+                (all.indices, all.dirty),
+                (serial.indices, serial.dirty),
+                "case {case}"
+            );
+        }
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //! refining undoes its resizes in reverse order, then its rewrites. Nothing is
 //! allocated per change; the scratch vectors are reused.
 
+use super::packed::Narrow;
 use super::{
     kind_len, read_group, read_header, read_resize_head, restore_removed, skip_removed,
     step_start_before, FrameChanges, LodStrips, StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
@@ -724,10 +725,13 @@ fn rebuild_strip(
             } else {
                 end
             };
-            for slot in p..stop {
-                if frame.death.get(slot) > l {
-                    put(region, find(layout.s0[slot]));
-                }
+            // The deaths read as a slice of their width, not matched per slot: the loop
+            // most of a large rebuild's time goes to.
+            let s0 = &layout.s0[p..stop];
+            let mut live = |v: u32| put(region, find(v));
+            match &frame.death {
+                Narrow::U16(death) => live_slots(&death[p..stop], s0, l, &mut live),
+                Narrow::U32(death) => live_slots(&death[p..stop], s0, l, &mut live),
             }
             p = stop;
             while next_after == stop - 1 {
@@ -745,6 +749,17 @@ fn rebuild_strip(
     }
     if lo < hi {
         mark(Mark::Span(s as u32, lo as u32, hi as u32));
+    }
+}
+
+/// Calls `f` with the vertex of every slot of `s0` whose death (`deaths`, one per slot, `u16`
+/// or `u32`: one loop for either width) lies past `l` collapses, in order.
+#[inline]
+fn live_slots<D: Copy + Into<u32>>(deaths: &[D], s0: &[u32], l: u32, f: &mut impl FnMut(u32)) {
+    for (&death, &v) in deaths.iter().zip(s0) {
+        if death.into() > l {
+            f(v);
+        }
     }
 }
 
