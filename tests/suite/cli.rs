@@ -777,49 +777,36 @@ fn render_refuses_an_input_or_a_wrong_extension_as_output() {
 /// that is not `.mlod`.
 #[test]
 fn build_refuses_an_input_or_a_wrong_extension_as_output() {
-    let dir = Scratch::new("out-build");
-    let (a, b, pairs) = (dir.path("a.off"), dir.path("b.off"), dir.path("pairs.txt"));
-    std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
-    std::fs::write(&b, cube()).unwrap();
-    std::fs::write(&pairs, "0 0\n").unwrap();
-    let mlod = link(&dir, "b.mlod", &b);
-    let inputs = [a.as_path(), b.as_path(), pairs.as_path()];
-    for output in [
-        "./b.off",
-        a.to_str().unwrap(),
-        "pairs.txt",
-        mlod.to_str().unwrap(),
-    ] {
-        let args = [
-            "build",
-            "a.off",
-            "b.off",
-            "--landmarks",
-            "pairs.txt",
-            "-o",
-            output,
-        ];
-        assert_refused(&dir.0, &args, IS_INPUT, &inputs);
-    }
-    let args = ["build", "a.off", "b.off", "-o", "out.glb"];
-    assert_refused(&dir.0, &args, "must be a .mlod file", &inputs);
-    assert!(!dir.path("out.glb").exists());
+    assert_two_mesh_command_refuses_its_inputs("build", "mlod", "glb");
 }
 
 /// `export` refuses every spelling of an input (a mesh or the landmarks file) and an output
 /// that is not `.glb`.
 #[test]
 fn export_refuses_an_input_or_a_wrong_extension_as_output() {
-    let dir = Scratch::new("out-export");
+    assert_two_mesh_command_refuses_its_inputs("export", "glb", "gltf");
+}
+
+/// `command a.off b.off --landmarks pairs.txt -o X` (its output a `.ext` file) refuses as `X`
+/// each input, spelled as given, with `./`, absolute, or through a link named `*.ext`; and
+/// refuses an output ending in `.wrong`. The inputs stay as they were and nothing is written.
+fn assert_two_mesh_command_refuses_its_inputs(command: &str, ext: &str, wrong: &str) {
+    let dir = Scratch::new(&format!("out-{command}"));
     let (a, b, pairs) = (dir.path("a.off"), dir.path("b.off"), dir.path("pairs.txt"));
     std::fs::write(&a, octahedron(1.0, 1.0)).unwrap();
     std::fs::write(&b, cube()).unwrap();
     std::fs::write(&pairs, "0 0\n").unwrap();
-    let glb = link(&dir, "a.glb", &a);
+    let linked = link(&dir, &format!("b.{ext}"), &b);
     let inputs = [a.as_path(), b.as_path(), pairs.as_path()];
-    for output in ["a.off", "./b.off", "pairs.txt", glb.to_str().unwrap()] {
+    for output in [
+        "a.off",
+        "./b.off",
+        a.to_str().unwrap(),
+        "pairs.txt",
+        linked.to_str().unwrap(),
+    ] {
         let args = [
-            "export",
+            command,
             "a.off",
             "b.off",
             "--landmarks",
@@ -829,9 +816,10 @@ fn export_refuses_an_input_or_a_wrong_extension_as_output() {
         ];
         assert_refused(&dir.0, &args, IS_INPUT, &inputs);
     }
-    let args = ["export", "a.off", "b.off", "-o", "out.gltf"];
-    assert_refused(&dir.0, &args, "must be a .glb file", &inputs);
-    assert!(!dir.path("out.gltf").exists());
+    let wrong_output = format!("out.{wrong}");
+    let args = [command, "a.off", "b.off", "-o", &wrong_output];
+    assert_refused(&dir.0, &args, &format!("must be a .{ext} file"), &inputs);
+    assert!(!dir.path(&wrong_output).exists());
 }
 
 /// `bench --json` and `--plot` refuse the asset and a wrong extension before the benchmark
