@@ -11,9 +11,10 @@
 //! Bound: [`BOUND`] bytes per vertex per frame for both. Before the per-frame tables were
 //! narrowed (u32 tables, a triangle count and an f32 error per LOD, 16-byte copy entries) the
 //! head took 51.0 B per vertex per frame by the accounting and 74.2 B of live heap (the change
-//! stream kept the spare capacity of its doubling growth); now 28.65 and 28.75 (13.5 of them the
-//! change stream). The issue's goal is 12: not met, see BENCHMARKS.md ("Per-frame memory after
-//! load") for where the bytes go and what reaching 12 would take.
+//! stream kept the spare capacity of its doubling growth); then 28.65 and 28.75 (13.5 of them the
+//! change stream), 29.3 and 29.4 since the crowd's frame-switch tables. The issue's goal is 12:
+//! not met, see BENCHMARKS.md ("Per-frame memory after load") for where the bytes go and what
+//! reaching 12 would take.
 //! The test also checks that an asset can drop its decoded sequences once the model is built
 //! ([`Asset::release_frames`]) and that the model keeps resolving every kind of LOD request the
 //! same way afterwards.
@@ -55,10 +56,12 @@ static ALLOCATOR: Counting = Counting;
 /// Tests here measure the process's heap: one at a time.
 static ALONE: Mutex<()> = Mutex::new(());
 
-/// Most bytes per vertex per frame a built model may hold (measured: 34.91 on the head, 0.15 of
-/// them the per-strip death that lets a rebuild skip empty strips and 6.26 the by-death orders
-/// that let it read only the strips and entries alive at its LOD, branch xswitch).
-const BOUND: f64 = 37.0;
+/// Most bytes per vertex per frame a built model may hold (measured: 29.30 accounted and 29.42
+/// of live heap on the head; 0.15 of them the per-strip death that lets a rebuild skip empty
+/// strips and ~0.5 the per-strip first copies, the strips by death and the per-block deaths
+/// that let it skip what is dead, branch mem28). The owner's decision is ~28.5 B (issue 24):
+/// a table that adds a byte per vertex per frame fails here.
+const BOUND: f64 = 30.0;
 
 const FRAMES: usize = 6;
 

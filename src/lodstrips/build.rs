@@ -35,7 +35,7 @@ use super::packed::Narrow;
 use super::runtime::cut;
 use super::{
     kind_len, push_footer, push_group, push_header, push_resize, FrameChanges, ResizeRun,
-    StripLayout, CURSOR_STRIDE, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
+    StripLayout, CURSOR_STRIDE, DEATH_BLOCK, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
 };
 use crate::collapse::{CollapseSequence, SequenceError, NEVER};
 use crate::strip::Strips;
@@ -397,30 +397,26 @@ impl<'a> Replay<'a> {
             let strip = self.region_offsets.partition_point(|&o| o <= c.after) - 1;
             strip_death[strip] = strip_death[strip].max(lod(c.death));
         }
-        // Per strip, its entries (in the order `S0` slots then copies) sorted by death, latest
-        // first: the entries alive at a LOD are a prefix, so a rebuild reads those only.
-        let (mut by_death, mut widest) = (Vec::with_capacity(total + copies.len()), 0);
+        // Per strip, its first copy (copies are sorted by anchor, strip after strip).
         let mut first_copy = 0;
         let mut strip_copies = Vec::with_capacity(self.region_offsets.len());
-        for (s, w) in self.region_offsets.windows(2).enumerate() {
-            let (start, end) = (w[0] as usize, w[1] as usize);
-            let last_copy = first_copy
-                + copies[first_copy..]
-                    .iter()
-                    .take_while(|c| (c.after as usize) < end)
-                    .count();
+        for &end in &self.region_offsets[1..] {
             strip_copies.push(first_copy as u32);
-            let at = by_death.len();
-            by_death.extend((0..end - start).map(|i| (lod(self.tokens.death[start + i]), 2 * i)));
-            by_death.extend(
-                (first_copy..last_copy).map(|c| (lod(copies[c].death), 2 * (c - first_copy) + 1)),
-            );
-            by_death[at..].sort_unstable_by_key(|&(d, tag)| (std::cmp::Reverse(d), tag));
-            widest = widest.max(by_death.len() - at);
-            debug_assert!(by_death[at..].first().map_or(0, |e| e.0) == strip_death[s]);
-            first_copy = last_copy;
+            first_copy += copies[first_copy..]
+                .iter()
+                .take_while(|c| c.after < end)
+                .count();
         }
         strip_copies.push(first_copy as u32);
+        // Per block of `DEATH_BLOCK` slots, the largest death of its slots and their copies.
+        let mut block_death: Vec<u32> = self.tokens.death[..total]
+            .chunks(DEATH_BLOCK)
+            .map(|block| block.iter().map(|&d| lod(d)).max().unwrap_or(0))
+            .collect();
+        for c in &copies {
+            let block = &mut block_death[c.after as usize / DEATH_BLOCK];
+            *block = (*block).max(lod(c.death));
+        }
         let mut strips_by_death: Vec<u32> = (0..strip_death.len() as u32).collect();
         strips_by_death.sort_by_key(|&s| std::cmp::Reverse(strip_death[s as usize]));
         let triangle_samples = (0..self.cursors.len())
@@ -442,10 +438,7 @@ impl<'a> Replay<'a> {
             copy_birth: Narrow::new(never, copies.iter().map(|c| c.birth)),
             copy_death: Narrow::new(never, copies.iter().map(|c| lod(c.death))),
             strip_death: Narrow::new(never, strip_death),
-            by_death: Narrow::new(
-                (2 * widest).saturating_sub(1) as u32,
-                by_death.iter().map(|&(_, tag)| tag as u32),
-            ),
+            block_death: Narrow::new(never, block_death),
             strip_copies: Narrow::new(copies.len() as u32, strip_copies),
             strips_by_death: Narrow::new(
                 strips_by_death.len().saturating_sub(1) as u32,

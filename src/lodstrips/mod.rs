@@ -156,13 +156,12 @@ pub struct FrameChanges {
     /// among its slots and copies): a rebuild at that LOD or coarser skips the strip
     /// without reading its entries.
     strip_death: Narrow,
-    /// Per strip, its entries sorted by death, latest first (ties in entry order), at the
-    /// strip's entries' place in the order of all entries (strip `s`'s from
-    /// `region_offsets[s] + strip_copies[s]`): slot `start + i` as `2i`,
-    /// the strip's `i`-th copy as `2i + 1`. The entries alive at LOD `l` are the prefix
-    /// whose deaths exceed `l` (less the copies not born yet), so a rebuild at a coarse LOD
-    /// reads those and not the strip's dead ones.
-    by_death: Narrow,
+    /// Per block of [`DEATH_BLOCK`] consecutive `S0` slots (block `k` holds slots
+    /// `k · DEATH_BLOCK..`, across strip bounds), the largest death among its slots and the
+    /// copies anchored at them: a rebuild at LOD `l` skips a block whose largest death is at
+    /// most `l` without reading its slots, so at a coarse LOD it reads the few blocks that
+    /// hold something alive, not the dead slots of long strips.
+    block_death: Narrow,
     /// Per strip, its first copy (`strip count + 1` entries, the last the copy count): a
     /// strip's copies are `strip_copies[s]..strip_copies[s + 1]`.
     strip_copies: Narrow,
@@ -170,6 +169,11 @@ pub struct FrameChanges {
     /// prefix.
     strips_by_death: Narrow,
 }
+
+/// `S0` slots per entry of a frame's `block_death`: 2 bytes per 16 slots (0.4 B per vertex on
+/// the head) against the one order per entry (6 B per vertex) it replaced, at a rebuild cost
+/// within noise of it (BENCHMARKS.md, "A frame's memory back to ~28.5 B").
+pub(crate) const DEATH_BLOCK: usize = 16;
 
 /// Every this many steps the stream position is kept, so a rebuilt state
 /// finds its cursor by walking at most this many step footers backward.
@@ -268,7 +272,7 @@ impl FrameChanges {
             + self.copy_birth.byte_size()
             + self.copy_death.byte_size()
             + self.strip_death.byte_size()
-            + self.by_death.byte_size()
+            + self.block_death.byte_size()
             + self.strip_copies.byte_size()
             + self.strips_by_death.byte_size()
     }

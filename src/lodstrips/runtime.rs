@@ -10,7 +10,8 @@
 use super::packed::Narrow;
 use super::{
     kind_len, read_group, read_header, read_resize_head, restore_removed, skip_removed,
-    step_start_before, FrameChanges, LodStrips, StripLayout, KIND_B, KIND_BC, KIND_BCC, KIND_C,
+    step_start_before, FrameChanges, LodStrips, StripLayout, DEATH_BLOCK, KIND_B, KIND_BC,
+    KIND_BCC, KIND_C,
 };
 use crate::varint;
 
@@ -584,8 +585,8 @@ pub(crate) const PARALLEL_SLOTS: usize = 1 << 16;
 ///
 /// Its work follows what is alive before and after, not the mesh: the strips empty at `l`
 /// cost one look at their old length; when few strips are alive at `l` they are taken from
-/// the frame's `strips_by_death` prefix rather than found by a pass over `strips`; and a
-/// strip that has few entries alive at `l` reads them from its `by_death` prefix ([`rebuild_strip`]).
+/// the frame's `strips_by_death` prefix rather than found by a pass over `strips`; and within a
+/// strip the blocks of slots with nothing alive at `l` are skipped unread ([`rebuild_strip`]).
 #[allow(clippy::too_many_arguments)]
 fn rebuild_strips(
     layout: &StripLayout,
@@ -613,13 +614,10 @@ fn rebuild_strips(
             }
         }
     }
-    let mut keys = Vec::new();
     let mut strip = |s: usize, ci: usize, lens: &mut [u32]| {
         let region = &mut indices[layout.region_offsets[s] as usize - base..];
         let len = &mut lens[s - first];
-        rebuild_strip(
-            layout, frame, l, s, ci, region, len, &mut find, &mut mark, &mut keys,
-        )
+        rebuild_strip(layout, frame, l, s, ci, region, len, &mut find, &mut mark)
     };
     let alive = frame.strips_alive(l);
     if alive * 4 < strips.len() {
@@ -641,9 +639,10 @@ fn rebuild_strips(
 /// Rebuilds strip `s` (not empty at `l`, its first copy `ci`) in `region` (its region and
 /// on) at `l` collapses of `frame`, `len` its live length.
 ///
-/// A strip with at most an eighth of its `S0` slots' worth of entries alive reads the
-/// alive ones from its `by_death` prefix, then puts them in the strip's order (a sort of
-/// those few); otherwise it reads every entry, slots and copies in order.
+/// The strip's entries are read in order, slots and the copies after their anchor slots,
+/// except in blocks of `S0` slots ([`DEATH_BLOCK`]) whose largest death is at most `l`:
+/// those hold nothing alive and are skipped with their copies. At a coarse LOD a long strip
+/// costs a compare per block (64 to a mask) and the few live blocks' slots.
 #[allow(clippy::too_many_arguments)]
 fn rebuild_strip(
     layout: &StripLayout,
@@ -655,7 +654,6 @@ fn rebuild_strip(
     len: &mut u32,
     find: &mut impl FnMut(u32) -> u32,
     mark: &mut impl FnMut(Mark),
-    keys: &mut Vec<u64>,
 ) {
     let start = layout.region_offsets[s] as usize;
     let end = layout.region_offsets[s + 1] as usize;
@@ -670,60 +668,33 @@ fn rebuild_strip(
         }
         q += 1;
     };
-    // The prefix of the strip's entries by death that is alive at `l`, as sort keys in the
-    // strip's order: a slot's by its index, a copy's after its anchor slot, in copy order.
-    const COPY: u64 = 1 << 31;
-    keys.clear();
-    let mut few = false;
-    let at = start + ci;
-    for j in at..at + (end - start) / 8 {
-        let tag = frame.by_death.get(j) as usize;
-        let i = tag / 2;
-        if tag & 1 == 0 {
-            if frame.death.get(start + i) <= l {
-                few = true;
-                break;
-            }
-            keys.push(((start + i) as u64) << 32);
+    let copies = frame.copy_count();
+    // The anchor of copy `c` (past the last copy: beyond every slot).
+    let anchor = |c: usize| {
+        if c < copies {
+            frame.copy_after.get(c) as usize
         } else {
-            if frame.copy_death.get(ci + i) <= l {
-                few = true;
-                break;
-            }
-            if frame.copy_birth.get(ci + i) <= l {
-                keys.push(u64::from(frame.copy_after.get(ci + i)) << 32 | COPY | i as u64);
-            }
+            usize::MAX
         }
-    }
-    if few {
-        keys.sort_unstable();
-        for &k in keys.iter() {
-            let v = if k & COPY == 0 {
-                layout.s0[(k >> 32) as usize]
-            } else {
-                frame.copy_value.get(ci + (k & (COPY - 1)) as usize)
-            };
-            put(region, find(v));
+    };
+    let mut ci = ci;
+    let mut next_after = anchor(ci);
+    // The runs of blocks holding something alive at `l`, read slot by slot; the dead blocks
+    // between runs, and their copies, are skipped unread.
+    let blocks = start / DEATH_BLOCK..(end - 1) / DEATH_BLOCK + 1;
+    alive_runs(&frame.block_death, blocks, l, |first, last| {
+        let mut p = (first * DEATH_BLOCK).max(start);
+        let live_end = (last * DEATH_BLOCK).min(end);
+        while next_after < p {
+            ci += 1;
+            next_after = anchor(ci);
         }
-    } else {
-        let copies = frame.copy_count();
-        // The anchor of copy `c` (past the last copy: beyond every slot).
-        let anchor = |c: usize| {
-            if c < copies {
-                frame.copy_after.get(c) as usize
-            } else {
-                usize::MAX
-            }
-        };
-        let mut ci = ci;
-        let mut next_after = anchor(ci);
-        let mut p = start;
-        while p < end {
+        while p < live_end {
             // `S0` slots up to the next copy anchor, then its copies.
-            let stop = if next_after < end {
+            let stop = if next_after < live_end {
                 next_after + 1
             } else {
-                end
+                live_end
             };
             // The deaths read as a slice of their width, not matched per slot: the loop
             // most of a large rebuild's time goes to.
@@ -742,13 +713,49 @@ fn rebuild_strip(
                 next_after = anchor(ci);
             }
         }
-    }
+    });
     if q as u32 != *len {
         *len = q as u32;
         mark(Mark::Len(s as u32));
     }
     if lo < hi {
         mark(Mark::Span(s as u32, lo as u32, hi as u32));
+    }
+}
+
+/// Calls `f(first, end)`, in order, for each run `first..end` of the blocks in `blocks` (of a
+/// frame's `block_death`) whose largest death lies past `l` collapses: the blocks that hold
+/// an entry alive at `l`. A run is cut at every 64th block; none is empty. The blocks are
+/// compared 64 at a time into a mask (one branch-free pass over the table's width), so a
+/// long strip's dead blocks cost a compare each.
+#[inline]
+fn alive_runs(
+    deaths: &Narrow,
+    blocks: std::ops::Range<usize>,
+    l: u32,
+    mut f: impl FnMut(usize, usize),
+) {
+    fn mask<D: Copy + Into<u32>>(deaths: &[D], l: u32) -> u64 {
+        deaths
+            .iter()
+            .enumerate()
+            .fold(0, |m, (i, &d)| m | u64::from(d.into() > l) << i)
+    }
+    let mut block = blocks.start;
+    while block < blocks.end {
+        let n = (blocks.end - block).min(64);
+        let mut alive = match deaths {
+            Narrow::U16(d) => mask(&d[block..block + n], l),
+            Narrow::U32(d) => mask(&d[block..block + n], l),
+        };
+        while alive != 0 {
+            let first = alive.trailing_zeros() as usize;
+            let run = (alive >> first).trailing_ones() as usize;
+            // Clear the run's bits (a shift by 64 when it ends at the mask's last bit).
+            alive &= u64::MAX.checked_shl((first + run) as u32).unwrap_or(0);
+            f(block + first, block + first + run);
+        }
+        block += n;
     }
 }
 
@@ -789,4 +796,32 @@ pub(super) fn cut(region: &mut [u32], i: usize, len: usize, kind: u16) -> usize 
     }
     region.copy_within(i + len..live, i + r);
     live - len + r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    proptest::proptest! {
+        /// `alive_runs` over any range of a block table (longer than a 64-block mask, both
+        /// widths) gives, in order and without overlap, exactly the blocks whose death lies
+        /// past `l`, with no run empty or across a 64-block cut.
+        #[test]
+        fn alive_runs_are_the_blocks_alive(
+            deaths in proptest::collection::vec(0u32..6, 1..300),
+            from in 0usize..300,
+            l in 0u32..6,
+            wide in proptest::bool::ANY,
+        ) {
+            let from = from % deaths.len();
+            let table = Narrow::new(if wide { 1 << 20 } else { 5 }, deaths.iter().copied());
+            let mut seen = Vec::new();
+            alive_runs(&table, from..deaths.len(), l, |first, end| {
+                assert!(first < end && (end - 1 - from) / 64 == (first - from) / 64);
+                seen.extend(first..end);
+            });
+            let alive: Vec<usize> = (from..deaths.len()).filter(|&b| deaths[b] > l).collect();
+            proptest::prop_assert_eq!(seen, alive);
+        }
+    }
 }
