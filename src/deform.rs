@@ -701,13 +701,8 @@ mod tests {
             DeformingState::new(&model),
             DeformingState::new(&model),
         );
-        let mut seed = 0x2545_f491_u32;
-        let mut unit = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut seed = 0x2545_f491_u64;
+        let mut unit = || crate::random::next_unit(&mut seed) as f32;
         let mut shared = Survivors::new();
         let mut switches = 0;
         for step in 0..150 {

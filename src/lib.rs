@@ -58,6 +58,7 @@ pub mod lodstrips;
 pub mod mesh;
 pub mod metrics;
 pub mod morph;
+mod random;
 pub mod seams;
 pub mod simplify;
 pub mod strip;

@@ -667,12 +667,7 @@ mod tests {
         let mut places = Places::default();
         let mut uploaded = layout.s0_lengths();
         let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut random = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut random = move || crate::random::next_unit(&mut seed) as f32;
         let (mut t, mut lod) = (0.0f32, 0.5f32);
         let (mut within, mut to_end, mut deaths, mut births, mut back) = (0, 0, 0, 0, 0);
         let mut was_compact = false;

@@ -645,7 +645,7 @@ pub(crate) fn rotate(points: &mut [DVec3], triangles: &[[u32; 3]], rotation: DMa
 
 /// A rotation by a random angle in `[min, 2 min)` about a random axis (seeded).
 pub(crate) fn random_rotation(seed: u64, min_angle: f64) -> DMat3 {
-    use super::sphere::next_unit;
+    use crate::random::next_unit;
     let mut state = seed ^ 0xa076_1d64_78bd_642f;
     let z = 2.0 * next_unit(&mut state) - 1.0;
     let phi = std::f64::consts::TAU * next_unit(&mut state);

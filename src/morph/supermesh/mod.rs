@@ -1598,7 +1598,7 @@ mod tests {
         let positions = p
             .iter()
             .map(|&q| {
-                let r = 1.0 + 0.3 * (sphere::next_unit(&mut state) - 0.5);
+                let r = 1.0 + 0.3 * (crate::random::next_unit(&mut state) - 0.5);
                 (q * r * DVec3::new(2.0, 1.0, 0.6)).as_vec3().to_array()
             })
             .collect();
@@ -1623,7 +1623,7 @@ mod tests {
                     (1.0 + 0.3 * k as f64) * x * x
                 })
                 .sum();
-            let noise = 0.02 * (sphere::next_unit(&mut state) - 0.5);
+            let noise = 0.02 * (crate::random::next_unit(&mut state) - 0.5);
             *p = (q * (1.0 + noise + bump)).as_vec3().to_array();
         }
         mesh
@@ -1642,7 +1642,7 @@ mod tests {
         let mut order: Vec<u32> = (0..n as u32).collect();
         let mut state = 99u64;
         for i in (1..n).rev() {
-            let j = (sphere::next_unit(&mut state) * (i + 1) as f64) as usize % (i + 1);
+            let j = (crate::random::next_unit(&mut state) * (i + 1) as f64) as usize % (i + 1);
             order.swap(i, j);
         }
         let mut twin = vec![0u32; n];

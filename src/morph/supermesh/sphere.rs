@@ -12,6 +12,7 @@ use glam::DVec3;
 use robust::{orient3d, Coord3D};
 
 use crate::mesh::adjacency::{triangle_neighbors, EdgeMap, NONE};
+use crate::random::next_random;
 
 fn coord(p: DVec3) -> Coord3D<f64> {
     Coord3D {
@@ -239,20 +240,6 @@ enum Step {
     Found,
     OnBoundary,
     Next(u32),
-}
-
-/// SplitMix64 step: a small deterministic generator for walks and rotations.
-pub(crate) fn next_random(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// Uniform in `[0, 1)`.
-pub(crate) fn next_unit(state: &mut u64) -> f64 {
-    (next_random(state) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// Counts the faces that are not strictly positively oriented (exact) and sums
