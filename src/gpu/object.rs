@@ -547,20 +547,18 @@ impl Object {
     /// here can fail. The ranges' diffs go to the mirror together, on the thread pool at a
     /// large frame switch ([`IndexMirror::write_all`]).
     fn apply_checked(&mut self, dirty: &Dirty, indices: &[u32], lengths: &[u32]) {
-        let writes: Vec<(u32, &[u32])> = dirty
-            .ranges
-            .iter()
-            .map(|range| {
-                let region = range.strip as usize;
-                let start = self.region_starts[region];
-                let copied = clip(range.start..range.end, lengths[region]);
-                (
-                    start + copied.start,
-                    &indices[self.runtime_span(region, start, copied)],
-                )
-            })
-            .collect();
-        self.mirror.write_all(&writes);
+        let regions = &self.region_starts;
+        let topology = self.topology;
+        let writes = dirty.ranges.iter().map(|range| {
+            let region = range.strip as usize;
+            let start = regions[region];
+            let copied = clip(range.start..range.end, lengths[region]);
+            (
+                start + copied.start,
+                &indices[runtime_span(topology, region, start, copied)],
+            )
+        });
+        self.mirror.write_all(writes);
         for &strip in &dirty.lengths {
             let region = strip as usize;
             let start = self.region_starts[region];
@@ -575,8 +573,7 @@ impl Object {
     /// Positions `within` (relative to the region start) of `region` in a runtime's packed
     /// buffer, given the region's start in this object.
     fn runtime_span(&self, region: usize, start: u32, within: Range<u32>) -> Range<usize> {
-        let runtime_start = start - region as u32 * separator_slots(self.topology);
-        (runtime_start + within.start) as usize..(runtime_start + within.end) as usize
+        runtime_span(self.topology, region, start, within)
     }
 
     /// The span of `region` and its new live length from `lengths`, checked against capacity.
@@ -841,4 +838,11 @@ fn separator_slots(topology: Topology) -> u32 {
         Topology::Strip => 1,
         Topology::List => 0,
     }
+}
+
+/// [`Object::runtime_span`] for an object of `topology`, for a caller that holds part of the
+/// object mutably (`apply_checked` reads the spans while it writes the mirror).
+fn runtime_span(topology: Topology, region: usize, start: u32, within: Range<u32>) -> Range<usize> {
+    let runtime_start = start - region as u32 * separator_slots(topology);
+    (runtime_start + within.start) as usize..(runtime_start + within.end) as usize
 }

@@ -136,20 +136,25 @@ impl IndexMirror {
     /// ascending and apart, of at least [`PARALLEL_WORDS`] words in all, are diffed on the
     /// thread pool in chunks of consecutive writes (one object's frame switch: a few hundred
     /// thousand words); each chunk collects its spans and they are appended in order.
-    pub(super) fn write_all(&mut self, writes: &[(u32, &[u32])]) {
-        let words: usize = writes.iter().map(|(_, values)| values.len()).sum();
+    /// `writes` is walked once to count and once to write, and collected only for the pool:
+    /// an ordinary frame allocates nothing here.
+    pub(super) fn write_all<'a>(&mut self, writes: impl Iterator<Item = (u32, &'a [u32])> + Clone) {
         let threads = rayon::current_num_threads();
-        let apart = writes
-            .windows(2)
-            .all(|w| w[0].0 as usize + w[0].1.len() <= w[1].0 as usize);
-        if threads > 1
-            && words >= PARALLEL_WORDS
-            && rayon::current_thread_index().is_none()
-            && apart
-        {
-            self.write_in_chunks(writes, words.div_ceil(4 * threads).max(PARALLEL_WORDS / 4));
+        let pooled = threads > 1 && rayon::current_thread_index().is_none() && {
+            let (mut words, mut apart, mut end) = (0usize, true, 0usize);
+            for (at, values) in writes.clone() {
+                apart &= end <= at as usize;
+                end = at as usize + values.len();
+                words += values.len();
+            }
+            apart && words >= PARALLEL_WORDS
+        };
+        if pooled {
+            let writes: Vec<(u32, &[u32])> = writes.collect();
+            let words: usize = writes.iter().map(|(_, values)| values.len()).sum();
+            self.write_in_chunks(&writes, words.div_ceil(4 * threads).max(PARALLEL_WORDS / 4));
         } else {
-            for &(at, values) in writes {
+            for (at, values) in writes {
                 self.write(at, values.len() as u32, |i| values[i]);
             }
         }
@@ -591,7 +596,7 @@ mod tests {
             assert_eq!(chunked.indices, serial.indices, "case {case}");
             assert_eq!(chunked.dirty, serial.dirty, "case {case}");
             let mut all = IndexMirror::new(old.clone());
-            all.write_all(&writes);
+            all.write_all(writes.iter().copied());
             assert_eq!(
                 (all.indices, all.dirty),
                 (serial.indices, serial.dirty),

@@ -21,6 +21,9 @@
 //! * `lod_walk_with_frame_switches_reads_back_as_the_mirror`: the head's `LodObject` over a
 //!   random walk of LOD steps and frame switches; after every `prepare` the GPU index buffer
 //!   equals the mirror, and the walk used both the scatter and writes-only frames.
+//! * `apply_dirty_on_the_pool_matches_write_region`: random dirty logs, frame switches large
+//!   enough for `apply_dirty`'s pooled path among them, give the mirror, records and uploads
+//!   of `write_region` per touched strip, and the buffer read back equals the mirror.
 //!
 //! GPU set-up: `common::gpu::Gpu` (fails without an adapter when `CI` is set: `morphlod::ci::is_ci`).
 
@@ -35,7 +38,7 @@ use morphlod::collapse::canonical_multiset;
 use morphlod::gpu::{Draws, LodObject, Object, Topology, Upload, RESTART};
 use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, LoadOptions};
-use morphlod::lodstrips::{LodStrips, StripsState};
+use morphlod::lodstrips::{Dirty, DirtyRange, LodStrips, StripsState};
 use morphlod::morph::Morph;
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
@@ -445,4 +448,142 @@ fn lod_walk_with_frame_switches_reads_back_as_the_mirror() {
         "the walk must switch frames ({switches}) and use the scatter ({scattered} frames, \
          {patched_words} changed words patched) and writes only ({written_only} frames)"
     );
+}
+
+/// A frame switch's dirty log is applied on the pool (`apply_dirty` cuts its pieces into
+/// chunks past 32 k words): over random logs — whole-buffer switches, a few strips, logs out
+/// of strip order with repeats — the mirror, the lengths, the draw records and what
+/// `prepare` sends equal a second object given each touched strip by `write_region`, and
+/// the GPU buffer read back equals the mirror.
+#[test]
+fn apply_dirty_on_the_pool_matches_write_region() {
+    let Some(gpu) = Gpu::new() else {
+        return;
+    };
+    // At least two threads, so that large logs take the pool's path.
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(4)
+        .build_global();
+    const VERTICES: usize = 1000;
+    let mut rng = Rng(0xD1A7_7E55);
+    let capacities: Vec<usize> = (0..2500).map(|_| 1 + rng.below(100)).collect();
+    let mut runtime: Vec<Vec<u32>> = capacities
+        .iter()
+        .map(|&c| (0..c).map(|_| rng.below(VERTICES) as u32).collect())
+        .collect();
+    let mut lengths: Vec<u32> = capacities.iter().map(|&c| c as u32).collect();
+    let positions: Vec<[f32; 3]> = (0..VERTICES).map(|i| [i as f32, 0.0, 0.0]).collect();
+    let new_object = || {
+        Object::new(
+            gpu.device(),
+            &gpu.pipeline,
+            Topology::Strip,
+            &positions,
+            &positions,
+            &runtime,
+        )
+        .expect("the strips fit")
+    };
+    let (mut object, mut diffed) = (new_object(), new_object());
+    object.prepare(gpu.queue());
+    diffed.prepare(gpu.queue());
+    for round in 0..12 {
+        let strips = capacities.len();
+        // Whole switches (every strip, past the pool's threshold), or a few strips.
+        let touched: Vec<usize> = if round % 3 == 0 {
+            (0..strips).collect()
+        } else {
+            (0..40).map(|_| rng.below(strips)).collect()
+        };
+        let mut dirty = Dirty::default();
+        for &s in &touched {
+            let cap = capacities[s];
+            let len = if rng.below(3) == 0 {
+                lengths[s] as usize
+            } else {
+                rng.below(cap + 1)
+            };
+            // Rewrite part of the strip (all of it at a switch, as the rebuild marks it),
+            // keeping some values (unchanged words split spans).
+            let (a, b) = if round % 3 == 0 {
+                (0, cap)
+            } else {
+                (rng.below(cap + 1), rng.below(cap + 1))
+            };
+            for v in &mut runtime[s][a.min(b)..a.max(b)] {
+                if rng.below(4) != 0 {
+                    *v = rng.below(VERTICES) as u32;
+                }
+            }
+            dirty.ranges.push(DirtyRange {
+                strip: s as u32,
+                start: a.min(b) as u32,
+                end: a.max(b) as u32,
+            });
+            // The positions a strip grows by are read from the runtime too.
+            if len as u32 != lengths[s] {
+                lengths[s] = len as u32;
+                dirty.lengths.push(s as u32);
+            }
+        }
+        if round % 3 == 0 {
+            dirty.ranges.dedup_by_key(|r| r.strip);
+        } else {
+            // Another runtime's log: any order, repeats.
+            dirty.ranges.reverse();
+            dirty.lengths.reverse();
+        }
+        if round % 3 == 0 {
+            // `apply_dirty` diffs on the pool from 2^15 copied words (`PARALLEL_WORDS`).
+            let copied: usize = lengths.iter().map(|&l| l as usize).sum();
+            assert!(
+                copied >= 1 << 15,
+                "round {round}: {copied} words miss the pool"
+            );
+        }
+        let packed: Vec<u32> = runtime.iter().flatten().copied().collect();
+        object
+            .apply_dirty(&dirty, &packed, &lengths)
+            .expect("the log fits the object");
+        let mut all: Vec<usize> = touched.clone();
+        all.sort_unstable();
+        all.dedup();
+        for &s in &all {
+            diffed
+                .write_region(s, &runtime[s][..lengths[s] as usize])
+                .expect("the strip fits");
+        }
+        let what = format!("round {round} ({} strips touched)", all.len());
+        assert!(
+            object.index_mirror() == diffed.index_mirror(),
+            "{what}: the mirror differs from write_region's"
+        );
+        assert_eq!(object.lengths(), diffed.lengths(), "{what}: lengths");
+        let records = |o: &Object| -> Vec<u8> {
+            o.indirect_args()
+                .iter()
+                .flat_map(|a| a.as_bytes().to_vec())
+                .collect()
+        };
+        assert_eq!(records(&object), records(&diffed), "{what}: records");
+        let (sent, reference) = (object.prepare(gpu.queue()), diffed.prepare(gpu.queue()));
+        assert_eq!(
+            (
+                &sent.index_ranges,
+                sent.scattered_words,
+                &sent.indirect_ranges
+            ),
+            (
+                &reference.index_ranges,
+                reference.scattered_words,
+                &reference.indirect_ranges
+            ),
+            "{what}: apply_dirty must send what write_region sends"
+        );
+        let drawn = gpu.drawn_by(&object, VERTICES);
+        assert!(
+            drawn.indices == object.index_mirror(),
+            "{what}: the GPU index buffer differs from the mirror"
+        );
+    }
 }
