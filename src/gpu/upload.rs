@@ -404,6 +404,7 @@ mod tests {
         cheapest_split, coalesce, diff_copy, plan_upload, run_list_bytes, IndexMirror, UploadPlan,
         SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
     };
+    use crate::random::next_random;
     use std::ops::Range;
 
     fn words(ranges: &[Range<u32>]) -> u64 {
@@ -483,12 +484,7 @@ mod tests {
         // Against every split of a few spans: each span is a single word (if it is one),
         // opens a run, opens a write, or extends the open run or write.
         let mut seed = 0x9E37_79B9_u64;
-        let mut next = |below: u32| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed % u64::from(below)) as u32
-        };
+        let mut next = |below: u32| (next_random(&mut seed) % u64::from(below)) as u32;
         for case in 0..300 {
             let n = 1 + next(6) as usize;
             let mut spans = Vec::new();
@@ -566,13 +562,8 @@ mod tests {
     /// cut into chunks of 1 to 300 words; and `write_all` itself, whichever way it goes.
     #[test]
     fn chunked_writes_equal_writes_one_after_the_other() {
-        let mut seed = 0x2545_f491_u32;
-        let mut next = |below: u32| {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed % below
-        };
+        let mut seed = 0x2545_f491_u64;
+        let mut next = |below: u32| (next_random(&mut seed) % u64::from(below)) as u32;
         for case in 0..200 {
             let size = 50 + next(3000) as usize;
             let old: Vec<u32> = (0..size).map(|_| next(8)).collect();
