@@ -83,9 +83,12 @@ fn valid_glb() -> Vec<u8> {
     glb(&json_with_buffer(r#"{"byteLength": 96}"#), &valid_bin())
 }
 
-/// A fresh directory per test (tests run in parallel).
+/// A directory per case (tests run in parallel) under cargo's scratch directory for
+/// integration tests: the same path on every run, so runs overwrite their files instead of
+/// leaving a directory per process in the system's temporary directory. Not emptied here:
+/// a case may write several files (a `.gltf` and its `.bin`).
 fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("morphlod-bad-gltf-{}-{test}", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bad_gltf_{test}"));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
