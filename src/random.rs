@@ -10,6 +10,11 @@ pub(crate) fn next_random(state: &mut u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// A number below `bound` (at least 1), uniform up to a bias under `bound / 2^64`.
+pub(crate) fn next_below(state: &mut u64, bound: u32) -> u32 {
+    (next_random(state) % u64::from(bound)) as u32
+}
+
 /// Uniform in `[0, 1)`.
 pub(crate) fn next_unit(state: &mut u64) -> f64 {
     (next_random(state) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)

@@ -384,19 +384,6 @@ impl<'a> Replay<'a> {
         let lod = |d: u32| if d == NEVER { never } else { d };
         let last_vertex = seq.vertex_count.saturating_sub(1);
         let copies = flatten_copies(self.region_offsets, &self.tokens);
-        // Per strip, the first LOD at which none of its entries (slots or copies) is alive.
-        let mut strip_death: Vec<u32> = self
-            .region_offsets
-            .windows(2)
-            .map(|w| {
-                let slots = &self.tokens.death[w[0] as usize..w[1] as usize];
-                slots.iter().map(|&d| lod(d)).max().unwrap_or(0)
-            })
-            .collect();
-        for c in &copies {
-            let strip = self.region_offsets.partition_point(|&o| o <= c.after) - 1;
-            strip_death[strip] = strip_death[strip].max(lod(c.death));
-        }
         // Per strip, its first copy (copies are sorted by anchor, strip after strip).
         let mut first_copy = 0;
         let mut strip_copies = Vec::with_capacity(self.region_offsets.len());
@@ -408,6 +395,21 @@ impl<'a> Replay<'a> {
                 .count();
         }
         strip_copies.push(first_copy as u32);
+        // Per strip, the first LOD at which none of its entries (slots or copies) is alive.
+        let strip_death: Vec<u32> = self
+            .region_offsets
+            .windows(2)
+            .zip(strip_copies.windows(2))
+            .map(|(slots, strip_copies)| {
+                let slots = &self.tokens.death[slots[0] as usize..slots[1] as usize];
+                let copies = &copies[strip_copies[0] as usize..strip_copies[1] as usize];
+                let slot_deaths = slots.iter().map(|&d| lod(d));
+                slot_deaths
+                    .chain(copies.iter().map(|c| lod(c.death)))
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
         // Per block of `DEATH_BLOCK` slots, the largest death of its slots and their copies.
         let mut block_death: Vec<u32> = self.tokens.death[..total]
             .chunks(DEATH_BLOCK)

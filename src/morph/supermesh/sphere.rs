@@ -12,7 +12,7 @@ use glam::DVec3;
 use robust::{orient3d, Coord3D};
 
 use crate::mesh::adjacency::{triangle_neighbors, EdgeMap, NONE};
-use crate::random::next_random;
+use crate::random::next_below;
 
 fn coord(p: DVec3) -> Coord3D<f64> {
     Coord3D {
@@ -184,7 +184,7 @@ impl<'a> SphereMesh<'a> {
 
     fn step(&self, t: u32, p: DVec3, previous: u32, rng: &mut u64) -> Step {
         let c = self.corners(t);
-        let first = (next_random(rng) % 3) as usize;
+        let first = next_below(rng, 3) as usize;
         let mut zero = false;
         for k in 0..3 {
             let i = (first + k) % 3;
