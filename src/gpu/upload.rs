@@ -281,18 +281,18 @@ pub(super) fn run_list_bytes(runs: &[Range<u32>]) -> u64 {
 /// `max_list_bytes` is the largest run list one scatter may carry
 /// ([`super::scatter::Scatter::max_run_list_bytes`]; 0: no scatter, writes only).
 pub(super) fn plan_upload(spans: &[Range<u32>], gap: u32, max_list_bytes: u64) -> UploadPlan {
-    let writes = coalesce(&mut spans.to_vec(), gap);
-    let cost = writes
-        .iter()
-        .map(|w| WRITE_CALL_BYTES + 4 * u64::from(w.end - w.start))
-        .sum();
-    let writes_only = UploadPlan {
-        writes,
+    // The writes-only plan is priced in one pass and built only where it wins: a frame of a
+    // moving LOD has hundreds of spans, goes through the scatter and never needs it.
+    let writes_only = |cost| UploadPlan {
+        writes: joined(spans, gap).collect(),
         runs: Vec::new(),
         cost,
     };
+    let writes_cost = joined(spans, gap)
+        .map(|w| WRITE_CALL_BYTES + 4 * u64::from(w.end - w.start))
+        .sum();
     if max_list_bytes == 0 || spans.len() < 2 {
-        return writes_only;
+        return writes_only(writes_cost);
     }
     let (mut hybrid, _) = cheapest_split(spans);
     let list = run_list_bytes(&hybrid.runs);
@@ -307,11 +307,24 @@ pub(super) fn plan_upload(spans: &[Range<u32>], gap: u32, max_list_bytes: u64) -
             SCATTER_CALL_BYTES + list
         };
     // A list past one binding (millions of changed words in a frame): writes only.
-    if hybrid.cost < writes_only.cost && list <= max_list_bytes {
+    if hybrid.cost < writes_cost && list <= max_list_bytes {
         hybrid
     } else {
-        writes_only
+        writes_only(writes_cost)
     }
+}
+
+/// `spans` (ascending, disjoint) with those at most `gap` words apart joined into one: what
+/// [`coalesce`] makes of them, without sorting or allocating.
+fn joined(spans: &[Range<u32>], gap: u32) -> impl Iterator<Item = Range<u32>> + '_ {
+    let mut rest = spans.iter().peekable();
+    std::iter::from_fn(move || {
+        let mut span = rest.next()?.clone();
+        while let Some(next) = rest.next_if(|next| next.start <= span.end.saturating_add(gap)) {
+            span.end = span.end.max(next.end);
+        }
+        Some(span)
+    })
 }
 
 /// The cheapest split of `spans` into runs sent through the scatter and writes, each joining
@@ -401,10 +414,10 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
 #[cfg(test)]
 mod tests {
     use super::{
-        cheapest_split, coalesce, diff_copy, plan_upload, run_list_bytes, IndexMirror, UploadPlan,
-        SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
+        cheapest_split, coalesce, diff_copy, joined, plan_upload, run_list_bytes, IndexMirror,
+        UploadPlan, SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
     };
-    use crate::random::next_random;
+    use crate::random::next_below;
     use std::ops::Range;
 
     fn words(ranges: &[Range<u32>]) -> u64 {
@@ -428,6 +441,28 @@ mod tests {
             assert!(
                 !plan.runs.iter().any(|p| p.start < w.end && w.start < p.end),
                 "a write over a run: {plan:?}"
+            );
+        }
+    }
+
+    /// The writes-only plan joins `take_spans`' ascending spans as `coalesce` does, unsorted.
+    #[test]
+    fn joined_is_coalesce_of_ascending_spans() {
+        let mut seed = 0x51ed_270b_u64;
+        for _ in 0..300 {
+            let mut spans = Vec::new();
+            let mut at = 0;
+            for _ in 0..next_below(&mut seed, 12) {
+                at += 1 + next_below(&mut seed, 20);
+                let len = 1 + next_below(&mut seed, 10);
+                spans.push(at..at + len);
+                at += len;
+            }
+            let gap = next_below(&mut seed, 12);
+            assert_eq!(
+                joined(&spans, gap).collect::<Vec<_>>(),
+                coalesce(&mut spans.clone(), gap),
+                "{spans:?}, gap {gap}"
             );
         }
     }
@@ -484,7 +519,7 @@ mod tests {
         // Against every split of a few spans: each span is a single word (if it is one),
         // opens a run, opens a write, or extends the open run or write.
         let mut seed = 0x9E37_79B9_u64;
-        let mut next = |below: u32| (next_random(&mut seed) % u64::from(below)) as u32;
+        let mut next = |below| next_below(&mut seed, below);
         for case in 0..300 {
             let n = 1 + next(6) as usize;
             let mut spans = Vec::new();
@@ -563,7 +598,7 @@ mod tests {
     #[test]
     fn chunked_writes_equal_writes_one_after_the_other() {
         let mut seed = 0x2545_f491_u64;
-        let mut next = |below: u32| (next_random(&mut seed) % u64::from(below)) as u32;
+        let mut next = |below| next_below(&mut seed, below);
         for case in 0..200 {
             let size = 50 + next(3000) as usize;
             let old: Vec<u32> = (0..size).map(|_| next(8)).collect();
