@@ -32,32 +32,18 @@ use morphlod::gpu::{
 use morphlod::io::LoadOptions;
 use morphlod::io::MorphSource;
 use morphlod::lodstrips::Dirty;
-use morphlod::{Asset, Builder, DeformingModel, DeformingState, Error, Lod, Morph};
+use morphlod::{Asset, Builder, DeformingModel, DeformingState, Error, Lod};
 
-/// An `n × n` vertex grid in the xy plane (`V(0)`) that bulges along z (`V(1)`), built into an
+/// An `n × n` vertex grid (`common::grid_morph`) that bulges along z in `V(1)`, built into an
 /// asset of `frames` sampled frames.
 fn grid_asset(n: u32, frames: usize) -> Asset {
-    let mut v0 = Vec::new();
-    let mut v1 = Vec::new();
-    for y in 0..n {
-        for x in 0..n {
-            let (fx, fy) = (x as f32 / (n - 1) as f32, y as f32 / (n - 1) as f32);
-            // Slightly uneven heights so the simplifier's errors are not all tied.
-            let z0 = 0.05 * (7.0 * fx + 3.0 * fy).sin();
-            v0.push([fx - 0.5, fy - 0.5, z0]);
-            let bulge = (std::f32::consts::PI * fx).sin() * (std::f32::consts::PI * fy).sin();
-            v1.push([fx - 0.5, fy - 0.5, z0 + 0.4 * bulge]);
-        }
-    }
-    let mut triangles = Vec::new();
-    for y in 0..n - 1 {
-        for x in 0..n - 1 {
-            let i = y * n + x;
-            triangles.push([i, i + 1, i + n]);
-            triangles.push([i + 1, i + n + 1, i + n]);
-        }
-    }
-    let morph = Morph::from_poses(triangles, v0, v1).expect("valid grid morph");
+    let side = (n - 1) as f32;
+    let morph = common::grid_morph(n, |x, y| {
+        let (fx, fy) = (x as f32 / side, y as f32 / side);
+        let bulge = (std::f32::consts::PI * fx).sin() * (std::f32::consts::PI * fy).sin();
+        // Slightly uneven heights so the simplifier's errors are not all tied.
+        side * (0.4 * bulge + 0.05 * (7.0 * fx + 3.0 * fy).sin())
+    });
     Builder::new(&morph)
         .frames(frames)
         .build()
