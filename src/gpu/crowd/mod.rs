@@ -245,15 +245,12 @@ struct CrowdAsset {
     records: Vec<DrawIndexedIndirectArgs>,
     blocks: Vec<InstanceBlock>,
     dirty_blocks: Span,
-    /// The frame's index patches (scratch of prepare).
+    /// The frame's index patches when prepare makes them on the calling thread (scratch).
     patches: Vec<[u32; 2]>,
     /// The record words changed since the last prepare, as `[word, value]` patches of the
     /// indirect buffer.
     record_patches: Vec<[u32; 2]>,
-    /// Scratch of a scatter: the patches' values, their runs of consecutive words (first
-    /// word, values' range) and the encoded run list.
-    run_values: Vec<u32>,
-    runs: Vec<(u32, std::ops::Range<usize>)>,
+    /// Scratch of a scatter: the encoded run list.
     run_list: Vec<u32>,
 }
 
@@ -277,8 +274,8 @@ fn keep_last_per_word(patches: &mut Vec<[u32; 2]>) {
 
 /// Whether no word is patched twice (a word sent twice is wasted bytes, and with two values
 /// a race: the scatter's invocations run in any order).
-fn each_word_once(patches: &[[u32; 2]]) -> bool {
-    let mut words: Vec<u32> = patches.iter().map(|p| p[0]).collect();
+fn each_word_once(words: impl Iterator<Item = u32>) -> bool {
+    let mut words: Vec<u32> = words.collect();
     words.sort_unstable();
     words.windows(2).all(|w| w[0] != w[1])
 }
@@ -292,6 +289,42 @@ struct PatchBuffer {
 
 /// `[slot, value]` patches of the index buffer, or `[word, value]` of the indirect buffer.
 type Patches = Vec<[u32; 2]>;
+
+/// Patches as the scatter sends them: runs of consecutive words, each its first word and the
+/// range of its values in `values` (the patches' values in order).
+#[derive(Default)]
+struct PatchRuns {
+    values: Vec<u32>,
+    runs: Vec<(u32, std::ops::Range<usize>)>,
+}
+
+impl PatchRuns {
+    /// The runs of `patches`: consecutive words in the list make one run (a compact copy and a
+    /// record are patched in order): 8 bytes of run list for a lone word, 8 plus 4 a word for
+    /// a run.
+    fn of(patches: &[[u32; 2]]) -> PatchRuns {
+        let mut runs: Vec<(u32, std::ops::Range<usize>)> = Vec::new();
+        for (i, p) in patches.iter().enumerate() {
+            match runs.last_mut() {
+                Some((first, values)) if *first + (i - values.start) as u32 == p[0] => {
+                    values.end = i + 1;
+                }
+                _ => runs.push((p[0], i..i + 1)),
+            }
+        }
+        PatchRuns {
+            values: patches.iter().map(|p| p[1]).collect(),
+            runs,
+        }
+    }
+
+    /// Each run as its first word and its values.
+    fn iter(&self) -> impl Iterator<Item = (u32, &[u32])> + Clone {
+        self.runs
+            .iter()
+            .map(|(first, range)| (*first, &self.values[range.clone()]))
+    }
+}
 
 /// Slots per piece of work of `set`'s parallel pass: a moved instance there costs a pose, a
 /// plan and at most a few steps of its strips (its frame switch is left to the rebuild pass),
@@ -604,8 +637,6 @@ impl Crowd {
             dirty_blocks: Span::EMPTY,
             patches: Vec::new(),
             record_patches: Vec::new(),
-            run_values: Vec::new(),
-            runs: Vec::new(),
             run_list: Vec::new(),
         });
         Ok(AssetId(id))
@@ -938,33 +969,63 @@ impl Crowd {
                 (patches, record_patches)
             };
             a.patches.clear();
-            if changed.len() < CHANGED_PER_PIECE {
+            let index_runs = if changed.len() < CHANGED_PER_PIECE {
                 // Less than one piece of work: straight into the asset's lists.
                 let lists = (
                     std::mem::take(&mut a.patches),
                     std::mem::take(&mut a.record_patches),
                 );
                 (a.patches, a.record_patches) = changed.into_iter().fold(lists, patch);
+                vec![PatchRuns::of(&a.patches)]
             } else {
                 // One pair of lists per piece of work rayon splits off, not per instance: a
-                // frame with hundreds of changed instances makes (and grows) a few lists.
-                let lists: Vec<(Patches, Patches)> = changed
+                // frame with hundreds of changed instances makes (and grows) a few lists. Each
+                // piece's index patches become runs on its thread: gathered on this one they
+                // were most of the crowd's serial time (tens of thousands of patches a frame).
+                let lists: Vec<(PatchRuns, Patches)> = changed
                     .into_par_iter()
                     .with_min_len(CHANGED_PER_PIECE)
                     .fold(|| (Vec::new(), Vec::new()), &patch)
+                    .map(|(patches, records)| (PatchRuns::of(&patches), records))
                     .collect();
-                for (patches, records) in lists {
-                    a.patches.extend_from_slice(&patches);
+                let mut index_runs = Vec::with_capacity(lists.len());
+                for (runs, records) in lists {
+                    index_runs.push(runs);
                     a.record_patches.extend_from_slice(&records);
                 }
-            }
-            upload.patches += a.patches.len() as u64;
-            for what in [Patched::Indices, Patched::Records] {
+                index_runs
+            };
+            upload.patches += index_runs
+                .iter()
+                .map(|r| r.values.len() as u64)
+                .sum::<u64>();
+            // The scatter's invocations run in any order on a real GPU (lavapipe runs them in
+            // order, NVIDIA does not), so a word may get only one value a frame. Index patches
+            // name each word once by construction (`SlotLayout::upload`); a slot's record can
+            // change several times between two prepares (removed, then added again), so its
+            // words keep their last value. Both checked in debug builds, which the tests run
+            // on lavapipe.
+            keep_last_per_word(&mut a.record_patches);
+            let record_runs = [PatchRuns::of(&a.record_patches)];
+            a.record_patches.clear();
+            for (what, runs) in [
+                (Patched::Indices, &index_runs[..]),
+                (Patched::Records, &record_runs[..]),
+            ] {
+                debug_assert!(
+                    each_word_once(
+                        runs.iter()
+                            .flat_map(|r| r.iter())
+                            .flat_map(|(first, values)| first..first + values.len() as u32)
+                    ),
+                    "{what:?}: a word patched twice"
+                );
                 a.scatter(
                     device,
                     queue,
                     &self.pipeline,
                     what,
+                    runs,
                     &mut scatters,
                     &mut upload,
                 );
@@ -1133,85 +1194,89 @@ impl Crowd {
 }
 
 impl CrowdAsset {
-    /// Applies this frame's patches of `what` (then empties the list): written to its patch
-    /// buffer and scattered by one dispatch, recorded in `encoder` (made if `None`), which the
-    /// caller submits on `queue` (one submission for every asset and both kinds of patches:
-    /// each kind has its own patch buffer).
+    /// Applies this frame's patches of `what` (the runs of each piece in turn): written to its
+    /// patch buffer and scattered by one dispatch, recorded in `encoder` (made if `None`),
+    /// which the caller submits on `queue` (one submission for every asset and both kinds of
+    /// patches: each kind has its own patch buffer).
+    #[allow(clippy::too_many_arguments)]
     fn scatter(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         pipeline: &CrowdPipeline,
         what: Patched,
+        pieces: &[PatchRuns],
         encoder: &mut Option<wgpu::CommandEncoder>,
         upload: &mut CrowdUpload,
     ) {
-        let mut patches = std::mem::take(match what {
-            Patched::Indices => &mut self.patches,
-            Patched::Records => &mut self.record_patches,
-        });
-        // The scatter's invocations run in any order on a real GPU (lavapipe runs them in
-        // order, NVIDIA does not), so a word may get only one value a frame. A slot's record
-        // can change several times between two prepares (removed, then added again), so its
-        // words keep their last value; index patches name each word once by construction
-        // (`SlotLayout::upload`). Both checked in debug builds, which the tests run on
-        // lavapipe.
-        if what == Patched::Records {
-            keep_last_per_word(&mut patches);
-        }
-        debug_assert!(each_word_once(&patches), "{what:?}: a word patched twice");
+        let runs = pieces.iter().flat_map(PatchRuns::iter);
         // A frame that moves many instances far (the first LOD frame of a crowd) can pass one
-        // binding's or one dispatch's limit: then it goes in chunks, each written and
-        // submitted before the next reuses the buffer. A patch takes at most 8 bytes of a run
-        // list, plus the headers' padding.
+        // binding's or one dispatch's limit: then it goes in lists of at most `chunk` words
+        // (runs cut where a list fills), each written and submitted before the next reuses
+        // the buffer. A word takes at most 8 bytes of a run list, plus the headers' padding.
         let chunk = ((Scatter::max_run_list_bytes(device) / 8) as usize)
             .saturating_sub(RUN_GROUP as usize)
             .max(1);
-        for (i, part) in patches.chunks(chunk).enumerate() {
-            if i > 0 {
-                if let Some(previous) = encoder.take() {
-                    queue.submit([previous.finish()]);
-                }
-            }
-            // Consecutive words in the list make one run (a compact copy and a record are
-            // patched in order): 8 bytes for a lone word, 8 plus 4 a word for a run.
-            self.run_values.clear();
-            self.run_values.extend(part.iter().map(|p| p[1]));
-            self.runs.clear();
-            for (i, p) in part.iter().enumerate() {
-                match self.runs.last_mut() {
-                    Some((first, values)) if *first + (i - values.start) as u32 == p[0] => {
-                        values.end = i + 1;
+        let words: usize = pieces.iter().map(|p| p.values.len()).sum();
+        if words <= chunk {
+            self.dispatch_runs(device, pipeline, what, runs, encoder, upload, queue);
+            return;
+        }
+        let mut list: Vec<(u32, &[u32])> = Vec::new();
+        let mut listed = 0;
+        for (first, values) in runs {
+            let mut at = 0;
+            while at < values.len() {
+                let take = (chunk - listed).min(values.len() - at);
+                list.push((first + at as u32, &values[at..at + take]));
+                (at, listed) = (at + take, listed + take);
+                if listed == chunk {
+                    let full = list.iter().copied();
+                    self.dispatch_runs(device, pipeline, what, full, encoder, upload, queue);
+                    list.clear();
+                    if let Some(previous) = encoder.take() {
+                        queue.submit([previous.finish()]);
                     }
-                    _ => self.runs.push((p[0], i..i + 1)),
+                    listed = 0;
                 }
             }
-            let values = &self.run_values;
-            let headers = encode_runs(
-                self.runs
-                    .iter()
-                    .map(|(first, range)| (*first, &values[range.clone()])),
-                &mut self.run_list,
-            );
-            let list = std::mem::take(&mut self.run_list);
-            let buffer = self.patch_buffer(device, pipeline, what, 4 * list.len() as u64);
-            upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(&list));
-            let encoder =
-                encoder.get_or_insert_with(|| device.create_command_encoder(&Default::default()));
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&pipeline.scatter.runs);
-                pass.set_bind_group(0, &buffer.group, &[]);
-                pass.dispatch_workgroups(headers / RUN_GROUP, 1, 1);
-            }
-            upload.dispatches += 1;
-            self.run_list = list;
         }
-        patches.clear();
-        match what {
-            Patched::Indices => self.patches = patches,
-            Patched::Records => self.record_patches = patches,
+        if !list.is_empty() {
+            let rest = list.iter().copied();
+            self.dispatch_runs(device, pipeline, what, rest, encoder, upload, queue);
         }
+    }
+
+    /// Encodes `runs` as one run list, writes it to the patch buffer of `what` and records its
+    /// dispatch in `encoder` (made if `None`).
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch_runs<'a>(
+        &mut self,
+        device: &wgpu::Device,
+        pipeline: &CrowdPipeline,
+        what: Patched,
+        runs: impl Iterator<Item = (u32, &'a [u32])> + Clone,
+        encoder: &mut Option<wgpu::CommandEncoder>,
+        upload: &mut CrowdUpload,
+        queue: &wgpu::Queue,
+    ) {
+        let headers = encode_runs(runs, &mut self.run_list);
+        if headers == 0 {
+            return;
+        }
+        let list = std::mem::take(&mut self.run_list);
+        let buffer = self.patch_buffer(device, pipeline, what, 4 * list.len() as u64);
+        upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(&list));
+        let encoder =
+            encoder.get_or_insert_with(|| device.create_command_encoder(&Default::default()));
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline.scatter.runs);
+            pass.set_bind_group(0, &buffer.group, &[]);
+            pass.dispatch_workgroups(headers / RUN_GROUP, 1, 1);
+        }
+        upload.dispatches += 1;
+        self.run_list = list;
     }
 
     /// The patch buffer of `what`, of at least `bytes`: grown (to the next power of two) when
