@@ -292,7 +292,6 @@ type Patches = Vec<[u32; 2]>;
 
 /// Patches as the scatter sends them: runs of consecutive words, each its first word and the
 /// range of its values in `values` (the patches' values in order).
-#[derive(Default)]
 struct PatchRuns {
     values: Vec<u32>,
     runs: Vec<(u32, std::ops::Range<usize>)>,
@@ -1219,7 +1218,7 @@ impl CrowdAsset {
             .max(1);
         let words: usize = pieces.iter().map(|p| p.values.len()).sum();
         if words <= chunk {
-            self.dispatch_runs(device, pipeline, what, runs, encoder, upload, queue);
+            self.dispatch_runs(device, queue, pipeline, what, runs, encoder, upload);
             return;
         }
         let mut list: Vec<(u32, &[u32])> = Vec::new();
@@ -1232,7 +1231,7 @@ impl CrowdAsset {
                 (at, listed) = (at + take, listed + take);
                 if listed == chunk {
                     let full = list.iter().copied();
-                    self.dispatch_runs(device, pipeline, what, full, encoder, upload, queue);
+                    self.dispatch_runs(device, queue, pipeline, what, full, encoder, upload);
                     list.clear();
                     if let Some(previous) = encoder.take() {
                         queue.submit([previous.finish()]);
@@ -1243,7 +1242,7 @@ impl CrowdAsset {
         }
         if !list.is_empty() {
             let rest = list.iter().copied();
-            self.dispatch_runs(device, pipeline, what, rest, encoder, upload, queue);
+            self.dispatch_runs(device, queue, pipeline, what, rest, encoder, upload);
         }
     }
 
@@ -1253,12 +1252,12 @@ impl CrowdAsset {
     fn dispatch_runs<'a>(
         &mut self,
         device: &wgpu::Device,
+        queue: &wgpu::Queue,
         pipeline: &CrowdPipeline,
         what: Patched,
         runs: impl Iterator<Item = (u32, &'a [u32])> + Clone,
         encoder: &mut Option<wgpu::CommandEncoder>,
         upload: &mut CrowdUpload,
-        queue: &wgpu::Queue,
     ) {
         let headers = encode_runs(runs, &mut self.run_list);
         if headers == 0 {
