@@ -521,7 +521,7 @@ impl Object {
             let (span, live) = self.check_live_length(region, lengths)?;
             let old = self.lengths[region];
             if live > old {
-                let source = self.runtime_span(region, span.start, old..live);
+                let source = runtime_span(self.topology, region, span.start, old..live);
                 check_indices(region, &indices[source], self.vertex_count, self.strips())?;
             }
         }
@@ -537,7 +537,7 @@ impl Object {
                 });
             }
             let copied = clip(range.start..range.end, live);
-            let source = self.runtime_span(region, span.start, copied);
+            let source = runtime_span(self.topology, region, span.start, copied);
             check_indices(region, &indices[source], self.vertex_count, self.strips())?;
         }
         Ok(())
@@ -563,17 +563,11 @@ impl Object {
             let region = strip as usize;
             let start = self.region_starts[region];
             let capacity = self.region_starts[region + 1] - start - separator_slots(self.topology);
-            let live = &indices[self.runtime_span(region, start, 0..capacity)];
+            let live = &indices[runtime_span(self.topology, region, start, 0..capacity)];
             self.resize(region, live, lengths[region]);
         }
         self.records
             .update_touched(&self.region_starts, &self.lengths);
-    }
-
-    /// Positions `within` (relative to the region start) of `region` in a runtime's packed
-    /// buffer, given the region's start in this object.
-    fn runtime_span(&self, region: usize, start: u32, within: Range<u32>) -> Range<usize> {
-        runtime_span(self.topology, region, start, within)
     }
 
     /// The span of `region` and its new live length from `lengths`, checked against capacity.
@@ -840,8 +834,9 @@ fn separator_slots(topology: Topology) -> u32 {
     }
 }
 
-/// [`Object::runtime_span`] for an object of `topology`, for a caller that holds part of the
-/// object mutably (`apply_checked` reads the spans while it writes the mirror).
+/// Positions `within` (relative to the region start) of `region` in a runtime's packed
+/// buffer, given the region's start in an object of `topology`. A free function, so that
+/// `apply_checked` can read the spans while it writes the mirror.
 fn runtime_span(topology: Topology, region: usize, start: u32, within: Range<u32>) -> Range<usize> {
     let runtime_start = start - region as u32 * separator_slots(topology);
     (runtime_start + within.start) as usize..(runtime_start + within.end) as usize
