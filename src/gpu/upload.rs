@@ -140,18 +140,20 @@ impl IndexMirror {
     /// an ordinary frame allocates nothing here.
     pub(super) fn write_all<'a>(&mut self, writes: impl Iterator<Item = (u32, &'a [u32])> + Clone) {
         let threads = rayon::current_num_threads();
-        let pooled = threads > 1 && rayon::current_thread_index().is_none() && {
-            let (mut words, mut apart, mut end) = (0usize, true, 0usize);
-            for (at, values) in writes.clone() {
-                apart &= end <= at as usize;
-                end = at as usize + values.len();
-                words += values.len();
-            }
-            apart && words >= PARALLEL_WORDS
-        };
-        if pooled {
+        // The words of `writes` where they go on the pool.
+        let pooled = (threads > 1 && rayon::current_thread_index().is_none())
+            .then(|| {
+                let (mut words, mut apart, mut end) = (0usize, true, 0usize);
+                for (at, values) in writes.clone() {
+                    apart &= end <= at as usize;
+                    end = at as usize + values.len();
+                    words += values.len();
+                }
+                (apart && words >= PARALLEL_WORDS).then_some(words)
+            })
+            .flatten();
+        if let Some(words) = pooled {
             let writes: Vec<(u32, &[u32])> = writes.collect();
-            let words: usize = writes.iter().map(|(_, values)| values.len()).sum();
             self.write_in_chunks(&writes, words.div_ceil(4 * threads).max(PARALLEL_WORDS / 4));
         } else {
             for (at, values) in writes {
