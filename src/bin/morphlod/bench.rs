@@ -439,23 +439,20 @@ impl BenchReport {
         let upload = mean(&self.column(Sweep::Exponential, |r| r.upload_bytes as f64));
         let upload_percent = 100.0 * upload / (self.full_index_bytes.max(1) as f64);
         // Frames that moved to another sampled frame (connectivity changes) against the rest.
-        let switched = self.frame_switches();
+        // Upload bytes: the exponential sweep's switches and its other frames after its first.
+        // CPU: where the mean goes, the frame switches (a rebuild each) and the other frames.
         let (mut switching, mut staying) = (Vec::new(), Vec::new());
-        for (row, switched) in self.rows.iter().zip(&switched) {
-            let bytes = row.upload_bytes as f64;
+        let (mut switch_ms, mut other_ms) = (Vec::new(), Vec::new());
+        for (row, switched) in self.rows.iter().zip(self.frame_switches()) {
+            let (bytes, ms) = (row.upload_bytes as f64, (row.set_us + row.prepare_us) / 1e3);
+            match switched {
+                Some(true) => switch_ms.push(ms),
+                _ => other_ms.push(ms),
+            }
             match switched {
                 Some(true) if row.sweep == Sweep::Exponential => switching.push(bytes),
                 Some(false) if row.sweep == Sweep::Exponential => staying.push(bytes),
                 _ => {}
-            }
-        }
-        // Where the CPU mean goes: the frame switches (a rebuild each) and the other frames.
-        let (mut switch_ms, mut other_ms) = (Vec::new(), Vec::new());
-        for (row, switched) in self.rows.iter().zip(&switched) {
-            let ms = (row.set_us + row.prepare_us) / 1e3;
-            match switched {
-                Some(true) => switch_ms.push(ms),
-                _ => other_ms.push(ms),
             }
         }
         let share = |ms: &[f64]| ms.iter().sum::<f64>() / self.rows.len().max(1) as f64;
