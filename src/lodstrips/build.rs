@@ -400,9 +400,9 @@ impl<'a> Replay<'a> {
             .region_offsets
             .windows(2)
             .zip(strip_copies.windows(2))
-            .map(|(slots, strip_copies)| {
-                let slots = &self.tokens.death[slots[0] as usize..slots[1] as usize];
-                let copies = &copies[strip_copies[0] as usize..strip_copies[1] as usize];
+            .map(|(slot_span, copy_span)| {
+                let slots = &self.tokens.death[slot_span[0] as usize..slot_span[1] as usize];
+                let copies = &copies[copy_span[0] as usize..copy_span[1] as usize];
                 let slot_deaths = slots.iter().map(|&d| lod(d));
                 slot_deaths
                     .chain(copies.iter().map(|c| lod(c.death)))
