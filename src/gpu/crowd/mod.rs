@@ -331,8 +331,12 @@ impl PatchRuns {
 /// instances make 16 pieces.
 const MOVES_PER_PIECE: usize = 64;
 
-/// Changed instances per piece of work of `prepare`'s patch pass (a compact copy or region
-/// patches each, microseconds); fewer than one piece are patched on the calling thread.
+/// Most changed instances per piece of work of `prepare`'s patch pass (a compact copy or
+/// region patches each, microseconds); fewer than this are patched on the calling thread.
+/// Pieces are smaller where that gives each thread fewer than four: an instance that switched
+/// frames costs several times one that stepped, and a frame of 100 changed instances cut into
+/// six pieces on 16 threads waited for its slowest piece (BENCHMARKS "On a real GPU: NVIDIA
+/// H200").
 const CHANGED_PER_PIECE: usize = 16;
 
 /// Which buffer of an asset a scatter patches.
@@ -981,9 +985,12 @@ impl Crowd {
                 // frame with hundreds of changed instances makes (and grows) a few lists. Each
                 // piece's index patches become runs on its thread: gathered on this one they
                 // were most of the crowd's serial time (tens of thousands of patches a frame).
+                let piece = (changed.len())
+                    .div_ceil(4 * rayon::current_num_threads())
+                    .min(CHANGED_PER_PIECE);
                 let lists: Vec<(PatchRuns, Patches)> = changed
                     .into_par_iter()
-                    .with_min_len(CHANGED_PER_PIECE)
+                    .with_min_len(piece)
                     .fold(|| (Vec::new(), Vec::new()), &patch)
                     .map(|(patches, records)| (PatchRuns::of(&patches), records))
                     .collect();
