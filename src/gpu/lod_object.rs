@@ -102,6 +102,17 @@ impl LodObject {
         self.object.prepare(queue)
     }
 
+    /// [`prepare`](Self::prepare) with the index scatter recorded into `encoder` (see
+    /// [`Object::prepare_with`], whose rules apply: draw after it in `encoder`, submit
+    /// `encoder` before this object's next `prepare`).
+    pub fn prepare_with(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Upload {
+        self.object.prepare_with(queue, encoder)
+    }
+
     /// Draws the object with exactly one `multi_draw_indexed_indirect` (see
     /// [`Object::render`]).
     pub fn render(&self, pass: &mut (impl RenderCommands + ?Sized)) {

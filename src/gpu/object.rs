@@ -715,7 +715,44 @@ impl Object {
     /// sends at most about twice the changed words' bytes (a single word: 8 bytes). The
     /// [`Upload`] lists what was actually sent: the ranges written, the words sent through the
     /// scatter and the list's bytes.
+    ///
+    /// [`prepare_with`](Self::prepare_with) records the dispatch into the caller's encoder
+    /// instead, saving the submission.
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
+        let (upload, dispatch) = self.upload(queue);
+        if let Some(groups) = dispatch {
+            let mut encoder =
+                (self.scatter.device).create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("morphlod index scatter"),
+                });
+            self.record_scatter(&mut encoder, groups);
+            queue.submit([encoder.finish()]);
+        }
+        upload
+    }
+
+    /// [`prepare`](Self::prepare), with the index scatter's dispatch (on a frame that has
+    /// one) recorded into `encoder` instead of submitted on its own, so that any number of
+    /// objects and the frame's passes go in one submission. Rules for the caller, as for
+    /// egui-wgpu's `update_buffers`: record the render pass that draws this object into
+    /// `encoder` after this call, and submit `encoder` on `queue` before this object's next
+    /// `prepare` or `prepare_with` (that call rewrites the run list the recorded dispatch
+    /// reads).
+    pub fn prepare_with(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Upload {
+        let (upload, dispatch) = self.upload(queue);
+        if let Some(groups) = dispatch {
+            self.record_scatter(encoder, groups);
+        }
+        upload
+    }
+
+    /// Both `prepare`s' writes: everything but the scatter's dispatch, whose workgroup count
+    /// it returns on a frame that sends runs.
+    fn upload(&mut self, queue: &wgpu::Queue) -> (Upload, Option<u32>) {
         let mut upload = Upload::default();
         let gap = u32::try_from(self.mirror.merge_gap_bytes() / 4).unwrap_or(u32::MAX);
         let spans = self.mirror.take_spans();
@@ -726,9 +763,8 @@ impl Object {
             queue.write_buffer(&self.index_buffer, bytes.start, bytemuck::cast_slice(data));
             upload.index_ranges.push(bytes);
         }
-        if !plan.runs.is_empty() {
-            self.scatter(queue, &plan.runs, &mut upload);
-        }
+        let dispatch =
+            (!plan.runs.is_empty()).then(|| self.write_runs(queue, &plan.runs, &mut upload));
         let args_gap =
             u32::try_from(self.mirror.merge_gap_bytes() / ARGS_BYTES).unwrap_or(u32::MAX);
         for span in coalesce(&mut self.records.dirty, args_gap) {
@@ -746,13 +782,12 @@ impl Object {
         upload.offset_bytes = pose.offset_bytes;
         upload.offset_writes = pose.offset_writes;
         upload.texture_bytes = self.asset.upload(queue);
-        upload
+        (upload, dispatch)
     }
 
-    /// Sends the words of `runs` (disjoint, their list within `max_list_bytes`) through the
-    /// scatter: one write of the run list, one dispatch of `scatter_runs`, submitted on
-    /// `queue` (the list: [`encode_runs`]).
-    fn scatter(&mut self, queue: &wgpu::Queue, runs: &[Range<u32>], upload: &mut Upload) {
+    /// Writes the run list of `runs` (disjoint, their list within `max_list_bytes`; the list:
+    /// [`encode_runs`]) for the scatter and returns the workgroups of its dispatch.
+    fn write_runs(&mut self, queue: &wgpu::Queue, runs: &[Range<u32>], upload: &mut Upload) -> u32 {
         let s = &mut self.scatter;
         let indices = &self.mirror.indices;
         let bytes = run_list_bytes(runs);
@@ -783,22 +818,24 @@ impl Object {
             );
             s.patch_buffer = Some((buffer, group));
         }
-        let (buffer, group) = s.patch_buffer.as_ref().expect("made above");
+        let (buffer, _) = s.patch_buffer.as_ref().expect("made above");
         queue.write_buffer(buffer, 0, bytemuck::cast_slice(&s.list));
-        let mut encoder = s
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("morphlod index scatter"),
-            });
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&s.scatter.runs);
-            pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(padded / RUN_GROUP, 1, 1);
-        }
-        queue.submit([encoder.finish()]);
         upload.scatter_bytes = bytes;
         upload.scatters = 1;
+        padded / RUN_GROUP
+    }
+
+    /// Records the scatter's dispatch of `groups` workgroups over the run list just written.
+    fn record_scatter(&self, encoder: &mut wgpu::CommandEncoder, groups: u32) {
+        let s = &self.scatter;
+        let (_, group) = s.patch_buffer.as_ref().expect("written by write_runs");
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("morphlod index scatter"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&s.scatter.runs);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(groups, 1, 1);
     }
 
     /// Draws every record with exactly one `multi_draw_indexed_indirect` (the indirect buffer

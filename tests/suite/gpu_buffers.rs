@@ -390,6 +390,9 @@ fn scattered_edits_are_patched_and_every_patch_lands() {
     assert_eq!(object.index_mirror()[start as usize / 4], RESTART);
 }
 
+/// A `LodObject` over a random walk (steps, frame switches, jumps) reads back as its mirror
+/// after every frame, whether `prepare` submits the scatter or `prepare_with` records it into
+/// an encoder the caller submits.
 #[test]
 fn lod_walk_with_frame_switches_reads_back_as_the_mirror() {
     let Some(gpu) = Gpu::new() else {
@@ -404,6 +407,8 @@ fn lod_walk_with_frame_switches_reads_back_as_the_mirror() {
     let mut rng = Rng(0x5CA7_7E12);
     let (mut t, mut fraction) = (0.0f32, 0.0f32);
     let (mut scattered, mut written_only, mut switches, mut patched_words) = (0, 0, 0, 0u64);
+    // Frames whose scatter rode in the caller's encoder (`prepare_with`).
+    let mut scattered_with = 0;
     for step in 0..50 {
         let lod = match rng.below(4) {
             // One to three collapses finer or coarser at the same t.
@@ -430,8 +435,18 @@ fn lod_walk_with_frame_switches_reads_back_as_the_mirror() {
         let frame = object.state().frame();
         object.set(t, lod).expect("t in [0, 1]");
         switches += usize::from(object.state().frame() != frame);
-        let upload = object.prepare(gpu.queue());
-        let what = format!("step {step}: t {t}, {lod:?}");
+        // Every other frame the scatter goes in the caller's encoder, applied by its submission.
+        let with = step % 2 == 1;
+        let upload = if with {
+            let mut encoder = gpu.device().create_command_encoder(&Default::default());
+            let upload = object.prepare_with(gpu.queue(), &mut encoder);
+            gpu.queue().submit([encoder.finish()]);
+            upload
+        } else {
+            object.prepare(gpu.queue())
+        };
+        scattered_with += usize::from(with) * upload.scatters;
+        let what = format!("step {step}: t {t}, {lod:?}, prepare_with {with}");
         let (after, patched) = check_readback(&gpu, object.object(), &before, &upload, &what);
         assert!(
             patched <= upload.scattered_words,
@@ -444,9 +459,14 @@ fn lod_walk_with_frame_switches_reads_back_as_the_mirror() {
         before = after;
     }
     assert!(
-        switches >= 10 && scattered >= 5 && written_only >= 5 && patched_words > 0,
+        switches >= 10
+            && scattered >= 5
+            && scattered_with >= 2
+            && written_only >= 5
+            && patched_words > 0,
         "the walk must switch frames ({switches}) and use the scatter ({scattered} frames, \
-         {patched_words} changed words patched) and writes only ({written_only} frames)"
+         {scattered_with} of them in the caller's encoder, {patched_words} changed words \
+         patched) and writes only ({written_only} frames)"
     );
 }
 
