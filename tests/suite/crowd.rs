@@ -206,7 +206,17 @@ fn render(
     target: &RenderTarget,
     draw: impl FnOnce(&mut Recorder),
 ) -> (image::RgbaImage, Vec<Call>) {
-    let mut encoder = ctx.device().create_command_encoder(&Default::default());
+    let encoder = ctx.device().create_command_encoder(&Default::default());
+    render_in(ctx, target, encoder, draw)
+}
+
+/// [`render`] after what `encoder` holds already (the scatters of a `prepare_with`).
+fn render_in(
+    ctx: &Gpu,
+    target: &RenderTarget,
+    mut encoder: wgpu::CommandEncoder,
+    draw: impl FnOnce(&mut Recorder),
+) -> (image::RgbaImage, Vec<Call>) {
     let calls = {
         let mut pass = target.begin_pass(&mut encoder);
         let mut recorder = Recorder {
@@ -354,6 +364,10 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
             add(&mut crowd, &mut placed, 1, 0)?;
             add(&mut crowd, &mut placed, 0, 8)?;
         }
+        // Odd frames prepare with `prepare_with`: the scatters go in the encoder of the pass.
+        let with = frame % 2 == 1;
+        let mut objects_pass = device.create_command_encoder(&Default::default());
+        let mut crowd_pass = device.create_command_encoder(&Default::default());
         let mut moves = Vec::new();
         for (i, p) in placed.iter_mut().enumerate() {
             p.t = if p.kind >= 2 {
@@ -363,17 +377,25 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
             };
             p.lod = ((frame * 5 + i * 3) % 9) as f32 / 8.0;
             p.object.set(p.t, Lod::Fraction(p.lod))?;
-            p.object.prepare(queue);
+            if with {
+                p.object.prepare_with(queue, &mut objects_pass);
+            } else {
+                p.object.prepare(queue);
+            }
             moves.push((p.id, p.t, Lod::Fraction(p.lod)));
         }
         crowd.set(&moves)?;
-        crowd.prepare(device, queue);
-        let (expected, _) = render(ctx, &target, |pass| {
+        if with {
+            crowd.prepare_with(device, queue, &mut crowd_pass);
+        } else {
+            crowd.prepare(device, queue);
+        }
+        let (expected, _) = render_in(ctx, &target, objects_pass, |pass| {
             for p in &placed {
                 p.object.render(pass);
             }
         });
-        let (image, calls) = render(ctx, &target, |pass| crowd.render(pass));
+        let (image, calls) = render_in(ctx, &target, crowd_pass, |pass| crowd.render(pass));
         assert_one_multi_draw_per_asset(&crowd, &assets, &calls);
         for p in &placed {
             assert_eq!(
@@ -623,12 +645,12 @@ fn buffers_decode_to_each_instance_mesh(
 }
 
 /// A frame whose patches pass what one scatter may bind goes in chunks, each written to the
-/// patch buffer after the previous chunk's dispatch was submitted (a prepare records every
-/// scatter in one command buffer, so a chunk that reused the buffer before that submission
-/// would overwrite the previous chunk's patches). On a device whose storage bindings just hold
-/// the index buffer, without a compact area, instances jumping between full detail and their
-/// coarsest LOD (most region words patched) need several chunks; after every prepare the
-/// buffers read back draw each instance's mesh.
+/// patch buffer after the previous chunk's dispatch was submitted (a chunk that reused the
+/// buffer before that submission would overwrite the previous chunk's patches). On a device
+/// whose storage bindings just hold the index buffer, without a compact area, instances
+/// jumping between full detail and their coarsest LOD (most region words patched) need
+/// several chunks; after every prepare the buffers read back draw each instance's mesh, with
+/// `prepare` and with `prepare_with` (the last chunk in the caller's encoder).
 #[test]
 fn patches_past_one_binding_go_in_chunks() -> Result<()> {
     let Some(ctx) = Gpu::new() else {
@@ -676,7 +698,8 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
     crowd.set_records(regions_only);
     let (id, instances) = fill(&small, &mut crowd, &kind, capacity)?;
     assert_eq!(crowd.slots_per_instance(id), per);
-    let mut most = 0;
+    // Most dispatches of one frame, by `prepare` and by `prepare_with`.
+    let mut most = [0; 2];
     for step in 0..8 {
         // The coarsest LOD at one frame, full detail, the coarsest at another frame...
         let (t, lod) = match step % 2 {
@@ -685,8 +708,16 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
         };
         let moves: Vec<_> = instances.iter().map(|&i| (i, t, lod)).collect();
         crowd.set(&moves)?;
-        let upload = crowd.prepare(device, queue);
-        most = most.max(upload.dispatches);
+        let with = step / 2 % 2;
+        let upload = if with == 1 {
+            let mut encoder = device.create_command_encoder(&Default::default());
+            let upload = crowd.prepare_with(device, queue, &mut encoder);
+            queue.submit([encoder.finish()]);
+            upload
+        } else {
+            crowd.prepare(device, queue)
+        };
+        most[with] = most[with].max(upload.dispatches);
         let drawn = drawn_per_slot(&small, &crowd, id, n);
         for &i in &instances {
             let state = crowd.state(i)?;
@@ -696,14 +727,14 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
             assert_eq!(
                 drawn[i.slot() as usize].triangles,
                 expected,
-                "step {step}, {i:?}"
+                "step {step}, prepare_with {with}, {i:?}"
             );
         }
     }
     // One dispatch for the records, more than one for the index patches.
     assert!(
-        most > 2,
-        "no frame needed more than one chunk: {most} dispatches at most"
+        most[0] > 2 && most[1] > 2,
+        "no frame needed more than one chunk: {most:?} dispatches at most"
     );
     Ok(())
 }

@@ -891,6 +891,35 @@ impl Crowd {
     /// write each); the scene block and textures. Call before submitting the pass that
     /// renders the crowd.
     pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> CrowdUpload {
+        let mut dispatches = Dispatches::Own(None);
+        let upload = self.upload(device, queue, &mut dispatches);
+        dispatches.submit_own(queue);
+        upload
+    }
+
+    /// [`prepare`](Self::prepare), with the scatter dispatches recorded into `encoder` instead
+    /// of submitted on their own, so that the crowd's uploads and the frame's passes go in one
+    /// submission (a frame whose patches pass one binding still submits its full lists here).
+    /// Rules for the caller, as for egui-wgpu's `update_buffers`: record the pass that renders
+    /// the crowd into `encoder` after this call, and submit `encoder` on `queue` before the
+    /// crowd's next `prepare` or `prepare_with` (that call rewrites the patch lists the
+    /// recorded dispatches read).
+    pub fn prepare_with(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> CrowdUpload {
+        self.upload(device, queue, &mut Dispatches::Caller(encoder))
+    }
+
+    /// Both `prepare`s: every write, and the scatter dispatches recorded in `dispatches`.
+    fn upload(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        dispatches: &mut Dispatches,
+    ) -> CrowdUpload {
         let mut upload = CrowdUpload::default();
         if std::mem::take(&mut self.white_pending) {
             queue.write_texture(
@@ -912,8 +941,6 @@ impl Crowd {
                 bytemuck::bytes_of(&self.scene),
             );
         }
-        // One encoder for every asset's scatter dispatches, submitted once at the end.
-        let mut scatters = None;
         for a in &mut self.assets {
             let texture = a.gpu.upload(queue);
             upload.bytes += texture;
@@ -1032,7 +1059,7 @@ impl Crowd {
                     &self.pipeline,
                     what,
                     runs,
-                    &mut scatters,
+                    dispatches,
                     &mut upload,
                 );
             }
@@ -1046,9 +1073,6 @@ impl Crowd {
                     bytemuck::cast_slice(blocks),
                 );
             }
-        }
-        if let Some(encoder) = scatters {
-            queue.submit([encoder.finish()]);
         }
         upload
     }
@@ -1199,11 +1223,36 @@ impl Crowd {
     }
 }
 
+/// Where `prepare`'s scatter dispatches are recorded: an encoder of the crowd's own, made on
+/// the first dispatch and submitted at the end (a frame without patches submits nothing), or
+/// the caller's (`prepare_with`).
+enum Dispatches<'e> {
+    Own(Option<wgpu::CommandEncoder>),
+    Caller(&'e mut wgpu::CommandEncoder),
+}
+
+impl Dispatches<'_> {
+    fn encoder(&mut self, device: &wgpu::Device) -> &mut wgpu::CommandEncoder {
+        match self {
+            Dispatches::Own(own) => {
+                own.get_or_insert_with(|| device.create_command_encoder(&Default::default()))
+            }
+            Dispatches::Caller(encoder) => encoder,
+        }
+    }
+
+    /// Submits the crowd's own encoder, if one was made; the caller's is the caller's.
+    fn submit_own(self, queue: &wgpu::Queue) {
+        if let Dispatches::Own(Some(encoder)) = self {
+            queue.submit([encoder.finish()]);
+        }
+    }
+}
+
 impl CrowdAsset {
     /// Applies this frame's patches of `what` (the runs of each piece in turn): written to its
-    /// patch buffer and scattered by one dispatch, recorded in `encoder` (made if `None`),
-    /// which the caller submits on `queue` (one submission for every asset and both kinds of
-    /// patches: each kind has its own patch buffer).
+    /// patch buffer and scattered by one dispatch, recorded in `dispatches` (one submission
+    /// for every asset and both kinds of patches: each kind has its own patch buffer).
     #[allow(clippy::too_many_arguments)]
     fn scatter(
         &mut self,
@@ -1212,20 +1261,22 @@ impl CrowdAsset {
         pipeline: &CrowdPipeline,
         what: Patched,
         pieces: &[PatchRuns],
-        encoder: &mut Option<wgpu::CommandEncoder>,
+        dispatches: &mut Dispatches,
         upload: &mut CrowdUpload,
     ) {
         let runs = pieces.iter().flat_map(PatchRuns::iter);
         // A frame that moves many instances far (the first LOD frame of a crowd) can pass one
         // binding's or one dispatch's limit: then it goes in lists of at most `chunk` words
-        // (runs cut where a list fills), each written and submitted before the next reuses
-        // the buffer. A word takes at most 8 bytes of a run list, plus the headers' padding.
+        // (runs cut where a list fills), each full one written and submitted in a command
+        // buffer of its own before the next reuses the buffer; the last goes with the frame's
+        // other dispatches. A word takes at most 8 bytes of a run list, plus the headers'
+        // padding.
         let chunk = ((Scatter::max_run_list_bytes(device) / 8) as usize)
             .saturating_sub(RUN_GROUP as usize)
             .max(1);
         let words: usize = pieces.iter().map(|p| p.values.len()).sum();
         if words <= chunk {
-            self.dispatch_runs(device, queue, pipeline, what, runs, encoder, upload);
+            self.dispatch_runs(device, queue, pipeline, what, runs, dispatches, upload);
             return;
         }
         let mut list: Vec<(u32, &[u32])> = Vec::new();
@@ -1238,23 +1289,22 @@ impl CrowdAsset {
                 (at, listed) = (at + take, listed + take);
                 if listed == chunk {
                     let full = list.iter().copied();
-                    self.dispatch_runs(device, queue, pipeline, what, full, encoder, upload);
+                    let mut own = Dispatches::Own(None);
+                    self.dispatch_runs(device, queue, pipeline, what, full, &mut own, upload);
+                    own.submit_own(queue);
                     list.clear();
-                    if let Some(previous) = encoder.take() {
-                        queue.submit([previous.finish()]);
-                    }
                     listed = 0;
                 }
             }
         }
         if !list.is_empty() {
             let rest = list.iter().copied();
-            self.dispatch_runs(device, queue, pipeline, what, rest, encoder, upload);
+            self.dispatch_runs(device, queue, pipeline, what, rest, dispatches, upload);
         }
     }
 
     /// Encodes `runs` as one run list, writes it to the patch buffer of `what` and records its
-    /// dispatch in `encoder` (made if `None`).
+    /// dispatch in `dispatches`.
     #[allow(clippy::too_many_arguments)]
     fn dispatch_runs<'a>(
         &mut self,
@@ -1263,7 +1313,7 @@ impl CrowdAsset {
         pipeline: &CrowdPipeline,
         what: Patched,
         runs: impl Iterator<Item = (u32, &'a [u32])> + Clone,
-        encoder: &mut Option<wgpu::CommandEncoder>,
+        dispatches: &mut Dispatches,
         upload: &mut CrowdUpload,
     ) {
         let headers = encode_runs(runs, &mut self.run_list);
@@ -1273,10 +1323,10 @@ impl CrowdAsset {
         let list = std::mem::take(&mut self.run_list);
         let buffer = self.patch_buffer(device, pipeline, what, 4 * list.len() as u64);
         upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(&list));
-        let encoder =
-            encoder.get_or_insert_with(|| device.create_command_encoder(&Default::default()));
         {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let mut pass = dispatches
+                .encoder(device)
+                .begin_compute_pass(&Default::default());
             pass.set_pipeline(&pipeline.scatter.runs);
             pass.set_bind_group(0, &buffer.group, &[]);
             pass.dispatch_workgroups(headers / RUN_GROUP, 1, 1);
