@@ -332,11 +332,15 @@ impl Field {
     }
 
     /// Moves every instance to its time at `seconds` and its LOD at the camera of `angle`,
-    /// uploads, and lays out the readout (with the previous frame's GPU time).
+    /// uploads (the scatters recorded into `encoder`, which must draw the field after them and
+    /// be submitted before the next update), and lays out the readout (with the previous
+    /// frame's GPU time).
+    #[allow(clippy::too_many_arguments)]
     fn update(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
         (width, height): (u32, u32),
         seconds: f32,
         angle: f32,
@@ -356,7 +360,8 @@ impl Field {
         let set = start.elapsed();
         self.crowd.set_view_proj(view_proj);
         let start = Instant::now();
-        let upload = self.crowd.prepare(device, queue);
+        // The crowd's scatters go in the frame's encoder, submitted with its pass.
+        let upload = self.crowd.prepare_with(device, queue, encoder);
         self.last = Figures {
             set,
             prepare: start.elapsed(),
@@ -474,15 +479,16 @@ fn run_headless(args: &Args, assets: &[BuiltMorph; 2], out: &Path) -> Result<(),
     for i in 0..frames {
         let angle = std::f32::consts::TAU * i as f32 / frames as f32;
         let status = format!("crowd  headless frame {}/{frames}", i + 1);
+        let mut encoder = device.create_command_encoder(&Default::default());
         field.update(
             device,
             queue,
+            &mut encoder,
             (width, height),
             i as f32 * HEADLESS_STEP,
             angle,
             &status,
         )?;
-        let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = target.begin_pass(&mut encoder);
             field.draw(&mut pass)?;
@@ -667,10 +673,17 @@ impl WindowState {
         );
         let angle = std::f32::consts::TAU * self.seconds / TURN_SECONDS;
         let (device, queue) = (&self.presenter.device, &self.presenter.queue);
-        self.field
-            .update(device, queue, (width, height), self.seconds, angle, &status)?;
-        let view = frame.texture.create_view(&Default::default());
         let mut encoder = device.create_command_encoder(&Default::default());
+        self.field.update(
+            device,
+            queue,
+            &mut encoder,
+            (width, height),
+            self.seconds,
+            angle,
+            &status,
+        )?;
+        let view = frame.texture.create_view(&Default::default());
         {
             let mut pass = self.presenter.begin_pass(&mut encoder, &view);
             self.field.draw(&mut pass)?;
