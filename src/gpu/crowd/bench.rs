@@ -413,7 +413,7 @@ impl Renderer<'_> {
     ) -> CrowdUpload {
         match self {
             Renderer::Crowd(c) => c.prepare_with(device, queue, encoder),
-            // A discrete crowd submits what its base crowd scatters itself (no `prepare_with`).
+            // A discrete crowd has nothing to scatter (its base crowd holds no asset): writes.
             Renderer::Discrete(d) => d.prepare(device, queue),
         }
     }
