@@ -10,9 +10,8 @@
 //! only: the scatter dispatches `Crowd::prepare_with` records before it are not in it), else as
 //! submit + wait; and always submit + wait too (the wall time from `queue.submit` to the end of
 //! `device.poll(wait)`: what a frame costs when the CPU waits for it, submission, scatter and
-//! pass included). It counts
-//! bytes uploaded, triangles drawn and frame switches. Figures are for benchmarks, never for
-//! tests.
+//! pass included). It counts bytes uploaded, triangles drawn and frame switches. Figures are
+//! for benchmarks, never for tests.
 
 use std::sync::Arc;
 use std::time::Instant;
