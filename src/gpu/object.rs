@@ -56,7 +56,7 @@ use super::commands::RenderCommands;
 use super::pipeline::{MorphPipeline, ShadeMode};
 use super::pose::{default_mode, Pose};
 use super::records::{DrawRecords, ARGS_BYTES};
-use super::scatter::{encode_runs, Scatter, RUN_GROUP};
+use super::scatter::{encode_runs, Dispatches, PatchBuffer, Scatter};
 use super::upload::{clip, coalesce, plan_upload, run_list_bytes, IndexMirror};
 use super::{Draws, GpuError, Upload, GROUP_INDICES, RESTART};
 #[allow(unused_imports)] // named in the docs
@@ -110,7 +110,7 @@ struct ObjectScatter {
     /// The largest run list one dispatch may carry; 0 where the index buffer is larger than
     /// one storage binding (the scatter binds it whole): writes only.
     max_list_bytes: u64,
-    patch_buffer: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    patch_buffer: Option<PatchBuffer>,
     /// The frame's run list (scratch): headers, then values.
     list: Vec<u32>,
 }
@@ -719,15 +719,9 @@ impl Object {
     /// [`prepare_with`](Self::prepare_with) records the dispatch into the caller's encoder
     /// instead, saving the submission.
     pub fn prepare(&mut self, queue: &wgpu::Queue) -> Upload {
-        let (upload, dispatch) = self.upload(queue);
-        if let Some(groups) = dispatch {
-            let mut encoder =
-                (self.scatter.device).create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("morphlod index scatter"),
-                });
-            self.record_scatter(&mut encoder, groups);
-            queue.submit([encoder.finish()]);
-        }
+        let mut dispatches = Dispatches::Own(None);
+        let upload = self.upload(queue, &mut dispatches);
+        dispatches.submit_own(queue);
         upload
     }
 
@@ -743,16 +737,12 @@ impl Object {
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Upload {
-        let (upload, dispatch) = self.upload(queue);
-        if let Some(groups) = dispatch {
-            self.record_scatter(encoder, groups);
-        }
-        upload
+        self.upload(queue, &mut Dispatches::Caller(encoder))
     }
 
-    /// Both `prepare`s' writes: everything but the scatter's dispatch, whose workgroup count
-    /// it returns on a frame that sends runs.
-    fn upload(&mut self, queue: &wgpu::Queue) -> (Upload, Option<u32>) {
+    /// Both `prepare`s: every write, and the scatter's dispatch (on a frame that sends runs)
+    /// recorded in `dispatches`.
+    fn upload(&mut self, queue: &wgpu::Queue, dispatches: &mut Dispatches) -> Upload {
         let mut upload = Upload::default();
         let gap = u32::try_from(self.mirror.merge_gap_bytes() / 4).unwrap_or(u32::MAX);
         let spans = self.mirror.take_spans();
@@ -763,8 +753,9 @@ impl Object {
             queue.write_buffer(&self.index_buffer, bytes.start, bytemuck::cast_slice(data));
             upload.index_ranges.push(bytes);
         }
-        let dispatch =
-            (!plan.runs.is_empty()).then(|| self.write_runs(queue, &plan.runs, &mut upload));
+        if !plan.runs.is_empty() {
+            self.scatter_runs(queue, &plan.runs, dispatches, &mut upload);
+        }
         let args_gap =
             u32::try_from(self.mirror.merge_gap_bytes() / ARGS_BYTES).unwrap_or(u32::MAX);
         for span in coalesce(&mut self.records.dirty, args_gap) {
@@ -782,60 +773,39 @@ impl Object {
         upload.offset_bytes = pose.offset_bytes;
         upload.offset_writes = pose.offset_writes;
         upload.texture_bytes = self.asset.upload(queue);
-        (upload, dispatch)
+        upload
     }
 
     /// Writes the run list of `runs` (disjoint, their list within `max_list_bytes`; the list:
-    /// [`encode_runs`]) for the scatter and returns the workgroups of its dispatch.
-    fn write_runs(&mut self, queue: &wgpu::Queue, runs: &[Range<u32>], upload: &mut Upload) -> u32 {
+    /// [`encode_runs`]) for the scatter and records its dispatch in `dispatches`.
+    fn scatter_runs(
+        &mut self,
+        queue: &wgpu::Queue,
+        runs: &[Range<u32>],
+        dispatches: &mut Dispatches,
+        upload: &mut Upload,
+    ) {
         let s = &mut self.scatter;
         let indices = &self.mirror.indices;
         let bytes = run_list_bytes(runs);
-        let padded = encode_runs(
+        let headers = encode_runs(
             runs.iter()
                 .map(|r| (r.start, &indices[r.start as usize..r.end as usize])),
             &mut s.list,
         );
         upload.scattered_words += runs.iter().map(|r| u64::from(r.end - r.start)).sum::<u64>();
         debug_assert_eq!(s.list.len() as u64 * 4, bytes);
-        if s.patch_buffer
-            .as_ref()
-            .is_none_or(|(b, _)| b.size() < bytes)
-        {
-            // `max_list_bytes` keeps the list within one binding; so does the rounding.
-            let max = s.device.limits().max_storage_buffer_binding_size;
-            let buffer = s.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("morphlod index runs"),
-                size: bytes.next_power_of_two().min(max).max(bytes),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let group = s.scatter.bind_group(
-                &s.device,
-                "morphlod index scatter",
-                &buffer,
-                &self.index_buffer,
-            );
-            s.patch_buffer = Some((buffer, group));
-        }
-        let (buffer, _) = s.patch_buffer.as_ref().expect("made above");
-        queue.write_buffer(buffer, 0, bytemuck::cast_slice(&s.list));
+        let patches = s.scatter.patch_buffer(
+            &s.device,
+            &mut s.patch_buffer,
+            "morphlod index runs",
+            &self.index_buffer,
+            bytes,
+        );
+        queue.write_buffer(&patches.buffer, 0, bytemuck::cast_slice(&s.list));
+        s.scatter.record(&s.device, dispatches, patches, headers);
         upload.scatter_bytes = bytes;
         upload.scatters = 1;
-        padded / RUN_GROUP
-    }
-
-    /// Records the scatter's dispatch of `groups` workgroups over the run list just written.
-    fn record_scatter(&self, encoder: &mut wgpu::CommandEncoder, groups: u32) {
-        let s = &self.scatter;
-        let (_, group) = s.patch_buffer.as_ref().expect("written by write_runs");
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("morphlod index scatter"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&s.scatter.runs);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(groups, 1, 1);
     }
 
     /// Draws every record with exactly one `multi_draw_indexed_indirect` (the indirect buffer

@@ -1,7 +1,7 @@
 //! The index scatter (`shaders/scatter.wgsl`): a list of runs of consecutive words, uploaded
-//! with one write, applied by one compute dispatch ([`encode_runs`]). An [`super::Object`]
-//! sends a frame's index edits this way ([`super::Object::prepare`]); a [`super::Crowd`] its
-//! assets' index slots and records.
+//! with one write, applied by one compute dispatch ([`encode_runs`], [`Scatter::record`]). An
+//! [`super::Object`] sends a frame's index edits this way ([`super::Object::prepare`]); a
+//! [`super::Crowd`] its assets' index slots and records.
 
 /// The WGSL source of the index scatter (`shaders/scatter.wgsl`).
 pub const SCATTER_WGSL: &str = include_str!("../../shaders/scatter.wgsl");
@@ -73,6 +73,52 @@ impl Scatter {
         })
     }
 
+    /// `patches` made or grown (to the next power of two) to hold at least `bytes` of run
+    /// list, bound over `target`. The caller keeps `bytes` within
+    /// [`max_run_list_bytes`](Self::max_run_list_bytes); so does the rounding.
+    pub(crate) fn patch_buffer<'p>(
+        &self,
+        device: &wgpu::Device,
+        patches: &'p mut Option<PatchBuffer>,
+        label: &str,
+        target: &wgpu::Buffer,
+        bytes: u64,
+    ) -> &'p PatchBuffer {
+        if patches.as_ref().is_none_or(|p| p.buffer.size() < bytes) {
+            let max = device.limits().max_storage_buffer_binding_size;
+            let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.next_power_of_two().min(max).max(bytes),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let group = self.bind_group(device, label, &buffer, target);
+            *patches = Some(PatchBuffer { buffer, group });
+        }
+        patches.as_ref().expect("made above")
+    }
+
+    /// Records the dispatch that applies the run list of `headers` padded headers
+    /// ([`encode_runs`]) just written to `patches`, in `dispatches`.
+    pub(crate) fn record(
+        &self,
+        device: &wgpu::Device,
+        dispatches: &mut Dispatches,
+        patches: &PatchBuffer,
+        headers: u32,
+    ) {
+        let mut pass =
+            dispatches
+                .encoder(device)
+                .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("morphlod scatter"),
+                    timestamp_writes: None,
+                });
+        pass.set_pipeline(&self.runs);
+        pass.set_bind_group(0, &patches.group, &[]);
+        pass.dispatch_workgroups(headers / RUN_GROUP, 1, 1);
+    }
+
     /// The most bytes one `scatter_runs` list may have on this device: one storage binding,
     /// and no more headers (8 bytes each) than one dimension of workgroups dispatches.
     pub(crate) fn max_run_list_bytes(device: &wgpu::Device) -> u64 {
@@ -80,6 +126,41 @@ impl Scatter {
         let by_dispatch =
             u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(RUN_GROUP) * 8;
         limits.max_storage_buffer_binding_size.min(by_dispatch)
+    }
+}
+
+/// A run list's buffer and the bind group that applies it to the patched buffer.
+#[derive(Debug)]
+pub(crate) struct PatchBuffer {
+    pub(crate) buffer: wgpu::Buffer,
+    group: wgpu::BindGroup,
+}
+
+/// Where a `prepare`'s scatter dispatches are recorded: an encoder of the caller's own, made
+/// on the first dispatch and submitted by [`submit_own`](Self::submit_own) (a frame without
+/// runs submits nothing), or the caller's (`prepare_with`).
+pub(crate) enum Dispatches<'e> {
+    Own(Option<wgpu::CommandEncoder>),
+    Caller(&'e mut wgpu::CommandEncoder),
+}
+
+impl Dispatches<'_> {
+    fn encoder(&mut self, device: &wgpu::Device) -> &mut wgpu::CommandEncoder {
+        match self {
+            Dispatches::Own(own) => own.get_or_insert_with(|| {
+                device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("morphlod scatter"),
+                })
+            }),
+            Dispatches::Caller(encoder) => encoder,
+        }
+    }
+
+    /// Submits the own encoder, if one was made; the caller's is the caller's.
+    pub(crate) fn submit_own(self, queue: &wgpu::Queue) {
+        if let Dispatches::Own(Some(encoder)) = self {
+            queue.submit([encoder.finish()]);
+        }
     }
 }
 

@@ -59,7 +59,7 @@ use super::asset::GpuAsset;
 use super::commands::RenderCommands;
 use super::pose::{clamp_t, default_mode};
 use super::records::ARGS_BYTES;
-use super::scatter::{encode_runs, Scatter, RUN_GROUP};
+use super::scatter::{encode_runs, Dispatches, PatchBuffer, Scatter, RUN_GROUP};
 use super::GpuError;
 use crate::deform::{rebuild_all, DeformingModel, DeformingState, Lod, Plan, SetError, Strategy};
 use crate::lodstrips::Survivors;
@@ -252,6 +252,10 @@ struct CrowdAsset {
     record_patches: Vec<[u32; 2]>,
     /// Scratch of a scatter: the encoded run list.
     run_list: Vec<u32>,
+    /// Scratch of prepare: the frame's index runs (one list per piece of work) and record
+    /// runs, kept with their capacity between frames.
+    index_runs: Vec<PatchRuns>,
+    record_runs: PatchRuns,
 }
 
 /// Leaves one patch per word, the last pushed (a stable sort by word keeps each word's
@@ -280,18 +284,12 @@ fn each_word_once(words: impl Iterator<Item = u32>) -> bool {
     words.windows(2).all(|w| w[0] != w[1])
 }
 
-/// The buffer a frame's patches of one of the asset's buffers go through, with the scatter's
-/// bind group over it and that buffer.
-struct PatchBuffer {
-    buffer: wgpu::Buffer,
-    group: wgpu::BindGroup,
-}
-
 /// `[slot, value]` patches of the index buffer, or `[word, value]` of the indirect buffer.
 type Patches = Vec<[u32; 2]>;
 
 /// Patches as the scatter sends them: runs of consecutive words, each its first word and the
 /// range of its values in `values` (the patches' values in order).
+#[derive(Default)]
 struct PatchRuns {
     values: Vec<u32>,
     runs: Vec<(u32, std::ops::Range<usize>)>,
@@ -302,19 +300,24 @@ impl PatchRuns {
     /// record are patched in order): 8 bytes of run list for a lone word, 8 plus 4 a word for
     /// a run.
     fn of(patches: &[[u32; 2]]) -> PatchRuns {
-        let mut runs: Vec<(u32, std::ops::Range<usize>)> = Vec::new();
+        let mut runs = PatchRuns::default();
+        runs.refill(patches);
+        runs
+    }
+
+    /// [`of`](Self::of), into this list's storage.
+    fn refill(&mut self, patches: &[[u32; 2]]) {
+        self.runs.clear();
         for (i, p) in patches.iter().enumerate() {
-            match runs.last_mut() {
+            match self.runs.last_mut() {
                 Some((first, values)) if *first + (i - values.start) as u32 == p[0] => {
                     values.end = i + 1;
                 }
-                _ => runs.push((p[0], i..i + 1)),
+                _ => self.runs.push((p[0], i..i + 1)),
             }
         }
-        PatchRuns {
-            values: patches.iter().map(|p| p[1]).collect(),
-            runs,
-        }
+        self.values.clear();
+        self.values.extend(patches.iter().map(|p| p[1]));
     }
 
     /// Each run as its first word and its values.
@@ -641,6 +644,8 @@ impl Crowd {
             patches: Vec::new(),
             record_patches: Vec::new(),
             run_list: Vec::new(),
+            index_runs: Vec::new(),
+            record_runs: PatchRuns::default(),
         });
         Ok(AssetId(id))
     }
@@ -999,14 +1004,19 @@ impl Crowd {
                 (patches, record_patches)
             };
             a.patches.clear();
-            let index_runs = if changed.len() < CHANGED_PER_PIECE {
+            let mut index_runs = std::mem::take(&mut a.index_runs);
+            if changed.len() < CHANGED_PER_PIECE {
                 // Less than one piece of work: straight into the asset's lists.
                 let lists = (
                     std::mem::take(&mut a.patches),
                     std::mem::take(&mut a.record_patches),
                 );
                 (a.patches, a.record_patches) = changed.into_iter().fold(lists, patch);
-                vec![PatchRuns::of(&a.patches)]
+                index_runs.truncate(1);
+                if index_runs.is_empty() {
+                    index_runs.push(PatchRuns::default());
+                }
+                index_runs[0].refill(&a.patches);
             } else {
                 // One pair of lists per piece of work rayon splits off, not per instance: a
                 // frame with hundreds of changed instances makes (and grows) a few lists. Each
@@ -1021,13 +1031,12 @@ impl Crowd {
                     .fold(|| (Vec::new(), Vec::new()), &patch)
                     .map(|(patches, records)| (PatchRuns::of(&patches), records))
                     .collect();
-                let mut index_runs = Vec::with_capacity(lists.len());
+                index_runs.clear();
                 for (runs, records) in lists {
                     index_runs.push(runs);
                     a.record_patches.extend_from_slice(&records);
                 }
-                index_runs
-            };
+            }
             upload.patches += index_runs
                 .iter()
                 .map(|r| r.values.len() as u64)
@@ -1039,11 +1048,12 @@ impl Crowd {
             // words keep their last value. Both checked in debug builds, which the tests run
             // on lavapipe.
             keep_last_per_word(&mut a.record_patches);
-            let record_runs = [PatchRuns::of(&a.record_patches)];
+            let mut record_runs = std::mem::take(&mut a.record_runs);
+            record_runs.refill(&a.record_patches);
             a.record_patches.clear();
             for (what, runs) in [
                 (Patched::Indices, &index_runs[..]),
-                (Patched::Records, &record_runs[..]),
+                (Patched::Records, std::slice::from_ref(&record_runs)),
             ] {
                 debug_assert!(
                     each_word_once(
@@ -1063,6 +1073,7 @@ impl Crowd {
                     &mut upload,
                 );
             }
+            (a.index_runs, a.record_runs) = (index_runs, record_runs);
             if let Some(range) = a.dirty_blocks.take() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
@@ -1223,32 +1234,6 @@ impl Crowd {
     }
 }
 
-/// Where `prepare`'s scatter dispatches are recorded: an encoder of the crowd's own, made on
-/// the first dispatch and submitted at the end (a frame without patches submits nothing), or
-/// the caller's (`prepare_with`).
-enum Dispatches<'e> {
-    Own(Option<wgpu::CommandEncoder>),
-    Caller(&'e mut wgpu::CommandEncoder),
-}
-
-impl Dispatches<'_> {
-    fn encoder(&mut self, device: &wgpu::Device) -> &mut wgpu::CommandEncoder {
-        match self {
-            Dispatches::Own(own) => {
-                own.get_or_insert_with(|| device.create_command_encoder(&Default::default()))
-            }
-            Dispatches::Caller(encoder) => encoder,
-        }
-    }
-
-    /// Submits the crowd's own encoder, if one was made; the caller's is the caller's.
-    fn submit_own(self, queue: &wgpu::Queue) {
-        if let Dispatches::Own(Some(encoder)) = self {
-            queue.submit([encoder.finish()]);
-        }
-    }
-}
-
 impl CrowdAsset {
     /// Applies this frame's patches of `what` (the runs of each piece in turn): written to its
     /// patch buffer and scattered by one dispatch, recorded in `dispatches` (one submission
@@ -1320,52 +1305,28 @@ impl CrowdAsset {
         if headers == 0 {
             return;
         }
-        let list = std::mem::take(&mut self.run_list);
-        let buffer = self.patch_buffer(device, pipeline, what, 4 * list.len() as u64);
-        upload.write(queue, &buffer.buffer, 0, bytemuck::cast_slice(&list));
-        {
-            let mut pass = dispatches
-                .encoder(device)
-                .begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline.scatter.runs);
-            pass.set_bind_group(0, &buffer.group, &[]);
-            pass.dispatch_workgroups(headers / RUN_GROUP, 1, 1);
-        }
-        upload.dispatches += 1;
-        self.run_list = list;
-    }
-
-    /// The patch buffer of `what`, of at least `bytes`: grown (to the next power of two) when
-    /// smaller.
-    fn patch_buffer(
-        &mut self,
-        device: &wgpu::Device,
-        pipeline: &CrowdPipeline,
-        what: Patched,
-        bytes: u64,
-    ) -> &PatchBuffer {
+        let bytes = 4 * self.run_list.len() as u64;
         let (slot, target) = match what {
             Patched::Indices => (0, &self.index_buffer),
             Patched::Records => (1, &self.indirect_buffer),
         };
-        if self.patch_buffers[slot]
-            .as_ref()
-            .is_none_or(|p| p.buffer.size() < bytes)
-        {
-            // The caller keeps `bytes` within the binding limit; so does the rounding.
-            let max = device.limits().max_storage_buffer_binding_size;
-            let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("crowd patches"),
-                size: bytes.next_power_of_two().min(max).max(bytes),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            self.patch_buffers[slot] = Some(PatchBuffer {
-                group: (pipeline.scatter).bind_group(device, "crowd scatter", &buffer, target),
-                buffer,
-            });
-        }
-        self.patch_buffers[slot].as_ref().expect("made above")
+        let patches = (pipeline.scatter).patch_buffer(
+            device,
+            &mut self.patch_buffers[slot],
+            "crowd patches",
+            target,
+            bytes,
+        );
+        upload.write(
+            queue,
+            &patches.buffer,
+            0,
+            bytemuck::cast_slice(&self.run_list),
+        );
+        pipeline
+            .scatter
+            .record(device, dispatches, patches, headers);
+        upload.dispatches += 1;
     }
 }
 
