@@ -57,14 +57,17 @@ pub struct StripsState {
 }
 
 /// The dirty log of a [`StripsState`]: per strip the span of positions written and whether
-/// its live length changed, with the strips in the order they were first marked.
+/// its live length changed, and one bit per strip for each, so that taking the log walks the
+/// marked strips in ascending order without sorting them (a large object's frame marks
+/// thousands of strips; sorting them was most of `take_dirty`).
 #[derive(Clone, Debug)]
 struct DirtyLog {
     lo: Vec<u32>,
     hi: Vec<u32>,
-    strips: Vec<u32>,
-    len_changed: Vec<bool>,
-    len_strips: Vec<u32>,
+    /// Bit `s % 64` of word `s / 64`: strip `s` has positions marked.
+    marked: Vec<u64>,
+    /// The same for strips whose live length changed.
+    len_marked: Vec<u64>,
     /// Bumped by every mark ([`StripsState::changes`]).
     changes: u64,
 }
@@ -83,17 +86,15 @@ impl DirtyLog {
         DirtyLog {
             lo: vec![u32::MAX; strips],
             hi: vec![0; strips],
-            strips: Vec::new(),
-            len_changed: vec![false; strips],
-            len_strips: Vec::new(),
+            marked: vec![0; strips.div_ceil(64)],
+            len_marked: vec![0; strips.div_ceil(64)],
             changes: 0,
         }
     }
 
     fn heap_bytes(&self) -> usize {
-        (self.lo.capacity() + self.hi.capacity() + self.strips.capacity()) * 4
-            + self.len_strips.capacity() * 4
-            + self.len_changed.capacity()
+        (self.lo.capacity() + self.hi.capacity()) * 4
+            + (self.marked.capacity() + self.len_marked.capacity()) * 8
     }
 
     fn apply(&mut self, mark: Mark) {
@@ -108,41 +109,46 @@ impl DirtyLog {
             return;
         }
         self.changes += 1;
-        if self.lo[strip] == u32::MAX {
-            self.strips.push(strip as u32);
-        }
+        self.marked[strip / 64] |= 1 << (strip % 64);
         self.lo[strip] = self.lo[strip].min(start);
         self.hi[strip] = self.hi[strip].max(end);
     }
 
     fn mark_len(&mut self, strip: usize) {
         self.changes += 1;
-        if !self.len_changed[strip] {
-            self.len_changed[strip] = true;
-            self.len_strips.push(strip as u32);
-        }
+        self.len_marked[strip / 64] |= 1 << (strip % 64);
     }
 
     fn take(&mut self) -> Dirty {
-        let mut out = Dirty::default();
-        self.strips.sort_unstable();
-        for &s in &self.strips {
-            let i = s as usize;
+        let mut out = Dirty {
+            ranges: Vec::with_capacity(ones(&self.marked)),
+            lengths: Vec::with_capacity(ones(&self.len_marked)),
+        };
+        take_ones(&mut self.marked, |s| {
             out.ranges.push(DirtyRange {
-                strip: s,
-                start: self.lo[i],
-                end: self.hi[i],
+                strip: s as u32,
+                start: std::mem::replace(&mut self.lo[s], u32::MAX),
+                end: std::mem::take(&mut self.hi[s]),
             });
-            self.lo[i] = u32::MAX;
-            self.hi[i] = 0;
-        }
-        self.strips.clear();
-        self.len_strips.sort_unstable();
-        for &s in &self.len_strips {
-            self.len_changed[s as usize] = false;
-        }
-        out.lengths = std::mem::take(&mut self.len_strips);
+        });
+        take_ones(&mut self.len_marked, |s| out.lengths.push(s as u32));
         out
+    }
+}
+
+/// Bits set in `bits`.
+fn ones(bits: &[u64]) -> usize {
+    bits.iter().map(|w| w.count_ones() as usize).sum()
+}
+
+/// Calls `f` with the number of every set bit of `bits`, ascending, and clears them.
+fn take_ones(bits: &mut [u64], mut f: impl FnMut(usize)) {
+    for (w, word) in bits.iter_mut().enumerate() {
+        let mut rest = std::mem::take(word);
+        while rest != 0 {
+            f(w * 64 + rest.trailing_zeros() as usize);
+            rest &= rest - 1;
+        }
     }
 }
 
