@@ -226,25 +226,38 @@ pub(super) fn clip(range: Range<u32>, live: u32) -> Range<u32> {
 /// Writes `new(i)` into `mirror[i]` for every `i` and pushes every run of changed positions
 /// onto `spans` as buffer positions (`at` is the buffer position of `mirror[0]`): a frame
 /// switch rewrites whole strips, mostly to the values they had, and only the words that
-/// differ are uploaded.
+/// differ are uploaded. Unchanged words are skipped [`DIFF_BLOCK`] at a time by one
+/// branch-free comparison (the bulk of a switch's words); a block that differs is walked
+/// word by word.
 fn diff_copy(mirror: &mut [u32], at: u32, spans: &mut Vec<Range<u32>>, new: impl Fn(usize) -> u32) {
-    // The first position of the open run of changed words.
-    let mut open: Option<usize> = None;
-    for (i, slot) in mirror.iter_mut().enumerate() {
-        let value = new(i);
-        if *slot == value {
-            if let Some(first) = open.take() {
-                spans.push(at + first as u32..at + i as u32);
-            }
+    let n = mirror.len();
+    let mut i = 0;
+    while i < n {
+        if i + DIFF_BLOCK <= n
+            && (0..DIFF_BLOCK).fold(0, |differ, k| differ | (mirror[i + k] ^ new(i + k))) == 0
+        {
+            i += DIFF_BLOCK;
             continue;
         }
-        *slot = value;
-        open.get_or_insert(i);
-    }
-    if let Some(first) = open {
-        spans.push(at + first as u32..at + mirror.len() as u32);
+        let block_end = (i + DIFF_BLOCK).min(n);
+        while i < block_end {
+            if mirror[i] == new(i) {
+                i += 1;
+                continue;
+            }
+            // A run of changed words, which may go on past the block.
+            let first = i;
+            while i < n && mirror[i] != new(i) {
+                mirror[i] = new(i);
+                i += 1;
+            }
+            spans.push(at + first as u32..at + i as u32);
+        }
     }
 }
+
+/// Words [`diff_copy`] compares at once where nothing changed.
+const DIFF_BLOCK: usize = 8;
 
 /// How a frame's changed index words go to the GPU: `writes` (ascending, disjoint ranges of
 /// positions, one `write_buffer` each) and `runs` (ascending, disjoint ranges sent through the
@@ -344,55 +357,55 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
     // Half-bytes, so that 4.5 bytes a word is whole.
     const WRITE: i64 = 2 * WRITE_CALL_BYTES as i64;
     const HEADER: i64 = 2 * RUN_HEADER_BYTES as i64;
-    // How span j (1-based) is sent.
+    // How span j (1-based) is sent: from which span its run or write starts. Only the
+    // choices are kept; the costs are needed one span back.
     #[derive(Clone, Copy)]
     enum Choice {
         Single,
-        RunFrom(usize),
-        WriteFrom(usize),
+        RunFrom(u32),
+        WriteFrom(u32),
     }
     let n = spans.len();
-    let mut best = vec![0i64; n + 1];
-    let mut choice = vec![Choice::Single; n + 1];
-    // min over i ≤ j of best[i − 1] − k start_i (k = 9 for runs, 8 for writes), and its i.
-    let mut run: Option<(i64, usize)> = None;
-    let mut write: Option<(i64, usize)> = None;
-    for j in 1..=n {
-        let span = &spans[j - 1];
+    let mut choice = Vec::with_capacity(n + 1);
+    choice.push(Choice::Single);
+    // best[j − 1], and min over i ≤ j of best[i − 1] − k start_i (k = 9 for runs, 8 for
+    // writes) with the first i that reaches it.
+    let mut best = 0i64;
+    let (mut run_from, mut i_run) = (i64::MAX, 0u32);
+    let (mut write_from, mut i_write) = (i64::MAX, 0u32);
+    for (j, span) in (1u32..).zip(spans) {
         let (start, end) = (i64::from(span.start), i64::from(span.end));
-        for (open, k) in [(&mut run, 9), (&mut write, 8)] {
-            let from = best[j - 1] - k * start;
-            if open.is_none_or(|(value, _)| from < value) {
-                *open = Some((from, j));
-            }
+        if best - 9 * start < run_from {
+            (run_from, i_run) = (best - 9 * start, j);
         }
-        let (run_from, i_run) = run.expect("set above");
-        let (write_from, i_write) = write.expect("set above");
+        if best - 8 * start < write_from {
+            (write_from, i_write) = (best - 8 * start, j);
+        }
         let mut pick = (HEADER + 9 * end + run_from, Choice::RunFrom(i_run));
         let write = WRITE + 8 * end + write_from;
         if write < pick.0 {
             pick = (write, Choice::WriteFrom(i_write));
         }
-        if end - start == 1 && best[j - 1] + HEADER < pick.0 {
-            pick = (best[j - 1] + HEADER, Choice::Single);
+        if end - start == 1 && best + HEADER < pick.0 {
+            pick = (best + HEADER, Choice::Single);
         }
-        let (cost, pick) = pick;
-        (best[j], choice[j]) = (cost, pick);
+        best = pick.0;
+        choice.push(pick.1);
     }
     let mut plan = UploadPlan::default();
     let mut j = n;
     while j > 0 {
         let (i, into) = match choice[j] {
             Choice::Single => (j, &mut plan.runs),
-            Choice::RunFrom(i) => (i, &mut plan.runs),
-            Choice::WriteFrom(i) => (i, &mut plan.writes),
+            Choice::RunFrom(i) => (i as usize, &mut plan.runs),
+            Choice::WriteFrom(i) => (i as usize, &mut plan.writes),
         };
         into.push(spans[i - 1].start..spans[j - 1].end);
         j = i - 1;
     }
     plan.writes.reverse();
     plan.runs.reverse();
-    (plan, best[n] as u64)
+    (plan, best as u64)
 }
 
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
@@ -646,5 +659,36 @@ mod tests {
         let mut spans = Vec::new();
         diff_copy(&mut mirror, 0, &mut spans, |i| old[i]);
         assert!(spans.is_empty(), "an unchanged copy marks nothing");
+        // Random lengths and change patterns (sparse, dense, runs across block edges) against
+        // the word-by-word definition: every maximal run of differing positions, in order.
+        let mut state = 24u64;
+        let mut random = || crate::random::next_random(&mut state);
+        for case in 0..2000 {
+            let len = (random() % 40) as usize;
+            let density = random() % 4;
+            let old: Vec<u32> = (0..len).map(|_| (random() % 3) as u32).collect();
+            let new: Vec<u32> = old
+                .iter()
+                .map(|&v| if random() % 4 < density { v + 1 } else { v })
+                .collect();
+            let mut expected = Vec::new();
+            let mut k = 0;
+            while k < len {
+                if old[k] == new[k] {
+                    k += 1;
+                    continue;
+                }
+                let first = k;
+                while k < len && old[k] != new[k] {
+                    k += 1;
+                }
+                expected.push(7 + first as u32..7 + k as u32);
+            }
+            let mut mirror = old.clone();
+            let mut spans = Vec::new();
+            diff_copy(&mut mirror, 7, &mut spans, |i| new[i]);
+            assert_eq!(mirror, new, "case {case}");
+            assert_eq!(spans, expected, "case {case}: {old:?} -> {new:?}");
+        }
     }
 }
