@@ -408,28 +408,34 @@ fn bind_group_entries(layout: Layout) -> Vec<wgpu::BindGroupLayoutEntry> {
         storage(1),
     ];
     if let Layout::Surface = layout {
-        entries.extend([
-            // The normal offsets, laid out and bound like the position offsets.
-            storage(2),
-            wgpu::BindGroupLayoutEntry {
-                binding: 3,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 4,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-        ]);
+        // The normal offsets, laid out and bound like the position offsets.
+        entries.push(storage(2));
+        entries.extend(texture_entries(3));
     }
     entries
+}
+
+/// The fragment stage's base colour texture (binding `first`, filterable 2D) and its sampler
+/// (`first + 1`), as the object's and the crowd's bind groups lay them out.
+pub(crate) fn texture_entries(first: u32) -> [wgpu::BindGroupLayoutEntry; 2] {
+    [
+        wgpu::BindGroupLayoutEntry {
+            binding: first,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        },
+        wgpu::BindGroupLayoutEntry {
+            binding: first + 1,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        },
+    ]
 }
 
 /// `source` parsed and validated by naga, for the shader tests of the object and the crowd

@@ -5,6 +5,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::gpu::pipeline::texture_entries;
 use crate::gpu::pipeline::{render_pipeline, vertex_buffers, Formats};
 use crate::gpu::scatter::{compute_storage, Scatter};
 
@@ -389,24 +390,7 @@ fn crowd_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         storage(2, size_of::<InstanceBlock>()),
     ];
     entries.extend((3..8).map(|binding| storage(binding, 4)));
-    entries.extend([
-        wgpu::BindGroupLayoutEntry {
-            binding: 8,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
-            count: None,
-        },
-        wgpu::BindGroupLayoutEntry {
-            binding: 9,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-            count: None,
-        },
-    ]);
+    entries.extend(texture_entries(8));
     entries
 }
 
