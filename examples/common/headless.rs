@@ -64,8 +64,8 @@ pub fn run_headless(
         scene.view.lod = LodControl::Fraction(HEADLESS_COARSEST * x);
         let status = format!("{}  headless frame {}/{frames}", demo.name, i + 1);
         let start = Instant::now();
-        scene.update(device, queue, (width, height), &status)?;
         let mut encoder = device.create_command_encoder(&Default::default());
+        scene.update(device, queue, &mut encoder, (width, height), &status)?;
         {
             let mut pass = target.begin_pass(&mut encoder);
             scene.draw(&mut pass)?;

@@ -311,11 +311,15 @@ impl<'a> Scene<'a> {
     }
 
     /// Moves the current object to the view's `(t, LOD)`, uploads what changed and lays out
-    /// the readout for a `width` x `height` frame. `status` is the first readout line.
+    /// the readout for a `width` x `height` frame. `status` is the first readout line. The
+    /// object's index scatter (on a frame that has one) is recorded into `encoder`, the frame's
+    /// encoder: draw in it after this call and submit it before the next `update`
+    /// (`LodObject::prepare_with`).
     pub fn update(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
         (width, height): (u32, u32),
         status: &str,
     ) -> Result<(), DemoError> {
@@ -343,7 +347,7 @@ impl<'a> Scene<'a> {
         } else {
             view.shade
         });
-        let upload = object.prepare(queue);
+        let upload = object.prepare_with(queue, encoder);
         let cpu = start.elapsed();
         self.last = FrameStats {
             cpu,

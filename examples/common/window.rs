@@ -444,9 +444,10 @@ impl<'a> WindowState<'a> {
             self.name, self.clock.fps, self.clock.frame_ms
         );
         let (device, queue) = (&self.presenter.device, &self.presenter.queue);
-        self.scene.update(device, queue, (width, height), &status)?;
-        let view = frame.texture.create_view(&Default::default());
         let mut encoder = device.create_command_encoder(&Default::default());
+        self.scene
+            .update(device, queue, &mut encoder, (width, height), &status)?;
+        let view = frame.texture.create_view(&Default::default());
         {
             let mut pass = self.presenter.begin_pass(&mut encoder, &view);
             self.scene.draw(&mut pass)?;
