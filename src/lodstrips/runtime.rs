@@ -829,5 +829,52 @@ mod tests {
             let alive: Vec<usize> = (from..deaths.len()).filter(|&b| deaths[b] > l).collect();
             proptest::prop_assert_eq!(seen, alive);
         }
+
+        /// The dirty log, marked in any order (strips past a 64-bit word, empty spans, the
+        /// same strip again), hands out each marked strip once, ascending, with the lowest
+        /// start and highest end of its spans, and the length-marked strips ascending; taken,
+        /// it starts afresh (two rounds of marks, a take after each); every mark that records
+        /// something moves the change counter.
+        #[test]
+        fn dirty_log_takes_each_marked_strip_once_in_order(
+            rounds in proptest::collection::vec(
+                proptest::collection::vec(
+                    (0usize..150, 0u32..40, 0u32..40, proptest::bool::ANY),
+                    0..60,
+                ),
+                2,
+            ),
+        ) {
+            let mut log = DirtyLog::new(150);
+            let mut counted = 0;
+            for marks in &rounds {
+                let mut spans = std::collections::BTreeMap::new();
+                let mut lengths = std::collections::BTreeSet::new();
+                for &(strip, start, end, len) in marks {
+                    if len {
+                        log.mark_len(strip);
+                        lengths.insert(strip as u32);
+                        counted += 1;
+                    } else {
+                        log.mark(strip, start, end);
+                        if start < end {
+                            let span = spans.entry(strip as u32).or_insert((start, end));
+                            *span = (span.0.min(start), span.1.max(end));
+                            counted += 1;
+                        }
+                    }
+                }
+                proptest::prop_assert_eq!(log.changes, counted);
+                let expected = Dirty {
+                    ranges: spans
+                        .iter()
+                        .map(|(&strip, &(start, end))| DirtyRange { strip, start, end })
+                        .collect(),
+                    lengths: lengths.into_iter().collect(),
+                };
+                proptest::prop_assert_eq!(log.take(), expected);
+            }
+            proptest::prop_assert_eq!(log.take(), Dirty::default());
+        }
     }
 }
