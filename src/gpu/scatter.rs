@@ -136,9 +136,9 @@ pub(crate) struct PatchBuffer {
     group: wgpu::BindGroup,
 }
 
-/// Where a `prepare`'s scatter dispatches are recorded: an encoder of the caller's own, made
-/// on the first dispatch and submitted by [`submit_own`](Self::submit_own) (a frame without
-/// runs submits nothing), or the caller's (`prepare_with`).
+/// Where a `prepare`'s scatter dispatches are recorded: an encoder of `prepare`'s own, made on
+/// the first dispatch and submitted by [`submit_own`](Self::submit_own) (a frame without runs
+/// submits nothing), or the application's (`prepare_with`).
 pub(crate) enum Dispatches<'e> {
     Own(Option<wgpu::CommandEncoder>),
     Caller(&'e mut wgpu::CommandEncoder),
