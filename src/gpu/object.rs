@@ -787,14 +787,15 @@ impl Object {
     ) {
         let s = &mut self.scatter;
         let indices = &self.mirror.indices;
-        let bytes = run_list_bytes(runs);
         let headers = encode_runs(
             runs.iter()
                 .map(|r| (r.start, &indices[r.start as usize..r.end as usize])),
             &mut s.list,
         );
+        // `plan_upload` priced this list with `run_list_bytes`; the encoding is its length.
+        let bytes = s.list.len() as u64 * 4;
+        debug_assert_eq!(bytes, run_list_bytes(runs));
         upload.scattered_words += runs.iter().map(|r| u64::from(r.end - r.start)).sum::<u64>();
-        debug_assert_eq!(s.list.len() as u64 * 4, bytes);
         let patches = s.scatter.patch_buffer(
             &s.device,
             &mut s.patch_buffer,
