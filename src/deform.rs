@@ -750,6 +750,66 @@ mod tests {
         assert!(switches > 50, "{switches} frame switches");
     }
 
+    /// A rebuild at a frame's coarse LODs reads the frame's tail alone; it leaves the buffer,
+    /// lengths, dirty log, LOD and triangle count of the full rebuild, at every LOD from just
+    /// before the tail to the coarsest, whatever frame and LOD the state was at. Fails when the
+    /// tail is missing an entry or maps a value to the wrong survivor. (The wave's tails hold
+    /// no copy born inside them; the walks over the head and body in the suite's
+    /// `oracle_deform` do, and fail when a tail loses a copy's birth.)
+    #[test]
+    fn tail_rebuild_equals_full_rebuild() {
+        let model = wave_model();
+        let mut seed = 0x9e37_79b9_u64;
+        let mut covered = 0;
+        for (k, frame) in model.frames.iter().map(|f| &f.changes).enumerate() {
+            let ((tail, entries), max) = (frame.tail_extent(), frame.max_lod());
+            assert!(tail < max, "frame {k}: tail at {tail} of {max}");
+            assert!(
+                entries <= model.layout.s0().len() / crate::lodstrips::TAIL_SHARE,
+                "frame {k}: tail holds {entries} entries"
+            );
+            for l in tail.saturating_sub(2)..=max {
+                // From another frame at a random LOD, or this frame at a random LOD.
+                let from = crate::random::next_unit(&mut seed);
+                let other = (k + 1 + (from * 4.0) as usize) % model.frames.len();
+                let start = model.frames[other].changes.max_lod() as f64 * from;
+                let mut full = DeformingState::new(model);
+                let plan = full
+                    .plan(model, 0.0, Lod::Steps(0), Strategy::Rebuild)
+                    .expect("valid request");
+                let at = Plan {
+                    frame: if l % 2 == 0 { other } else { k },
+                    lod: start as usize,
+                    ..plan
+                };
+                full.apply(model, at, &mut Survivors::new());
+                full.take_dirty();
+                let mut from_tail = full.clone();
+                full.state.rebuild_in_chunks(
+                    &model.layout,
+                    frame,
+                    l,
+                    &mut Survivors::new(),
+                    usize::MAX,
+                );
+                from_tail
+                    .state
+                    .rebuild(&model.layout, frame, l, &mut Survivors::new());
+                let at = format!("frame {k}, LOD {l}");
+                assert_eq!(from_tail.indices(), full.indices(), "{at}");
+                assert_eq!(from_tail.lengths(), full.lengths(), "{at}");
+                assert_eq!(
+                    (from_tail.lod(), from_tail.triangle_count()),
+                    (full.lod(), full.triangle_count()),
+                    "{at}"
+                );
+                assert_eq!(from_tail.take_dirty(), full.take_dirty(), "{at}");
+                covered += usize::from(l >= tail);
+            }
+        }
+        assert!(covered > 20, "{covered} LODs rebuilt from a tail");
+    }
+
     /// The wave model of `wave_asset(24, 6)`, built once for the property test.
     fn wave_model() -> &'static DeformingModel {
         static MODEL: std::sync::OnceLock<DeformingModel> = std::sync::OnceLock::new();

@@ -35,7 +35,8 @@ use super::packed::Narrow;
 use super::runtime::cut;
 use super::{
     kind_len, push_footer, push_group, push_header, push_resize, FrameChanges, ResizeRun,
-    StripLayout, CURSOR_STRIDE, DEATH_BLOCK, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
+    StripLayout, Tail, CURSOR_STRIDE, DEATH_BLOCK, KIND_B, KIND_BC, KIND_BCC, KIND_C, KIND_NONE,
+    TAIL_SHARE,
 };
 use crate::collapse::{CollapseSequence, SequenceError, NEVER};
 use crate::strip::Strips;
@@ -173,7 +174,7 @@ pub(super) fn frame(
         let (resizes, removed) = replay.reduce_touched(step);
         replay.emit_step(step, resizes, removed);
     }
-    Ok(replay.finish(seq))
+    Ok(replay.finish(layout, seq))
 }
 
 /// A sequence valid on its own and made for the layout's vertex count.
@@ -376,7 +377,7 @@ impl<'a> Replay<'a> {
     /// width, LODs (deaths and births, `NEVER` as `max_lod + 1`) to the LOD
     /// width, copy anchors to the `S0` slot width; keeps the triangle counts
     /// only at the cursor samples.
-    fn finish(mut self, seq: &CollapseSequence) -> FrameChanges {
+    fn finish(mut self, layout: &StripLayout, seq: &CollapseSequence) -> FrameChanges {
         self.cursors.push(self.stream.len() as u32);
         let total = self.buf.len();
         let max = seq.len();
@@ -421,6 +422,16 @@ impl<'a> Replay<'a> {
         }
         let mut strips_by_death: Vec<u32> = (0..strip_death.len() as u32).collect();
         strips_by_death.sort_by_key(|&s| std::cmp::Reverse(strip_death[s as usize]));
+        let deaths: Vec<u32> = self.tokens.death[..total].iter().map(|&d| lod(d)).collect();
+        let tail = tail(
+            layout,
+            seq,
+            &deaths,
+            &copies,
+            &strip_copies,
+            &strip_death,
+            &strips_by_death,
+        );
         let triangle_samples = (0..self.cursors.len())
             .map(|j| self.triangles[(j * CURSOR_STRIDE).min(max)])
             .collect();
@@ -431,7 +442,7 @@ impl<'a> Replay<'a> {
             stream: self.stream,
             cursors: self.cursors,
             triangle_samples,
-            death: Narrow::new(never, self.tokens.death[..total].iter().map(|&d| lod(d))),
+            death: Narrow::new(never, deaths),
             copy_after: Narrow::new(
                 total.saturating_sub(1) as u32,
                 copies.iter().map(|c| c.after),
@@ -446,7 +457,104 @@ impl<'a> Replay<'a> {
                 strips_by_death.len().saturating_sub(1) as u32,
                 strips_by_death,
             ),
+            tail,
         }
+    }
+}
+
+/// The frame's [`Tail`]: its LOD from the entries' deaths (`deaths` per `S0` slot and the
+/// copies', `NEVER` already `max_lod + 1`), then its strips' entries in strip order with their
+/// values mapped to their survivors there (the collapses before it walked backward, as
+/// [`Survivors`](super::Survivors) does from scratch) and renumbered among the vertices the
+/// tail names: the entries' values, then the vertices of the later collapses.
+fn tail(
+    layout: &StripLayout,
+    seq: &CollapseSequence,
+    deaths: &[u32],
+    copies: &[CopyEntry],
+    strip_copies: &[u32],
+    strip_death: &[u32],
+    strips_by_death: &[u32],
+) -> Tail {
+    let max = seq.len();
+    let never = max as u32 + 1;
+    let lod = |d: u32| if d == NEVER { never } else { d };
+    // The finest LOD with at most `S0 / TAIL_SHARE` entries alive at it or later: entries
+    // counted by death, added from the coarsest LOD down.
+    let mut by_death = vec![0usize; max + 2];
+    for &d in deaths {
+        by_death[d as usize] += 1;
+    }
+    for c in copies {
+        by_death[lod(c.death) as usize] += 1;
+    }
+    let budget = layout.s0.len() / TAIL_SHARE;
+    let mut alive = by_death[max + 1];
+    if alive > budget {
+        return Tail {
+            lod: never,
+            ..Tail::default()
+        };
+    }
+    let mut first = max;
+    while first > 0 && alive + by_death[first] <= budget {
+        alive += by_death[first];
+        first -= 1;
+    }
+    let t = first as u32;
+    // Survivors at `t`.
+    let mut root: Vec<u32> = (0..seq.vertex_count).collect();
+    for c in seq.collapses[..first].iter().rev() {
+        root[c.u as usize] = root[c.w as usize];
+    }
+    let mut local = vec![u32::MAX; seq.vertex_count as usize];
+    let mut vertices = Vec::new();
+    let mut number = |v: u32| {
+        let slot = &mut local[v as usize];
+        if *slot == u32::MAX {
+            *slot = vertices.len() as u32;
+            vertices.push(v);
+        }
+        *slot
+    };
+    // The entries of the strips not empty at `t`, in strip order: each slot, then the copies
+    // anchored at it.
+    let strips = strips_by_death
+        .iter()
+        .take_while(|&&s| strip_death[s as usize] > t)
+        .count();
+    let (mut strip_entries, mut value, mut lifetimes) = (vec![0u32], Vec::new(), Vec::new());
+    for &s in &strips_by_death[..strips] {
+        let s = s as usize;
+        let mut c = strip_copies[s] as usize;
+        for p in layout.region_offsets[s] as usize..layout.region_offsets[s + 1] as usize {
+            if deaths[p] > t {
+                value.push(number(root[layout.s0[p] as usize]));
+                lifetimes.extend([0, deaths[p] - t]);
+            }
+            while c < strip_copies[s + 1] as usize && copies[c].after as usize == p {
+                let d = lod(copies[c].death);
+                if d > t {
+                    value.push(number(root[copies[c].value as usize]));
+                    lifetimes.extend([copies[c].birth.saturating_sub(t), d - t]);
+                }
+                c += 1;
+            }
+        }
+        strip_entries.push(value.len() as u32);
+    }
+    let collapses: Vec<u32> = seq.collapses[first..]
+        .iter()
+        .flat_map(|c| [number(c.u), number(c.w)])
+        .collect();
+    let tail_vertices = vertices.len() as u32;
+    Tail {
+        lod: t,
+        vertices: Narrow::new(seq.vertex_count.saturating_sub(1), vertices),
+        collapses: Narrow::new(tail_vertices.saturating_sub(1), collapses),
+        strip_entries: Narrow::new(value.len() as u32, strip_entries),
+        value: Narrow::new(tail_vertices.saturating_sub(1), value),
+        lifetimes: Narrow::new(never - t, lifetimes),
     }
 }
 

@@ -35,7 +35,7 @@ pub(crate) mod packed;
 mod runtime;
 
 pub use build::ChangeListError;
-pub(crate) use runtime::Survivors;
+pub(crate) use runtime::{for_each_live, Survivors};
 pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
 
 use crate::collapse::CollapseSequence;
@@ -168,6 +168,53 @@ pub struct FrameChanges {
     /// The strips sorted by `strip_death`, latest first: those not empty at LOD `l` are a
     /// prefix.
     strips_by_death: Narrow,
+    /// The entries still alive past a coarse LOD, for rebuilds there.
+    tail: Tail,
+}
+
+/// The entries of a frame alive at its coarse LOD `lod` or later, for rebuilds at `lod` or
+/// coarser (a crowd's distant instances): in the order of `strips_by_death`'s prefix of strips
+/// not empty at `lod`, each strip's entries in strip order, with the survivor at `lod` of their
+/// value, numbered among the few vertices the tail names, and their lifetimes counted from
+/// `lod`. Such a rebuild reads these entries and links the tail's collapses over the tail's
+/// vertices, instead of reading the strips' live blocks and linking every collapse over every
+/// vertex. `lod` is the finest LOD at which at most `S0 / TAIL_SHARE` entries are alive then
+/// or later (`max_lod + 1`: no tail, the tables empty).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Tail {
+    lod: u32,
+    /// Tail vertex → the mesh's vertex.
+    vertices: Narrow,
+    /// Steps `lod..max_lod` as tail vertices: `u` of step `lod + j` at `2j`, `w` at `2j + 1`.
+    collapses: Narrow,
+    /// Per strip of the prefix, its first entry (prefix length + 1 entries).
+    strip_entries: Narrow,
+    /// Per entry: its value's survivor at `lod` (a tail vertex).
+    value: Narrow,
+    /// Per entry at `2e` and `2e + 1`: the first LOD it is alive at and the first it is not,
+    /// both minus `lod` (`0` for entries born by then); one table, so that a rebuild picks
+    /// the widths of its loop once per strip.
+    lifetimes: Narrow,
+}
+
+/// A frame keeps a [`Tail`] of at most `S0 / TAIL_SHARE` entries (about 6 bytes each, plus
+/// its vertices and collapses).
+pub(crate) const TAIL_SHARE: usize = 64;
+
+impl Tail {
+    fn byte_size(&self) -> usize {
+        self.vertices.byte_size()
+            + self.collapses.byte_size()
+            + self.strip_entries.byte_size()
+            + self.value.byte_size()
+            + self.lifetimes.byte_size()
+    }
+
+    /// `(u, w)` of step `lod + j` in tail vertices.
+    #[inline]
+    fn collapse(&self, j: usize) -> (u32, u32) {
+        (self.collapses.get(2 * j), self.collapses.get(2 * j + 1))
+    }
 }
 
 /// `S0` slots per entry of a frame's `block_death`: 2 bytes per 16 slots (0.4 B per vertex on
@@ -275,6 +322,7 @@ impl FrameChanges {
             + self.block_death.byte_size()
             + self.strip_copies.byte_size()
             + self.strips_by_death.byte_size()
+            + self.tail.byte_size()
     }
 
     /// How many strips are not empty at LOD `l` (the prefix of `strips_by_death`).
@@ -321,9 +369,21 @@ impl FrameChanges {
     /// Work units of a one-pass rebuild at `lod` from scratch (entries to visit plus
     /// survivors to link), for choosing between a rebuild and stepping. An upper bound:
     /// the rebuild skips strips that are empty at `lod`, and a crowd's rebuilds of one
-    /// frame share the survivors.
+    /// frame share the survivors. At the tail's LODs, the tail's entries, vertices and
+    /// collapses to link.
     pub fn rebuild_work(&self, layout: &StripLayout, lod: usize) -> usize {
-        self.death.len() + self.copy_count() + layout.vertex_count() + lod.min(self.max_lod())
+        let lod = lod.min(self.max_lod());
+        if lod as u32 >= self.tail.lod {
+            let tail = &self.tail;
+            return tail.value.len() + tail.vertices.len() + lod - tail.lod as usize;
+        }
+        self.death.len() + self.copy_count() + layout.vertex_count() + lod
+    }
+
+    /// The first LOD of the frame's [`Tail`] (past `max_lod()`: it has none) and its entries.
+    #[cfg(test)]
+    pub(crate) fn tail_extent(&self) -> (usize, usize) {
+        (self.tail.lod as usize, self.tail.value.len())
     }
 
     /// The first copy of strip `s` (its copies are sorted by anchor, after earlier strips').

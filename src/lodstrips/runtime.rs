@@ -158,6 +158,8 @@ thread_local! {
     /// instances, moved in parallel) share it, and an instance's footprint is its index
     /// buffer and per-strip bookkeeping only.
     static SURVIVORS: std::cell::Cell<Vec<u32>> = const { std::cell::Cell::new(Vec::new()) };
+    /// The survivors of a rebuild from a frame's tail, one table per thread likewise.
+    static TAIL_ROOTS: std::cell::Cell<Vec<u32>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// The survivor of every vertex after the first `lod` collapses of one frame, for rebuilds:
@@ -368,9 +370,10 @@ impl StripsState {
     /// and the positions a strip grew by (a crowd's instances switching between
     /// neighbouring frames keep most of their indices, so uploads shrink).
     ///
-    /// A large state rebuilt from scratch off the thread pool (one object's frame switch)
-    /// is split over the pool's threads ([`PARALLEL_SLOTS`]); a crowd's rebuilds, already
-    /// spread over the pool by `deform::rebuild_all`, stay on their thread.
+    /// At the frame's coarse LODs (its tail, see `Tail`) the rebuild reads the tail alone and
+    /// leaves `anc` as it is. A large state rebuilt from scratch off the thread pool (one
+    /// object's frame switch) is split over the pool's threads ([`PARALLEL_SLOTS`]); a crowd's
+    /// rebuilds, already spread over the pool by `deform::rebuild_all`, stay on their thread.
     pub(crate) fn rebuild<'a>(
         &mut self,
         layout: &StripLayout,
@@ -378,6 +381,11 @@ impl StripsState {
         lod: usize,
         anc: &mut Survivors<'a>,
     ) {
+        let lod = lod.min(frame.max_lod());
+        if lod as u32 >= frame.tail.lod {
+            self.rebuild_from_tail(frame, lod);
+            return;
+        }
         let threads = rayon::current_num_threads();
         let slots = layout.s0.len();
         let chunk =
@@ -465,6 +473,55 @@ impl StripsState {
                 );
             }
         }
+        self.lod = lod;
+        (self.cursor, self.triangles) = frame.seek(lod);
+    }
+
+    /// [`rebuild`](Self::rebuild) at `lod` (not past `frame.max_lod()`) at or past the frame's
+    /// tail: the tail's survivors at `lod` (its collapses up to `lod` walked backward over its
+    /// vertices, as [`Survivors`] does from scratch), the strips empty at `lod` emptied, then
+    /// every strip not empty there written from its tail entries alive at `lod`. The buffer
+    /// and the dirty log are those of the full rebuild; its cost is the tail's size, whatever
+    /// the mesh's.
+    fn rebuild_from_tail(&mut self, frame: &FrameChanges, lod: usize) {
+        let tail = &frame.tail;
+        let l = lod as u32;
+        let rel = l - tail.lod;
+        let mut root = TAIL_ROOTS.take();
+        root.clear();
+        root.extend(0..tail.vertices.len() as u32);
+        for j in (0..rel as usize).rev() {
+            let (u, w) = tail.collapse(j);
+            root[u as usize] = root[w as usize];
+        }
+        let log = &mut self.log;
+        let mut mark = |m| log.apply(m);
+        empty_dead_strips(frame, l, 0, &mut self.lens, &mut mark);
+        for j in 0..frame.strips_alive(l) {
+            let s = frame.strips_by_death.get(j) as usize;
+            let region = &mut self.indices[self.region_offsets[s] as usize..];
+            let mut out = StripWriter::new(self.lens[s]);
+            let entries =
+                tail.strip_entries.get(j) as usize..tail.strip_entries.get(j + 1) as usize;
+            let lifetimes = 2 * entries.start..2 * entries.end;
+            let mut live = |v: u32| out.put(region, tail.vertices.get(root[v as usize] as usize));
+            match (&tail.lifetimes, &tail.value) {
+                (Narrow::U16(t), Narrow::U16(v)) => {
+                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+                }
+                (Narrow::U16(t), Narrow::U32(v)) => {
+                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+                }
+                (Narrow::U32(t), Narrow::U16(v)) => {
+                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+                }
+                (Narrow::U32(t), Narrow::U32(v)) => {
+                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+                }
+            }
+            out.finish(s, &mut self.lens[s], &mut mark);
+        }
+        TAIL_ROOTS.set(root);
         self.lod = lod;
         (self.cursor, self.triangles) = frame.seek(lod);
     }
@@ -606,20 +663,7 @@ fn rebuild_strips(
 ) {
     let first = strips.start;
     let base = layout.region_offsets[first] as usize;
-    // Most strips are empty before and after: skip them 16 at a time (an OR the compiler
-    // vectorises) rather than look each one up.
-    for (c, chunk) in lens.chunks_mut(16).enumerate() {
-        if chunk.iter().fold(0, |a, &n| a | n) == 0 {
-            continue;
-        }
-        for (i, len) in chunk.iter_mut().enumerate() {
-            let s = first + 16 * c + i;
-            if *len != 0 && frame.strip_death.get(s) <= l {
-                *len = 0;
-                mark(Mark::Len(s as u32));
-            }
-        }
-    }
+    empty_dead_strips(frame, l, first, lens, &mut mark);
     let mut strip = |s: usize, ci: usize, lens: &mut [u32]| {
         let region = &mut indices[layout.region_offsets[s] as usize - base..];
         let len = &mut lens[s - first];
@@ -638,6 +682,104 @@ fn rebuild_strips(
             if frame.strip_death.get(s) > l {
                 strip(s, frame.first_copy(s), lens);
             }
+        }
+    }
+}
+
+/// Empties the strips of `lens` (strip `first` on) that hold something but nothing alive at
+/// `l`, marking their lengths. Most strips are empty before and after: only the live ones are
+/// looked up ([`for_each_live`]).
+fn empty_dead_strips(
+    frame: &FrameChanges,
+    l: u32,
+    first: usize,
+    lens: &mut [u32],
+    mark: &mut impl FnMut(Mark),
+) {
+    for (c, chunk) in lens.chunks_mut(16).enumerate() {
+        let mut live = live_mask(chunk);
+        while live != 0 {
+            let i = live.trailing_zeros() as usize;
+            let s = first + 16 * c + i;
+            if frame.strip_death.get(s) <= l {
+                chunk[i] = 0;
+                mark(Mark::Len(s as u32));
+            }
+            live &= live - 1;
+        }
+    }
+}
+
+/// Calls `f(i, len)` for every strip `i` of `lengths` whose length `len` is not 0, in order.
+/// A coarse state has a few dozen live strips among a thousand: the lengths are read 16 at a
+/// time into a mask of the live ones ([`live_mask`]), and only its set bits are visited.
+#[inline]
+pub(crate) fn for_each_live(lengths: &[u32], mut f: impl FnMut(usize, u32)) {
+    for (c, chunk) in lengths.chunks(16).enumerate() {
+        let mut live = live_mask(chunk);
+        while live != 0 {
+            let i = live.trailing_zeros() as usize;
+            f(16 * c + i, chunk[i]);
+            live &= live - 1;
+        }
+    }
+}
+
+/// Bit `i` set where `chunk[i]` (at most 32 lengths) is not 0. Most chunks of a coarse state
+/// are all 0: one OR of the chunk (which the compiler vectorises) answers them.
+#[inline]
+fn live_mask(chunk: &[u32]) -> u32 {
+    if chunk.iter().fold(0, |a, &n| a | n) == 0 {
+        return 0;
+    }
+    chunk
+        .iter()
+        .enumerate()
+        .fold(0, |m, (i, &n)| m | u32::from(n != 0) << i)
+}
+
+/// A strip's rebuilt entries written over its old ones, one after another: only the values
+/// that differ are written, and the span from the first to the last of them (and the
+/// positions past the old live length) is marked.
+struct StripWriter {
+    old: usize,
+    q: usize,
+    lo: usize,
+    hi: usize,
+}
+
+impl StripWriter {
+    /// Before the first entry of a strip whose live length was `old`.
+    fn new(old: u32) -> StripWriter {
+        StripWriter {
+            old: old as usize,
+            q: 0,
+            lo: usize::MAX,
+            hi: 0,
+        }
+    }
+
+    /// Writes `v` at the next position of `region` (the strip's region and on).
+    #[inline]
+    fn put(&mut self, region: &mut [u32], v: u32) {
+        let q = self.q;
+        if q >= self.old || region[q] != v {
+            region[q] = v;
+            self.lo = self.lo.min(q);
+            self.hi = q + 1;
+        }
+        self.q += 1;
+    }
+
+    /// Sets strip `s`'s live length `len` to the entries written, marking it if it changed,
+    /// then the changed span.
+    fn finish(self, s: usize, len: &mut u32, mark: &mut impl FnMut(Mark)) {
+        if self.q as u32 != *len {
+            *len = self.q as u32;
+            mark(Mark::Len(s as u32));
+        }
+        if self.lo < self.hi {
+            mark(Mark::Span(s as u32, self.lo as u32, self.hi as u32));
         }
     }
 }
@@ -663,17 +805,7 @@ fn rebuild_strip(
 ) {
     let start = layout.region_offsets[s] as usize;
     let end = layout.region_offsets[s + 1] as usize;
-    let old = *len as usize;
-    // Writes `v` at the next position, noting the changed span `lo..hi`.
-    let (mut q, mut lo, mut hi) = (0, usize::MAX, 0);
-    let mut put = |region: &mut [u32], v: u32| {
-        if q >= old || region[q] != v {
-            region[q] = v;
-            lo = lo.min(q);
-            hi = q + 1;
-        }
-        q += 1;
-    };
+    let mut out = StripWriter::new(*len);
     let copies = frame.copy_count();
     // The anchor of copy `c` (past the last copy: beyond every slot).
     let anchor = |c: usize| {
@@ -705,7 +837,7 @@ fn rebuild_strip(
             // The deaths read as a slice of their width, not matched per slot: the loop
             // most of a large rebuild's time goes to.
             let s0 = &layout.s0[p..stop];
-            let mut live = |v: u32| put(region, find(v));
+            let mut live = |v: u32| out.put(region, find(v));
             match &frame.death {
                 Narrow::U16(death) => live_slots(&death[p..stop], s0, l, &mut live),
                 Narrow::U32(death) => live_slots(&death[p..stop], s0, l, &mut live),
@@ -713,20 +845,14 @@ fn rebuild_strip(
             p = stop;
             while next_after == stop - 1 {
                 if frame.copy_birth.get(ci) <= l && l < frame.copy_death.get(ci) {
-                    put(region, find(frame.copy_value.get(ci)));
+                    out.put(region, find(frame.copy_value.get(ci)));
                 }
                 ci += 1;
                 next_after = anchor(ci);
             }
         }
     });
-    if q as u32 != *len {
-        *len = q as u32;
-        mark(Mark::Len(s as u32));
-    }
-    if lo < hi {
-        mark(Mark::Span(s as u32, lo as u32, hi as u32));
-    }
+    out.finish(s, len, mark);
 }
 
 /// Calls `f(first, end)`, in order, for each run `first..end` of the blocks in `blocks` (of a
@@ -772,6 +898,23 @@ fn live_slots<D: Copy + Into<u32>>(deaths: &[D], s0: &[u32], l: u32, f: &mut imp
     for (&death, &v) in deaths.iter().zip(s0) {
         if death.into() > l {
             f(v);
+        }
+    }
+}
+
+/// Calls `f` with the value of every tail entry alive at `rel` steps past the tail's LOD, in
+/// order: `values` one per entry, `lifetimes` its birth and death (each width, `u16` or `u32`,
+/// one loop).
+#[inline]
+fn live_entries<L: Copy + Into<u32>, V: Copy + Into<u32>>(
+    lifetimes: &[L],
+    values: &[V],
+    rel: u32,
+    f: &mut impl FnMut(u32),
+) {
+    for (life, &v) in lifetimes.chunks_exact(2).zip(values) {
+        if life[0].into() <= rel && rel < life[1].into() {
+            f(v.into());
         }
     }
 }

@@ -15,7 +15,7 @@
 //! consecutive slots and applied by one scatter dispatch.
 
 use crate::deform::{DeformingModel, DeformingState};
-use crate::lodstrips::{Dirty, DirtyRange};
+use crate::lodstrips::{for_each_live, Dirty, DirtyRange};
 
 use super::super::scatter::RUN_WORDS;
 use super::super::RESTART;
@@ -214,10 +214,10 @@ impl SlotLayout {
             }
             // From the first live index of the copy to the last.
             let (mut first, mut end) = (u32::MAX, 0);
-            for (r, &len) in lengths.iter().enumerate().filter(|(_, &len)| len > 0) {
+            for_each_live(lengths, |r, len| {
                 first = first.min(places.at[r]);
                 end = end.max(places.at[r] + len);
-            }
+            });
             return SlotRecord {
                 first: self.regions() + first,
                 count: end - first,
@@ -323,7 +323,7 @@ impl SlotLayout {
         }
         let area = base + self.regions();
         let mut at = 0;
-        for (r, &len) in lengths.iter().enumerate().filter(|(_, &len)| len > 0) {
+        for_each_live(lengths, |r, len| {
             if at > 0 {
                 out.push([area + at, RESTART]);
                 at += 1;
@@ -335,7 +335,7 @@ impl SlotLayout {
             out.extend((area + at + len..area + at + room).map(|slot| [slot, RESTART]));
             (places.at[r], places.room[r], places.len[r]) = (at, room, len);
             at += room;
-        }
+        });
         places.used = at;
         places.current = true;
         #[cfg(test)]
@@ -447,8 +447,9 @@ fn by_strip(dirty: &Dirty) -> impl Iterator<Item = (usize, Option<(u32, u32)>, b
 
 /// The slots of the live strips of `lengths` packed: their lengths and one restart between two.
 fn packed(lengths: &[u32]) -> u32 {
-    let live = lengths.iter().filter(|&&len| len > 0);
-    live.map(|&len| len + 1).sum::<u32>().saturating_sub(1)
+    let mut slots = 0;
+    for_each_live(lengths, |_, len| slots += len + 1);
+    slots.saturating_sub(1)
 }
 
 #[cfg(test)]
