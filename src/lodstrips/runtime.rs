@@ -62,8 +62,10 @@ pub struct StripsState {
 /// thousands of strips; sorting them was most of `take_dirty`).
 #[derive(Clone, Debug)]
 struct DirtyLog {
-    lo: Vec<u32>,
-    hi: Vec<u32>,
+    /// Per strip the lowest and highest-plus-one position marked (`[u32::MAX, 0]`: none), side
+    /// by side: a crowd's rebuild marks a few strips of each of hundreds of states, and one
+    /// cache line per mark is what it pays.
+    span: Vec<[u32; 2]>,
     /// Bit `s % 64` of word `s / 64`: strip `s` has positions marked.
     marked: Vec<u64>,
     /// The same for strips whose live length changed.
@@ -84,8 +86,7 @@ enum Mark {
 impl DirtyLog {
     fn new(strips: usize) -> DirtyLog {
         DirtyLog {
-            lo: vec![u32::MAX; strips],
-            hi: vec![0; strips],
+            span: vec![[u32::MAX, 0]; strips],
             marked: vec![0; strips.div_ceil(64)],
             len_marked: vec![0; strips.div_ceil(64)],
             changes: 0,
@@ -93,8 +94,7 @@ impl DirtyLog {
     }
 
     fn heap_bytes(&self) -> usize {
-        (self.lo.capacity() + self.hi.capacity()) * 4
-            + (self.marked.capacity() + self.len_marked.capacity()) * 8
+        self.span.capacity() * 8 + (self.marked.capacity() + self.len_marked.capacity()) * 8
     }
 
     fn apply(&mut self, mark: Mark) {
@@ -110,8 +110,8 @@ impl DirtyLog {
         }
         self.changes += 1;
         self.marked[strip / 64] |= 1 << (strip % 64);
-        self.lo[strip] = self.lo[strip].min(start);
-        self.hi[strip] = self.hi[strip].max(end);
+        let span = &mut self.span[strip];
+        *span = [span[0].min(start), span[1].max(end)];
     }
 
     fn mark_len(&mut self, strip: usize) {
@@ -125,10 +125,11 @@ impl DirtyLog {
             lengths: Vec::with_capacity(ones(&self.len_marked)),
         };
         take_ones(&mut self.marked, |s| {
+            let [start, end] = std::mem::replace(&mut self.span[s], [u32::MAX, 0]);
             out.ranges.push(DirtyRange {
                 strip: s as u32,
-                start: std::mem::replace(&mut self.lo[s], u32::MAX),
-                end: std::mem::take(&mut self.hi[s]),
+                start,
+                end,
             });
         });
         take_ones(&mut self.len_marked, |s| out.lengths.push(s as u32));
@@ -383,7 +384,7 @@ impl StripsState {
     ) {
         let lod = lod.min(frame.max_lod());
         if lod as u32 >= frame.tail.lod {
-            self.rebuild_from_tail(frame, lod);
+            self.rebuild_from_tail(layout, frame, lod);
             return;
         }
         let threads = rayon::current_num_threads();
@@ -483,7 +484,7 @@ impl StripsState {
     /// every strip not empty there written from its tail entries alive at `lod`. The buffer
     /// and the dirty log are those of the full rebuild; its cost is the tail's size, whatever
     /// the mesh's.
-    fn rebuild_from_tail(&mut self, frame: &FrameChanges, lod: usize) {
+    fn rebuild_from_tail(&mut self, layout: &StripLayout, frame: &FrameChanges, lod: usize) {
         let tail = &frame.tail;
         let l = lod as u32;
         let rel = l - tail.lod;
@@ -499,7 +500,9 @@ impl StripsState {
         empty_dead_strips(frame, l, 0, &mut self.lens, &mut mark);
         for j in 0..frame.strips_alive(l) {
             let s = frame.strips_by_death.get(j) as usize;
-            let region = &mut self.indices[self.region_offsets[s] as usize..];
+            // The layout's region table, shared by every state (warm in the cache when a
+            // crowd rebuilds hundreds), not this state's copy.
+            let region = &mut self.indices[layout.region_offsets[s] as usize..];
             let mut out = StripWriter::new(self.lens[s]);
             let entries =
                 tail.strip_entries.get(j) as usize..tail.strip_entries.get(j + 1) as usize;

@@ -44,26 +44,25 @@ pub(super) struct SlotRecord {
 /// Where an instance's live strips lie in its compact area, and which parts of its regions
 /// the GPU lacks. Empty (no heap) until the instance is first drawn from its copy.
 ///
-/// Strip `r` has a place: `at[r]..at[r] + room[r]` of the compact area, holding its `len[r]`
+/// Strip `r` has a place `place[r]`: `at..at + room` of the compact area, holding its `len`
 /// indices as of the last upload and [`RESTART`] over the rest, followed by a separator slot
 /// that holds [`RESTART`] (so a place starts after a restart, like a region: a strip decodes
-/// with the same parity, and two never join). `room[r] = 0`: no place. Places lie one after
+/// with the same parity, and two never join). `room = 0`: no place. Places lie one after
 /// another from slot 0 up to `used`, with abandoned places (all restarts) between them.
 #[derive(Default)]
 pub(super) struct Places {
-    at: Vec<u32>,
-    room: Vec<u32>,
-    len: Vec<u32>,
+    /// One entry per strip, its three numbers side by side: a frame reads or writes a few
+    /// strips of each of hundreds of instances, one cache line each.
+    place: Vec<Place>,
     /// The end of the used part (the record reads within `0..used` of the compact area, from
     /// its first live index to its last).
     used: u32,
     /// The copy holds the strips as of the last upload (false while the regions are drawn:
     /// then the copy is repacked when a record reads it again).
     current: bool,
-    /// Per strip, the part `stale_lo..stale_hi` of its region that changed while the copy
-    /// was drawn (`stale_lo = u32::MAX`: none); its length is compared with the uploaded one.
-    stale_lo: Vec<u32>,
-    stale_hi: Vec<u32>,
+    /// Per strip, the part `lo..hi` (`[lo, hi]`) of its region that changed while the copy
+    /// was drawn (`lo = u32::MAX`: none); its length is compared with the uploaded one.
+    stale_span: Vec<[u32; 2]>,
     /// Some region is stale.
     stale: bool,
     /// Full rewrites of the copy (tests count them).
@@ -74,23 +73,18 @@ pub(super) struct Places {
 impl Places {
     /// Heap bytes of the table.
     pub(super) fn heap_bytes(&self) -> usize {
-        4 * (self.at.capacity()
-            + self.room.capacity()
-            + self.len.capacity()
-            + self.stale_lo.capacity()
-            + self.stale_hi.capacity())
+        self.place.capacity() * size_of::<Place>() + self.stale_span.capacity() * 8
     }
 
     /// Notes the changes of `dirty` as not yet in the regions.
     fn mark_stale(&mut self, strips: usize, dirty: &Dirty) {
-        if self.stale_lo.len() != strips {
-            self.stale_lo = vec![u32::MAX; strips];
-            self.stale_hi = vec![0; strips];
+        if self.stale_span.len() != strips {
+            self.stale_span = vec![[u32::MAX, 0]; strips];
         }
         for range in &dirty.ranges {
             let r = range.strip as usize;
-            self.stale_lo[r] = self.stale_lo[r].min(range.start);
-            self.stale_hi[r] = self.stale_hi[r].max(range.end);
+            let span = &mut self.stale_span[r];
+            *span = [span[0].min(range.start), span[1].max(range.end)];
         }
         self.stale = true;
     }
@@ -101,21 +95,29 @@ impl Places {
         self.mark_stale(lengths.len(), &dirty);
         self.stale = false;
         let mut out = Dirty::default();
-        for (r, (lo, hi)) in self.stale_lo.iter_mut().zip(&mut self.stale_hi).enumerate() {
-            if *lo < *hi {
+        for (r, span) in self.stale_span.iter_mut().enumerate() {
+            let [start, end] = std::mem::replace(span, [u32::MAX, 0]);
+            if start < end {
                 out.ranges.push(DirtyRange {
                     strip: r as u32,
-                    start: *lo,
-                    end: *hi,
+                    start,
+                    end,
                 });
             }
-            (*lo, *hi) = (u32::MAX, 0);
         }
         out.lengths = (0..lengths.len() as u32)
             .filter(|&r| uploaded[r as usize] != lengths[r as usize])
             .collect();
         out
     }
+}
+
+/// Where one strip lies in the compact area (see [`Places`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Place {
+    at: u32,
+    room: u32,
+    len: u32,
 }
 
 /// The copy is repacked where its record would read more than this many times the packed
@@ -215,8 +217,8 @@ impl SlotLayout {
             // From the first live index of the copy to the last.
             let (mut first, mut end) = (u32::MAX, 0);
             for_each_live(lengths, |r, len| {
-                first = first.min(places.at[r]);
-                end = end.max(places.at[r] + len);
+                first = first.min(places.place[r].at);
+                end = end.max(places.place[r].at + len);
             });
             return SlotRecord {
                 first: self.regions() + first,
@@ -258,8 +260,9 @@ impl SlotLayout {
             out.extend((area + from..area + to).map(|slot| [slot, RESTART]));
         };
         for (r, range, resized) in by_strip(dirty) {
-            let (old, new, at) = (places.len[r], lengths[r], places.at[r]);
-            if new <= places.room[r] {
+            let Place { at, room, len: old } = places.place[r];
+            let new = lengths[r];
+            if new <= room {
                 // Past the shorter of the two lengths the growth or the restarts below write
                 // every position; in slot order, so that a range and the growth after it make
                 // one run.
@@ -287,9 +290,14 @@ impl SlotLayout {
                 }
                 copy(r, 0, new, start, out);
                 restarts(start + new, start + room, out);
-                (places.at[r], places.room[r], places.used) = (start, room, start + room);
+                places.place[r] = Place {
+                    at: start,
+                    room,
+                    len: new,
+                };
+                places.used = start + room;
             }
-            places.len[r] = new;
+            places.place[r].len = new;
         }
         places.used <= bound
     }
@@ -317,10 +325,8 @@ impl SlotLayout {
             0
         };
         let n = lengths.len();
-        for v in [&mut places.at, &mut places.room, &mut places.len] {
-            v.clear();
-            v.resize(n, 0);
-        }
+        places.place.clear();
+        places.place.resize(n, Place::default());
         let area = base + self.regions();
         let mut at = 0;
         for_each_live(lengths, |r, len| {
@@ -333,7 +339,7 @@ impl SlotLayout {
             let strip = &indices[source..source + len as usize];
             out.extend(strip.iter().zip(area + at..).map(|(&v, slot)| [slot, v]));
             out.extend((area + at + len..area + at + room).map(|slot| [slot, RESTART]));
-            (places.at[r], places.room[r], places.len[r]) = (at, room, len);
+            places.place[r] = Place { at, room, len };
             at += room;
         });
         places.used = at;
@@ -683,7 +689,7 @@ mod tests {
                 t = random();
             }
             state.set(&model, t, Lod::Fraction(lod)).expect("set");
-            let before = (places.at.clone(), places.room.clone(), places.len.clone());
+            let before = places.place.clone();
             let (repacks, current) = (places.repacks, places.current);
             let record = upload_checked(
                 &layout,
@@ -698,11 +704,10 @@ mod tests {
             if !(record.compact && current && places.repacks == repacks) {
                 continue;
             }
-            for r in 0..places.len.len() {
-                let (at, len) = (before.0[r], before.2[r]);
-                let new = places.len[r];
-                within += usize::from(at == places.at[r] && len != new && len > 0 && new > 0);
-                to_end += usize::from(at != places.at[r] && len > 0);
+            for (old, now) in before.iter().zip(&places.place) {
+                let (at, len, new) = (old.at, old.len, now.len);
+                within += usize::from(at == now.at && len != new && len > 0 && new > 0);
+                to_end += usize::from(at != now.at && len > 0);
                 deaths += usize::from(len > 0 && new == 0);
                 births += usize::from(len == 0 && new > 0);
             }
