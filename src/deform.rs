@@ -686,6 +686,19 @@ mod tests {
         }
     }
 
+    /// Two rebuilds of one move left the same buffer (stale tails included), lengths, LOD,
+    /// triangle count and dirty log (both taken).
+    fn same_rebuild(a: &mut DeformingState, b: &mut DeformingState, at: &str) {
+        assert_eq!(a.indices(), b.indices(), "{at}");
+        assert_eq!(a.lengths(), b.lengths(), "{at}");
+        assert_eq!(
+            (a.lod(), a.triangle_count()),
+            (b.lod(), b.triangle_count()),
+            "{at}"
+        );
+        assert_eq!(a.take_dirty(), b.take_dirty(), "{at}");
+    }
+
     /// A rebuild cut into chunks on the thread pool (what one large object's frame switch
     /// does) leaves the buffer, lengths and dirty log of a rebuild on one thread, and the
     /// buffer of stepping there, over a random walk of frame switches and LOD jumps. Chunks
@@ -732,14 +745,7 @@ mod tests {
             steps
                 .set_with(&model, t, lod, Strategy::Steps)
                 .expect("valid request");
-            assert_eq!(chunked.indices(), one.indices(), "step {step}");
-            assert_eq!(chunked.lengths(), one.lengths(), "step {step}");
-            assert_eq!(
-                (chunked.lod(), chunked.triangle_count()),
-                (one.lod(), one.triangle_count()),
-                "step {step}"
-            );
-            assert_eq!(chunked.take_dirty(), one.take_dirty(), "step {step}");
+            same_rebuild(&mut chunked, &mut one, &format!("step {step}"));
             assert_eq!(chunked.changes(), one.changes(), "step {step}");
             // Stepping leaves other values in the regions' tails; the live strips are equal.
             assert_eq!(steps.lengths(), one.lengths(), "step {step}");
@@ -795,15 +801,7 @@ mod tests {
                 from_tail
                     .state
                     .rebuild(&model.layout, frame, l, &mut Survivors::new());
-                let at = format!("frame {k}, LOD {l}");
-                assert_eq!(from_tail.indices(), full.indices(), "{at}");
-                assert_eq!(from_tail.lengths(), full.lengths(), "{at}");
-                assert_eq!(
-                    (from_tail.lod(), from_tail.triangle_count()),
-                    (full.lod(), full.triangle_count()),
-                    "{at}"
-                );
-                assert_eq!(from_tail.take_dirty(), full.take_dirty(), "{at}");
+                same_rebuild(&mut from_tail, &mut full, &format!("frame {k}, LOD {l}"));
                 covered += usize::from(l >= tail);
             }
         }
