@@ -35,7 +35,9 @@ pub(crate) mod packed;
 mod runtime;
 
 pub use build::ChangeListError;
-pub(crate) use runtime::{for_each_live, Survivors};
+#[cfg(feature = "gpu")]
+pub(crate) use runtime::for_each_live;
+pub(crate) use runtime::Survivors;
 pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
 
 use crate::collapse::CollapseSequence;

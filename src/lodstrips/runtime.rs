@@ -691,7 +691,7 @@ fn rebuild_strips(
 
 /// Empties the strips of `lens` (strip `first` on) that hold something but nothing alive at
 /// `l`, marking their lengths. Most strips are empty before and after: only the live ones are
-/// looked up ([`for_each_live`]).
+/// looked up ([`live_mask`]).
 fn empty_dead_strips(
     frame: &FrameChanges,
     l: u32,
@@ -716,6 +716,7 @@ fn empty_dead_strips(
 /// Calls `f(i, len)` for every strip `i` of `lengths` whose length `len` is not 0, in order.
 /// A coarse state has a few dozen live strips among a thousand: the lengths are read 16 at a
 /// time into a mask of the live ones ([`live_mask`]), and only its set bits are visited.
+#[cfg(feature = "gpu")]
 #[inline]
 pub(crate) fn for_each_live(lengths: &[u32], mut f: impl FnMut(usize, u32)) {
     for (c, chunk) in lengths.chunks(16).enumerate() {
