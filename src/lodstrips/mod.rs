@@ -201,7 +201,7 @@ pub(crate) struct Tail {
 
 /// A frame keeps a [`Tail`] of at most `S0 / TAIL_SHARE` entries (about 6 bytes each, plus
 /// its vertices and collapses).
-pub(crate) const TAIL_SHARE: usize = 64;
+pub(crate) const TAIL_SHARE: usize = 128;
 
 impl Tail {
     fn byte_size(&self) -> usize {
