@@ -464,9 +464,9 @@ impl<'a> Replay<'a> {
 
 /// The frame's [`Tail`]: its LOD from the entries' deaths (`deaths` per `S0` slot and the
 /// copies', `NEVER` already `max_lod + 1`), then its strips' entries in strip order with their
-/// values mapped to their survivors there (the collapses before it walked backward, as
-/// [`Survivors`](super::Survivors) does from scratch) and renumbered among the vertices the
-/// tail names: the entries' values, then the vertices of the later collapses.
+/// values mapped to their survivors there ([`CollapseSequence::survivors`]) and renumbered
+/// among the vertices the tail names: the entries' values, then the vertices of the later
+/// collapses.
 fn tail(
     layout: &StripLayout,
     seq: &CollapseSequence,
@@ -502,11 +502,7 @@ fn tail(
         first -= 1;
     }
     let t = first as u32;
-    // Survivors at `t`.
-    let mut root: Vec<u32> = (0..seq.vertex_count).collect();
-    for c in seq.collapses[..first].iter().rev() {
-        root[c.u as usize] = root[c.w as usize];
-    }
+    let root = seq.survivors(first);
     let mut local = vec![u32::MAX; seq.vertex_count as usize];
     let mut vertices = Vec::new();
     let mut number = |v: u32| {
