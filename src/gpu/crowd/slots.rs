@@ -54,6 +54,10 @@ pub(super) struct Places {
     /// One entry per strip, its three numbers side by side: a frame reads or writes a few
     /// strips of each of hundreds of instances, one cache line each.
     place: Vec<Place>,
+    /// The strips that have a place (`room > 0`), so that a repack clears their places alone
+    /// rather than writing the whole table: a crowd repacks hundreds of coarse instances a
+    /// frame, each with a few dozen live strips of a thousand.
+    placed: Vec<u32>,
     /// The end of the used part (the record reads within `0..used` of the compact area, from
     /// its first live index to its last).
     used: u32,
@@ -73,7 +77,9 @@ pub(super) struct Places {
 impl Places {
     /// Heap bytes of the table.
     pub(super) fn heap_bytes(&self) -> usize {
-        self.place.capacity() * size_of::<Place>() + self.stale_span.capacity() * 8
+        self.place.capacity() * size_of::<Place>()
+            + self.placed.capacity() * 4
+            + self.stale_span.capacity() * 8
     }
 
     /// Notes the changes of `dirty` as not yet in the regions.
@@ -285,6 +291,9 @@ impl SlotLayout {
                 if start + room > bound {
                     return false;
                 }
+                if places.place[r].room == 0 {
+                    places.placed.push(r as u32);
+                }
                 if start > 0 {
                     restarts(start - 1, start, out);
                 }
@@ -324,9 +333,14 @@ impl SlotLayout {
         } else {
             0
         };
-        let n = lengths.len();
-        places.place.clear();
-        places.place.resize(n, Place::default());
+        if places.place.len() == lengths.len() {
+            for r in places.placed.drain(..) {
+                places.place[r as usize] = Place::default();
+            }
+        } else {
+            places.placed.clear();
+            places.place = vec![Place::default(); lengths.len()];
+        }
         let area = base + self.regions();
         let mut at = 0;
         for_each_live(lengths, |r, len| {
@@ -340,6 +354,7 @@ impl SlotLayout {
             out.extend(strip.iter().zip(area + at..).map(|(&v, slot)| [slot, v]));
             out.extend((area + at + len..area + at + room).map(|slot| [slot, RESTART]));
             places.place[r] = Place { at, room, len };
+            places.placed.push(r as u32);
             at += room;
         });
         places.used = at;
