@@ -463,10 +463,17 @@ pub(crate) struct Plan {
 /// frame and LOD, cut into runs of one frame (at most `⌈states / (4 × threads)⌉` each, so
 /// that the runs spread over the threads even when every state goes to one frame), the runs
 /// in parallel. A run links each of its frame's collapses once for all its states
-/// ([`Survivors`]) instead of once per state. (The crowd's; a crate without the renderer has
-/// no caller.)
+/// ([`Survivors`]) instead of once per state. `state` finds a job's state; `then` is called
+/// on each job right after its rebuild, on the same thread (while the state is in that core's
+/// cache), with one accumulator per run, and the accumulators are returned. (The crowd's; a
+/// crate without the renderer has no caller.)
 #[cfg(feature = "gpu")]
-pub(crate) fn rebuild_all(model: &DeformingModel, jobs: &mut [(Plan, &mut DeformingState)]) {
+pub(crate) fn rebuild_all<J: Send, A: Default + Send>(
+    model: &DeformingModel,
+    jobs: &mut [(Plan, J)],
+    state: impl Fn(&mut J) -> &mut DeformingState + Sync,
+    then: impl Fn(&mut J, &mut A) + Sync,
+) -> Vec<A> {
     jobs.sort_unstable_by_key(|(plan, _)| (plan.frame, plan.lod));
     let run = jobs.len().div_ceil(4 * rayon::current_num_threads()).max(1);
     let mut runs = Vec::new();
@@ -482,12 +489,17 @@ pub(crate) fn rebuild_all(model: &DeformingModel, jobs: &mut [(Plan, &mut Deform
         runs.push(head);
         rest = tail;
     }
-    runs.into_par_iter().for_each(|run| {
-        let mut anc = Survivors::new();
-        for (plan, state) in run.iter_mut() {
-            state.apply(model, *plan, &mut anc);
-        }
-    });
+    runs.into_par_iter()
+        .map(|run| {
+            let mut anc = Survivors::new();
+            let mut acc = A::default();
+            for (plan, job) in run.iter_mut() {
+                state(job).apply(model, *plan, &mut anc);
+                then(job, &mut acc);
+            }
+            acc
+        })
+        .collect()
 }
 
 /// The strips of one [`DeformingModel`] at some `(frame, lod)`, with the log
@@ -558,6 +570,17 @@ impl DeformingState {
             lod: l,
             strategy,
         })
+    }
+
+    /// Whether carrying out `plan` reads a survivor table over the mesh (a rebuild finer than
+    /// its frame's tail): such rebuilds go to [`rebuild_all`], grouped by frame; the rest are
+    /// cheapest where the state was just read.
+    #[cfg(feature = "gpu")]
+    pub(crate) fn links_survivors(model: &DeformingModel, plan: Plan) -> bool {
+        plan.strategy == Strategy::Rebuild
+            && !model.frames[plan.frame]
+                .changes
+                .rebuilds_from_tail(plan.lod)
     }
 
     /// Carries out `plan` (made by [`plan`](Self::plan) for this state and `model`); a

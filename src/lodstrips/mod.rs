@@ -375,11 +375,17 @@ impl FrameChanges {
     /// collapses to link.
     pub fn rebuild_work(&self, layout: &StripLayout, lod: usize) -> usize {
         let lod = lod.min(self.max_lod());
-        if lod as u32 >= self.tail.lod {
+        if self.rebuilds_from_tail(lod) {
             let tail = &self.tail;
             return tail.value.len() + tail.vertices.len() + lod - tail.lod as usize;
         }
         self.death.len() + self.copy_count() + layout.vertex_count() + lod
+    }
+
+    /// A rebuild at `lod` reads the frame's [`Tail`] alone (no survivor table over the mesh:
+    /// such rebuilds gain nothing from being grouped by frame).
+    pub(crate) fn rebuilds_from_tail(&self, lod: usize) -> bool {
+        lod.min(self.max_lod()) as u32 >= self.tail.lod
     }
 
     /// The first LOD of the frame's [`Tail`] (past `max_lod()`: it has none) and its entries.

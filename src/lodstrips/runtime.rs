@@ -383,7 +383,7 @@ impl StripsState {
         anc: &mut Survivors<'a>,
     ) {
         let lod = lod.min(frame.max_lod());
-        if lod as u32 >= frame.tail.lod {
+        if frame.rebuilds_from_tail(lod) {
             self.rebuild_from_tail(layout, frame, lod);
             return;
         }

@@ -15,13 +15,14 @@
 //! a place it keeps while it fits), so it reads the live indices and a few restarts, not the
 //! restart tails of the regions ([`CrowdRecords`]).
 //!
-//! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon);
-//! [`prepare`](Crowd::prepare) gathers per asset the index patches of every moved instance
-//! (O(changed indices) for the regions and for the compact copy, whose live indices only where
-//! it is repacked; in parallel), uploads them with one write and applies them with one compute dispatch, does
-//! the same with the changed words of the records, and writes the changed instance blocks as
-//! one contiguous range; [`render`](Crowd::render) binds each asset and issues its one
-//! multi-draw. The caller owns device, queue and pass, as with an [`Object`](super::Object).
+//! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon) and, on the
+//! same thread right after each move (while the instance's strips are in that core's cache),
+//! makes its index patches (O(changed indices) for the regions and for the compact copy, whose
+//! live indices only where it is repacked) and its record's; [`prepare`](Crowd::prepare)
+//! uploads each asset's patches with one write and applies them with one compute dispatch,
+//! does the same with the changed words of the records, and writes the changed instance
+//! blocks as one contiguous range; [`render`](Crowd::render) binds each asset and issues its
+//! one multi-draw. The caller owns device, queue and pass, as with an [`Object`](super::Object).
 //!
 //! The instance of a vertex reaches the shader one of two ways ([`CrowdPath`],
 //! `shaders/crowd.wgsl`): as `first_instance` (the slot), with the poses and surface fetched
@@ -103,7 +104,7 @@ pub enum CrowdError {
 /// An instance's index slots hold its strips in fixed regions, one per strip of `S0` with room
 /// for its full length (patched at O(changed indices)); at a coarse LOD most of those slots
 /// are restarts. Each slot range also has a compact area of `compact_share` of the regions'
-/// slots: where the live strips, one restart between two, fit in it, `prepare` keeps a copy
+/// slots: where the live strips, one restart between two, fit in it, the crowd keeps a copy
 /// of them there (each strip in a place it keeps while it fits, patched as it changes; packed
 /// anew where the copy would read more than 1.5× the packed count) and the instance's one draw
 /// record reads that copy, i.e. the live indices, a restart between two strips and the
@@ -245,17 +246,69 @@ struct CrowdAsset {
     records: Vec<DrawIndexedIndirectArgs>,
     blocks: Vec<InstanceBlock>,
     dirty_blocks: Span,
-    /// The frame's index patches when prepare makes them on the calling thread (scratch).
-    patches: Vec<[u32; 2]>,
-    /// The record words changed since the last prepare, as `[word, value]` patches of the
-    /// indirect buffer.
-    record_patches: Vec<[u32; 2]>,
+    /// The patches made since the last prepare.
+    waiting: Waiting,
     /// Scratch of a scatter: the encoded run list.
     run_list: Vec<u32>,
-    /// Scratch of prepare: the frame's index runs (one list per piece of work) and record
-    /// runs, kept with their capacity between frames.
-    index_runs: Vec<PatchRuns>,
+    /// Slots added since the last prepare (their regions get `S0`).
+    fresh: Vec<u32>,
+    /// Prepares so far (a [`Member`] notes the one its patches wait for).
+    prepares: u64,
+    /// Scratch of prepare: the record runs, kept with their capacity between frames.
     record_runs: PatchRuns,
+}
+
+/// The patches an asset's instances made since the last prepare.
+#[derive(Default)]
+struct Waiting {
+    /// Index patches as runs: one list per piece of work of `set`'s passes, in the order made.
+    index_runs: Vec<PatchRuns>,
+    /// The record words changed, as `[word, value]` patches of the indirect buffer.
+    records: Patches,
+    /// Some word may be in two of `index_runs` (an instance moved by two `set`s, or one
+    /// removed after its patches were made): prepare then merges them first.
+    overlap: bool,
+    /// Slots whose instance was removed after its patches were made, each with the number of
+    /// `index_runs` lists made before: those lists' patches of the slot are dropped (the slot
+    /// may hold a new instance by then, written `S0` before the patches apply).
+    withdrawn: Vec<(u32, usize)>,
+}
+
+impl Waiting {
+    /// Keeps the pieces' patches; returns their rebuilds, in slot order.
+    fn take(&mut self, pieces: Vec<(PatchRuns, Piece)>) -> Vec<(usize, Plan)> {
+        let mut rebuilds = Vec::new();
+        for (runs, piece) in pieces {
+            rebuilds.extend_from_slice(&piece.rebuilds);
+            if !runs.values.is_empty() {
+                self.index_runs.push(runs);
+            }
+            self.records.extend_from_slice(&piece.records);
+            self.overlap |= piece.again;
+        }
+        rebuilds
+    }
+
+    /// Merges the index patches into one list where each word has its last value, less the
+    /// withdrawn slots' patches made before their removal (`per`: slots per instance).
+    fn merge(&mut self, per: u32) {
+        let mut patches = Vec::new();
+        for (list, runs) in self.index_runs.iter().enumerate() {
+            for (first, values) in runs.iter() {
+                for (word, &value) in (first..).zip(values) {
+                    let withdrawn = (self.withdrawn.iter())
+                        .any(|&(slot, lists)| list < lists && word / per == slot);
+                    if !withdrawn {
+                        patches.push([word, value]);
+                    }
+                }
+            }
+        }
+        keep_last_per_word(&mut patches);
+        self.index_runs = vec![PatchRuns::of(&patches)];
+        self.withdrawn.clear();
+        self.overlap = false;
+    }
 }
 
 /// Leaves one patch per word, the last pushed (a stable sort by word keeps each word's
@@ -328,19 +381,11 @@ impl PatchRuns {
     }
 }
 
-/// Slots per piece of work of `set`'s parallel pass: a moved instance there costs a pose, a
-/// plan and at most a few steps of its strips (its frame switch is left to the rebuild pass),
-/// so smaller pieces cost the pool more in splitting and waking threads than they gain; 1000
-/// instances make 16 pieces.
-const MOVES_PER_PIECE: usize = 64;
-
-/// Most changed instances per piece of work of `prepare`'s patch pass (a compact copy or
-/// region patches each, microseconds); fewer than this are patched on the calling thread.
-/// Pieces are smaller where that gives each thread fewer than four: an instance that switched
-/// frames costs several times one that stepped, and a frame of 100 changed instances cut into
-/// six pieces on 16 threads waited for its slowest piece (BENCHMARKS "On a real GPU: NVIDIA
-/// H200").
-const CHANGED_PER_PIECE: usize = 16;
+/// Fewest slots per piece of work of `set`'s parallel pass: a moved instance there costs a
+/// pose and a plan, one that steps or switches to its frame's tail a few microseconds more
+/// (the move and its patches), so that smaller pieces cost the pool more in splitting than
+/// they gain.
+const MOVES_PER_PIECE: usize = 16;
 
 /// Which buffer of an asset a scatter patches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -396,19 +441,74 @@ struct Member {
     changes: u64,
     /// A move asked by `set`, applied by its parallel pass.
     pending: Option<(f32, Lod)>,
-    /// Moved since the last prepare: its strips may have changed.
-    moved: bool,
+    /// The asset's prepare count when its last patches were made: equal to the current
+    /// count, they wait in the asset's lists.
+    patched: u64,
     /// Added since the last prepare: its slots need `S0`.
     fresh: bool,
 }
 
 impl Member {
+    /// Where its strips changed since its last patches: appends to `piece` the patches that
+    /// bring its slots (at `slot` of `layout`) and its record to them: those of its compact
+    /// copy where that is drawn (in the strips' places), else of its regions. While the
+    /// compact copy is drawn the regions are not read: what changed in them waits in its
+    /// `Places` (coalesced per strip: a position changed in many frames is sent once) until a
+    /// record reads the regions again.
+    fn patch(
+        &mut self,
+        layout: &SlotLayout,
+        key: (CrowdPath, u32, u32),
+        slot: u32,
+        record: &mut DrawIndexedIndirectArgs,
+        prepares: u64,
+        piece: &mut Piece,
+    ) {
+        // Unchanged strips keep their slots, record and compact copy.
+        let changes = self.state.changes();
+        if changes == self.changes {
+            return;
+        }
+        self.changes = changes;
+        piece.again |= self.patched == prepares;
+        self.patched = prepares;
+        let drawn = layout.upload(
+            slot * key.2,
+            &mut self.state,
+            &mut self.places,
+            &mut self.uploaded,
+            &mut piece.patches,
+        );
+        set_record(key, slot, Some(drawn), record, &mut piece.records);
+    }
+
     /// Heap bytes of the instance: its runtime and lengths, and itself.
     fn heap_bytes(&self) -> usize {
         size_of::<Member>()
             + self.state.heap_bytes()
             + self.uploaded.capacity() * 4
             + self.places.heap_bytes()
+    }
+}
+
+/// What one piece of work of `set`'s passes made: its rebuilds over the mesh (left to the
+/// rebuild pass), its instances' index and record patches.
+#[derive(Default)]
+struct Piece {
+    /// Scratch of the poses.
+    weights: Vec<f32>,
+    rebuilds: Vec<(usize, Plan)>,
+    patches: Patches,
+    records: Patches,
+    /// An instance patched a second time since the last prepare.
+    again: bool,
+}
+
+impl Piece {
+    /// Its index patches as runs, made on the piece's thread: gathered on the calling thread
+    /// they were most of the crowd's serial time (tens of thousands of patches a frame).
+    fn runs(self) -> (PatchRuns, Piece) {
+        (PatchRuns::of(&self.patches), self)
     }
 }
 
@@ -641,10 +741,10 @@ impl Crowd {
             records: vec![DrawIndexedIndirectArgs::default(); capacity as usize],
             blocks: vec![InstanceBlock::new(glam::Mat4::IDENTITY); capacity as usize],
             dirty_blocks: Span::EMPTY,
-            patches: Vec::new(),
-            record_patches: Vec::new(),
+            waiting: Waiting::default(),
             run_list: Vec::new(),
-            index_runs: Vec::new(),
+            fresh: Vec::new(),
+            prepares: 0,
             record_runs: PatchRuns::default(),
         });
         Ok(AssetId(id))
@@ -723,7 +823,7 @@ impl Crowd {
             slot,
             Some(record),
             &mut a.records[slot as usize],
-            &mut a.record_patches,
+            &mut a.waiting.records,
         );
         a.blocks[slot as usize] = InstanceBlock::new(model);
         a.dirty_blocks.add(slot);
@@ -733,9 +833,10 @@ impl Crowd {
             uploaded,
             places: Places::default(),
             pending: None,
-            moved: false,
+            patched: u64::MAX,
             fresh: true,
         });
+        a.fresh.push(slot);
         a.drawn = a.drawn.max(slot + 1);
         Ok(InstanceId {
             asset: asset.0,
@@ -750,7 +851,13 @@ impl Crowd {
         let path = self.path;
         let a = self.member_asset(id)?;
         let slot = id.slot as usize;
-        a.members[slot] = None;
+        if a.members[slot]
+            .take()
+            .is_some_and(|m| m.patched == a.prepares)
+        {
+            (a.waiting.withdrawn).push((id.slot, a.waiting.index_runs.len()));
+            a.waiting.overlap = true;
+        }
         a.generations[slot] = a.generations[slot].wrapping_add(1);
         let key = (path, a.gpu.vertex_count(), a.layout.per_instance());
         set_record(
@@ -758,7 +865,7 @@ impl Crowd {
             id.slot,
             None,
             &mut a.records[slot],
-            &mut a.record_patches,
+            &mut a.waiting.records,
         );
         // Lowest slot reused first: keeps the drawn records dense.
         let at = a.free.partition_point(|&s| s > id.slot);
@@ -787,7 +894,8 @@ impl Crowd {
     /// Moves every instance of `moves` to its `(t, lod)` (as [`DeformingState::set`]: `t` and
     /// LOD clamped, NaN refused), all in parallel, and sets its pose: `mix(V(0), V(1), t)`, or
     /// for an asset with a weight animation the track's weights at `t` (the 8 largest, see
-    /// [`WEIGHT_SLOTS`]). Everything is checked first: on error nothing moved. An instance
+    /// [`WEIGHT_SLOTS`]), and makes the patches of its slots that the next `prepare` uploads.
+    /// Everything is checked first: on error nothing moved. An instance
     /// named twice takes its last move.
     pub fn set(&mut self, moves: &[(InstanceId, f32, Lod)]) -> Result<(), CrowdError> {
         // What a move can be refused for (the LOD is resolved once, in the parallel pass).
@@ -805,48 +913,73 @@ impl Crowd {
             a.dirty_blocks.add(id.slot);
             moved[id.asset as usize] = true;
         }
+        let path = self.path;
         for (a, _) in self.assets.iter_mut().zip(moved).filter(|(_, m)| *m) {
-            let (model, track) = (&a.model, a.gpu.track());
-            // In parallel: every moved instance's pose and plan; the moves that step are made
-            // here, the rebuilds (frame switches) are gathered.
-            let rebuilds: Vec<(usize, Plan)> = a
+            let (model, track, layout) = (&a.model, a.gpu.track(), &a.layout);
+            let key = (path, a.gpu.vertex_count(), layout.per_instance());
+            let prepares = a.prepares;
+            // In parallel: every moved instance's pose and plan; the moves that step or
+            // rebuild from a tail are made here, and the instance's patches right after
+            // them; the rebuilds over the mesh are gathered.
+            let pieces: Vec<(PatchRuns, Piece)> = a
                 .members
                 .par_iter_mut()
                 .zip(a.blocks.par_iter_mut())
+                .zip(a.records.par_iter_mut())
                 .enumerate()
                 .with_min_len(MOVES_PER_PIECE)
-                .map_init(Vec::new, |weights, (slot, (member, block))| {
-                    let member = member.as_mut()?;
-                    let (t, lod) = member.pending.take()?;
-                    member.moved = true;
-                    block.set_pose(track, clamp_t(t).expect("checked time"), weights);
-                    // Checked above: cannot fail.
-                    let plan = (member.state)
-                        .plan(model, t, lod, Strategy::Auto)
-                        .expect("checked move");
-                    if plan.strategy == Strategy::Rebuild {
-                        return Some((slot, plan));
-                    }
-                    member.state.apply(model, plan, &mut Survivors::new());
-                    None
-                })
-                .flatten_iter()
+                .fold(
+                    Piece::default,
+                    |mut piece, (slot, ((member, block), record))| {
+                        let Some(member) = member.as_mut() else {
+                            return piece;
+                        };
+                        let Some((t, lod)) = member.pending.take() else {
+                            return piece;
+                        };
+                        let t = clamp_t(t).expect("checked time");
+                        block.set_pose(track, t, &mut piece.weights);
+                        // Checked above: cannot fail.
+                        let plan = (member.state)
+                            .plan(model, t, lod, Strategy::Auto)
+                            .expect("checked move");
+                        if DeformingState::links_survivors(model, plan) {
+                            piece.rebuilds.push((slot, plan));
+                            return piece;
+                        }
+                        member.state.apply(model, plan, &mut Survivors::new());
+                        member.patch(layout, key, slot as u32, record, prepares, &mut piece);
+                        piece
+                    },
+                )
+                .map(Piece::runs)
                 .collect();
+            let rebuilds = a.waiting.take(pieces);
             if rebuilds.is_empty() {
                 continue;
             }
-            // The rebuilds, by frame: instances switching to one frame share its survivors.
+            // The rebuilds over the mesh, by frame (instances switching to one frame share
+            // its survivors), each instance's patches right after its rebuild.
             let mut plans = rebuilds.into_iter().peekable();
             let mut jobs = Vec::with_capacity(plans.len());
-            for (slot, member) in a.members.iter_mut().enumerate() {
+            for (slot, (member, record)) in a.members.iter_mut().zip(&mut a.records).enumerate() {
                 if let (Some(member), Some(&(s, plan))) = (member, plans.peek()) {
                     if s == slot {
-                        jobs.push((plan, &mut member.state));
+                        jobs.push((plan, (slot as u32, member, record)));
                         plans.next();
                     }
                 }
             }
-            rebuild_all(model, &mut jobs);
+            let pieces = rebuild_all(
+                model,
+                &mut jobs,
+                |(_, member, _)| &mut member.state,
+                |(slot, member, record), piece: &mut Piece| {
+                    member.patch(layout, key, *slot, record, prepares, piece);
+                },
+            );
+            a.waiting
+                .take(pieces.into_par_iter().map(Piece::runs).collect());
         }
         Ok(())
     }
@@ -891,7 +1024,7 @@ impl Crowd {
     }
 
     /// Uploads what changed since the last call: per asset the new instances' `S0` (one write
-    /// each), the moved instances' index patches (one write and one scatter dispatch,
+    /// each), the index patches `set` made (one write and one scatter dispatch,
     /// submitted here on `queue`), the changed records and instance blocks (one contiguous
     /// write each); the scene block and textures. Call before submitting the pass that
     /// renders the crowd.
@@ -950,19 +1083,15 @@ impl Crowd {
             let texture = a.gpu.upload(queue);
             upload.bytes += texture;
             upload.writes += usize::from(texture > 0);
+            // New instances' regions get S0 (written before this frame's scatter runs, so
+            // patches made since their add land on it).
             let per = a.layout.per_instance();
-            // One sequential pass (a flag and a counter compare per slot): new instances get
-            // S0, and the moved instances whose strips changed are gathered, so that only they
-            // go to the thread pool; a frame where none changed (a shared sequence at a steady
-            // LOD) wakes no thread.
-            let mut changed = Vec::new();
-            for (slot, (member, record)) in a.members.iter_mut().zip(&mut a.records).enumerate() {
-                let Some(member) = member.as_mut() else {
+            for slot in a.fresh.drain(..) {
+                let Some(member) = a.members[slot as usize].as_mut() else {
                     continue;
                 };
-                if member.fresh {
-                    member.fresh = false;
-                    let offset = u64::from(slot as u32 * per) * 4;
+                if std::mem::take(&mut member.fresh) {
+                    let offset = u64::from(slot * per) * 4;
                     upload.write(
                         queue,
                         &a.index_buffer,
@@ -970,87 +1099,27 @@ impl Crowd {
                         bytemuck::cast_slice(a.layout.s0()),
                     );
                 }
-                if !std::mem::take(&mut member.moved) {
-                    continue;
-                }
-                // Unchanged strips keep their slots, record and compact copy.
-                let changes = member.state.changes();
-                if changes != member.changes {
-                    member.changes = changes;
-                    changed.push((slot as u32, member, record));
-                }
             }
-            // The changed instances: the patches of their compact copy where it is drawn (in
-            // the strips' places), else of their regions, and their record's patches. While
-            // the compact copy is drawn the regions are not read: what changed in them waits
-            // in the instance's `Places` (coalesced per strip: a position changed in many
-            // frames is sent once) until a record reads the regions again.
-            let layout = &a.layout;
-            let key = (self.path, a.gpu.vertex_count(), per);
-            let patch = |(mut patches, mut record_patches): (Patches, Patches),
-                         (slot, member, record): (
-                u32,
-                &mut Member,
-                &mut DrawIndexedIndirectArgs,
-            )| {
-                let drawn = layout.upload(
-                    slot * per,
-                    &mut member.state,
-                    &mut member.places,
-                    &mut member.uploaded,
-                    &mut patches,
-                );
-                set_record(key, slot, Some(drawn), record, &mut record_patches);
-                (patches, record_patches)
-            };
-            a.patches.clear();
-            let mut index_runs = std::mem::take(&mut a.index_runs);
-            if changed.len() < CHANGED_PER_PIECE {
-                // Less than one piece of work: straight into the asset's lists.
-                let lists = (
-                    std::mem::take(&mut a.patches),
-                    std::mem::take(&mut a.record_patches),
-                );
-                (a.patches, a.record_patches) = changed.into_iter().fold(lists, patch);
-                index_runs.truncate(1);
-                if index_runs.is_empty() {
-                    index_runs.push(PatchRuns::default());
-                }
-                index_runs[0].refill(&a.patches);
-            } else {
-                // One pair of lists per piece of work rayon splits off, not per instance: a
-                // frame with hundreds of changed instances makes (and grows) a few lists. Each
-                // piece's index patches become runs on its thread: gathered on this one they
-                // were most of the crowd's serial time (tens of thousands of patches a frame).
-                let piece = (changed.len())
-                    .div_ceil(4 * rayon::current_num_threads())
-                    .min(CHANGED_PER_PIECE);
-                let lists: Vec<(PatchRuns, Patches)> = changed
-                    .into_par_iter()
-                    .with_min_len(piece)
-                    .fold(|| (Vec::new(), Vec::new()), &patch)
-                    .map(|(patches, records)| (PatchRuns::of(&patches), records))
-                    .collect();
-                index_runs.clear();
-                for (runs, records) in lists {
-                    index_runs.push(runs);
-                    a.record_patches.extend_from_slice(&records);
-                }
+            if a.waiting.overlap {
+                a.waiting.merge(per);
             }
+            a.prepares += 1;
+            let index_runs = std::mem::take(&mut a.waiting.index_runs);
             upload.patches += index_runs
                 .iter()
                 .map(|r| r.values.len() as u64)
                 .sum::<u64>();
             // The scatter's invocations run in any order on a real GPU (lavapipe runs them in
             // order, NVIDIA does not), so a word may get only one value a frame. Index patches
-            // name each word once by construction (`SlotLayout::upload`); a slot's record can
+            // name each word once by construction (`SlotLayout::upload`; merged above where an
+            // instance was patched by two `set`s); a slot's record can
             // change several times between two prepares (removed, then added again), so its
             // words keep their last value. Both checked in debug builds, which the tests run
             // on lavapipe.
-            keep_last_per_word(&mut a.record_patches);
+            keep_last_per_word(&mut a.waiting.records);
             let mut record_runs = std::mem::take(&mut a.record_runs);
-            record_runs.refill(&a.record_patches);
-            a.record_patches.clear();
+            record_runs.refill(&a.waiting.records);
+            a.waiting.records.clear();
             for (what, runs) in [
                 (Patched::Indices, &index_runs[..]),
                 (Patched::Records, std::slice::from_ref(&record_runs)),
@@ -1073,7 +1142,7 @@ impl Crowd {
                     &mut upload,
                 );
             }
-            (a.index_runs, a.record_runs) = (index_runs, record_runs);
+            a.record_runs = record_runs;
             if let Some(range) = a.dirty_blocks.take() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
