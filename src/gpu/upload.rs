@@ -218,6 +218,9 @@ impl IndexMirror {
 /// thread and the split's tasks would cost what they save.
 pub(super) const PARALLEL_WORDS: usize = 1 << 15;
 
+/// Spans from which [`coalesce`] sorts on the thread pool.
+const PARALLEL_SPANS: usize = 1 << 14;
+
 /// The part of `range` below `live` (empty when it starts past it).
 pub(super) fn clip(range: Range<u32>, live: u32) -> Range<u32> {
     range.start.min(live)..range.end.min(live)
@@ -309,6 +312,24 @@ pub(super) fn plan_upload(spans: &[Range<u32>], gap: u32, max_list_bytes: u64) -
     if max_list_bytes == 0 || spans.len() < 2 {
         return writes_only(writes_cost);
     }
+    // No split costs less than `split_floor`: where the writes cost no more, they win without
+    // pricing the split (a frame switch of the 100k object: ~100 k spans, whose split took
+    // ~2 ms of one thread on the H200, to choose one write).
+    if writes_cost <= split_floor(spans) {
+        return writes_only(writes_cost);
+    }
+    let hybrid = hybrid_plan(spans);
+    // A list past one binding (millions of changed words in a frame): writes only.
+    if hybrid.cost < writes_cost && run_list_bytes(&hybrid.runs) <= max_list_bytes {
+        hybrid
+    } else {
+        writes_only(writes_cost)
+    }
+}
+
+/// The hybrid plan of `spans` ([`cheapest_split`]) with its cost: its writes, and its run
+/// list plus the scatter's call where it has runs.
+fn hybrid_plan(spans: &[Range<u32>]) -> UploadPlan {
     let (mut hybrid, _) = cheapest_split(spans);
     let list = run_list_bytes(&hybrid.runs);
     hybrid.cost = hybrid
@@ -321,12 +342,16 @@ pub(super) fn plan_upload(spans: &[Range<u32>], gap: u32, max_list_bytes: u64) -
         } else {
             SCATTER_CALL_BYTES + list
         };
-    // A list past one binding (millions of changed words in a frame): writes only.
-    if hybrid.cost < writes_cost && list <= max_list_bytes {
-        hybrid
-    } else {
-        writes_only(writes_cost)
-    }
+    hybrid
+}
+
+/// A floor under the cost of any plan with runs or several pieces: every word sent costs 4
+/// bytes and every piece (a single word, a run, a write) at least 4 more; the unchanged words
+/// between two spans are either sent (at least one) or start a new piece, so each of the
+/// `n - 1` gaps adds at least 4: `4 (changed words + n)`.
+fn split_floor(spans: &[Range<u32>]) -> u64 {
+    let changed: u64 = spans.iter().map(|s| u64::from(s.end - s.start)).sum();
+    4 * (changed + spans.len() as u64)
 }
 
 /// `spans` (ascending, disjoint) with those at most `gap` words apart joined into one: what
@@ -412,8 +437,15 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
 pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>> {
     // A stable sort merges the ascending runs it finds in linear time: the spans of a frame
     // arrive as a few such runs (the dirty ranges in strip order, then the resizes), which
-    // an unstable sort sorts from scratch. Equal starts merge below either way.
-    spans.sort_by_key(|span| span.start);
+    // an unstable sort sorts from scratch. Equal starts merge below either way. A frame
+    // switch of the 100k object brings ~100 k spans: sorted on one thread they took ~1 ms on
+    // the H200, so from `PARALLEL_SPANS` on they are sorted on the pool (stable likewise).
+    if spans.len() >= PARALLEL_SPANS && rayon::current_thread_index().is_none() {
+        use rayon::slice::ParallelSliceMut;
+        spans.par_sort_by_key(|span| span.start);
+    } else {
+        spans.sort_by_key(|span| span.start);
+    }
     let mut merged: Vec<Range<u32>> = Vec::with_capacity(spans.len());
     for span in spans.drain(..) {
         match merged.last_mut() {
@@ -429,8 +461,8 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
 #[cfg(test)]
 mod tests {
     use super::{
-        cheapest_split, coalesce, diff_copy, joined, plan_upload, run_list_bytes, IndexMirror,
-        UploadPlan, SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
+        cheapest_split, coalesce, diff_copy, hybrid_plan, joined, plan_upload, run_list_bytes,
+        split_floor, IndexMirror, UploadPlan, SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
     };
     use crate::random::next_below;
     use std::ops::Range;
@@ -595,10 +627,56 @@ mod tests {
         }
     }
 
+    /// `plan_upload` chooses the writes without pricing the split where they cost no more
+    /// than `split_floor`: no split costs less, over random frames of few and of many spans,
+    /// sparse and dense (a split below the floor would be a split the shortcut misses).
+    #[test]
+    fn no_split_costs_less_than_the_floor() {
+        let mut seed = 0x5eed_f100_u64;
+        for frame in 0..400 {
+            let n = 2 + next_below(&mut seed, if frame % 4 == 0 { 3000 } else { 60 }) as usize;
+            let spread = 1 + next_below(&mut seed, 40);
+            let mut spans = Vec::with_capacity(n);
+            let mut at = next_below(&mut seed, 100);
+            for _ in 0..n {
+                let long = 1 + next_below(&mut seed, 30);
+                let len = 1 + next_below(&mut seed, long);
+                spans.push(at..at + len);
+                at += len + 1 + next_below(&mut seed, spread);
+            }
+            let hybrid = hybrid_plan(&spans);
+            assert!(
+                hybrid.cost >= split_floor(&spans),
+                "frame {frame}: split {} under the floor {}",
+                hybrid.cost,
+                split_floor(&spans)
+            );
+        }
+    }
+
     #[test]
     fn coalesce_merges_overlapping_and_close_spans_only() {
         let mut spans = vec![10..12, 0..4, 3..6, 30..31, 12..13];
         assert_eq!(coalesce(&mut spans, 0), vec![0..6, 10..13, 30..31]);
+        // Past `PARALLEL_SPANS` (sorted on the pool): as a plain sort and merge makes them.
+        let mut seed = 0xc0a1_e5ce_u64;
+        let mut many: Vec<Range<u32>> = (0..3 * super::PARALLEL_SPANS)
+            .map(|_| {
+                let start = next_below(&mut seed, 1 << 20);
+                start..start + 1 + next_below(&mut seed, 8)
+            })
+            .collect();
+        let mut sorted = many.clone();
+        sorted.sort_by_key(|span| span.start);
+        let mut expected: Vec<Range<u32>> = Vec::new();
+        for span in sorted {
+            match expected.last_mut() {
+                Some(last) if span.start <= last.end => last.end = last.end.max(span.end),
+                _ => expected.push(span),
+            }
+        }
+        assert_eq!(coalesce(&mut many, 0), expected);
+        assert!(many.is_empty());
         assert!(spans.is_empty());
         let mut spans = vec![10..12, 0..4, 30..31];
         assert_eq!(coalesce(&mut spans, 6), vec![0..12, 30..31]);
