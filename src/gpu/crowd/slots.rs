@@ -265,6 +265,20 @@ impl SlotLayout {
         let restarts = |from: u32, to: u32, out: &mut Vec<[u32; 2]>| {
             out.extend((area + from..area + to).map(|slot| [slot, RESTART]));
         };
+        // The strips that outgrow their room move to the end of the used part: their rooms
+        // summed first, in a loop of independent loads (a cold instance's places are as many
+        // cache misses, which the loop below would wait on one after another), and where they
+        // cannot fit the copy is repacked without the moves being written first.
+        let mut end = places.used;
+        for (r, _, _) in by_strip(dirty) {
+            let new = lengths[r];
+            if new > places.place[r].room {
+                end += u32::from(end > 0) + new + new * SLACK_EIGHTHS / 8;
+            }
+        }
+        if end > bound {
+            return false;
+        }
         for (r, range, resized) in by_strip(dirty) {
             let Place { at, room, len: old } = places.place[r];
             let new = lengths[r];
