@@ -658,7 +658,7 @@ mod tests {
     fn coalesce_merges_overlapping_and_close_spans_only() {
         let mut spans = vec![10..12, 0..4, 3..6, 30..31, 12..13];
         assert_eq!(coalesce(&mut spans, 0), vec![0..6, 10..13, 30..31]);
-        // Past `PARALLEL_SPANS` (sorted on the pool): as a plain sort and merge makes them.
+        // Past `PARALLEL_SPANS` (sorted on the pool): as a plain sort and `joined` make them.
         let mut seed = 0xc0a1_e5ce_u64;
         let mut many: Vec<Range<u32>> = (0..3 * super::PARALLEL_SPANS)
             .map(|_| {
@@ -668,13 +668,7 @@ mod tests {
             .collect();
         let mut sorted = many.clone();
         sorted.sort_by_key(|span| span.start);
-        let mut expected: Vec<Range<u32>> = Vec::new();
-        for span in sorted {
-            match expected.last_mut() {
-                Some(last) if span.start <= last.end => last.end = last.end.max(span.end),
-                _ => expected.push(span),
-            }
-        }
+        let expected: Vec<Range<u32>> = joined(&sorted, 0).collect();
         assert_eq!(coalesce(&mut many, 0), expected);
         assert!(many.is_empty());
         assert!(spans.is_empty());
