@@ -250,7 +250,9 @@ struct CrowdAsset {
     waiting: Waiting,
     /// Scratch of a scatter: the encoded run list.
     run_list: Vec<u32>,
-    /// Slots added since the last prepare (their regions get `S0`).
+    /// Slots added to since the last prepare, once per add: a slot listed that holds an
+    /// instance holds one added since (a slot is added to only while free), whose regions
+    /// get `S0`.
     fresh: Vec<u32>,
     /// Prepares so far (a [`Member`] notes the one its patches wait for).
     prepares: u64,
@@ -444,8 +446,6 @@ struct Member {
     /// The asset's prepare count when its last patches were made: equal to the current
     /// count, they wait in the asset's lists.
     patched: u64,
-    /// Added since the last prepare: its slots need `S0`.
-    fresh: bool,
 }
 
 impl Member {
@@ -834,7 +834,6 @@ impl Crowd {
             places: Places::default(),
             pending: None,
             patched: u64::MAX,
-            fresh: true,
         });
         a.fresh.push(slot);
         a.drawn = a.drawn.max(slot + 1);
@@ -1085,12 +1084,12 @@ impl Crowd {
             upload.writes += usize::from(texture > 0);
             // New instances' regions get S0 (written before this frame's scatter runs, so
             // patches made since their add land on it).
+            // A slot removed and added to again is listed twice and written once.
             let per = a.layout.per_instance();
+            a.fresh.sort_unstable();
+            a.fresh.dedup();
             for slot in a.fresh.drain(..) {
-                let Some(member) = a.members[slot as usize].as_mut() else {
-                    continue;
-                };
-                if std::mem::take(&mut member.fresh) {
+                if a.members[slot as usize].is_some() {
                     let offset = u64::from(slot * per) * 4;
                     upload.write(
                         queue,
