@@ -137,6 +137,25 @@ impl DirtyLog {
     }
 }
 
+/// Fills `root` with the survivor of each of `vertices` vertices after the collapses
+/// `collapse(0..steps)` (`(u, w)`: `u` into `w`), walked backward as
+/// [`CollapseSequence::survivors`](crate::collapse::CollapseSequence::survivors) does (each `w`
+/// outlives its step, so it is resolved when reached). The runtime's own copy: the oracle's
+/// stays apart from the code it checks.
+fn roots_backward(
+    root: &mut Vec<u32>,
+    vertices: usize,
+    steps: usize,
+    collapse: impl Fn(usize) -> (u32, u32),
+) {
+    root.clear();
+    root.extend(0..vertices as u32);
+    for step in (0..steps).rev() {
+        let (u, w) = collapse(step);
+        root[u as usize] = root[w as usize];
+    }
+}
+
 /// Bits set in `bits`.
 fn ones(bits: &[u64]) -> usize {
     bits.iter().map(|w| w.count_ones() as usize).sum()
@@ -202,16 +221,9 @@ impl<'a> Survivors<'a> {
     fn reach(&mut self, vertices: usize, frame: &'a FrameChanges, lod: usize) {
         let same = self.frame.is_some_and(|f| std::ptr::eq(f, frame));
         if !same || lod < self.lod || self.parent.len() != vertices {
-            // From scratch, the collapses walked backward (as
-            // [`CollapseSequence::survivors`](crate::collapse::CollapseSequence::survivors)):
-            // every vertex then points at its root, so a lone rebuild finds each survivor in
-            // one step, for the same work as linking forward.
-            self.parent.clear();
-            self.parent.extend(0..vertices as u32);
-            for step in (0..lod).rev() {
-                let (u, w) = frame.collapse(step);
-                self.parent[u as usize] = self.parent[w as usize];
-            }
+            // From scratch: every vertex then points at its root, so a lone rebuild finds each
+            // survivor in one step, for the same work as linking forward.
+            roots_backward(&mut self.parent, vertices, lod, |step| frame.collapse(step));
             self.frame = Some(frame);
             self.lod = lod;
             self.flat = true;
@@ -489,12 +501,9 @@ impl StripsState {
         let l = lod as u32;
         let rel = l - tail.lod;
         let mut root = TAIL_ROOTS.take();
-        root.clear();
-        root.extend(0..tail.vertices.len() as u32);
-        for j in (0..rel as usize).rev() {
-            let (u, w) = tail.collapse(j);
-            root[u as usize] = root[w as usize];
-        }
+        roots_backward(&mut root, tail.vertices.len(), rel as usize, |j| {
+            tail.collapse(j)
+        });
         let log = &mut self.log;
         let mut mark = |m| log.apply(m);
         empty_dead_strips(frame, l, 0, &mut self.lens, &mut mark);
