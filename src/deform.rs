@@ -30,7 +30,7 @@ use thiserror::Error;
 
 use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
-use crate::lodstrips::packed::Narrow;
+use crate::lodstrips::increasing::Increasing;
 use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState, Survivors};
 use crate::seams::{check_steps, SeamError, StepBoundaries, Wedges};
 
@@ -154,13 +154,15 @@ struct Frame {
     /// distance (square root of the recorded mean squared distance), never
     /// decreases and `errors[0] = 0`; it is kept only where it grows: from LOD
     /// `error_steps[i]` on (up to the next entry) it is the square root of the
-    /// recorded error whose `f32` bits are `error_keys[i] << error_shift`.
+    /// recorded error whose `f32` bits are `error_keys[i] << error_shift`
+    /// (both sequences strictly increasing, each in the smaller of an array and
+    /// a bitmap over its range, [`Increasing`]).
     /// The recorded errors are positive there, so the keys grow with the
     /// errors; built assets round errors to bfloat16 (`quantize_error`), whose
     /// low 16 bits are zero, and then store the top 16 bits only
     /// (`error_shift = 16`); other errors keep all 32 (`error_shift = 0`).
-    error_steps: Narrow,
-    error_keys: Narrow,
+    error_steps: Increasing,
+    error_keys: Increasing,
     error_shift: u32,
     /// For an asset with a surface: the LODs that fall between two topology collapses,
     /// the only ones shown ([`crate::seams`]); `None`: every LOD.
@@ -168,9 +170,10 @@ struct Frame {
 }
 
 impl Frame {
-    /// `errors[error_steps[i]]` (see the field docs).
-    fn error_value(&self, i: usize) -> f32 {
-        f32::from_bits(self.error_keys.get(i) << self.error_shift).sqrt()
+    /// The distance an error key stands for (`errors[error_steps[i]]` for
+    /// `error_keys[i]`, see the field docs).
+    fn error_value(&self, key: u32) -> f32 {
+        f32::from_bits(key << self.error_shift).sqrt()
     }
 
     /// The coarsest LOD whose collapse errors, as distances, are all `≤ e`
@@ -179,15 +182,18 @@ impl Frame {
         if e.is_nan() || e < 0.0 {
             return 0;
         }
-        let (mut lo, mut hi) = (0, self.error_keys.len());
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if self.error_value(mid) <= e {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
+        // The largest key whose distance is within `e`, from the key of `e²` (at most a
+        // rounding away), then the keys up to it: integer compares, no square root each.
+        let max = u32::MAX >> self.error_shift;
+        let mut key = ((e * e).to_bits() >> self.error_shift).min(max);
+        // (Key 0 is the distance 0, within every `e` here.)
+        while key > 0 && self.error_value(key) > e {
+            key -= 1;
         }
+        while key < max && self.error_value(key + 1) <= e {
+            key += 1;
+        }
+        let lo = self.error_keys.count_at_most(key);
         if lo < self.error_steps.len() {
             self.error_steps.get(lo) as usize - 1
         } else {
@@ -440,11 +446,8 @@ fn build_frame(
     };
     Ok(Frame {
         changes,
-        error_steps: Narrow::new(seq.len() as u32, steps),
-        error_keys: Narrow::new(
-            keys.last().map_or(0, |k| k >> error_shift),
-            keys.iter().map(|k| k >> error_shift),
-        ),
+        error_steps: Increasing::new(&steps),
+        error_keys: Increasing::new(&keys.iter().map(|k| k >> error_shift).collect::<Vec<_>>()),
         error_shift,
         boundaries,
     })

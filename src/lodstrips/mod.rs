@@ -31,6 +31,7 @@
 //! a cursor without an offset table.
 
 mod build;
+pub(crate) mod increasing;
 pub(crate) mod packed;
 mod runtime;
 
