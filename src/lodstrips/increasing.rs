@@ -7,10 +7,11 @@
 //!
 //! Both questions the error lookup asks cost a few loads, whatever the sequence's length:
 //! how many values are at most `x` (the count before `x`'s word and the set bits of one word)
-//! and the `i`-th value (the kept bit of value `i - i % PICK_VALUES`, the counts of the few
-//! words from there, then the bit in one word). The counts per word spare the bit counts of
-//! whole words: without the `popcnt` instruction (not in the baseline x86-64 target) each is
-//! a dozen instructions, and a crowd asks once per instance per frame.
+//! and the `i`-th value (the kept bit of value `i - i % PICK_VALUES`, then the set bits of
+//! the few words from there). A crowd asks once per instance per frame, mostly of tables the
+//! frame's other work has pushed out of the cache: each question reads two of them, the
+//! counts or the kept bits and then the words (without the `popcnt` instruction, not in the
+//! baseline x86-64 target, a word's bit count is a dozen instructions, cheaper than a miss).
 
 use super::packed::Narrow;
 
@@ -93,23 +94,28 @@ impl Increasing {
 
     /// Value `i` (`i < len()`).
     pub(crate) fn get(&self, i: usize) -> u32 {
-        let (base, words, ranks, picks) = match self {
+        let (base, words, picks) = match self {
             Increasing::Plain(v) => return v.get(i),
             Increasing::Bits {
-                base,
-                words,
-                ranks,
-                picks,
-            } => (*base, words, ranks, picks),
+                base, words, picks, ..
+            } => (*base, words, picks),
         };
         debug_assert!(i < self.len());
-        let i = i as u32;
-        // From the kept value's word, the last word whose count before it is at most `i`.
-        let mut w = picks.get(i as usize / PICK_VALUES) as usize / 64;
-        while ranks.get(w + 1) <= i {
+        // From the kept value's bit, the words on to the one that holds value `i`: their
+        // bits counted, not the counts per word read (one cache miss fewer on a cold table).
+        let from = picks.get(i / PICK_VALUES) as usize;
+        let mut left = (i % PICK_VALUES) as u32;
+        let mut w = from / 64;
+        let mut word = words[w] & (u64::MAX << (from % 64));
+        loop {
+            let ones = word.count_ones();
+            if left < ones {
+                return base + (w * 64) as u32 + select(word, left);
+            }
+            left -= ones;
             w += 1;
+            word = words[w];
         }
-        base + (w * 64) as u32 + select(words[w], i - ranks.get(w))
     }
 
     /// The number of values at most `x`.
