@@ -596,7 +596,9 @@ impl DeformingState {
     ) {
         let frame = &model.frames[plan.frame].changes;
         if plan.strategy == Strategy::Rebuild {
-            self.state.rebuild(&model.layout, frame, plan.lod, anc);
+            let from = &model.frames[self.frame].changes;
+            self.state
+                .rebuild(&model.layout, from, frame, plan.lod, anc);
         } else {
             if plan.frame != self.frame {
                 self.state.step_to(&model.frames[self.frame].changes, 0);
@@ -825,9 +827,10 @@ mod tests {
                     &mut Survivors::new(),
                     usize::MAX,
                 );
+                let from = &model.frames[from_tail.frame].changes;
                 from_tail
                     .state
-                    .rebuild(&model.layout, frame, l, &mut Survivors::new());
+                    .rebuild(&model.layout, from, frame, l, &mut Survivors::new());
                 same_rebuild(&mut from_tail, &mut full, &format!("frame {k}, LOD {l}"));
                 covered += usize::from(l >= tail);
             }

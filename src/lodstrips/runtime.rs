@@ -384,19 +384,22 @@ impl StripsState {
     /// neighbouring frames keep most of their indices, so uploads shrink).
     ///
     /// At the frame's coarse LODs (its tail, see `Tail`) the rebuild reads the tail alone and
-    /// leaves `anc` as it is. A large state rebuilt from scratch off the thread pool (one
-    /// object's frame switch) is split over the pool's threads ([`PARALLEL_SLOTS`]); a crowd's
-    /// rebuilds, already spread over the pool by `deform::rebuild_all`, stay on their thread.
+    /// leaves `anc` as it is; `from`, the frame the state is at (its strips are `from`'s at
+    /// the state's LOD), tells it which strips hold something before it. A large state rebuilt
+    /// from scratch off the thread pool (one object's frame switch) is split over the pool's
+    /// threads ([`PARALLEL_SLOTS`]); a crowd's rebuilds, already spread over the pool by
+    /// `deform::rebuild_all`, stay on their thread.
     pub(crate) fn rebuild<'a>(
         &mut self,
         layout: &StripLayout,
+        from: &FrameChanges,
         frame: &'a FrameChanges,
         lod: usize,
         anc: &mut Survivors<'a>,
     ) {
         let lod = lod.min(frame.max_lod());
         if frame.rebuilds_from_tail(lod) {
-            self.rebuild_from_tail(layout, frame, lod);
+            self.rebuild_from_tail(layout, from, frame, lod);
             return;
         }
         let threads = rayon::current_num_threads();
@@ -494,9 +497,16 @@ impl StripsState {
     /// tail: the tail's survivors at `lod` (its collapses up to `lod` walked backward over its
     /// vertices, as [`Survivors`] does from scratch), the strips empty at `lod` emptied, then
     /// every strip not empty there written from its tail entries alive at `lod`. The buffer
-    /// and the dirty log are those of the full rebuild; its cost is the tail's size, whatever
-    /// the mesh's.
-    fn rebuild_from_tail(&mut self, layout: &StripLayout, frame: &FrameChanges, lod: usize) {
+    /// and the dirty log are those of the full rebuild; its cost is the tail's size and the
+    /// strips live before (those of `from`, the state's frame, at its LOD), whatever the
+    /// mesh's.
+    fn rebuild_from_tail(
+        &mut self,
+        layout: &StripLayout,
+        from: &FrameChanges,
+        frame: &FrameChanges,
+        lod: usize,
+    ) {
         let tail = &frame.tail;
         let l = lod as u32;
         let rel = l - tail.lod;
@@ -506,7 +516,25 @@ impl StripsState {
         });
         let log = &mut self.log;
         let mut mark = |m| log.apply(m);
-        empty_dead_strips(frame, l, 0, &mut self.lens, &mut mark);
+        // A coarse state's live strips are a short prefix of its frame's strips by death
+        // (a few dozen of a thousand): those are looked up, not every strip's length.
+        let before = from.strips_alive(self.lod as u32);
+        debug_assert_eq!(
+            before,
+            self.lens.iter().filter(|&&n| n != 0).count(),
+            "the state's strips are not those of `from` at its LOD"
+        );
+        if before * 4 < self.lens.len() {
+            for j in 0..before {
+                let s = from.strips_by_death.get(j) as usize;
+                if frame.strip_death.get(s) <= l {
+                    self.lens[s] = 0;
+                    mark(Mark::Len(s as u32));
+                }
+            }
+        } else {
+            empty_dead_strips(frame, l, 0, &mut self.lens, &mut mark);
+        }
         for j in 0..frame.strips_alive(l) {
             let s = frame.strips_by_death.get(j) as usize;
             // The layout's region table, shared by every state (warm in the cache when a
