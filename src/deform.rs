@@ -462,6 +462,19 @@ pub(crate) struct Plan {
     pub(crate) strategy: Strategy,
 }
 
+impl Plan {
+    /// Whether carrying it out reads a survivor table over `model`'s mesh (a rebuild finer
+    /// than its frame's tail): such rebuilds go to [`rebuild_all`], grouped by frame; the
+    /// rest are cheapest where the state was just read.
+    #[cfg(feature = "gpu")]
+    pub(crate) fn links_survivors(self, model: &DeformingModel) -> bool {
+        self.strategy == Strategy::Rebuild
+            && !model.frames[self.frame]
+                .changes
+                .rebuilds_from_tail(self.lod)
+    }
+}
+
 /// Carries out the rebuilds of many states of one model, each with its plan: sorted by
 /// frame and LOD, cut into runs of one frame (at most `⌈states / (4 × threads)⌉` each, so
 /// that the runs spread over the threads even when every state goes to one frame), the runs
@@ -573,17 +586,6 @@ impl DeformingState {
             lod: l,
             strategy,
         })
-    }
-
-    /// Whether carrying out `plan` reads a survivor table over the mesh (a rebuild finer than
-    /// its frame's tail): such rebuilds go to [`rebuild_all`], grouped by frame; the rest are
-    /// cheapest where the state was just read.
-    #[cfg(feature = "gpu")]
-    pub(crate) fn links_survivors(model: &DeformingModel, plan: Plan) -> bool {
-        plan.strategy == Strategy::Rebuild
-            && !model.frames[plan.frame]
-                .changes
-                .rebuilds_from_tail(plan.lod)
     }
 
     /// Carries out `plan` (made by [`plan`](Self::plan) for this state and `model`); a

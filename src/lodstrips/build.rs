@@ -381,8 +381,8 @@ impl<'a> Replay<'a> {
         self.cursors.push(self.stream.len() as u32);
         let total = self.buf.len();
         let max = seq.len();
-        let never = max as u32 + 1;
-        let lod = |d: u32| if d == NEVER { never } else { d };
+        let never = as_lod(NEVER, max);
+        let lod = |d| as_lod(d, max);
         let last_vertex = seq.vertex_count.saturating_sub(1);
         let copies = flatten_copies(self.region_offsets, &self.tokens);
         // Per strip, its first copy (copies are sorted by anchor, strip after strip).
@@ -462,6 +462,16 @@ impl<'a> Replay<'a> {
     }
 }
 
+/// A death or birth as a LOD of a frame of `max_lod` steps: `NEVER` (alive at every LOD)
+/// as `max_lod + 1`, the first LOD past the last.
+fn as_lod(d: u32, max_lod: usize) -> u32 {
+    if d == NEVER {
+        max_lod as u32 + 1
+    } else {
+        d
+    }
+}
+
 /// The frame's [`Tail`]: its LOD from the entries' deaths (`deaths` per `S0` slot and the
 /// copies', `NEVER` already `max_lod + 1`), then its strips' entries in strip order with their
 /// values mapped to their survivors there ([`CollapseSequence::survivors`]) and renumbered
@@ -477,8 +487,8 @@ fn tail(
     strips_by_death: &[u32],
 ) -> Tail {
     let max = seq.len();
-    let never = max as u32 + 1;
-    let lod = |d: u32| if d == NEVER { never } else { d };
+    let never = as_lod(NEVER, max);
+    let lod = |d| as_lod(d, max);
     // The finest LOD with at most `S0 / TAIL_SHARE` entries alive at it or later: entries
     // counted by death, added from the coarsest LOD down.
     let mut by_death = vec![0usize; max + 2];

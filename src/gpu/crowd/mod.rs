@@ -942,7 +942,7 @@ impl Crowd {
                         let plan = (member.state)
                             .plan(model, t, lod, Strategy::Auto)
                             .expect("checked move");
-                        if DeformingState::links_survivors(model, plan) {
+                        if plan.links_survivors(model) {
                             piece.rebuilds.push((slot, plan));
                             return piece;
                         }
