@@ -25,67 +25,21 @@ use proptest::prelude::*;
 
 // ---------------------------------------------------------------- generators
 
-fn icosphere(level: u32) -> IndexedMesh {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut p: Vec<DVec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|&c| DVec3::from_array(c).normalize())
-    .collect();
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..level {
-        let (np, nt) = subdivide_points(&p, &tris, true);
-        p = np;
-        tris = nt;
-    }
-    IndexedMesh::new(p.iter().map(|v| v.as_vec3().to_array()).collect(), tris)
-}
-
-/// 1 → 4 midpoint subdivision; `project` puts new points on the unit sphere.
-fn subdivide_points(p: &[DVec3], tris: &[[u32; 3]], project: bool) -> (Vec<DVec3>, Vec<[u32; 3]>) {
-    let mut p = p.to_vec();
+/// The same surface with every triangle split in four (midpoints on the edges).
+fn refined(mesh: &IndexedMesh) -> IndexedMesh {
+    let mut p: Vec<DVec3> = mesh
+        .positions
+        .iter()
+        .map(|&q| DVec3::from_array(q.map(f64::from)))
+        .collect();
     let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
-    let mut out = Vec::with_capacity(tris.len() * 4);
-    for t in tris {
+    let mut out = Vec::with_capacity(mesh.triangles.len() * 4);
+    for t in &mesh.triangles {
         let mut m = [0u32; 3];
         for i in 0..3 {
             let (a, b) = (t[i].min(t[(i + 1) % 3]), t[i].max(t[(i + 1) % 3]));
             m[i] = *mid.entry((a, b)).or_insert_with(|| {
-                let q = (p[a as usize] + p[b as usize]) * 0.5;
-                p.push(if project { q.normalize() } else { q });
+                p.push((p[a as usize] + p[b as usize]) * 0.5);
                 p.len() as u32 - 1
             });
         }
@@ -94,18 +48,7 @@ fn subdivide_points(p: &[DVec3], tris: &[[u32; 3]], project: bool) -> (Vec<DVec3
         out.push([m[2], m[1], t[2]]);
         out.push([m[0], m[1], m[2]]);
     }
-    (p, out)
-}
-
-/// The same surface with every triangle split in four (midpoints on the edges).
-fn refined(mesh: &IndexedMesh) -> IndexedMesh {
-    let p: Vec<DVec3> = mesh
-        .positions
-        .iter()
-        .map(|&q| DVec3::from_array(q.map(f64::from)))
-        .collect();
-    let (np, nt) = subdivide_points(&p, &mesh.triangles, false);
-    IndexedMesh::new(np.iter().map(|v| v.as_vec3().to_array()).collect(), nt)
+    IndexedMesh::new(p.iter().map(|v| v.as_vec3().to_array()).collect(), out)
 }
 
 struct Rng(u64);
@@ -125,7 +68,7 @@ fn blob(level: u32, noise: f64, stretch: [f64; 3], seed: u64) -> IndexedMesh {
     let mut rng = Rng(seed);
     let axis = DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5 + 1e-3).normalize();
     let rotation = DMat3::from_axis_angle(axis, 6.0 * rng.unit());
-    let mut mesh = icosphere(level);
+    let mut mesh = IndexedMesh::icosphere(level as u8);
     for p in &mut mesh.positions {
         let r = 1.0 + noise * (rng.unit() - 0.5);
         let q = DVec3::from_array(p.map(f64::from)) * r * DVec3::from_array(stretch);
@@ -418,7 +361,7 @@ fn overlays_onto_itself(a: &IndexedMesh) {
 
 #[test]
 fn identical_meshes_without_perturbation_merge_into_the_mesh() {
-    overlays_onto_itself(&icosphere(1));
+    overlays_onto_itself(&IndexedMesh::icosphere(1));
     overlays_onto_itself(&blob(2, 0.4, [2.0, 1.0, 0.5], 11));
 }
 
@@ -597,7 +540,7 @@ fn progress_reports_every_stage() {
         progress: Some(&progress),
         ..SupermeshOptions::default()
     };
-    let a = icosphere(1);
+    let a = IndexedMesh::icosphere(1);
     let b = blob(2, 0.3, [1.0, 1.0, 1.0], 3);
     let (_, r) = build(&a, &b, &options);
     let seen = seen.into_inner().unwrap();
@@ -650,7 +593,7 @@ fn torus() -> IndexedMesh {
 
 #[test]
 fn bad_input_gets_typed_errors() {
-    let good = icosphere(1);
+    let good = IndexedMesh::icosphere(1);
     let mut open = good.clone();
     open.triangles.pop();
     let mut two = tetrahedron(0.0);

@@ -1537,72 +1537,18 @@ mod tests {
 
     /// A star-shaped blob: an icosphere (4 → 1 splits) pushed in and out.
     fn blob(level: u32, seed: u64) -> IndexedMesh {
-        let phi = (1.0 + 5f64.sqrt()) / 2.0;
-        let mut p: Vec<DVec3> = [
-            [-1.0, phi, 0.0],
-            [1.0, phi, 0.0],
-            [-1.0, -phi, 0.0],
-            [1.0, -phi, 0.0],
-            [0.0, -1.0, phi],
-            [0.0, 1.0, phi],
-            [0.0, -1.0, -phi],
-            [0.0, 1.0, -phi],
-            [phi, 0.0, -1.0],
-            [phi, 0.0, 1.0],
-            [-phi, 0.0, -1.0],
-            [-phi, 0.0, 1.0],
-        ]
-        .map(|c| DVec3::from_array(c).normalize())
-        .to_vec();
-        let mut t: Vec<[u32; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..level {
-            let mut mid = std::collections::HashMap::new();
-            let mut next = Vec::new();
-            for tri in &t {
-                let m = [0, 1, 2].map(|i| {
-                    let (a, b) = (tri[i].min(tri[(i + 1) % 3]), tri[i].max(tri[(i + 1) % 3]));
-                    *mid.entry((a, b)).or_insert_with(|| {
-                        p.push((p[a as usize] + p[b as usize]).normalize());
-                        p.len() as u32 - 1
-                    })
-                });
-                next.push([tri[0], m[0], m[2]]);
-                next.push([m[0], tri[1], m[1]]);
-                next.push([m[2], m[1], tri[2]]);
-                next.push(m);
-            }
-            t = next;
-        }
+        let sphere = IndexedMesh::icosphere(level as u8);
         let mut state = seed;
-        let positions = p
+        let positions = sphere
+            .positions
             .iter()
             .map(|&q| {
                 let r = 1.0 + 0.3 * (crate::random::next_unit(&mut state) - 0.5);
+                let q = DVec3::from_array(q.map(f64::from));
                 (q * r * DVec3::new(2.0, 1.0, 0.6)).as_vec3().to_array()
             })
             .collect();
-        IndexedMesh::new(positions, t)
+        IndexedMesh::new(positions, sphere.triangles)
     }
 
     /// An icosphere with spikes out of the icosahedron's vertices `at`
