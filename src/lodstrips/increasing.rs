@@ -50,12 +50,10 @@ impl Increasing {
         let (Some(&base), Some(&last)) = (values.first(), values.last()) else {
             return Increasing::Plain(plain);
         };
-        let bits = last - base + 1;
-        let words = (bits as usize).div_ceil(64);
-        let picks = Narrow::new(
-            bits - 1,
-            values.iter().step_by(PICK_VALUES).map(|&v| v - base),
-        );
+        // Bits `0..=span` (no overflow where the values span all of `u32`).
+        let span = last - base;
+        let words = span as usize / 64 + 1;
+        let picks = Narrow::new(span, values.iter().step_by(PICK_VALUES).map(|&v| v - base));
         // The counts' width follows the largest, the length (as `Narrow` picks it).
         let count_bytes = if u16::try_from(values.len()).is_ok() {
             2
@@ -281,6 +279,10 @@ mod tests {
         );
         let sparse: Vec<u32> = (0..100).map(|i| 1000 * i).collect();
         assert!(matches!(Increasing::new(&sparse), Increasing::Plain(_)));
+        // Values across all of `u32`: no overflow, the array.
+        let wide = Increasing::new(&[0, 5, u32::MAX]);
+        assert!(matches!(wide, Increasing::Plain(_)));
+        assert_eq!((wide.count_at_most(u32::MAX), wide.get(2)), (3, u32::MAX));
         assert_eq!(Increasing::new(&[]).len(), 0);
         assert_eq!(Increasing::new(&[]).count_at_most(u32::MAX), 0);
     }
