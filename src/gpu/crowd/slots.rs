@@ -44,20 +44,20 @@ pub(super) struct SlotRecord {
 /// Where an instance's live strips lie in its compact area, and which parts of its regions
 /// the GPU lacks. Empty (no heap) until the instance is first drawn from its copy.
 ///
-/// Strip `r` has a place `place[r]`: `at..at + room` of the compact area, holding its `len`
-/// indices as of the last upload and [`RESTART`] over the rest, followed by a separator slot
-/// that holds [`RESTART`] (so a place starts after a restart, like a region: a strip decodes
-/// with the same parity, and two never join). `room = 0`: no place. Places lie one after
-/// another from slot 0 up to `used`, with abandoned places (all restarts) between them.
+/// A strip with a place has `at..at + room` of the compact area, holding its `len` indices as
+/// of the last upload and [`RESTART`] over the rest, followed by a separator slot that holds
+/// [`RESTART`] (so a place starts after a restart, like a region: a strip decodes with the
+/// same parity, and two never join). Places lie one after another from slot 0 up to `used`,
+/// with abandoned places (all restarts) between them.
 #[derive(Default)]
 pub(super) struct Places {
-    /// One entry per strip, its three numbers side by side: a frame reads or writes a few
-    /// strips of each of hundreds of instances, one cache line each.
-    place: Vec<Place>,
-    /// The strips that have a place (`room > 0`), so that a repack clears their places alone
-    /// rather than writing the whole table: a crowd repacks hundreds of coarse instances a
-    /// frame, each with a few dozen live strips of a thousand.
-    placed: Vec<u32>,
+    /// The strips that have a place and their places, sorted by strip: a copy holds a few
+    /// dozen strips of a thousand, and the strips a move changed (sorted too) are found by
+    /// walking both lists, a few cache lines read in order rather than a line of a per-strip
+    /// table for each (most of a crowd's patch time went to those misses).
+    placed: Vec<(u32, Place)>,
+    /// Scratch of `move_places`: the strips given a first place, merged into `placed` after.
+    born: Vec<(u32, Place)>,
     /// The end of the used part (the record reads within `0..used` of the compact area, from
     /// its first live index to its last).
     used: u32,
@@ -77,9 +77,18 @@ pub(super) struct Places {
 impl Places {
     /// Heap bytes of the table.
     pub(super) fn heap_bytes(&self) -> usize {
-        self.place.capacity() * size_of::<Place>()
-            + self.placed.capacity() * 4
+        (self.placed.capacity() + self.born.capacity()) * size_of::<(u32, Place)>()
             + self.stale_span.capacity() * 8
+    }
+
+    /// Every strip's place (`room = 0`: none), for tests to compare strip by strip.
+    #[cfg(test)]
+    fn dense(&self, strips: usize) -> Vec<Place> {
+        let mut out = vec![Place::default(); strips];
+        for &(r, place) in &self.placed {
+            out[r as usize] = place;
+        }
+        out
     }
 
     /// Notes the changes of `dirty` as not yet in the regions.
@@ -116,6 +125,16 @@ impl Places {
             .collect();
         out
     }
+}
+
+/// The index in `placed` (sorted by strip) of strip `r`'s place, if it has one, looking from
+/// `*k` on; `*k` moves past the strips before `r`, so strips asked for in increasing order cost
+/// one walk of the list.
+fn find(placed: &[(u32, Place)], k: &mut usize, r: usize) -> Option<usize> {
+    while *k < placed.len() && (placed[*k].0 as usize) < r {
+        *k += 1;
+    }
+    (*k < placed.len() && placed[*k].0 as usize == r).then_some(*k)
 }
 
 /// Where one strip lies in the compact area (see [`Places`]).
@@ -220,12 +239,13 @@ impl SlotLayout {
                 out.truncate(mark);
                 self.repack(base, state, places, packed, out);
             }
-            // From the first live index of the copy to the last.
+            // From the first live index of the copy to the last (every live strip has a
+            // place holding its length).
             let (mut first, mut end) = (u32::MAX, 0);
-            for_each_live(lengths, |r, len| {
-                first = first.min(places.place[r].at);
-                end = end.max(places.place[r].at + len);
-            });
+            for (_, place) in places.placed.iter().filter(|(_, p)| p.len > 0) {
+                first = first.min(place.at);
+                end = end.max(place.at + place.len);
+            }
             return SlotRecord {
                 first: self.regions() + first,
                 count: end - first,
@@ -266,21 +286,27 @@ impl SlotLayout {
             out.extend((area + from..area + to).map(|slot| [slot, RESTART]));
         };
         // The strips that outgrow their room move to the end of the used part: their rooms
-        // summed first, in a loop of independent loads (a cold instance's places are as many
-        // cache misses, which the loop below would wait on one after another), and where they
-        // cannot fit the copy is repacked without the moves being written first.
-        let mut end = places.used;
+        // summed first, and where they cannot fit the copy is repacked without the moves
+        // being written first.
+        let room_of = |placed: &[(u32, Place)], k: &mut usize, r| {
+            find(placed, k, r).map_or(Place::default(), |i| placed[i].1)
+        };
+        let (mut end, mut k) = (places.used, 0);
         for (r, _, _) in by_strip(dirty) {
             let new = lengths[r];
-            if new > places.place[r].room {
+            if new > room_of(&places.placed, &mut k, r).room {
                 end += u32::from(end > 0) + new + new * SLACK_EIGHTHS / 8;
             }
         }
         if end > bound {
             return false;
         }
+        let mut k = 0;
+        places.born.clear();
         for (r, range, resized) in by_strip(dirty) {
-            let Place { at, room, len: old } = places.place[r];
+            let index = find(&places.placed, &mut k, r);
+            let Place { at, room, len: old } =
+                index.map_or(Place::default(), |i| places.placed[i].1);
             let new = lengths[r];
             if new <= room {
                 // Past the shorter of the two lengths the growth or the restarts below write
@@ -305,22 +331,31 @@ impl SlotLayout {
                 if start + room > bound {
                     return false;
                 }
-                if places.place[r].room == 0 {
-                    places.placed.push(r as u32);
-                }
                 if start > 0 {
                     restarts(start - 1, start, out);
                 }
                 copy(r, 0, new, start, out);
                 restarts(start + new, start + room, out);
-                places.place[r] = Place {
+                let place = Place {
                     at: start,
                     room,
                     len: new,
                 };
+                match index {
+                    Some(i) => places.placed[i].1 = place,
+                    None => places.born.push((r as u32, place)),
+                }
                 places.used = start + room;
+                continue;
             }
-            places.place[r].len = new;
+            if let Some(i) = index {
+                places.placed[i].1.len = new;
+            }
+        }
+        if !places.born.is_empty() {
+            let Places { placed, born, .. } = places;
+            placed.append(born);
+            placed.sort_unstable_by_key(|&(r, _)| r);
         }
         places.used <= bound
     }
@@ -347,14 +382,7 @@ impl SlotLayout {
         } else {
             0
         };
-        if places.place.len() == lengths.len() {
-            for r in places.placed.drain(..) {
-                places.place[r as usize] = Place::default();
-            }
-        } else {
-            places.placed.clear();
-            places.place = vec![Place::default(); lengths.len()];
-        }
+        places.placed.clear();
         let area = base + self.regions();
         let mut at = 0;
         for_each_live(lengths, |r, len| {
@@ -367,8 +395,8 @@ impl SlotLayout {
             let strip = &indices[source..source + len as usize];
             out.extend(strip.iter().zip(area + at..).map(|(&v, slot)| [slot, v]));
             out.extend((area + at + len..area + at + room).map(|slot| [slot, RESTART]));
-            places.place[r] = Place { at, room, len };
-            places.placed.push(r as u32);
+            // In strip order: the list stays sorted.
+            places.placed.push((r as u32, Place { at, room, len }));
             at += room;
         });
         places.used = at;
@@ -718,7 +746,8 @@ mod tests {
                 t = random();
             }
             state.set(&model, t, Lod::Fraction(lod)).expect("set");
-            let before = places.place.clone();
+            let strips = state.lengths().len();
+            let before = places.dense(strips);
             let (repacks, current) = (places.repacks, places.current);
             let record = upload_checked(
                 &layout,
@@ -733,7 +762,7 @@ mod tests {
             if !(record.compact && current && places.repacks == repacks) {
                 continue;
             }
-            for (old, now) in before.iter().zip(&places.place) {
+            for (old, now) in before.iter().zip(&places.dense(strips)) {
                 let (at, len, new) = (old.at, old.len, now.len);
                 within += usize::from(at == now.at && len != new && len > 0 && new > 0);
                 to_end += usize::from(at != now.at && len > 0);
