@@ -127,14 +127,17 @@ impl Places {
     }
 }
 
-/// The index in `placed` (sorted by strip) of strip `r`'s place, if it has one, looking from
-/// `*k` on; `*k` moves past the strips before `r`, so strips asked for in increasing order cost
-/// one walk of the list.
-fn find(placed: &[(u32, Place)], k: &mut usize, r: usize) -> Option<usize> {
+/// Strip `r`'s place in `placed` (sorted by strip) and its index there, or no index and the
+/// empty place (`room = 0`) where it has none, looking from `*k` on; `*k` moves past the
+/// strips before `r`, so strips asked for in increasing order cost one walk of the list.
+fn find(placed: &[(u32, Place)], k: &mut usize, r: usize) -> (Option<usize>, Place) {
     while *k < placed.len() && (placed[*k].0 as usize) < r {
         *k += 1;
     }
-    (*k < placed.len() && placed[*k].0 as usize == r).then_some(*k)
+    match placed.get(*k) {
+        Some(&(strip, place)) if strip as usize == r => (Some(*k), place),
+        _ => (None, Place::default()),
+    }
 }
 
 /// Where one strip lies in the compact area (see [`Places`]).
@@ -288,13 +291,10 @@ impl SlotLayout {
         // The strips that outgrow their room move to the end of the used part: their rooms
         // summed first, and where they cannot fit the copy is repacked without the moves
         // being written first.
-        let room_of = |placed: &[(u32, Place)], k: &mut usize, r| {
-            find(placed, k, r).map_or(Place::default(), |i| placed[i].1)
-        };
         let (mut end, mut k) = (places.used, 0);
         for (r, _, _) in by_strip(dirty) {
             let new = lengths[r];
-            if new > room_of(&places.placed, &mut k, r).room {
+            if new > find(&places.placed, &mut k, r).1.room {
                 end += u32::from(end > 0) + new + new * SLACK_EIGHTHS / 8;
             }
         }
@@ -304,9 +304,7 @@ impl SlotLayout {
         let mut k = 0;
         places.born.clear();
         for (r, range, resized) in by_strip(dirty) {
-            let index = find(&places.placed, &mut k, r);
-            let Place { at, room, len: old } =
-                index.map_or(Place::default(), |i| places.placed[i].1);
+            let (index, Place { at, room, len: old }) = find(&places.placed, &mut k, r);
             let new = lengths[r];
             if new <= room {
                 // Past the shorter of the two lengths the growth or the restarts below write
