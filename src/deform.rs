@@ -630,6 +630,11 @@ impl DeformingState {
         self.state.index_count()
     }
 
+    /// Strips whose live length is not 0.
+    pub fn live_strip_count(&self) -> usize {
+        self.state.live_strip_count()
+    }
+
     /// The whole index buffer (all regions, live parts and stale tails).
     pub fn indices(&self) -> &[u32] {
         self.state.indices()

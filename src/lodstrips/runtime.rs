@@ -51,9 +51,37 @@ pub struct StripsState {
     cursor: usize,
     triangles: u32,
     log: DirtyLog,
+    /// The live strips and indices of `lens`, kept as they change.
+    live: Live,
     scratch: Vec<usize>,
     /// Strips of the current step's rewrite groups (resizes name strips by group).
     group_strips: Vec<u32>,
+}
+
+/// How many strips are live (length not 0) and their indices in all: what a copy of the live
+/// strips packed one after another takes, which a crowd asks of every instance it patches.
+/// Kept as lengths change rather than summed over every strip when asked.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Live {
+    strips: u32,
+    indices: u32,
+}
+
+impl Live {
+    fn of(lens: &[u32]) -> Live {
+        let mut live = Live::default();
+        for &len in lens {
+            live.change(0, len);
+        }
+        live
+    }
+
+    /// A strip's length went from `old` to `new`.
+    #[inline]
+    fn change(&mut self, old: u32, new: u32) {
+        self.strips = self.strips + u32::from(new != 0) - u32::from(old != 0);
+        self.indices = self.indices + new - old;
+    }
 }
 
 /// The dirty log of a [`StripsState`]: per strip the span of positions written and whether
@@ -277,15 +305,17 @@ impl StripsState {
     /// the model that owns the layout.
     pub(crate) fn at_s0(layout: &StripLayout, model_id: u64) -> StripsState {
         let strips = layout.strip_count();
+        let lens: Vec<u32> = layout
+            .region_offsets
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .collect();
         StripsState {
             model_id,
             region_offsets: layout.region_offsets.clone(),
             indices: layout.s0.clone(),
-            lens: layout
-                .region_offsets
-                .windows(2)
-                .map(|w| w[1] - w[0])
-                .collect(),
+            live: Live::of(&lens),
+            lens,
             lod: 0,
             cursor: 0,
             triangles: layout.triangles_at_0,
@@ -343,7 +373,17 @@ impl StripsState {
 
     /// Total live indices over all strips.
     pub fn index_count(&self) -> usize {
-        self.lens.iter().map(|&l| l as usize).sum()
+        self.checked_live().indices as usize
+    }
+
+    /// Strips whose live length is not 0.
+    pub fn live_strip_count(&self) -> usize {
+        self.checked_live().strips as usize
+    }
+
+    fn checked_live(&self) -> Live {
+        debug_assert_eq!(self.live, Live::of(&self.lens), "live counts drifted");
+        self.live
     }
 
     /// Moves to LOD `lod` (clamped to `model.max_lod()`), applying only the
@@ -489,6 +529,8 @@ impl StripsState {
                 );
             }
         }
+        // A rebuild over the whole mesh reads every strip anyway: the counts are summed anew.
+        self.live = Live::of(&self.lens);
         self.lod = lod;
         (self.cursor, self.triangles) = frame.seek(lod);
     }
@@ -514,33 +556,36 @@ impl StripsState {
         roots_backward(&mut root, tail.vertices.len(), rel as usize, |j| {
             tail.collapse(j)
         });
-        let log = &mut self.log;
-        let mut mark = |m| log.apply(m);
         // A coarse state's live strips are a short prefix of its frame's strips by death
         // (a few dozen of a thousand): those are looked up, not every strip's length.
-        let before = from.strips_alive(self.lod as u32);
+        let before = self.checked_live().strips as usize;
         debug_assert_eq!(
             before,
-            self.lens.iter().filter(|&&n| n != 0).count(),
+            from.strips_alive(self.lod as u32),
             "the state's strips are not those of `from` at its LOD"
         );
+        let log = &mut self.log;
+        let mut mark = |m| log.apply(m);
         if before * 4 < self.lens.len() {
             for j in 0..before {
                 let s = from.strips_by_death.get(j) as usize;
                 if frame.strip_death.get(s) <= l {
+                    self.live.change(self.lens[s], 0);
                     self.lens[s] = 0;
                     mark(Mark::Len(s as u32));
                 }
             }
         } else {
             empty_dead_strips(frame, l, 0, &mut self.lens, &mut mark);
+            self.live = Live::of(&self.lens);
         }
         for j in 0..frame.strips_alive(l) {
             let s = frame.strips_by_death.get(j) as usize;
             // The layout's region table, shared by every state (warm in the cache when a
             // crowd rebuilds hundreds), not this state's copy.
             let region = &mut self.indices[layout.region_offsets[s] as usize..];
-            let mut out = StripWriter::new(self.lens[s]);
+            let old = self.lens[s];
+            let mut out = StripWriter::new(old);
             let entries =
                 tail.strip_entries.get(j) as usize..tail.strip_entries.get(j + 1) as usize;
             let lifetimes = 2 * entries.start..2 * entries.end;
@@ -560,6 +605,7 @@ impl StripsState {
                 }
             }
             out.finish(s, &mut self.lens[s], &mut mark);
+            self.live.change(old, self.lens[s]);
         }
         TAIL_ROOTS.set(root);
         self.lod = lod;
@@ -594,6 +640,7 @@ impl StripsState {
             let live = self.lens[strip] as usize;
             let region = &mut self.indices[base..base + live];
             let new_live = cut(region, i, len, kind);
+            self.live.change(live as u32, new_live as u32);
             self.lens[strip] = new_live as u32;
             self.log.mark(strip, i as u32, new_live as u32);
             self.log.mark_len(strip);
@@ -641,6 +688,7 @@ impl StripsState {
             let region = &mut self.indices[base..base + new_live];
             region.copy_within(i + kind_len(kind)..live, i + len);
             restore_removed(s, &mut at, region, i, len);
+            self.live.change(live as u32, new_live as u32);
             self.lens[strip] = new_live as u32;
             self.log.mark(strip, i as u32, new_live as u32);
             self.log.mark_len(strip);

@@ -230,7 +230,7 @@ impl SlotLayout {
     ) -> SlotRecord {
         let dirty = state.take_dirty();
         let lengths = state.lengths();
-        let packed = packed(lengths);
+        let packed = packed(state);
         if packed > 0 && packed <= self.compact {
             places.mark_stale(lengths.len(), &dirty);
             let mark = out.len();
@@ -506,11 +506,9 @@ fn by_strip(dirty: &Dirty) -> impl Iterator<Item = (usize, Option<(u32, u32)>, b
     })
 }
 
-/// The slots of the live strips of `lengths` packed: their lengths and one restart between two.
-fn packed(lengths: &[u32]) -> u32 {
-    let mut slots = 0;
-    for_each_live(lengths, |_, len| slots += len + 1);
-    slots.saturating_sub(1)
+/// The slots of `state`'s live strips packed: their lengths and one restart between two.
+fn packed(state: &DeformingState) -> u32 {
+    (state.index_count() + state.live_strip_count()).saturating_sub(1) as u32
 }
 
 #[cfg(test)]
@@ -645,7 +643,15 @@ mod tests {
         gpu.apply(&patches);
         let read = gpu.read(record);
         assert_eq!(triangles(read), reference(state), "step {step}");
-        let packed = packed(state.lengths());
+        // The packed count from the lengths themselves, not the state's running counts.
+        let lengths = state.lengths();
+        let packed = (lengths
+            .iter()
+            .filter(|&&n| n != 0)
+            .map(|&n| n + 1)
+            .sum::<u32>())
+        .saturating_sub(1);
+        assert_eq!(packed, super::packed(state));
         assert_eq!(
             record.compact,
             packed > 0 && packed <= layout.compact_slots()
