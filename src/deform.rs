@@ -672,6 +672,11 @@ impl DeformingState {
     pub fn take_dirty(&mut self) -> Dirty {
         self.state.take_dirty()
     }
+
+    /// [`take_dirty`](Self::take_dirty) into `out`, whose lists are cleared and reused.
+    pub fn take_dirty_into(&mut self, out: &mut Dirty) {
+        self.state.take_dirty_into(out);
+    }
 }
 
 #[cfg(test)]

@@ -148,10 +148,16 @@ impl DirtyLog {
     }
 
     fn take(&mut self) -> Dirty {
-        let mut out = Dirty {
-            ranges: Vec::with_capacity(ones(&self.marked)),
-            lengths: Vec::with_capacity(ones(&self.len_marked)),
-        };
+        let mut out = Dirty::default();
+        self.take_into(&mut out);
+        out
+    }
+
+    fn take_into(&mut self, out: &mut Dirty) {
+        out.ranges.clear();
+        out.lengths.clear();
+        out.ranges.reserve(ones(&self.marked));
+        out.lengths.reserve(ones(&self.len_marked));
         take_ones(&mut self.marked, |s| {
             let [start, end] = std::mem::replace(&mut self.span[s], [u32::MAX, 0]);
             out.ranges.push(DirtyRange {
@@ -161,7 +167,6 @@ impl DirtyLog {
             });
         });
         take_ones(&mut self.len_marked, |s| out.lengths.push(s as u32));
-        out
     }
 }
 
@@ -570,22 +575,22 @@ impl StripsState {
             for j in 0..before {
                 let s = from.strips_by_death.get(j) as usize;
                 if frame.strip_death.get(s) <= l {
-                    self.live.change(self.lens[s], 0);
                     self.lens[s] = 0;
                     mark(Mark::Len(s as u32));
                 }
             }
         } else {
             empty_dead_strips(frame, l, 0, &mut self.lens, &mut mark);
-            self.live = Live::of(&self.lens);
         }
+        // Every strip not written below is empty now: the counts are those of the strips
+        // written (counted without reading the emptied strips' lengths, cold lines).
+        let mut counts = Live::default();
         for j in 0..frame.strips_alive(l) {
             let s = frame.strips_by_death.get(j) as usize;
             // The layout's region table, shared by every state (warm in the cache when a
             // crowd rebuilds hundreds), not this state's copy.
             let region = &mut self.indices[layout.region_offsets[s] as usize..];
-            let old = self.lens[s];
-            let mut out = StripWriter::new(old);
+            let mut out = StripWriter::new(self.lens[s]);
             let entries =
                 tail.strip_entries.get(j) as usize..tail.strip_entries.get(j + 1) as usize;
             let lifetimes = 2 * entries.start..2 * entries.end;
@@ -605,8 +610,9 @@ impl StripsState {
                 }
             }
             out.finish(s, &mut self.lens[s], &mut mark);
-            self.live.change(old, self.lens[s]);
+            counts.change(0, self.lens[s]);
         }
+        self.live = counts;
         TAIL_ROOTS.set(root);
         self.lod = lod;
         (self.cursor, self.triangles) = frame.seek(lod);
@@ -615,6 +621,12 @@ impl StripsState {
     /// Hands the dirty log to the uploader and clears it.
     pub fn take_dirty(&mut self) -> Dirty {
         self.log.take()
+    }
+
+    /// [`take_dirty`](Self::take_dirty) into `out`, whose lists are cleared and reused: an
+    /// uploader that takes the logs of many states keeps one `Dirty` and allocates nothing.
+    pub fn take_dirty_into(&mut self, out: &mut Dirty) {
+        self.log.take_into(out);
     }
 
     /// A count that grows whenever the dirty log gets a position or a length, taken or not:

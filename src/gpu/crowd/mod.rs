@@ -63,7 +63,7 @@ use super::records::ARGS_BYTES;
 use super::scatter::{encode_runs, Dispatches, PatchBuffer, Scatter, RUN_GROUP};
 use super::GpuError;
 use crate::deform::{rebuild_all, DeformingModel, DeformingState, Lod, Plan, SetError, Strategy};
-use crate::lodstrips::Survivors;
+use crate::lodstrips::{Dirty, Survivors};
 
 /// Why a crowd call was refused; nothing changed.
 #[derive(Debug, Error)]
@@ -477,6 +477,7 @@ impl Member {
             &mut self.state,
             &mut self.places,
             &mut self.uploaded,
+            &mut piece.dirty,
             &mut piece.patches,
         );
         set_record(key, slot, Some(drawn), record, &mut piece.records);
@@ -498,6 +499,8 @@ struct Piece {
     /// Scratch of the poses.
     weights: Vec<f32>,
     rebuilds: Vec<(usize, Plan)>,
+    /// Scratch of the instances' dirty logs, reused from one to the next.
+    dirty: Dirty,
     patches: Patches,
     records: Patches,
     /// An instance patched a second time since the last prepare.

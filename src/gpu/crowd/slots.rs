@@ -106,8 +106,8 @@ impl Places {
 
     /// The changes of the regions since they were last patched (the dirty log's contract),
     /// `dirty`'s included; clears the stale marks.
-    fn take_stale(&mut self, dirty: Dirty, uploaded: &[u32], lengths: &[u32]) -> Dirty {
-        self.mark_stale(lengths.len(), &dirty);
+    fn take_stale(&mut self, dirty: &Dirty, uploaded: &[u32], lengths: &[u32]) -> Dirty {
+        self.mark_stale(lengths.len(), dirty);
         self.stale = false;
         let mut out = Dirty::default();
         for (r, span) in self.stale_span.iter_mut().enumerate() {
@@ -212,7 +212,7 @@ impl SlotLayout {
         self.runtime.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// Takes `state`'s dirty log, appends to `out` the patches that bring the slots at `base`
+    /// Takes `state`'s dirty log (into `dirty`, scratch reused), appends to `out` the patches that bring the slots at `base`
     /// to its current strips and returns the record that draws them. Where the live strips
     /// and one restart between two fit the compact area, the record reads the copy: moves are
     /// patched in the strips' places at O(changed) (a strip that grew past its room moves to
@@ -226,17 +226,19 @@ impl SlotLayout {
         state: &mut DeformingState,
         places: &mut Places,
         uploaded: &mut [u32],
+        dirty: &mut Dirty,
         out: &mut Vec<[u32; 2]>,
     ) -> SlotRecord {
-        let dirty = state.take_dirty();
+        state.take_dirty_into(dirty);
+        let dirty = &*dirty;
         let lengths = state.lengths();
         let packed = packed(state);
         if packed > 0 && packed <= self.compact {
-            places.mark_stale(lengths.len(), &dirty);
+            places.mark_stale(lengths.len(), dirty);
             let mark = out.len();
             // Moved in their places where that fits and sends fewer bytes than a repack.
             if !(places.current
-                && self.move_places(base, state, &dirty, places, packed, out)
+                && self.move_places(base, state, dirty, places, packed, out)
                 && run_bytes(&out[mark..]) <= run_bytes_of_one(packed))
             {
                 out.truncate(mark);
@@ -256,12 +258,12 @@ impl SlotLayout {
             };
         }
         places.current = false;
-        let dirty = if places.stale {
-            places.take_stale(dirty, uploaded, lengths)
+        if places.stale {
+            let stale = places.take_stale(dirty, uploaded, lengths);
+            self.patches(base, state, &stale, uploaded, out);
         } else {
-            dirty
-        };
-        self.patches(base, state, &dirty, uploaded, out);
+            self.patches(base, state, dirty, uploaded, out);
+        }
         self.region_record(lengths)
     }
 
@@ -590,6 +592,8 @@ mod tests {
         words: Vec<u32>,
         base: u32,
         end: u32,
+        /// The dirty-log scratch, reused over a walk as a crowd's piece reuses it.
+        dirty: Dirty,
     }
 
     impl Gpu {
@@ -599,7 +603,12 @@ mod tests {
             // The compact area starts as 0s: a word read but never written draws vertex 0.
             let mut words = vec![0u32; end as usize + 5];
             words[base as usize..(base + layout.regions()) as usize].copy_from_slice(layout.s0());
-            Gpu { words, base, end }
+            Gpu {
+                words,
+                base,
+                end,
+                dirty: Dirty::default(),
+            }
         }
 
         /// Applies `patches` in reverse order (any order must do), each word once.
@@ -639,7 +648,14 @@ mod tests {
         step: usize,
     ) -> SlotRecord {
         let mut patches = Vec::new();
-        let record = layout.upload(gpu.base, state, places, uploaded, &mut patches);
+        let record = layout.upload(
+            gpu.base,
+            state,
+            places,
+            uploaded,
+            &mut gpu.dirty,
+            &mut patches,
+        );
         gpu.apply(&patches);
         let read = gpu.read(record);
         assert_eq!(triangles(read), reference(state), "step {step}");
