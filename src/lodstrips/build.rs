@@ -135,7 +135,7 @@ pub(super) fn layout(s0: &Strips, vertex_count: u32) -> Result<StripLayout, Chan
         .map(|w| live_windows(&s0.indices[w[0] as usize..w[1] as usize]))
         .sum();
     Ok(StripLayout {
-        region_offsets,
+        region_offsets: region_offsets.into(),
         s0: s0.indices.clone(),
         vertex_count,
         triangles_at_0,

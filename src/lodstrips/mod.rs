@@ -45,6 +45,7 @@ use crate::collapse::CollapseSequence;
 use crate::strip::Strips;
 use crate::varint;
 use packed::Narrow;
+use std::sync::Arc;
 
 /// Replacement kinds of a resize: the run `s[i..i+len]` is replaced by copies
 /// of its neighbours `B = s[i-1]` and `C = s[i+len]`.
@@ -69,8 +70,9 @@ fn kind_len(kind: u16) -> usize {
 #[derive(Clone, Debug, Default)]
 pub struct StripLayout {
     /// Region `i` of the index buffer is `region_offsets[i]..region_offsets[i+1]`
-    /// (the length of strip `i` in `S0`).
-    region_offsets: Vec<u32>,
+    /// (the length of strip `i` in `S0`). Shared with every state of the layout: a crowd's
+    /// thousand instances read one warm table, not a copy each (4 KB per body instance).
+    region_offsets: Arc<[u32]>,
     /// `S0` itself: the buffer contents at LOD 0.
     s0: Vec<u32>,
     /// Vertices the strips index into.

@@ -14,6 +14,7 @@ use super::{
     KIND_BCC, KIND_C,
 };
 use crate::varint;
+use std::sync::Arc;
 
 /// Why a state cannot move.
 #[derive(Debug, thiserror::Error, Clone, Copy, PartialEq, Eq)]
@@ -43,7 +44,8 @@ pub struct Dirty {
 #[derive(Clone, Debug)]
 pub struct StripsState {
     model_id: u64,
-    region_offsets: Vec<u32>,
+    /// The layout's region table, shared.
+    region_offsets: Arc<[u32]>,
     indices: Vec<u32>,
     lens: Vec<u32>,
     lod: usize,
@@ -317,7 +319,7 @@ impl StripsState {
             .collect();
         StripsState {
             model_id,
-            region_offsets: layout.region_offsets.clone(),
+            region_offsets: Arc::clone(&layout.region_offsets),
             indices: layout.s0.clone(),
             live: Live::of(&lens),
             lens,
@@ -369,10 +371,7 @@ impl StripsState {
     /// Bytes this state holds on the heap (its buffers' capacities): what one more instance
     /// of a model costs, which a crowd's memory budget adds up.
     pub fn heap_bytes(&self) -> usize {
-        let words = self.region_offsets.capacity()
-            + self.indices.capacity()
-            + self.lens.capacity()
-            + self.group_strips.capacity();
+        let words = self.indices.capacity() + self.lens.capacity() + self.group_strips.capacity();
         words * 4 + self.log.heap_bytes() + self.scratch.capacity() * size_of::<usize>()
     }
 
