@@ -212,14 +212,15 @@ impl SlotLayout {
         self.runtime.windows(2).map(|w| w[1] - w[0]).collect()
     }
 
-    /// Takes `state`'s dirty log (into `dirty`, scratch reused), appends to `out` the patches that bring the slots at `base`
-    /// to its current strips and returns the record that draws them. Where the live strips
-    /// and one restart between two fit the compact area, the record reads the copy: moves are
-    /// patched in the strips' places at O(changed) (a strip that grew past its room moves to
-    /// the end of the used part), and the copy is rewritten packed where it was not current,
-    /// would pass the area or the record would read more than [`READ_BOUND_EIGHTHS`]/8 of the
-    /// packed count; the regions' changes wait in `places`. Else the record reads the regions
-    /// from the first live index to the last, brought up to date (`uploaded`: their lengths).
+    /// Takes `state`'s dirty log (into `dirty`, scratch reused), appends to `out` the patches
+    /// that bring the slots at `base` to its current strips and returns the record that draws
+    /// them. Where the live strips and one restart between two fit the compact area, the
+    /// record reads the copy: moves are patched in the strips' places at O(changed) (a strip
+    /// that grew past its room moves to the end of the used part), and the copy is rewritten
+    /// packed where it was not current, would pass the area or the record would read more than
+    /// [`READ_BOUND_EIGHTHS`]/8 of the packed count; the regions' changes wait in `places`.
+    /// Else the record reads the regions from the first live index to the last, brought up to
+    /// date (`uploaded`: their lengths).
     pub(super) fn upload(
         &self,
         base: u32,
