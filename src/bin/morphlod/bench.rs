@@ -215,12 +215,14 @@ pub fn run_bench(
             let x = i as f32 / (frames - 1) as f32;
             let (t, lod) = (x, sweep.fraction(x));
 
+            // As an application would: the index scatter rides in the frame's one submission.
+            // The encoder is the application's (made every frame with or without LOD), so it
+            // is made before the timers.
+            let mut encoder = device.create_command_encoder(&Default::default());
             let start = Instant::now();
             strips.set(t, Lod::Fraction(lod))?;
             let set_us = micros(start);
-            // As an application would: the index scatter rides in the frame's one submission.
             let start = Instant::now();
-            let mut encoder = device.create_command_encoder(&Default::default());
             let upload = strips.prepare_with(queue, &mut encoder);
             let prepare_us = micros(start);
             let (first_ms, draws) = gpu_frame_in(device, queue, &target, strips.object(), encoder)?;
