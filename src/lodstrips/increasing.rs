@@ -119,18 +119,7 @@ impl Increasing {
     /// The number of values at most `x`.
     pub(crate) fn count_at_most(&self, x: u32) -> usize {
         let (base, words, ranks) = match self {
-            Increasing::Plain(v) => {
-                let (mut lo, mut hi) = (0, v.len());
-                while lo < hi {
-                    let mid = (lo + hi) / 2;
-                    if v.get(mid) <= x {
-                        lo = mid + 1;
-                    } else {
-                        hi = mid;
-                    }
-                }
-                return lo;
-            }
+            Increasing::Plain(v) => return v.partition_point(|v| v <= x),
             Increasing::Bits {
                 base, words, ranks, ..
             } => (*base, words, ranks),

@@ -332,16 +332,8 @@ impl FrameChanges {
 
     /// How many strips are not empty at LOD `l` (the prefix of `strips_by_death`).
     fn strips_alive(&self, l: u32) -> usize {
-        let (mut lo, mut hi) = (0, self.strips_by_death.len());
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if self.strip_death.get(self.strips_by_death.get(mid) as usize) > l {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
-        }
-        lo
+        self.strips_by_death
+            .partition_point(|s| self.strip_death.get(s as usize) > l)
     }
 
     /// Stream position where step `lod` starts and the triangles drawn there:

@@ -44,6 +44,15 @@ impl Narrow {
         }
     }
 
+    /// The index of the first value for which `pred` is false, the values being those for
+    /// which it is true followed by those for which it is false (`slice::partition_point`).
+    pub(crate) fn partition_point(&self, mut pred: impl FnMut(u32) -> bool) -> usize {
+        match self {
+            Narrow::U16(v) => v.partition_point(|&x| pred(u32::from(x))),
+            Narrow::U32(v) => v.partition_point(|&x| pred(x)),
+        }
+    }
+
     pub(crate) fn len(&self) -> usize {
         match self {
             Narrow::U16(v) => v.len(),
