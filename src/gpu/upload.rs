@@ -299,31 +299,45 @@ pub(super) fn run_list_bytes(runs: &[Range<u32>]) -> u64 {
 /// `max_list_bytes` is the largest run list one scatter may carry
 /// ([`super::scatter::Scatter::max_run_list_bytes`]; 0: no scatter, writes only).
 pub(super) fn plan_upload(spans: &[Range<u32>], gap: u32, max_list_bytes: u64) -> UploadPlan {
-    // The writes-only plan is priced in one pass and built only where it wins: a frame of a
-    // moving LOD has hundreds of spans, goes through the scatter and never needs it.
+    // The writes-only plan is built only where it wins, and priced only as far as a
+    // comparison needs: a frame of a moving LOD has hundreds of spans, goes through the
+    // scatter and never needs it, and a frame switch's ~15 k spans make hundreds of writes
+    // whose price passes the alternative's after the first few (pricing them all took a
+    // fifth of the plan).
     let writes_only = |cost| UploadPlan {
         writes: joined(spans, gap).collect(),
         runs: Vec::new(),
         cost,
     };
-    let writes_cost = joined(spans, gap)
-        .map(|w| WRITE_CALL_BYTES + 4 * u64::from(w.end - w.start))
-        .sum();
+    // The writes' cost where it is at most `bound`.
+    let writes_within = |bound: u64| {
+        let mut cost = 0u64;
+        for w in joined(spans, gap) {
+            cost += WRITE_CALL_BYTES + 4 * u64::from(w.end - w.start);
+            if cost > bound {
+                return None;
+            }
+        }
+        Some(cost)
+    };
+    let all_writes = || writes_within(u64::MAX).expect("no bound");
     if max_list_bytes == 0 || spans.len() < 2 {
-        return writes_only(writes_cost);
+        return writes_only(all_writes());
     }
     // No split costs less than `split_floor`: where the writes cost no more, they win without
     // pricing the split (a frame switch of the 100k object: ~100 k spans, whose split took
     // ~2 ms of one thread on the H200, to choose one write).
-    if writes_cost <= split_floor(spans) {
-        return writes_only(writes_cost);
+    if let Some(cost) = writes_within(split_floor(spans)) {
+        return writes_only(cost);
     }
     let hybrid = hybrid_plan(spans);
     // A list past one binding (millions of changed words in a frame): writes only.
-    if hybrid.cost < writes_cost && run_list_bytes(&hybrid.runs) <= max_list_bytes {
-        hybrid
-    } else {
-        writes_only(writes_cost)
+    if run_list_bytes(&hybrid.runs) > max_list_bytes {
+        return writes_only(all_writes());
+    }
+    match writes_within(hybrid.cost) {
+        Some(cost) => writes_only(cost),
+        None => hybrid,
     }
 }
 
@@ -382,17 +396,20 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
     // Half-bytes, so that 4.5 bytes a word is whole.
     const WRITE: i64 = 2 * WRITE_CALL_BYTES as i64;
     const HEADER: i64 = 2 * RUN_HEADER_BYTES as i64;
-    // How span j (1-based) is sent: from which span its run or write starts. Only the
-    // choices are kept; the costs are needed one span back.
-    #[derive(Clone, Copy)]
-    enum Choice {
-        Single,
-        RunFrom(u32),
-        WriteFrom(u32),
-    }
+    // How span j (1-based) is sent, in one word: the kind in the top two bits, and the span
+    // its run or write starts from (a single word: j itself) below them. Only the choices
+    // are kept; the costs are needed one span back. Words rather than an enum, and every
+    // choice below a select of two integers, so that the loop compiles without branches on
+    // the data (which mispredicted on most spans: 8 ns a span).
+    const RUN: u32 = 1 << 30;
+    const WRITE_KIND: u32 = 2 << 30;
+    const FROM: u32 = (1 << 30) - 1;
     let n = spans.len();
+    // Spans are disjoint and apart, and a scatter binds the whole index buffer (at most
+    // `max_storage_buffer_binding_size`, under 2³² bytes): fewer than 2²⁹ of them.
+    debug_assert!(n < FROM as usize, "{n} spans do not fit a choice");
     let mut choice = Vec::with_capacity(n + 1);
-    choice.push(Choice::Single);
+    choice.push(0);
     // best[j − 1], and min over i ≤ j of best[i − 1] − k start_i (k = 9 for runs, 8 for
     // writes) with the first i that reaches it.
     let mut best = 0i64;
@@ -400,30 +417,41 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
     let (mut write_from, mut i_write) = (i64::MAX, 0u32);
     for (j, span) in (1u32..).zip(spans) {
         let (start, end) = (i64::from(span.start), i64::from(span.end));
-        if best - 9 * start < run_from {
-            (run_from, i_run) = (best - 9 * start, j);
-        }
-        if best - 8 * start < write_from {
-            (write_from, i_write) = (best - 8 * start, j);
-        }
-        let mut pick = (HEADER + 9 * end + run_from, Choice::RunFrom(i_run));
+        let opens_run = best - 9 * start < run_from;
+        run_from = if opens_run {
+            best - 9 * start
+        } else {
+            run_from
+        };
+        i_run = if opens_run { j } else { i_run };
+        let opens_write = best - 8 * start < write_from;
+        write_from = if opens_write {
+            best - 8 * start
+        } else {
+            write_from
+        };
+        i_write = if opens_write { j } else { i_write };
+        let run = HEADER + 9 * end + run_from;
         let write = WRITE + 8 * end + write_from;
-        if write < pick.0 {
-            pick = (write, Choice::WriteFrom(i_write));
-        }
-        if end - start == 1 && best + HEADER < pick.0 {
-            pick = (best + HEADER, Choice::Single);
-        }
-        best = pick.0;
-        choice.push(pick.1);
+        let by_write = write < run;
+        let mut cost = if by_write { write } else { run };
+        let mut pick = if by_write {
+            WRITE_KIND | i_write
+        } else {
+            RUN | i_run
+        };
+        let single = end - start == 1 && best + HEADER < cost;
+        cost = if single { best + HEADER } else { cost };
+        pick = if single { j } else { pick };
+        best = cost;
+        choice.push(pick);
     }
     let mut plan = UploadPlan::default();
     let mut j = n;
     while j > 0 {
-        let (i, into) = match choice[j] {
-            Choice::Single => (j, &mut plan.runs),
-            Choice::RunFrom(i) => (i as usize, &mut plan.runs),
-            Choice::WriteFrom(i) => (i as usize, &mut plan.writes),
+        let (i, into) = match choice[j] & !FROM {
+            WRITE_KIND => ((choice[j] & FROM) as usize, &mut plan.writes),
+            _ => ((choice[j] & FROM) as usize, &mut plan.runs),
         };
         into.push(spans[i - 1].start..spans[j - 1].end);
         j = i - 1;
