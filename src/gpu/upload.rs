@@ -415,22 +415,18 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
     let mut best = 0i64;
     let (mut run_from, mut i_run) = (i64::MAX, 0u32);
     let (mut write_from, mut i_write) = (i64::MAX, 0u32);
+    // A running minimum and where it was reached: `candidate` from span `j` where lower.
+    fn lower_from(candidate: i64, j: u32, (from, i): (i64, u32)) -> (i64, u32) {
+        let lower = candidate < from;
+        (
+            if lower { candidate } else { from },
+            if lower { j } else { i },
+        )
+    }
     for (j, span) in (1u32..).zip(spans) {
         let (start, end) = (i64::from(span.start), i64::from(span.end));
-        let opens_run = best - 9 * start < run_from;
-        run_from = if opens_run {
-            best - 9 * start
-        } else {
-            run_from
-        };
-        i_run = if opens_run { j } else { i_run };
-        let opens_write = best - 8 * start < write_from;
-        write_from = if opens_write {
-            best - 8 * start
-        } else {
-            write_from
-        };
-        i_write = if opens_write { j } else { i_write };
+        (run_from, i_run) = lower_from(best - 9 * start, j, (run_from, i_run));
+        (write_from, i_write) = lower_from(best - 8 * start, j, (write_from, i_write));
         let run = HEADER + 9 * end + run_from;
         let write = WRITE + 8 * end + write_from;
         let by_write = write < run;
