@@ -32,7 +32,7 @@ use morphlod::gpu::{
 use morphlod::io::{load_morph, LoadOptions, MorphSource};
 use morphlod::{DeformingModel, Lod};
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::WindowId;
@@ -40,7 +40,7 @@ use winit::window::WindowId;
 use common::cache::{BuiltMorph, Library};
 use common::headless::{check_growth, remove_old_frames, resident_mb};
 use common::scene::Readout;
-use common::window::{no_display, FrameClock, Presenter};
+use common::window::{no_display, window_event, DemoWindow, FrameClock, KeyAction, Presenter};
 use common::{Demo, DemoError, MorphSpec, NamedMorph};
 
 const BODY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_body.glb");
@@ -610,51 +610,36 @@ impl ApplicationHandler for App<'_> {
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
-        let Some(state) = &mut self.window else {
-            return;
-        };
-        match event {
-            WindowEvent::CloseRequested => {
-                self.window = None;
-                event_loop.exit();
-            }
-            WindowEvent::Resized(size) => state.presenter.resize(size),
-            WindowEvent::ScaleFactorChanged { scale_factor, .. } => {
-                state.field.text_scale = (scale_factor as f32).clamp(0.5, 4.0);
-            }
-            WindowEvent::KeyboardInput {
-                event:
-                    KeyEvent {
-                        logical_key,
-                        state: ElementState::Pressed,
-                        ..
-                    },
-                ..
-            } => match logical_key.as_ref() {
-                Key::Named(NamedKey::Escape) | Key::Character("q") => {
-                    self.window = None;
-                    event_loop.exit();
-                }
-                Key::Named(NamedKey::Space) => state.playing = !state.playing,
-                Key::Named(NamedKey::ArrowUp) => {
-                    state.field.pixels = (state.field.pixels / 1.5).max(0.05)
-                }
-                Key::Named(NamedKey::ArrowDown) => {
-                    state.field.pixels = (state.field.pixels * 1.5).min(500.0)
-                }
-                _ => {}
-            },
-            WindowEvent::RedrawRequested => {
-                if let Err(error) = state.redraw() {
-                    self.stop(event_loop, Outcome::Failed(error));
-                }
-            }
-            _ => {}
+        if let Some(error) = window_event(&mut self.window, event_loop, event) {
+            self.stop(event_loop, Outcome::Failed(error));
         }
     }
 }
 
-impl WindowState {
+impl DemoWindow for WindowState {
+    fn presenter(&mut self) -> &mut Presenter {
+        &mut self.presenter
+    }
+
+    fn set_text_scale(&mut self, scale: f32) {
+        self.field.text_scale = scale;
+    }
+
+    fn key(&mut self, key: &Key) -> KeyAction {
+        match key.as_ref() {
+            Key::Named(NamedKey::Escape) | Key::Character("q") => return KeyAction::Quit,
+            Key::Named(NamedKey::Space) => self.playing = !self.playing,
+            Key::Named(NamedKey::ArrowUp) => {
+                self.field.pixels = (self.field.pixels / 1.5).max(0.05)
+            }
+            Key::Named(NamedKey::ArrowDown) => {
+                self.field.pixels = (self.field.pixels * 1.5).min(500.0)
+            }
+            _ => {}
+        }
+        KeyAction::Continue
+    }
+
     fn redraw(&mut self) -> Result<(), DemoError> {
         let elapsed = self.clock.tick();
         if self.playing {

@@ -104,66 +104,76 @@ impl ApplicationHandler for App<'_> {
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
-        let Some(state) = &mut self.window else {
-            return;
-        };
-        match event {
-            WindowEvent::CloseRequested => {
-                self.window = None;
-                event_loop.exit();
-            }
-            WindowEvent::Resized(size) => state.presenter.resize(size),
-            WindowEvent::ScaleFactorChanged { scale_factor, .. } => {
-                state.scene.text_scale = (scale_factor as f32).clamp(0.5, 4.0);
-            }
-            WindowEvent::KeyboardInput {
-                event:
-                    KeyEvent {
-                        logical_key,
-                        state: ElementState::Pressed,
-                        ..
-                    },
-                ..
-            } => match state.key(&logical_key) {
-                KeyAction::Continue => {}
-                KeyAction::Quit => {
-                    self.window = None;
-                    event_loop.exit();
-                }
-                KeyAction::Fail(error) => self.fail(event_loop, Err(error)),
-            },
-            WindowEvent::MouseInput {
-                state: pressed,
-                button: MouseButton::Left,
-                ..
-            } => state.dragging = pressed == ElementState::Pressed,
-            WindowEvent::CursorMoved { position, .. } => {
-                let at = (position.x as f32, position.y as f32);
-                if state.dragging {
-                    if let Some((x, y)) = state.cursor {
-                        let view = &mut state.scene.view;
-                        view.yaw -= (at.0 - x) * 0.01;
-                        view.pitch = (view.pitch + (at.1 - y) * 0.01).clamp(-1.4, 1.4);
-                    }
-                }
-                state.cursor = Some(at);
-            }
-            WindowEvent::MouseWheel { delta, .. } => {
-                let lines = match delta {
-                    MouseScrollDelta::LineDelta(_, y) => y,
-                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
-                };
-                let view = &mut state.scene.view;
-                view.zoom = (view.zoom * 0.9f32.powf(lines)).clamp(0.05, 20.0);
-            }
-            WindowEvent::RedrawRequested => {
-                if let Err(error) = state.redraw() {
-                    self.fail(event_loop, Err(error));
-                }
-            }
-            _ => {}
+        if let Some(error) = window_event(&mut self.window, event_loop, event) {
+            self.fail(event_loop, Err(error));
         }
     }
+}
+
+/// A demo's window as the events every demo window handles alike see it
+/// ([`window_event`]).
+pub trait DemoWindow {
+    fn presenter(&mut self) -> &mut Presenter;
+    /// The window's scale factor changed: the readout's text follows it.
+    fn set_text_scale(&mut self, scale: f32);
+    /// A key was pressed.
+    fn key(&mut self, key: &Key) -> KeyAction;
+    fn redraw(&mut self) -> Result<(), DemoError>;
+    /// Any other event (the mouse): nothing by default.
+    fn other(&mut self, _event: WindowEvent) {}
+}
+
+/// What a pressed key does to the window's loop.
+pub enum KeyAction {
+    Continue,
+    Quit,
+    /// The key's command failed (e.g. the next asset did not load or build).
+    Fail(DemoError),
+}
+
+/// Handles `event` for the open `window` (none: nothing to do) the way every demo window
+/// does: a close or a quitting key drops the window and ends the loop, a resize reconfigures
+/// the surface, a scale change goes to the readout, a redraw draws. Returns the error that
+/// must end the loop (the caller drops the window and exits).
+pub fn window_event(
+    window: &mut Option<impl DemoWindow>,
+    event_loop: &ActiveEventLoop,
+    event: WindowEvent,
+) -> Option<DemoError> {
+    let state = window.as_mut()?;
+    match event {
+        WindowEvent::CloseRequested => {}
+        WindowEvent::Resized(size) => {
+            state.presenter().resize(size);
+            return None;
+        }
+        WindowEvent::ScaleFactorChanged { scale_factor, .. } => {
+            state.set_text_scale((scale_factor as f32).clamp(0.5, 4.0));
+            return None;
+        }
+        WindowEvent::KeyboardInput {
+            event:
+                KeyEvent {
+                    logical_key,
+                    state: ElementState::Pressed,
+                    ..
+                },
+            ..
+        } => match state.key(&logical_key) {
+            KeyAction::Continue => return None,
+            KeyAction::Quit => {}
+            KeyAction::Fail(error) => return Some(error),
+        },
+        WindowEvent::RedrawRequested => return state.redraw().err(),
+        other => {
+            state.other(other);
+            return None;
+        }
+    }
+    // Closed or quit: drop the surface while its window still exists.
+    *window = None;
+    event_loop.exit();
+    None
 }
 
 /// Why the window could not be set up.
@@ -172,13 +182,6 @@ enum Setup {
     NoWindow(String),
     /// Something else (the scene's GPU resources): an error.
     Failed(DemoError),
-}
-
-enum KeyAction {
-    Continue,
-    Quit,
-    /// Switching morphs failed (the asset did not load or build).
-    Fail(DemoError),
 }
 
 /// A window with a wgpu surface in a linear format, a depth buffer, and the device and queue
@@ -409,6 +412,16 @@ impl<'a> WindowState<'a> {
             cursor: None,
         })
     }
+}
+
+impl DemoWindow for WindowState<'_> {
+    fn presenter(&mut self) -> &mut Presenter {
+        &mut self.presenter
+    }
+
+    fn set_text_scale(&mut self, scale: f32) {
+        self.scene.text_scale = scale;
+    }
 
     fn key(&mut self, key: &Key) -> KeyAction {
         let named;
@@ -455,6 +468,37 @@ impl<'a> WindowState<'a> {
         queue.submit([encoder.finish()]);
         self.presenter.present(frame);
         Ok(())
+    }
+
+    /// Dragging with the left button turns the view, the wheel zooms.
+    fn other(&mut self, event: WindowEvent) {
+        match event {
+            WindowEvent::MouseInput {
+                state: pressed,
+                button: MouseButton::Left,
+                ..
+            } => self.dragging = pressed == ElementState::Pressed,
+            WindowEvent::CursorMoved { position, .. } => {
+                let at = (position.x as f32, position.y as f32);
+                if self.dragging {
+                    if let Some((x, y)) = self.cursor {
+                        let view = &mut self.scene.view;
+                        view.yaw -= (at.0 - x) * 0.01;
+                        view.pitch = (view.pitch + (at.1 - y) * 0.01).clamp(-1.4, 1.4);
+                    }
+                }
+                self.cursor = Some(at);
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                let view = &mut self.scene.view;
+                view.zoom = (view.zoom * 0.9f32.powf(lines)).clamp(0.05, 20.0);
+            }
+            _ => {}
+        }
     }
 }
 
