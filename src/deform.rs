@@ -688,6 +688,12 @@ mod tests {
     /// A grid of `n × n` quads, a wave that grows from `t = 0` to `t = 1`, sampled at
     /// `frames` frames: each frame's sequence differs, so a frame switch rewrites most strips.
     fn wave_asset(n: u32, frames: usize) -> Asset {
+        wave_tiles(1, n, frames)
+    }
+
+    /// [`wave_asset`] as `tiles` separate grids of `n` × `n` quads side by side, so that a
+    /// small mesh has many strips (a few a tile).
+    fn wave_tiles(tiles: u32, n: u32, frames: usize) -> Asset {
         let pos = |x: u32, y: u32, t: f32| {
             let (fx, fy) = (x as f32, y as f32);
             [
@@ -697,20 +703,27 @@ mod tests {
             ]
         };
         let side = n + 1;
+        let tile = side * side;
         let mut tris = Vec::new();
-        for y in 0..n {
-            for x in 0..n {
-                let a = y * side + x;
-                tris.push([a, a + 1, a + side + 1]);
-                tris.push([a, a + side + 1, a + side]);
+        for first in (0..tiles).map(|k| k * tile) {
+            for y in 0..n {
+                for x in 0..n {
+                    let a = first + y * side + x;
+                    tris.push([a, a + 1, a + side + 1]);
+                    tris.push([a, a + side + 1, a + side]);
+                }
             }
         }
+        // Tile k lies `k (side + 1)` along x, one column apart from the tile before.
         let at = |t: f32| -> Vec<[f32; 3]> {
-            (0..side * side)
-                .map(|i| pos(i % side, i / side, t))
+            (0..tiles * tile)
+                .map(|i| {
+                    let (k, j) = (i / tile, i % tile);
+                    pos(k * (side + 1) + j % side, j / side, t)
+                })
                 .collect()
         };
-        let vertices = (side * side) as usize;
+        let vertices = (tiles * tile) as usize;
         Asset {
             v0: at(0.0),
             v1: at(1.0),
@@ -741,13 +754,14 @@ mod tests {
 
     /// A rebuild cut into chunks on the thread pool (what one large object's frame switch
     /// does) leaves the buffer, lengths and dirty log of a rebuild on one thread, and the
-    /// buffer of stepping there, over a random walk of frame switches and LOD jumps. Chunks
-    /// of 1–64 slots, so that chunks start at empty strips, hold one strip, or many; every
-    /// third move reuses one survivor table, which is not flat after it links forward (that
+    /// buffer of stepping there, over a random walk of frame switches and LOD jumps. The
+    /// mesh has 240 strips (60 tiles) and chunks of 1–1500 slots, cut at multiples of 64
+    /// strips: two to four chunks, which start at empty strips or live ones; every third
+    /// move reuses one survivor table, which is not flat after it links forward (that
     /// rebuild stays on one thread and must give the same).
     #[test]
     fn chunked_rebuild_equals_one_thread_and_steps() {
-        let asset = wave_asset(24, 5);
+        let asset = wave_tiles(60, 4, 5);
         let model = DeformingModel::new(&asset).expect("model builds");
         let (mut one, mut chunked, mut steps) = (
             DeformingState::new(&model),
@@ -771,7 +785,7 @@ mod tests {
             switches += usize::from(plan.frame != one.frame());
             one.apply(&model, plan, &mut Survivors::new());
             let frame = &model.frames[plan.frame].changes;
-            let chunk = 1 + (unit() * 64.0) as usize;
+            let chunk = 1 + (unit() * 1500.0) as usize;
             let mut fresh = Survivors::new();
             let anc = if step % 3 == 0 {
                 &mut shared

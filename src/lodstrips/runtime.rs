@@ -105,12 +105,58 @@ struct DirtyLog {
 }
 
 /// One mark a rebuild makes for a strip: its live length changed, or its positions
-/// `start..end` did. A rebuild split over threads collects each chunk's marks and applies
-/// them in strip order afterwards, so the log is the one a single thread makes.
+/// `start..end` did.
 #[derive(Clone, Copy, Debug)]
 enum Mark {
     Len(u32),
     Span(u32, u32, u32),
+}
+
+/// The strips `first..` of a [`DirtyLog`] (`first` a multiple of 64: whole words of its
+/// bitsets) and the marks made through this part: what one chunk of a rebuild split over
+/// threads marks on its own thread, so that the log is the one a single thread makes with
+/// no marks collected and applied afterwards.
+struct LogPart<'a> {
+    first: usize,
+    span: &'a mut [[u32; 2]],
+    marked: &'a mut [u64],
+    len_marked: &'a mut [u64],
+    changes: u64,
+}
+
+impl<'a> LogPart<'a> {
+    fn apply(&mut self, mark: Mark) {
+        let marked = match mark {
+            Mark::Len(s) => mark_len(self.len_marked, s as usize - self.first),
+            Mark::Span(s, start, end) => {
+                mark_span(self.span, self.marked, s as usize - self.first, start, end)
+            }
+        };
+        self.changes += u64::from(marked);
+    }
+
+    /// This part cut after its first `strips` strips (a multiple of 64, or all of them).
+    fn split_at(self, strips: usize) -> (LogPart<'a>, LogPart<'a>) {
+        let words = strips.div_ceil(64);
+        let (span, span_rest) = self.span.split_at_mut(strips);
+        let (marked, marked_rest) = self.marked.split_at_mut(words);
+        let (len_marked, len_rest) = self.len_marked.split_at_mut(words);
+        let head = LogPart {
+            first: self.first,
+            span,
+            marked,
+            len_marked,
+            changes: 0,
+        };
+        let tail = LogPart {
+            first: self.first + strips,
+            span: span_rest,
+            marked: marked_rest,
+            len_marked: len_rest,
+            changes: 0,
+        };
+        (head, tail)
+    }
 }
 
 impl DirtyLog {
@@ -127,6 +173,17 @@ impl DirtyLog {
         self.span.capacity() * 8 + (self.marked.capacity() + self.len_marked.capacity()) * 8
     }
 
+    /// The whole log as one part.
+    fn part(&mut self) -> LogPart<'_> {
+        LogPart {
+            first: 0,
+            span: &mut self.span,
+            marked: &mut self.marked,
+            len_marked: &mut self.len_marked,
+            changes: 0,
+        }
+    }
+
     fn apply(&mut self, mark: Mark) {
         match mark {
             Mark::Len(s) => self.mark_len(s as usize),
@@ -135,18 +192,12 @@ impl DirtyLog {
     }
 
     fn mark(&mut self, strip: usize, start: u32, end: u32) {
-        if start >= end {
-            return;
-        }
-        self.changes += 1;
-        self.marked[strip / 64] |= 1 << (strip % 64);
-        let span = &mut self.span[strip];
-        *span = [span[0].min(start), span[1].max(end)];
+        let marked = mark_span(&mut self.span, &mut self.marked, strip, start, end);
+        self.changes += u64::from(marked);
     }
 
     fn mark_len(&mut self, strip: usize) {
-        self.changes += 1;
-        self.len_marked[strip / 64] |= 1 << (strip % 64);
+        self.changes += u64::from(mark_len(&mut self.len_marked, strip));
     }
 
     fn take(&mut self) -> Dirty {
@@ -170,6 +221,25 @@ impl DirtyLog {
         });
         take_ones(&mut self.len_marked, |s| out.lengths.push(s as u32));
     }
+}
+
+/// Marks positions `start..end` of strip `s` in a dirty log's (or part's) span table and
+/// bitset; false (nothing marked) where the span is empty.
+#[inline]
+fn mark_span(span: &mut [[u32; 2]], marked: &mut [u64], s: usize, start: u32, end: u32) -> bool {
+    if start >= end {
+        return false;
+    }
+    marked[s / 64] |= 1 << (s % 64);
+    span[s] = [span[s][0].min(start), span[s][1].max(end)];
+    true
+}
+
+/// Marks strip `s`'s live length as changed in a dirty log's (or part's) bitset.
+#[inline]
+fn mark_len(len_marked: &mut [u64], s: usize) -> bool {
+    len_marked[s / 64] |= 1 << (s % 64);
+    true
 }
 
 /// Fills `root` with the survivor of each of `vertices` vertices after the collapses
@@ -459,7 +529,8 @@ impl StripsState {
     }
 
     /// [`rebuild`](Self::rebuild) with the strips cut into chunks of about `chunk_slots`
-    /// slots of `S0` rebuilt in parallel (`usize::MAX`: on the calling thread). Chunks need
+    /// slots of `S0` (and a multiple of 64 strips, but the last) rebuilt in parallel
+    /// (`usize::MAX`: on the calling thread). Chunks need
     /// a survivor table that is read-only ([`Survivors::flat`]); otherwise the rebuild stays on
     /// the calling thread. Either way the buffer and the dirty log are the same.
     pub(crate) fn rebuild_in_chunks<'a>(
@@ -477,14 +548,19 @@ impl StripsState {
         match anc.flat() {
             Some(root) if chunk_slots < layout.s0.len() => {
                 use rayon::prelude::*;
-                // Cut the strips (and their regions and lengths) into chunks at strip bounds.
+                // Cut the strips (and their regions, lengths and dirty log) into chunks at
+                // strip bounds that are multiples of 64, so that each chunk marks its own
+                // words of the log's bitsets.
                 let mut chunks = Vec::new();
                 let (mut indices, mut lens) = (&mut self.indices[..], &mut self.lens[..]);
+                let mut log = self.log.part();
                 let mut first = 0;
                 while first < strips {
                     let base = layout.region_offsets[first] as usize;
                     let mut last = first + 1;
-                    while last < strips && layout.region_offsets[last] as usize - base < chunk_slots
+                    while last < strips
+                        && (layout.region_offsets[last] as usize - base < chunk_slots
+                            || last % 64 != 0)
                     {
                         last += 1;
                     }
@@ -492,14 +568,14 @@ impl StripsState {
                     let (head, tail) = std::mem::take(&mut indices).split_at_mut(slots);
                     let (head_lens, tail_lens) =
                         std::mem::take(&mut lens).split_at_mut(last - first);
-                    chunks.push((first..last, head, head_lens));
-                    (indices, lens) = (tail, tail_lens);
+                    let (head_log, tail_log) = log.split_at(last - first);
+                    chunks.push((first..last, head, head_lens, head_log));
+                    (indices, lens, log) = (tail, tail_lens, tail_log);
                     first = last;
                 }
-                let marks: Vec<Vec<Mark>> = chunks
+                let changes: u64 = chunks
                     .into_par_iter()
-                    .map(|(range, indices, lens)| {
-                        let mut marks = Vec::new();
+                    .map(|(range, indices, lens, mut log)| {
                         rebuild_strips(
                             layout,
                             frame,
@@ -508,16 +584,12 @@ impl StripsState {
                             indices,
                             lens,
                             |v| root[v as usize],
-                            |m| {
-                                marks.push(m);
-                            },
+                            |m| log.apply(m),
                         );
-                        marks
+                        log.changes
                     })
-                    .collect();
-                for mark in marks.into_iter().flatten() {
-                    self.log.apply(mark);
-                }
+                    .sum();
+                self.log.changes += changes;
             }
             _ => {
                 let log = &mut self.log;
@@ -736,7 +808,7 @@ impl StripsState {
 
 /// States at least this many slots of `S0` (about 1 MB of index buffer at 4 bytes a slot,
 /// a 100k-vertex mesh) rebuild on several threads when they can. Below it a rebuild takes
-/// under a millisecond on one thread, and the split's overhead (tasks, collected marks)
+/// under a millisecond on one thread, and the split's overhead (tasks, the log's parts)
 /// would eat what the threads save.
 pub(crate) const PARALLEL_SLOTS: usize = 1 << 16;
 
