@@ -396,8 +396,9 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
     // Half-bytes, so that 4.5 bytes a word is whole.
     const WRITE: i64 = 2 * WRITE_CALL_BYTES as i64;
     const HEADER: i64 = 2 * RUN_HEADER_BYTES as i64;
-    // How span j (1-based) is sent, in one word: the kind in the top two bits, and the span
-    // its run or write starts from (a single word: j itself) below them. Only the choices
+    // How span j (1-based) is sent, in one word: the kind in the top two bits (0 a single
+    // word, `RUN`, `WRITE_KIND`), and the span its run or write starts from (a single word:
+    // j itself) below them. Only the choices
     // are kept; the costs are needed one span back. Words rather than an enum, and every
     // choice below a select of two integers, so that the loop compiles without branches on
     // the data (which mispredicted on most spans: 8 ns a span).

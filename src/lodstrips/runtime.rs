@@ -126,13 +126,16 @@ struct LogPart<'a> {
 
 impl<'a> LogPart<'a> {
     fn apply(&mut self, mark: Mark) {
-        let marked = match mark {
-            Mark::Len(s) => mark_len(self.len_marked, s as usize - self.first),
-            Mark::Span(s, start, end) => {
-                mark_span(self.span, self.marked, s as usize - self.first, start, end)
+        match mark {
+            Mark::Len(s) => {
+                mark_len(self.len_marked, s as usize - self.first);
+                self.changes += 1;
             }
-        };
-        self.changes += u64::from(marked);
+            Mark::Span(s, start, end) => {
+                let s = s as usize - self.first;
+                self.changes += u64::from(mark_span(self.span, self.marked, s, start, end));
+            }
+        }
     }
 
     /// This part cut after its first `strips` strips (a multiple of 64, or all of them).
@@ -197,7 +200,8 @@ impl DirtyLog {
     }
 
     fn mark_len(&mut self, strip: usize) {
-        self.changes += u64::from(mark_len(&mut self.len_marked, strip));
+        mark_len(&mut self.len_marked, strip);
+        self.changes += 1;
     }
 
     fn take(&mut self) -> Dirty {
@@ -237,9 +241,8 @@ fn mark_span(span: &mut [[u32; 2]], marked: &mut [u64], s: usize, start: u32, en
 
 /// Marks strip `s`'s live length as changed in a dirty log's (or part's) bitset.
 #[inline]
-fn mark_len(len_marked: &mut [u64], s: usize) -> bool {
+fn mark_len(len_marked: &mut [u64], s: usize) {
     len_marked[s / 64] |= 1 << (s % 64);
-    true
 }
 
 /// Fills `root` with the survivor of each of `vertices` vertices after the collapses
