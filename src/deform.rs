@@ -32,6 +32,8 @@ use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::lodstrips::increasing::Increasing;
 use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState, Survivors};
+#[cfg(feature = "gpu")]
+use crate::par;
 use crate::seams::{check_steps, SeamError, StepBoundaries, Wedges};
 
 /// The level of detail to show, resolved against the current frame's tables.
@@ -481,15 +483,17 @@ impl Plan {
 /// in parallel. A run links each of its frame's collapses once for all its states
 /// ([`Survivors`]) instead of once per state. `state` finds a job's state; `then` is called
 /// on each job right after its rebuild, on the same thread (while the state is in that core's
-/// cache), with one accumulator per run, and the accumulators are returned. (The crowd's; a
-/// crate without the renderer has no caller.)
+/// cache), with one accumulator per run, and `finish` of each run's accumulator, made on that
+/// thread too, is returned, in run order. The calling thread takes runs too ([`par::map`]).
+/// (The crowd's; a crate without the renderer has no caller.)
 #[cfg(feature = "gpu")]
-pub(crate) fn rebuild_all<J: Send, A: Default + Send>(
+pub(crate) fn rebuild_all<J: Send, A: Default, B: Send>(
     model: &DeformingModel,
     jobs: &mut [(Plan, J)],
     state: impl Fn(&mut J) -> &mut DeformingState + Sync,
     then: impl Fn(&mut J, &mut A) + Sync,
-) -> Vec<A> {
+    finish: impl Fn(A) -> B + Sync,
+) -> Vec<B> {
     jobs.sort_unstable_by_key(|(plan, _)| (plan.frame, plan.lod));
     let run = jobs.len().div_ceil(4 * rayon::current_num_threads()).max(1);
     let mut runs = Vec::new();
@@ -505,17 +509,15 @@ pub(crate) fn rebuild_all<J: Send, A: Default + Send>(
         runs.push(head);
         rest = tail;
     }
-    runs.into_par_iter()
-        .map(|run| {
-            let mut anc = Survivors::new();
-            let mut acc = A::default();
-            for (plan, job) in run.iter_mut() {
-                state(job).apply(model, *plan, &mut anc);
-                then(job, &mut acc);
-            }
-            acc
-        })
-        .collect()
+    par::map(runs, |run| {
+        let mut anc = Survivors::new();
+        let mut acc = A::default();
+        for (plan, job) in run.iter_mut() {
+            state(job).apply(model, *plan, &mut anc);
+            then(job, &mut acc);
+        }
+        finish(acc)
+    })
 }
 
 /// The strips of one [`DeformingModel`] at some `(frame, lod)`, with the log

@@ -58,6 +58,7 @@ pub mod lodstrips;
 pub mod mesh;
 pub mod metrics;
 pub mod morph;
+mod par;
 mod random;
 pub mod seams;
 pub mod simplify;

@@ -165,7 +165,6 @@ impl IndexMirror {
     /// [`write_all`](Self::write_all) of ascending, disjoint `writes` cut into chunks of
     /// consecutive writes of about `chunk_words` words, diffed in parallel.
     fn write_in_chunks(&mut self, writes: &[(u32, &[u32])], chunk_words: usize) {
-        use rayon::prelude::*;
         // Each chunk: its writes, and the part of the mirror from its first write's position
         // to its last write's end.
         let mut chunks = Vec::new();
@@ -186,22 +185,19 @@ impl IndexMirror {
             (rest, base) = (tail, to);
             first = last;
         }
-        let spans: Vec<Vec<Range<u32>>> = chunks
-            .into_par_iter()
-            .map(|(writes, from, part)| {
-                let mut spans = Vec::new();
-                for &(at, values) in writes {
-                    let offset = at as usize - from;
-                    diff_copy(
-                        &mut part[offset..offset + values.len()],
-                        at,
-                        &mut spans,
-                        |i| values[i],
-                    );
-                }
-                spans
-            })
-            .collect();
+        let spans: Vec<Vec<Range<u32>>> = crate::par::map(chunks, |(writes, from, part)| {
+            let mut spans = Vec::new();
+            for &(at, values) in writes {
+                let offset = at as usize - from;
+                diff_copy(
+                    &mut part[offset..offset + values.len()],
+                    at,
+                    &mut spans,
+                    |i| values[i],
+                );
+            }
+            spans
+        });
         for chunk in spans {
             self.dirty.extend(chunk);
         }

@@ -550,7 +550,6 @@ impl StripsState {
         let strips = layout.strip_count();
         match anc.flat() {
             Some(root) if chunk_slots < layout.s0.len() => {
-                use rayon::prelude::*;
                 // Cut the strips (and their regions, lengths and dirty log) into chunks at
                 // strip bounds that are multiples of 64, so that each chunk marks its own
                 // words of the log's bitsets.
@@ -576,22 +575,21 @@ impl StripsState {
                     (indices, lens, log) = (tail, tail_lens, tail_log);
                     first = last;
                 }
-                let changes: u64 = chunks
-                    .into_par_iter()
-                    .map(|(range, indices, lens, mut log)| {
-                        rebuild_strips(
-                            layout,
-                            frame,
-                            l,
-                            range,
-                            indices,
-                            lens,
-                            |v| root[v as usize],
-                            |m| log.apply(m),
-                        );
-                        log.changes
-                    })
-                    .sum();
+                let changes: u64 = crate::par::map(chunks, |(range, indices, lens, mut log)| {
+                    rebuild_strips(
+                        layout,
+                        frame,
+                        l,
+                        range,
+                        indices,
+                        lens,
+                        |v| root[v as usize],
+                        |m| log.apply(m),
+                    );
+                    log.changes
+                })
+                .into_iter()
+                .sum();
                 self.log.changes += changes;
             }
             _ => {

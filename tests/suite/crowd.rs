@@ -26,10 +26,10 @@
 //! * `index_patches_name_each_word_once`: over a random walk, a frame's index patches number
 //!   exactly the distinct words the instances' dirty logs name (no word sent twice); where
 //!   instances moved twice between two prepares, at most those of both moves.
-//! * `instances_sharing_a_frame_draw_their_reference_meshes`: most instances switching to one
-//!   `(frame, LOD)` together (rebuilt in one run of that frame), one at another LOD of it, one
-//!   at another frame, one left alone: each instance's buffers read back draw the reference
-//!   mesh of its frame and LOD.
+//! * `instances_sharing_a_frame_draw_their_reference_meshes`: most of 40 instances switching
+//!   to one `(frame, LOD)` together (rebuilt in runs of that frame, in several pieces of
+//!   slots), one at another LOD of it, one at another frame, one left alone: each instance's
+//!   buffers read back draw the reference mesh of its frame and LOD.
 //! * `fewer_weight_slots_draw_the_pixels_of_the_8_slot_sum`: on both paths, for the head and
 //!   for the face (without and with a surface): drawn by the entry point without the target
 //!   sum (uploaded without targets) and by the 8-slot one at zero weights they give the same
@@ -861,7 +861,9 @@ fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
         .collect();
     let path = paths(&ctx)[0];
     let mut crowd = crowd_on(&ctx, path)?;
-    let count = 12;
+    // Enough instances for several pieces of `set`'s parallel pass (at least 16 slots each)
+    // and several runs of one frame's rebuilds.
+    let count = 40;
     let (asset, ids) = fill(&ctx, &mut crowd, &kind, count)?;
     let mut rng = common::Rng(0xc0ffee);
     let frame_t = |k: usize| k as f32 / (frames - 1) as f32;
@@ -891,10 +893,17 @@ fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
                 "{path:?}, step {step}, {id:?} at frame {frame}, LOD {lod}"
             );
         }
-        // The herd is where it was asked to be.
-        let herd_state = crowd.state(ids[3])?;
-        assert_eq!(herd_state.frame(), k);
-        assert_eq!(herd_state.lod(), kind.model.resolve(k, herd)?);
+        // Every moved instance is where it was asked to be.
+        for &(id, t, lod) in &moves {
+            let state = crowd.state(id)?;
+            let frame = kind.model.frame_at(t)?;
+            assert_eq!(state.frame(), frame, "step {step}, {id:?}");
+            assert_eq!(
+                state.lod(),
+                kind.model.resolve(frame, lod)?,
+                "step {step}, {id:?}"
+            );
+        }
     }
     Ok(())
 }

@@ -15,7 +15,7 @@
 use std::ops::Range;
 use std::sync::Arc;
 
-use rayon::prelude::*;
+use crate::par;
 use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
@@ -311,12 +311,18 @@ impl DiscreteCrowd {
             levels.push(self.levels.level_for(lod)?);
         }
         let track = self.gpu.track();
-        self.own
-            .par_iter_mut()
-            .zip(moves)
-            .for_each_init(Vec::new, |weights, (block, &(t, _))| {
-                block.set_pose(track, clamp_t(t).expect("checked time"), weights);
-            });
+        // In pieces, a few a thread (the calling thread takes pieces too).
+        let per = moves
+            .len()
+            .div_ceil(4 * rayon::current_num_threads())
+            .max(64);
+        let parts: Vec<_> = self.own.chunks_mut(per).zip(moves.chunks(per)).collect();
+        par::map(parts, |(blocks, moves)| {
+            let mut weights = Vec::new();
+            for (block, &(t, _)) in blocks.iter_mut().zip(moves) {
+                block.set_pose(track, clamp_t(t).expect("checked time"), &mut weights);
+            }
+        });
         self.chosen[..levels.len()].copy_from_slice(&levels);
         // A counting sort: the blocks of level l at first[l]..first[l + 1].
         let mut at = vec![0u32; self.levels.levels.len() + 1];

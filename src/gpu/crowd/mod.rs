@@ -44,7 +44,6 @@ mod slots;
 
 use std::sync::Arc;
 
-use rayon::prelude::*;
 use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
 
@@ -64,6 +63,7 @@ use super::scatter::{encode_runs, Dispatches, PatchBuffer, Scatter, RUN_GROUP};
 use super::GpuError;
 use crate::deform::{rebuild_all, DeformingModel, DeformingState, Lod, Plan, SetError, Strategy};
 use crate::lodstrips::{Dirty, Survivors};
+use crate::par;
 
 /// Why a crowd call was refused; nothing changed.
 #[derive(Debug, Error)]
@@ -385,8 +385,8 @@ impl PatchRuns {
 
 /// Fewest slots per piece of work of `set`'s parallel pass: a moved instance there costs a
 /// pose and a plan, one that steps or switches to its frame's tail a few microseconds more
-/// (the move and its patches), so that smaller pieces cost the pool more in splitting than
-/// they gain.
+/// (the move and its patches), so that smaller pieces cost more in handing out and in
+/// patch lists than they gain.
 const MOVES_PER_PIECE: usize = 16;
 
 /// Which buffer of an asset a scatter patches.
@@ -920,42 +920,43 @@ impl Crowd {
             let (model, track, layout) = (&a.model, a.gpu.track(), &a.layout);
             let key = (path, a.gpu.vertex_count(), layout.per_instance());
             let prepares = a.prepares;
-            // In parallel: every moved instance's pose and plan; the moves that step or
-            // rebuild from a tail are made here, and the instance's patches right after
-            // them; the rebuilds over the mesh are gathered.
-            let pieces: Vec<(PatchRuns, Piece)> = a
-                .members
-                .par_iter_mut()
-                .zip(a.blocks.par_iter_mut())
-                .zip(a.records.par_iter_mut())
+            // In parallel, in pieces of consecutive slots (a few a thread, so that pieces
+            // with many frame switches even out): every moved instance's pose and plan; the
+            // moves that step or rebuild from a tail are made here, and the instance's
+            // patches right after them; the rebuilds over the mesh are gathered.
+            let per = (a.members.len())
+                .div_ceil(4 * rayon::current_num_threads())
+                .max(MOVES_PER_PIECE);
+            let parts: Vec<_> = (a.members.chunks_mut(per))
+                .zip(a.blocks.chunks_mut(per))
+                .zip(a.records.chunks_mut(per))
                 .enumerate()
-                .with_min_len(MOVES_PER_PIECE)
-                .fold(
-                    Piece::default,
-                    |mut piece, (slot, ((member, block), record))| {
-                        let Some(member) = member.as_mut() else {
-                            return piece;
-                        };
-                        let Some((t, lod)) = member.pending.take() else {
-                            return piece;
-                        };
-                        let t = clamp_t(t).expect("checked time");
-                        block.set_pose(track, t, &mut piece.weights);
-                        // Checked above: cannot fail.
-                        let plan = (member.state)
-                            .plan(model, t, lod, Strategy::Auto)
-                            .expect("checked move");
-                        if plan.links_survivors(model) {
-                            piece.rebuilds.push((slot, plan));
-                            return piece;
-                        }
-                        member.state.apply(model, plan, &mut Survivors::new());
-                        member.patch(layout, key, slot as u32, record, prepares, &mut piece);
-                        piece
-                    },
-                )
-                .map(Piece::runs)
                 .collect();
+            let pieces = par::map(parts, |(k, ((members, blocks), records))| {
+                let mut piece = Piece::default();
+                let slots = (k * per..).zip(members.iter_mut().zip(blocks).zip(records));
+                for (slot, ((member, block), record)) in slots {
+                    let Some(member) = member.as_mut() else {
+                        continue;
+                    };
+                    let Some((t, lod)) = member.pending.take() else {
+                        continue;
+                    };
+                    let t = clamp_t(t).expect("checked time");
+                    block.set_pose(track, t, &mut piece.weights);
+                    // Checked above: cannot fail.
+                    let plan = (member.state)
+                        .plan(model, t, lod, Strategy::Auto)
+                        .expect("checked move");
+                    if plan.links_survivors(model) {
+                        piece.rebuilds.push((slot, plan));
+                        continue;
+                    }
+                    member.state.apply(model, plan, &mut Survivors::new());
+                    member.patch(layout, key, slot as u32, record, prepares, &mut piece);
+                }
+                piece.runs()
+            });
             let rebuilds = a.waiting.take(pieces);
             if rebuilds.is_empty() {
                 continue;
@@ -979,9 +980,9 @@ impl Crowd {
                 |(slot, member, record), piece: &mut Piece| {
                     member.patch(layout, key, *slot, record, prepares, piece);
                 },
+                Piece::runs,
             );
-            a.waiting
-                .take(pieces.into_par_iter().map(Piece::runs).collect());
+            a.waiting.take(pieces);
         }
         Ok(())
     }
