@@ -214,8 +214,15 @@ impl IndexMirror {
 /// thread and the split's tasks would cost what they save.
 pub(super) const PARALLEL_WORDS: usize = 1 << 15;
 
-/// Spans from which [`coalesce`] sorts on the thread pool.
+/// Spans from which [`coalesce`] sorts on the thread pool, where it has at least
+/// [`PARALLEL_SORT_THREADS`] threads.
 const PARALLEL_SPANS: usize = 1 << 14;
+
+/// Threads from which [`coalesce`]'s large sorts go on the pool. A switch's 18 k spans (a few
+/// ascending runs) sorted in 108 µs on one thread of the 2-core machine and in 192–299 µs
+/// on its pool of 2 (rayon's merge sort, after a wake); on the H200's 16 the pool's sort took
+/// ~65 µs where one thread had taken 0.15–1 ms. 4 to 8 threads are not measured.
+const PARALLEL_SORT_THREADS: usize = 4;
 
 /// The part of `range` below `live` (empty when it starts past it).
 pub(super) fn clip(range: Range<u32>, live: u32) -> Range<u32> {
@@ -456,12 +463,22 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
 
 /// Sorts and merges spans that overlap or lie at most `gap` elements apart, and empties `spans`.
 pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>> {
+    // A frame switch of the 100k object brings ~100 k spans: sorted on one thread they took
+    // ~1 ms on the H200, so from `PARALLEL_SPANS` on they are sorted on a pool of several
+    // threads.
+    let pooled = spans.len() >= PARALLEL_SPANS
+        && rayon::current_num_threads() >= PARALLEL_SORT_THREADS
+        && rayon::current_thread_index().is_none();
+    merge_spans(spans, gap, pooled)
+}
+
+/// [`coalesce`], its sort on the pool or not.
+fn merge_spans(spans: &mut Vec<Range<u32>>, gap: u32, pooled: bool) -> Vec<Range<u32>> {
     // A stable sort merges the ascending runs it finds in linear time: the spans of a frame
     // arrive as a few such runs (the dirty ranges in strip order, then the resizes), which
-    // an unstable sort sorts from scratch. Equal starts merge below either way. A frame
-    // switch of the 100k object brings ~100 k spans: sorted on one thread they took ~1 ms on
-    // the H200, so from `PARALLEL_SPANS` on they are sorted on the pool (stable likewise).
-    if spans.len() >= PARALLEL_SPANS && rayon::current_thread_index().is_none() {
+    // an unstable sort sorts from scratch. Equal starts merge below either way (the pool's
+    // sort is stable likewise).
+    if pooled {
         use rayon::slice::ParallelSliceMut;
         spans.par_sort_by_key(|span| span.start);
     } else {
@@ -482,8 +499,8 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
 #[cfg(test)]
 mod tests {
     use super::{
-        cheapest_split, coalesce, diff_copy, hybrid_plan, joined, plan_upload, run_list_bytes,
-        split_floor, IndexMirror, UploadPlan, SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
+        cheapest_split, coalesce, diff_copy, hybrid_plan, joined, merge_spans, plan_upload,
+        run_list_bytes, split_floor, IndexMirror, UploadPlan, SCATTER_CALL_BYTES, WRITE_CALL_BYTES,
     };
     use crate::random::next_below;
     use std::ops::Range;
@@ -679,7 +696,8 @@ mod tests {
     fn coalesce_merges_overlapping_and_close_spans_only() {
         let mut spans = vec![10..12, 0..4, 3..6, 30..31, 12..13];
         assert_eq!(coalesce(&mut spans, 0), vec![0..6, 10..13, 30..31]);
-        // Past `PARALLEL_SPANS` (sorted on the pool): as a plain sort and `joined` make them.
+        // Past `PARALLEL_SPANS` (sorted on a pool of several threads, or not): as a plain
+        // sort and `joined` make them.
         let mut seed = 0xc0a1_e5ce_u64;
         let mut many: Vec<Range<u32>> = (0..3 * super::PARALLEL_SPANS)
             .map(|_| {
@@ -690,6 +708,7 @@ mod tests {
         let mut sorted = many.clone();
         sorted.sort_by_key(|span| span.start);
         let expected: Vec<Range<u32>> = joined(&sorted, 0).collect();
+        assert_eq!(merge_spans(&mut many.clone(), 0, true), expected);
         assert_eq!(coalesce(&mut many, 0), expected);
         assert!(many.is_empty());
         assert!(spans.is_empty());
