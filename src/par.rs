@@ -9,8 +9,22 @@
 //! lets pool threads take items as they wake, so the work never waits for a thread to wake,
 //! only (at the end, as rayon's scopes do) for the helpers it asked for to have run.
 
+use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
+
+thread_local! {
+    /// Whether this thread is taking items of a [`map`] (the calling thread's part; a pool
+    /// thread is known by its index).
+    static IN_MAP: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Whether work on this thread may be split over the pool: it is neither a pool thread nor
+/// taking items of a [`map`]. A part of a parallel job (a crowd's rebuild, wherever it runs)
+/// stays on its thread: the job is spread already.
+pub(crate) fn may_split() -> bool {
+    rayon::current_thread_index().is_none() && !IN_MAP.get()
+}
 
 /// `items.into_iter().map(f).collect()`, the items taken one at a time by the calling thread
 /// and by up to `rayon::current_num_threads() - 1` pool threads, each taking the next item left
@@ -32,6 +46,15 @@ pub(crate) fn map<T: Send, R: Send>(items: Vec<T>, f: impl Fn(T) -> R + Sync) ->
         helpers_left: AtomicUsize::new((threads - 1).min(n - 1)),
         f,
     };
+    let outer = IN_MAP.replace(true);
+    // Restored however the scope ends (a panic in an item unwinds through here).
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            IN_MAP.set(self.0);
+        }
+    }
+    let _restore = Restore(outer);
     rayon::in_place_scope(|scope| shared.take_part(scope));
     let mut results = shared
         .results
@@ -161,6 +184,16 @@ mod tests {
         );
         let helpers: HashSet<_> = ids.iter().filter_map(|&(_, pool)| pool).collect();
         assert!(!helpers.is_empty(), "no pool thread took an item");
+    }
+
+    #[test]
+    fn items_do_not_split_again() {
+        assert!(rayon::current_thread_index().is_some() || may_split());
+        let splits = map((0..8).collect(), |_: u32| may_split());
+        assert!(splits.iter().all(|&s| !s), "an item may split: {splits:?}");
+        assert!(rayon::current_thread_index().is_some() || may_split());
+        let _ = std::panic::catch_unwind(|| map(vec![0, 1], |i: u32| assert!(i == 0)));
+        assert!(rayon::current_thread_index().is_some() || may_split());
     }
 
     #[test]

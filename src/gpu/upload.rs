@@ -141,7 +141,7 @@ impl IndexMirror {
     pub(super) fn write_all<'a>(&mut self, writes: impl Iterator<Item = (u32, &'a [u32])> + Clone) {
         let threads = rayon::current_num_threads();
         // The words of `writes` where they go on the pool.
-        let pooled = (threads > 1 && rayon::current_thread_index().is_none())
+        let pooled = (threads > 1 && crate::par::may_split())
             .then(|| {
                 let (mut words, mut apart, mut end) = (0usize, true, 0usize);
                 for (at, values) in writes.clone() {
@@ -468,7 +468,7 @@ pub(super) fn coalesce(spans: &mut Vec<Range<u32>>, gap: u32) -> Vec<Range<u32>>
     // threads.
     let pooled = spans.len() >= PARALLEL_SPANS
         && rayon::current_num_threads() >= PARALLEL_SORT_THREADS
-        && rayon::current_thread_index().is_none();
+        && crate::par::may_split();
     merge_spans(spans, gap, pooled)
 }
 

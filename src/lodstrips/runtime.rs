@@ -503,9 +503,9 @@ impl StripsState {
     /// At the frame's coarse LODs (its tail, see `Tail`) the rebuild reads the tail alone and
     /// leaves `anc` as it is; `from`, the frame the state is at (its strips are `from`'s at
     /// the state's LOD), tells it which strips hold something before it. A large state rebuilt
-    /// from scratch off the thread pool (one object's frame switch) is split over the pool's
-    /// threads ([`PARALLEL_SLOTS`]); a crowd's rebuilds, already spread over the pool by
-    /// `deform::rebuild_all`, stay on their thread.
+    /// from scratch outside a parallel job (one object's frame switch; `par::may_split`) is
+    /// split over the calling thread and the pool's ([`PARALLEL_SLOTS`]); a crowd's rebuilds,
+    /// already spread by `deform::rebuild_all`, stay on their thread, whichever it is.
     pub(crate) fn rebuild<'a>(
         &mut self,
         layout: &StripLayout,
@@ -521,13 +521,12 @@ impl StripsState {
         }
         let threads = rayon::current_num_threads();
         let slots = layout.s0.len();
-        let chunk =
-            if threads > 1 && slots >= PARALLEL_SLOTS && rayon::current_thread_index().is_none() {
-                // A few chunks a thread, so that chunks of mostly empty strips even out.
-                slots.div_ceil(4 * threads).max(PARALLEL_SLOTS / 4)
-            } else {
-                usize::MAX
-            };
+        let chunk = if threads > 1 && slots >= PARALLEL_SLOTS && crate::par::may_split() {
+            // A few chunks a thread, so that chunks of mostly empty strips even out.
+            slots.div_ceil(4 * threads).max(PARALLEL_SLOTS / 4)
+        } else {
+            usize::MAX
+        };
         self.rebuild_in_chunks(layout, frame, lod, anc, chunk);
     }
 
