@@ -23,7 +23,9 @@
 //!   equals the mirror, and the walk used both the scatter and writes-only frames.
 //! * `apply_dirty_on_the_pool_matches_write_region`: random dirty logs, frame switches large
 //!   enough for `apply_dirty`'s pooled path among them, give the mirror, records and uploads
-//!   of `write_region` per touched strip, and the buffer read back equals the mirror.
+//!   of `write_region` per touched strip; the mirror is the layout built from scratch (live
+//!   strips, restarts up to each capacity, separators; some strips hundreds of slots long),
+//!   and the buffer read back equals the mirror.
 //!
 //! GPU set-up: `common::gpu::Gpu` (fails without an adapter when `CI` is set: `morphlod::ci::is_ci`).
 
@@ -486,7 +488,11 @@ fn apply_dirty_on_the_pool_matches_write_region() {
         .build_global();
     const VERTICES: usize = 1000;
     let mut rng = Rng(0xD1A7_7E55);
-    let capacities: Vec<usize> = (0..2500).map(|_| 1 + rng.below(100)).collect();
+    // Every 50th strip long, so that a strip may leave more positions than one piece of
+    // restarts (256).
+    let capacities: Vec<usize> = (0..2500)
+        .map(|s| 1 + rng.below(if s % 50 == 0 { 700 } else { 100 }))
+        .collect();
     let mut runtime: Vec<Vec<u32>> = capacities
         .iter()
         .map(|&c| (0..c).map(|_| rng.below(VERTICES) as u32).collect())
@@ -577,6 +583,21 @@ fn apply_dirty_on_the_pool_matches_write_region() {
         assert!(
             object.index_mirror() == diffed.index_mirror(),
             "{what}: the mirror differs from write_region's"
+        );
+        // And from the layout built from scratch: each live strip, restarts up to its
+        // capacity, one separator.
+        let layout: Vec<u32> = (0..strips)
+            .flat_map(|s| {
+                let live = &runtime[s][..lengths[s] as usize];
+                let rest = capacities[s] - live.len() + 1;
+                live.iter()
+                    .copied()
+                    .chain(std::iter::repeat_n(RESTART, rest))
+            })
+            .collect();
+        assert!(
+            object.index_mirror() == layout.as_slice(),
+            "{what}: the mirror differs from the layout"
         );
         assert_eq!(object.lengths(), diffed.lengths(), "{what}: lengths");
         let records = |o: &Object| -> Vec<u8> {
