@@ -133,9 +133,10 @@ impl IndexMirror {
 
     /// Writes every `(at, values)` of `writes` as [`write`](Self::write) would, one after the
     /// other: the same mirror and the same changed spans in the same order. Writes that lie
-    /// ascending and apart, of at least [`PARALLEL_WORDS`] words in all, are diffed on the
-    /// thread pool in chunks of consecutive writes (one object's frame switch: a few hundred
-    /// thousand words); each chunk collects its spans and they are appended in order.
+    /// ascending and apart, of at least [`PARALLEL_WORDS`] words in all, are diffed in
+    /// parallel (the calling thread and the pool's, `par::map`) in chunks of consecutive
+    /// writes (one object's frame switch: a few hundred thousand words); each chunk collects
+    /// its spans and they are appended in order.
     /// `writes` is walked once to count and once to write, and collected only for the pool:
     /// an ordinary frame allocates nothing here.
     pub(super) fn write_all<'a>(&mut self, writes: impl Iterator<Item = (u32, &'a [u32])> + Clone) {
