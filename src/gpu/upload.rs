@@ -400,19 +400,16 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
     // Half-bytes, so that 4.5 bytes a word is whole.
     const WRITE: i64 = 2 * WRITE_CALL_BYTES as i64;
     const HEADER: i64 = 2 * RUN_HEADER_BYTES as i64;
-    // How span j (1-based) is sent, in one word: the kind in the top two bits (0 a single
-    // word, `RUN`, `WRITE_KIND`), and the span its run or write starts from (a single word:
-    // j itself) below them. Only the choices
+    // How span j (1-based) is sent, in one word: the span its run or write starts from (a
+    // single word is a run from j itself), with `BY_WRITE` set for a write. Only the choices
     // are kept; the costs are needed one span back. Words rather than an enum, and every
     // choice below a select of two integers, so that the loop compiles without branches on
     // the data (which mispredicted on most spans: 8 ns a span).
-    const RUN: u32 = 1 << 30;
-    const WRITE_KIND: u32 = 2 << 30;
-    const FROM: u32 = (1 << 30) - 1;
+    const BY_WRITE: u32 = 1 << 31;
     let n = spans.len();
     // Spans are disjoint and apart, and a scatter binds the whole index buffer (at most
     // `max_storage_buffer_binding_size`, under 2³² bytes): fewer than 2²⁹ of them.
-    debug_assert!(n < FROM as usize, "{n} spans do not fit a choice");
+    debug_assert!(n < BY_WRITE as usize, "{n} spans do not fit a choice");
     let mut choice = Vec::with_capacity(n + 1);
     choice.push(0);
     // best[j − 1], and min over i ≤ j of best[i − 1] − k start_i (k = 9 for runs, 8 for
@@ -436,11 +433,7 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
         let write = WRITE + 8 * end + write_from;
         let by_write = write < run;
         let mut cost = if by_write { write } else { run };
-        let mut pick = if by_write {
-            WRITE_KIND | i_write
-        } else {
-            RUN | i_run
-        };
+        let mut pick = if by_write { BY_WRITE | i_write } else { i_run };
         let single = end - start == 1 && best + HEADER < cost;
         cost = if single { best + HEADER } else { cost };
         pick = if single { j } else { pick };
@@ -450,9 +443,11 @@ pub(super) fn cheapest_split(spans: &[Range<u32>]) -> (UploadPlan, u64) {
     let mut plan = UploadPlan::default();
     let mut j = n;
     while j > 0 {
-        let (i, into) = match choice[j] & !FROM {
-            WRITE_KIND => ((choice[j] & FROM) as usize, &mut plan.writes),
-            _ => ((choice[j] & FROM) as usize, &mut plan.runs),
+        let i = (choice[j] & !BY_WRITE) as usize;
+        let into = if choice[j] & BY_WRITE != 0 {
+            &mut plan.writes
+        } else {
+            &mut plan.runs
         };
         into.push(spans[i - 1].start..spans[j - 1].end);
         j = i - 1;
