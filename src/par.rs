@@ -35,6 +35,15 @@ pub(crate) fn may_split() -> bool {
 /// Called from inside the pool it runs the same way, its helpers on the pool's other threads.
 /// A panic in `f` is resumed on the calling thread once every helper has stopped.
 pub(crate) fn map<T: Send, R: Send>(items: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
+    // The calling thread's items do not split again, however many helpers there are.
+    // Restored however `map` ends (a panic in an item unwinds through here).
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            IN_MAP.set(self.0);
+        }
+    }
+    let _restore = Restore(IN_MAP.replace(true));
     let n = items.len();
     let threads = rayon::current_num_threads();
     if n <= 1 || threads <= 1 {
@@ -46,15 +55,6 @@ pub(crate) fn map<T: Send, R: Send>(items: Vec<T>, f: impl Fn(T) -> R + Sync) ->
         helpers_left: AtomicUsize::new((threads - 1).min(n - 1)),
         f,
     };
-    let outer = IN_MAP.replace(true);
-    // Restored however the scope ends (a panic in an item unwinds through here).
-    struct Restore(bool);
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            IN_MAP.set(self.0);
-        }
-    }
-    let _restore = Restore(outer);
     rayon::in_place_scope(|scope| shared.take_part(scope));
     let mut results = shared
         .results
@@ -189,8 +189,13 @@ mod tests {
     #[test]
     fn items_do_not_split_again() {
         assert!(rayon::current_thread_index().is_some() || may_split());
-        let splits = map((0..8).collect(), |_: u32| may_split());
-        assert!(splits.iter().all(|&s| !s), "an item may split: {splits:?}");
+        for n in [1, 8] {
+            let splits = map((0..n).collect(), |_: u32| may_split());
+            assert!(
+                splits.iter().all(|&s| !s),
+                "an item of {n} may split: {splits:?}"
+            );
+        }
         assert!(rayon::current_thread_index().is_some() || may_split());
         let _ = std::panic::catch_unwind(|| map(vec![0, 1], |i: u32| assert!(i == 0)));
         assert!(rayon::current_thread_index().is_some() || may_split());
