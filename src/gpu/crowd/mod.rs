@@ -452,9 +452,8 @@ impl Member {
     /// Where its strips changed since its last patches: appends to `piece` the patches that
     /// bring its slots (at `slot` of `layout`) and its record to them: those of its compact
     /// copy where that is drawn (in the strips' places), else of its regions. While the
-    /// compact copy is drawn the regions are not read: what changed in them waits in its
-    /// `Places` (coalesced per strip: a position changed in many frames is sent once) until a
-    /// record reads the regions again.
+    /// compact copy is drawn the regions are not read nor patched: its `Places` notes that
+    /// they lag, and when a record reads them again every live strip is sent whole.
     fn patch(
         &mut self,
         layout: &SlotLayout,

@@ -41,8 +41,8 @@ pub(super) struct SlotRecord {
     pub(super) compact: bool,
 }
 
-/// Where an instance's live strips lie in its compact area, and which parts of its regions
-/// the GPU lacks. Empty (no heap) until the instance is first drawn from its copy.
+/// Where an instance's live strips lie in its compact area, and whether its regions lag
+/// behind its strips. Empty (no heap) until the instance is first drawn from its copy.
 ///
 /// A strip with a place has `at..at + room` of the compact area, holding its `len` indices as
 /// of the last upload and [`RESTART`] over the rest, followed by a separator slot that holds
@@ -64,10 +64,11 @@ pub(super) struct Places {
     /// The copy holds the strips as of the last upload (false while the regions are drawn:
     /// then the copy is repacked when a record reads it again).
     current: bool,
-    /// Per strip, the part `lo..hi` (`[lo, hi]`) of its region that changed while the copy
-    /// was drawn (`lo = u32::MAX`: none); its length is compared with the uploaded one.
-    stale_span: Vec<[u32; 2]>,
-    /// Some region is stale.
+    /// The strips changed while the copy was drawn, so the regions lag behind them: the
+    /// next upload that draws the regions sends every live strip whole. Which parts changed
+    /// is not kept: a per-strip table of them cost a cold cache line per changed strip at
+    /// every upload of a coarse instance, for a return to the regions that is rare and sends
+    /// most of a strip anyway (BENCHMARKS.md, "Stale regions sent whole").
     stale: bool,
     /// Full rewrites of the copy (tests count them).
     #[cfg(test)]
@@ -78,7 +79,6 @@ impl Places {
     /// Heap bytes of the table.
     pub(super) fn heap_bytes(&self) -> usize {
         (self.placed.capacity() + self.born.capacity()) * size_of::<(u32, Place)>()
-            + self.stale_span.capacity() * 8
     }
 
     /// Every strip's place (`room = 0`: none), for tests to compare strip by strip.
@@ -91,38 +91,25 @@ impl Places {
         out
     }
 
-    /// Notes the changes of `dirty` as not yet in the regions.
-    fn mark_stale(&mut self, strips: usize, dirty: &Dirty) {
-        if self.stale_span.len() != strips {
-            self.stale_span = vec![[u32::MAX, 0]; strips];
-        }
-        for range in &dirty.ranges {
-            let r = range.strip as usize;
-            let span = &mut self.stale_span[r];
-            *span = [span[0].min(range.start), span[1].max(range.end)];
-        }
-        self.stale = true;
-    }
-
-    /// The changes of the regions since they were last patched (the dirty log's contract),
-    /// `dirty`'s included; clears the stale marks.
-    fn take_stale(&mut self, dirty: &Dirty, uploaded: &[u32], lengths: &[u32]) -> Dirty {
-        self.mark_stale(lengths.len(), dirty);
+    /// A dirty log that covers every change of the regions since they were last patched
+    /// (the dirty log's contract), for strips of `lengths` whose regions hold `uploaded`:
+    /// each strip live in both, whole, and each strip whose length differs. Clears `stale`.
+    fn take_stale(&mut self, uploaded: &[u32], lengths: &[u32]) -> Dirty {
         self.stale = false;
         let mut out = Dirty::default();
-        for (r, span) in self.stale_span.iter_mut().enumerate() {
-            let [start, end] = std::mem::replace(span, [u32::MAX, 0]);
-            if start < end {
+        for (r, (&old, &new)) in uploaded.iter().zip(lengths).enumerate() {
+            let kept = old.min(new);
+            if kept > 0 {
                 out.ranges.push(DirtyRange {
                     strip: r as u32,
-                    start,
-                    end,
+                    start: 0,
+                    end: kept,
                 });
             }
+            if old != new {
+                out.lengths.push(r as u32);
+            }
         }
-        out.lengths = (0..lengths.len() as u32)
-            .filter(|&r| uploaded[r as usize] != lengths[r as usize])
-            .collect();
         out
     }
 }
@@ -218,9 +205,10 @@ impl SlotLayout {
     /// record reads the copy: moves are patched in the strips' places at O(changed) (a strip
     /// that grew past its room moves to the end of the used part), and the copy is rewritten
     /// packed where it was not current, would pass the area or the record would read more than
-    /// [`READ_BOUND_EIGHTHS`]/8 of the packed count; the regions' changes wait in `places`.
-    /// Else the record reads the regions from the first live index to the last, brought up to
-    /// date (`uploaded`: their lengths).
+    /// [`READ_BOUND_EIGHTHS`]/8 of the packed count; the regions are left behind (`places`
+    /// notes it). Else the record reads the regions from the first live index to the last,
+    /// brought up to date (`uploaded`: their lengths; every live strip whole after they were
+    /// left behind).
     pub(super) fn upload(
         &self,
         base: u32,
@@ -235,7 +223,7 @@ impl SlotLayout {
         let lengths = state.lengths();
         let packed = packed(state);
         if packed > 0 && packed <= self.compact {
-            places.mark_stale(lengths.len(), dirty);
+            places.stale = true;
             let mark = out.len();
             // Moved in their places where that fits and sends fewer bytes than a repack.
             if !(places.current
@@ -260,7 +248,7 @@ impl SlotLayout {
         }
         places.current = false;
         if places.stale {
-            let stale = places.take_stale(dirty, uploaded, lengths);
+            let stale = places.take_stale(uploaded, lengths);
             self.patches(base, state, &stale, uploaded, out);
         } else {
             self.patches(base, state, dirty, uploaded, out);
