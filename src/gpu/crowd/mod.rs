@@ -434,7 +434,9 @@ fn set_record(
 /// One instance: its runtime and what its slots on the GPU hold.
 struct Member {
     state: DeformingState,
-    /// Live length of every region as the GPU holds it.
+    /// Live length of every region as the GPU holds it; empty while that is `S0`'s (the
+    /// regions of a new instance, not patched since): most of a crowd's instances are drawn
+    /// from their compact copies from their first upload on and never need the table.
     uploaded: Vec<u32>,
     /// Its strips' places in the compact copy, and what its regions lack.
     places: Places,
@@ -816,9 +818,8 @@ impl Crowd {
             capacity: a.capacity,
         })?;
         let state = DeformingState::new(&a.model);
-        let uploaded = a.layout.s0_lengths();
         // Its compact area holds nothing of it yet: the record reads S0 from the regions.
-        let record = a.layout.region_record(&uploaded);
+        let record = a.layout.region_record(&a.layout.s0_lengths());
         let key = (self.path, a.gpu.vertex_count(), a.layout.per_instance());
         set_record(
             key,
@@ -832,7 +833,7 @@ impl Crowd {
         a.members[slot as usize] = Some(Member {
             changes: state.changes(),
             state,
-            uploaded,
+            uploaded: Vec::new(),
             places: Places::default(),
             pending: None,
             patched: u64::MAX,
