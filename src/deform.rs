@@ -495,7 +495,7 @@ pub(crate) fn rebuild_all<J: Send, A: Default, B: Send>(
     finish: impl Fn(A) -> B + Sync,
 ) -> Vec<B> {
     jobs.sort_unstable_by_key(|(plan, _)| (plan.frame, plan.lod));
-    let run = jobs.len().div_ceil(4 * rayon::current_num_threads()).max(1);
+    let run = par::piece_len(jobs.len(), 1);
     let mut runs = Vec::new();
     let mut rest = jobs;
     while let Some((first, _)) = rest.first() {

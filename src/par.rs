@@ -64,6 +64,19 @@ pub(crate) fn map<T: Send, R: Send>(items: Vec<T>, f: impl Fn(T) -> R + Sync) ->
     results.into_iter().map(|(_, r)| r).collect()
 }
 
+/// Pieces per thread that the parallel parts cut their work into: a few, so that pieces of
+/// uneven cost (strips mostly empty, instances that switch frames) even out over the threads.
+const PIECES_PER_THREAD: usize = 4;
+
+/// The size of each piece when `total` units of work are cut into a few pieces a thread
+/// ([`PIECES_PER_THREAD`]) for [`map`], but no smaller than `min` units (below it a piece
+/// costs more to hand out than it evens out).
+pub(crate) fn piece_len(total: usize, min: usize) -> usize {
+    total
+        .div_ceil(PIECES_PER_THREAD * rayon::current_num_threads())
+        .max(min)
+}
+
 /// What the calling thread and its helpers of one [`map`] share.
 struct Shared<I, R, F> {
     /// The items not taken yet, with their places.

@@ -155,7 +155,7 @@ impl IndexMirror {
             .flatten();
         if let Some(words) = pooled {
             let writes: Vec<(u32, &[u32])> = writes.collect();
-            self.write_in_chunks(&writes, words.div_ceil(4 * threads).max(PARALLEL_WORDS / 4));
+            self.write_in_chunks(&writes, crate::par::piece_len(words, PARALLEL_WORDS / 4));
         } else {
             for (at, values) in writes {
                 self.write(at, values.len() as u32, |i| values[i]);

@@ -522,8 +522,7 @@ impl StripsState {
         let threads = rayon::current_num_threads();
         let slots = layout.s0.len();
         let chunk = if threads > 1 && slots >= PARALLEL_SLOTS && crate::par::may_split() {
-            // A few chunks a thread, so that chunks of mostly empty strips even out.
-            slots.div_ceil(4 * threads).max(PARALLEL_SLOTS / 4)
+            crate::par::piece_len(slots, PARALLEL_SLOTS / 4)
         } else {
             usize::MAX
         };

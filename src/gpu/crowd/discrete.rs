@@ -312,10 +312,7 @@ impl DiscreteCrowd {
         }
         let track = self.gpu.track();
         // In pieces, a few a thread (the calling thread takes pieces too).
-        let per = moves
-            .len()
-            .div_ceil(4 * rayon::current_num_threads())
-            .max(64);
+        let per = par::piece_len(moves.len(), 64);
         let parts: Vec<_> = self.own.chunks_mut(per).zip(moves.chunks(per)).collect();
         par::map(parts, |(blocks, moves)| {
             let mut weights = Vec::new();

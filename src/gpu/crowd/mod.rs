@@ -924,9 +924,7 @@ impl Crowd {
             // with many frame switches even out): every moved instance's pose and plan; the
             // moves that step or rebuild from a tail are made here, and the instance's
             // patches right after them; the rebuilds over the mesh are gathered.
-            let per = (a.members.len())
-                .div_ceil(4 * rayon::current_num_threads())
-                .max(MOVES_PER_PIECE);
+            let per = par::piece_len(a.members.len(), MOVES_PER_PIECE);
             let parts: Vec<_> = (a.members.chunks_mut(per))
                 .zip(a.blocks.chunks_mut(per))
                 .zip(a.records.chunks_mut(per))
