@@ -438,7 +438,7 @@ struct Member {
     /// regions of a new instance, not patched since): most of a crowd's instances are drawn
     /// from their compact copies from their first upload on and never need the table.
     uploaded: Vec<u32>,
-    /// Its strips' places in the compact copy, and what its regions lack.
+    /// Its strips' places in the compact copy, and whether its regions lag behind.
     places: Places,
     /// The runtime's [`DeformingState::changes`] as of the last upload of its strips (to the
     /// regions or to the compact copy).
