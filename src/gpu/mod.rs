@@ -74,8 +74,8 @@ pub use context::{test_context, Context};
 pub use crowd::{
     run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdPath,
     CrowdRecords, CrowdStats, CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels,
-    FrameFigures, InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL,
-    SCATTER_WGSL, WEIGHT_SLOTS,
+    FrameFigures, InstanceAt, InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL,
+    SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS,
 };
 pub use lod_object::{s0_regions, LodObject};
 pub use object::{Object, Topology};

@@ -145,7 +145,7 @@ pub(crate) enum Dispatches<'e> {
 }
 
 impl Dispatches<'_> {
-    fn encoder(&mut self, device: &wgpu::Device) -> &mut wgpu::CommandEncoder {
+    pub(crate) fn encoder(&mut self, device: &wgpu::Device) -> &mut wgpu::CommandEncoder {
         match self {
             Dispatches::Own(own) => own.get_or_insert_with(|| {
                 device.create_command_encoder(&wgpu::CommandEncoderDescriptor {

@@ -399,10 +399,7 @@ fn draws_the_pixels_of_lod_objects(ctx: &Gpu, kinds: &[Kind], path: CrowdPath) -
         let (image, calls) = render_in(ctx, &target, crowd_pass, |pass| crowd.render(pass));
         assert_one_multi_draw_per_asset(&crowd, &assets, &calls);
         for p in &placed {
-            assert_eq!(
-                crowd.state(p.id)?.triangle_count(),
-                p.object.state().triangle_count()
-            );
+            assert_eq!(crowd.at(p.id)?.triangles, p.object.state().triangle_count());
         }
         if image != expected {
             common::gpu::fail_with_images(
@@ -485,8 +482,14 @@ fn crowd_buffers_decode_to_each_instance_mesh() -> Result<()> {
         Kind::new(&ctx, grid_asset(11, 6, 0.5))?,
         Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
     ];
+    let copies_only = CrowdRecords {
+        tail_triangles: 0,
+        ..CrowdRecords::default()
+    };
     for path in paths(&ctx) {
-        buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, CrowdRecords::default())?;
+        for records in [CrowdRecords::default(), copies_only] {
+            buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, records)?;
+        }
     }
     Ok(())
 }
@@ -506,8 +509,11 @@ fn crowd_records_read_only_live_indices() -> Result<()> {
         Kind::new(&ctx, grid_asset(8, 4, 0.2))?,
     ];
     let path = paths(&ctx)[0];
-    for compact_share in [1.0, 0.0] {
-        let records = CrowdRecords { compact_share };
+    for (compact_share, tail_triangles) in [(1.0, 0), (0.0, 256), (1.0, 256)] {
+        let records = CrowdRecords {
+            compact_share,
+            tail_triangles,
+        };
         buffers_decode_to_each_instance_mesh(&ctx, &kinds, path, records)?;
     }
     Ok(())
@@ -536,6 +542,18 @@ fn buffers_decode_to_each_instance_mesh(
     // to their regions after it (the regions are patched only when read again).
     let mut compact: Vec<InstanceId> = Vec::new();
     let mut returns = 0;
+    // Instances drawn from their frame's tail list at the last check, and how many checks
+    // found one there and one that had left it.
+    let mut in_tail: Vec<InstanceId> = Vec::new();
+    let (mut tail_draws, mut tail_exits) = (0, 0);
+    let triangles: Vec<Vec<[u32; 3]>> = (kinds.iter())
+        .map(|k| {
+            (0..k.asset.s0.len())
+                .filter_map(|i| k.asset.s0.strip(i))
+                .flat_map(strip_draw)
+                .collect()
+        })
+        .collect();
     for step in 0..40 {
         // Adds and removes: keep between 2 and all slots busy.
         if step % 4 == 0 || live.len() < 2 {
@@ -559,11 +577,18 @@ fn buffers_decode_to_each_instance_mesh(
             assert_ne!(again, id, "with a new id");
             live.push(again);
         }
-        // Moves, some instances twice, some not at all; frame switches on most.
+        // Moves, some instances twice, some not at all; frame switches on most; a third to
+        // the last tenth of the LODs, where the tail lists are.
         let mut moves: Vec<(InstanceId, f32, Lod)> = Vec::new();
         for &id in &live {
             if rng.below(4) != 0 {
-                moves.push((id, rng.unit(), Lod::Fraction(rng.unit())));
+                let coarse = rng.below(3) == 0;
+                let f = if coarse {
+                    0.9 + 0.1 * rng.unit()
+                } else {
+                    rng.unit()
+                };
+                moves.push((id, rng.unit(), Lod::Fraction(f)));
             }
         }
         crowd.set(&moves)?;
@@ -604,11 +629,35 @@ fn buffers_decode_to_each_instance_mesh(
             let mut busy = vec![false; capacity as usize];
             for id in live.iter().filter(|id| id.asset() == asset) {
                 busy[id.slot() as usize] = true;
-                let state = crowd.state(*id)?;
+                let slot = &drawn[id.slot() as usize];
+                let was_in_tail = in_tail.contains(id);
+                in_tail.retain(|c| c != id);
+                let Some(state) = crowd.state(*id)? else {
+                    // From its frame's tail list: the reference mesh of its frame and LOD
+                    // (the DESIGN's oracle), one triangle and a restart each, in its compact
+                    // area.
+                    let at = crowd.at(*id)?;
+                    assert!(at.from_tail && records.tail_triangles > 0);
+                    let reference =
+                        kinds[k].asset.frames[at.frame].reference_mesh(&triangles[k], at.lod);
+                    let why = format!("{records:?}, step {step}, {id:?}: {at:?}");
+                    assert_eq!(
+                        canonical_multiset(slot.triangles.iter().copied()),
+                        canonical_multiset(reference.iter().copied()),
+                        "{why}"
+                    );
+                    assert_eq!(at.triangles, reference.len(), "{why}");
+                    assert!(at.triangles <= records.tail_triangles as usize, "{why}");
+                    assert!(slot.compact || at.triangles == 0, "{why}");
+                    assert!(slot.read + 1 == 4 * at.triangles as u32 || at.triangles == 0);
+                    in_tail.push(*id);
+                    tail_draws += 1;
+                    continue;
+                };
+                tail_exits += usize::from(was_in_tail);
                 let mut expected: Vec<[u32; 3]> = (0..state.lengths().len())
                     .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
                     .collect();
-                let slot = &drawn[id.slot() as usize];
                 // In any order (a compact copy keeps moved strips at its end), each triangle
                 // as drawn (its winding).
                 let mut got = slot.triangles.clone();
@@ -652,11 +701,21 @@ fn buffers_decode_to_each_instance_mesh(
             }
         }
     }
-    if records.compact_share > 0.0 && records.compact_share < 1.0 {
+    if records.compact_share > 0.0 && records.compact_share < 1.0 && records.tail_triangles == 0 {
         assert!(
             returns > 0,
             "no record went from the compact copy back to the regions"
         );
+    }
+    // The default's tail lists hold the grids' last few LODs: instances go in and out.
+    if records == CrowdRecords::default() {
+        assert!(
+            tail_draws > 10 && tail_exits > 2,
+            "{tail_draws} tail draws, {tail_exits} exits"
+        );
+    }
+    if records.tail_triangles == 0 {
+        assert_eq!(tail_draws, 0);
     }
     Ok(())
 }
@@ -675,7 +734,10 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
     };
     let asset = grid_asset(11, 6, 0.5);
     let capacity = 4;
-    let regions_only = CrowdRecords { compact_share: 0.0 };
+    let regions_only = CrowdRecords {
+        compact_share: 0.0,
+        tail_triangles: 0,
+    };
     let per = {
         let kind = Kind::new(&ctx, asset.clone())?;
         let mut probe = crowd_on(&ctx, paths(&ctx)[0])?;
@@ -737,7 +799,9 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
         most[with] = most[with].max(upload.dispatches);
         let drawn = drawn_per_slot(&small, &crowd, id, n);
         for &i in &instances {
-            let state = crowd.state(i)?;
+            let state = crowd
+                .state(i)?
+                .expect("no tail lists without a compact area");
             let expected: Vec<[u32; 3]> = (0..state.lengths().len())
                 .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
                 .collect();
@@ -772,7 +836,10 @@ fn index_patches_name_each_word_once() -> Result<()> {
     let (device, queue) = (ctx.device(), ctx.queue());
     let kind = Kind::new(&ctx, grid_asset(11, 6, 0.5))?;
     let mut crowd = crowd_on(&ctx, paths(&ctx)[0])?;
-    crowd.set_records(CrowdRecords { compact_share: 0.0 });
+    crowd.set_records(CrowdRecords {
+        compact_share: 0.0,
+        tail_triangles: 0,
+    });
     let count = 4;
     let (_, ids) = fill(&ctx, &mut crowd, &kind, count)?;
     // Each instance's copy and the lengths its slots hold on the GPU.
@@ -802,7 +869,10 @@ fn index_patches_name_each_word_once() -> Result<()> {
                 copies[id.slot() as usize].0.set(&kind.model, t, lod)?;
             }
             for (&id, (state, uploaded)) in ids.iter().zip(&mut copies) {
-                assert_eq!(state.indices(), crowd.state(id)?.indices(), "step {step}");
+                let crowd_state = crowd
+                    .state(id)?
+                    .expect("no tail lists without a compact area");
+                assert_eq!(state.indices(), crowd_state.indices(), "step {step}");
                 let dirty = state.take_dirty();
                 let lengths = state.lengths();
                 let mut named = std::collections::BTreeSet::new();
@@ -884,8 +954,8 @@ fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
         crowd.prepare(device, queue);
         let drawn = drawn_per_slot(&ctx, &crowd, asset, kind.gpu.vertex_count());
         for &id in &ids {
-            let state = crowd.state(id)?;
-            let (frame, lod) = (state.frame(), state.lod());
+            let at = crowd.at(id)?;
+            let (frame, lod) = (at.frame, at.lod);
             let reference = kind.asset.frames[frame].reference_mesh(&triangles, lod);
             assert_eq!(
                 canonical_multiset(drawn[id.slot() as usize].triangles.iter().copied()),
@@ -895,11 +965,11 @@ fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
         }
         // Every moved instance is where it was asked to be.
         for &(id, t, lod) in &moves {
-            let state = crowd.state(id)?;
+            let at = crowd.at(id)?;
             let frame = kind.model.frame_at(t)?;
-            assert_eq!(state.frame(), frame, "step {step}, {id:?}");
+            assert_eq!(at.frame, frame, "step {step}, {id:?}");
             assert_eq!(
-                state.lod(),
+                at.lod,
                 kind.model.resolve(frame, lod)?,
                 "step {step}, {id:?}"
             );
@@ -1243,8 +1313,8 @@ fn bad_input_is_refused_and_changes_nothing() -> Result<()> {
         (
             ctx.read_words(crowd.index_buffer(asset).expect("asset")),
             ctx.read_words(crowd.indirect_buffer(asset).expect("asset")),
-            crowd.state(a).map(|s| (s.frame(), s.lod())).ok(),
-            crowd.state(b).map(|s| (s.frame(), s.lod())).ok(),
+            crowd.at(a).map(|at| (at.frame, at.lod)).ok(),
+            crowd.at(b).map(|at| (at.frame, at.lod)).ok(),
             crowd.stats(),
         )
     };
@@ -1331,7 +1401,7 @@ fn bad_input_is_refused_and_changes_nothing() -> Result<()> {
     assert_eq!(before.0, after.0, "index slots unchanged");
     assert_eq!(before.1, after.1, "records unchanged");
     assert_eq!(before.2, after.2, "instance a unchanged");
-    assert_eq!(before.3, crowd.state(b3).map(|s| (s.frame(), s.lod())).ok());
+    assert_eq!(before.3, crowd.at(b3).map(|at| (at.frame, at.lod)).ok());
     assert_eq!(before.4, after.4);
     Ok(())
 }

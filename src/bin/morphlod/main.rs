@@ -213,6 +213,11 @@ struct BenchArgs {
     /// packed copy of them; 0 turns the copies off.
     #[arg(long, value_name = "SHARE", default_value_t = morphlod::gpu::CrowdRecords::default().compact_share)]
     compact_share: f32,
+    /// The crowd bench's tail lists (`gpu::CrowdRecords`): the most triangles of a frame's
+    /// coarsest LODs that its instances draw from one list per frame, expanded on the GPU,
+    /// instead of from their own strips; 0 turns them off.
+    #[arg(long, value_name = "TRIANGLES", default_value_t = morphlod::gpu::CrowdRecords::default().tail_triangles)]
+    tail_triangles: u32,
     /// The crowd bench's discrete LODs (full detail and `--levels`, as `morphlod export
     /// --lods`) are cut from this asset's one shared sequence: a build of the same source with
     /// `--sequence shared`. Without it they are cut from the benchmarked asset when it was
@@ -999,6 +1004,7 @@ fn crowd_bench(
         discrete,
         records: morphlod::gpu::CrowdRecords {
             compact_share: args.compact_share,
+            tail_triangles: args.tail_triangles,
         },
         ..Default::default()
     };

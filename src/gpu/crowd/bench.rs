@@ -453,7 +453,7 @@ impl Renderer<'_> {
         match self {
             Renderer::Crowd(c) => ids
                 .iter()
-                .map(|&id| c.state(id).map_or(usize::MAX, |s| s.frame()))
+                .map(|&id| c.at(id).map_or(usize::MAX, |at| at.frame))
                 .collect(),
             Renderer::Discrete(_) => vec![0; ids.len()],
         }

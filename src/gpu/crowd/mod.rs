@@ -13,7 +13,10 @@
 //! An instance's slots hold its strips in fixed regions (patched in place) and a compact area:
 //! where its live strips fit there (a coarse LOD), its record draws their copy (each strip in
 //! a place it keeps while it fits), so it reads the live indices and a few restarts, not the
-//! restart tails of the regions ([`CrowdRecords`]).
+//! restart tails of the regions ([`CrowdRecords`]). At a frame's coarsest LODs (a distant
+//! instance) it is drawn from its frame's tail list instead: one triangle list per frame and
+//! asset on the GPU, expanded into its compact area by a compute pass where its frame or LOD
+//! changed, so that such an instance's move costs no rebuild and no patch (`tail.rs`).
 //!
 //! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon) and, on the
 //! same thread right after each move (while the instance's strips are in that core's cache),
@@ -41,6 +44,7 @@ mod bench;
 mod discrete;
 mod pipeline;
 mod slots;
+mod tail;
 
 use std::sync::Arc;
 
@@ -52,9 +56,10 @@ pub use self::bench::{
     Stat,
 };
 pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
-pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, WEIGHT_SLOTS};
+pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, MeshBlock, SceneBlock, Variant};
 use self::slots::{Places, SlotLayout, SlotRecord};
+use self::tail::{TailJob, TailLists, TRIANGLE_SLOTS};
 use super::asset::GpuAsset;
 use super::commands::RenderCommands;
 use super::pose::{clamp_t, default_mode};
@@ -113,19 +118,41 @@ pub enum CrowdError {
 /// device's buffer or storage binding size ([`Crowd::compact_slots`] says what an asset got;
 /// llvmpipe binds 128 MiB: 1000 bodies keep 1,621 slots each). docs/DESIGN.md, "Crowds", has
 /// the measurement behind the default.
+///
+/// At a frame's coarsest LODs, those that draw at most `tail_triangles` triangles (and fit the
+/// compact area, 4 slots a triangle), an instance is drawn from its frame's tail list instead:
+/// one triangle list per frame and asset, shared by every instance, which a compute pass
+/// expands into the instance's compact area where its frame or LOD changed. Its runtime is
+/// then not kept ([`Crowd::state`] gives `None`) and its moves cost no rebuild and no patch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CrowdRecords {
     /// The compact area's share of the regions' slots, in 0..=1 (clamped): 0 never copies, 1
     /// always does.
     pub compact_share: f32,
+    /// The most triangles a frame's tail list holds (0: no tail lists). The GPU work of an
+    /// instance's expansion and the asset's tail lists grow with it.
+    pub tail_triangles: u32,
 }
 
 impl Default for CrowdRecords {
     fn default() -> Self {
         CrowdRecords {
             compact_share: 0.125,
+            tail_triangles: 256,
         }
     }
+}
+
+/// Where an instance is ([`Crowd::at`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InstanceAt {
+    /// Its frame and its LOD (steps of that frame).
+    pub frame: usize,
+    pub lod: usize,
+    /// The triangles it draws.
+    pub triangles: usize,
+    /// Drawn from its frame's tail list (see [`CrowdRecords`]).
+    pub from_tail: bool,
 }
 
 /// An asset of a crowd.
@@ -165,9 +192,12 @@ pub struct CrowdUpload {
     pub bytes: u64,
     /// `queue.write_buffer` and `write_texture` calls.
     pub writes: usize,
-    /// Scatter dispatches (per asset one for index patches and one for record patches where
-    /// it has them; more when a frame's patches pass a binding's size limit).
+    /// Compute dispatches: the scatters (per asset one for index patches and one for record
+    /// patches where it has them; more when a frame's patches pass a binding's size limit)
+    /// and one per asset with tail expansions.
     pub dispatches: usize,
+    /// Instances written from their frame's tail list (32 bytes of job each).
+    pub tail_jobs: usize,
 }
 
 impl CrowdUpload {
@@ -258,6 +288,13 @@ struct CrowdAsset {
     prepares: u64,
     /// Scratch of prepare: the record runs, kept with their capacity between frames.
     record_runs: PatchRuns,
+    /// Its frames' tail lists, their words on the GPU (none where no frame has a tail), and
+    /// the job list's buffer and bind group (grown on demand).
+    tails: TailLists,
+    tail_words: Option<wgpu::Buffer>,
+    tail_jobs: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// Scratch of prepare: the jobs.
+    jobs: Vec<TailJob>,
 }
 
 /// The patches an asset's instances made since the last prepare.
@@ -274,6 +311,9 @@ struct Waiting {
     /// `index_runs` lists made before: those lists' patches of the slot are dropped (the slot
     /// may hold a new instance by then, written `S0` before the patches apply).
     withdrawn: Vec<(u32, usize)>,
+    /// Slots whose instance moved in its frame's tail (maybe twice: `prepare` writes those
+    /// still there, once).
+    tails: Vec<u32>,
 }
 
 impl Waiting {
@@ -286,6 +326,7 @@ impl Waiting {
                 self.index_runs.push(runs);
             }
             self.records.extend_from_slice(&piece.records);
+            self.tails.extend_from_slice(&piece.tails);
             self.overlap |= piece.again;
         }
         rebuilds
@@ -448,6 +489,10 @@ struct Member {
     /// The asset's prepare count when its last patches were made: equal to the current
     /// count, they wait in the asset's lists.
     patched: u64,
+    /// Frame and LOD while it is drawn from its frame's tail list (its runtime is left where
+    /// it was), and whether its compact area holds them (written by a `prepare`).
+    tail: Option<(u32, u32)>,
+    expanded: bool,
 }
 
 impl Member {
@@ -484,6 +529,43 @@ impl Member {
         set_record(key, slot, Some(drawn), record, &mut piece.records);
     }
 
+    /// Draws it from frame `k`'s tail list at LOD `l` (`count` triangles, in its compact
+    /// area): from the next `prepare` on, which writes them there. Its copy and its regions no
+    /// longer hold what it draws: the copy is repacked and the regions get every live strip
+    /// when it leaves the tail.
+    #[allow(clippy::too_many_arguments)]
+    fn enter_tail(
+        &mut self,
+        layout: &SlotLayout,
+        key: (CrowdPath, u32, u32),
+        slot: u32,
+        (k, l, count): (usize, usize, u32),
+        record: &mut DrawIndexedIndirectArgs,
+        piece: &mut Piece,
+    ) {
+        if self.tail == Some((k as u32, l as u32)) {
+            return;
+        }
+        if self.tail.is_none() {
+            self.places.leave();
+        }
+        self.tail = Some((k as u32, l as u32));
+        self.expanded = false;
+        piece.tails.push(slot);
+        // Up to the last triangle's corners: a record ends on an index, not a restart.
+        let drawn = layout.tail_record((count * TRIANGLE_SLOTS).saturating_sub(1));
+        set_record(key, slot, Some(drawn), record, &mut piece.records);
+    }
+
+    /// Leaves the tail list where it was drawn from it: its next patch sends its strips from
+    /// scratch (a repacked copy, or every live strip to the regions), even where its runtime
+    /// moves back to where it was.
+    fn leave_tail(&mut self) {
+        if self.tail.take().is_some() {
+            self.changes = u64::MAX;
+        }
+    }
+
     /// Heap bytes of the instance: its runtime and lengths, and itself.
     fn heap_bytes(&self) -> usize {
         size_of::<Member>()
@@ -506,6 +588,8 @@ struct Piece {
     records: Patches,
     /// An instance patched a second time since the last prepare.
     again: bool,
+    /// Slots whose instance moved in its frame's tail.
+    tails: Vec<u32>,
 }
 
 impl Piece {
@@ -666,6 +750,17 @@ impl Crowd {
             .min(limits.max_storage_buffer_binding_size);
         let mut layout = SlotLayout::new(&model, self.records.compact_share);
         layout.fit(max_bytes / 4 / u64::from(capacity));
+        // A tail list's LODs fit the compact area.
+        let budget = (self.records.tail_triangles).min(layout.compact_slots() / TRIANGLE_SLOTS);
+        let mut tails = TailLists::build(&model, budget as usize);
+        let words = tails.take_words();
+        let tail_words = (!words.is_empty()).then(|| {
+            device.create_buffer_init(&BufferInitDescriptor {
+                label: Some("crowd tail lists"),
+                contents: bytemuck::cast_slice(&words),
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        });
         let per = u64::from(layout.per_instance().max(1));
         // base_vertex (an i32) is slot × n, and slot × n + index is the vertex_index (a u32).
         if self.path == CrowdPath::BaseVertex
@@ -750,6 +845,10 @@ impl Crowd {
             fresh: Vec::new(),
             prepares: 0,
             record_runs: PatchRuns::default(),
+            tails,
+            tail_words,
+            tail_jobs: None,
+            jobs: Vec::new(),
         });
         Ok(AssetId(id))
     }
@@ -837,6 +936,8 @@ impl Crowd {
             places: Places::default(),
             pending: None,
             patched: u64::MAX,
+            tail: None,
+            expanded: false,
         });
         a.fresh.push(slot);
         a.drawn = a.drawn.max(slot + 1);
@@ -917,13 +1018,14 @@ impl Crowd {
         }
         let path = self.path;
         for (a, _) in self.assets.iter_mut().zip(moved).filter(|(_, m)| *m) {
-            let (model, track, layout) = (&a.model, a.gpu.track(), &a.layout);
+            let (model, track, layout, tails) = (&a.model, a.gpu.track(), &a.layout, &a.tails);
             let key = (path, a.gpu.vertex_count(), layout.per_instance());
             let prepares = a.prepares;
             // In parallel, in pieces of consecutive slots (a few a thread, so that pieces
             // with many frame switches even out): every moved instance's pose and plan; the
-            // moves that step or rebuild from a tail are made here, and the instance's
-            // patches right after them; the rebuilds over the mesh are gathered.
+            // moves into a frame's tail list take its record only; the moves that step or
+            // rebuild from a frame's tail are made here, and the instance's patches right
+            // after them; the rebuilds over the mesh are gathered.
             let per = par::piece_len(a.members.len(), MOVES_PER_PIECE);
             let parts: Vec<_> = (a.members.chunks_mut(per))
                 .zip(a.blocks.chunks_mut(per))
@@ -943,6 +1045,14 @@ impl Crowd {
                     let t = clamp_t(t).expect("checked time");
                     block.set_pose(track, t, &mut piece.weights);
                     // Checked above: cannot fail.
+                    let k = model.frame_at(t).expect("checked time");
+                    let l = model.resolve(k, lod).expect("checked LOD");
+                    if let Some(count) = tails.triangles(k, l) {
+                        let at = (k, l, count);
+                        member.enter_tail(layout, key, slot as u32, at, record, &mut piece);
+                        continue;
+                    }
+                    member.leave_tail();
                     let plan = (member.state)
                         .plan(model, t, lod, Strategy::Auto)
                         .expect("checked move");
@@ -1009,8 +1119,38 @@ impl Crowd {
         self.scene_dirty = true;
     }
 
-    /// The runtime of an instance: frame, LOD, triangles, strips.
-    pub fn state(&self, id: InstanceId) -> Result<&DeformingState, CrowdError> {
+    /// The runtime of an instance (frame, LOD, triangles, strips), or `None` while it is drawn
+    /// from its frame's tail list ([`CrowdRecords`]): its runtime is not kept then.
+    pub fn state(&self, id: InstanceId) -> Result<Option<&DeformingState>, CrowdError> {
+        let member = self.member(id)?;
+        Ok(member.tail.is_none().then_some(&member.state))
+    }
+
+    /// Where an instance is: its frame, LOD and triangles, from its runtime or its frame's
+    /// tail list.
+    pub fn at(&self, id: InstanceId) -> Result<InstanceAt, CrowdError> {
+        let member = self.member(id)?;
+        let a = &self.assets[id.asset as usize];
+        Ok(match member.tail {
+            Some((k, l)) => InstanceAt {
+                frame: k as usize,
+                lod: l as usize,
+                triangles: (a.tails.triangles(k as usize, l as usize))
+                    .expect("a tail member's LOD is in its frame's tail")
+                    as usize,
+                from_tail: true,
+            },
+            None => InstanceAt {
+                frame: member.state.frame(),
+                lod: member.state.lod(),
+                triangles: member.state.triangle_count(),
+                from_tail: false,
+            },
+        })
+    }
+
+    /// A live instance, checked.
+    fn member(&self, id: InstanceId) -> Result<&Member, CrowdError> {
         let a = self
             .assets
             .get(id.asset as usize)
@@ -1019,7 +1159,7 @@ impl Crowd {
             a.generations.get(id.slot as usize),
             a.members.get(id.slot as usize),
         ) {
-            (Some(&g), Some(Some(member))) if g == id.generation => Ok(&member.state),
+            (Some(&g), Some(Some(member))) if g == id.generation => Ok(member),
             _ => Err(CrowdError::UnknownInstance(id)),
         }
     }
@@ -1144,6 +1284,9 @@ impl Crowd {
                 );
             }
             a.record_runs = record_runs;
+            // After the index scatter, which may have patched a slot range before its
+            // instance moved into a tail list.
+            a.expand_tails(device, queue, &self.pipeline, dispatches, &mut upload);
             if let Some(range) = a.dirty_blocks.take() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
@@ -1235,7 +1378,12 @@ impl Crowd {
             let live = a.members.iter().flatten();
             let count = a.members.iter().flatten().count();
             stats.instances += count;
-            stats.triangles += live.map(|m| m.state.triangle_count()).sum::<usize>();
+            stats.triangles += live
+                .map(|m| match m.tail {
+                    Some((k, l)) => a.tails.triangles(k as usize, l as usize).unwrap_or(0) as usize,
+                    None => m.state.triangle_count(),
+                })
+                .sum::<usize>();
             stats.indices += a.records[..a.drawn as usize]
                 .iter()
                 .map(|r| u64::from(r.index_count))
@@ -1247,7 +1395,8 @@ impl Crowd {
             let mirrors = (ARGS_BYTES as usize + size_of::<InstanceBlock>()) * count;
             let members: usize = a.members.iter().flatten().map(Member::heap_bytes).sum();
             stats.instance_host_bytes += (members + mirrors) as u64;
-            stats.shared_gpu_bytes += a.gpu.gpu_bytes();
+            stats.shared_gpu_bytes +=
+                a.gpu.gpu_bytes() + a.tail_words.as_ref().map_or(0, |b| b.size());
         }
         stats
     }
@@ -1305,6 +1454,94 @@ impl Crowd {
 }
 
 impl CrowdAsset {
+    /// Writes the tail lists of the instances that moved in them since the last prepare and
+    /// are still there (once each), into their compact areas: the jobs in one write, one
+    /// dispatch of a workgroup per job recorded in `dispatches`.
+    fn expand_tails(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pipeline: &CrowdPipeline,
+        dispatches: &mut Dispatches,
+        upload: &mut CrowdUpload,
+    ) {
+        let mut slots = std::mem::take(&mut self.waiting.tails);
+        slots.sort_unstable();
+        slots.dedup();
+        self.jobs.clear();
+        let per = self.layout.per_instance();
+        let compact = self.layout.tail_record(0).first;
+        for &slot in &slots {
+            let Some(member) = &mut self.members[slot as usize] else {
+                continue;
+            };
+            if let (Some((k, l)), false) = (member.tail, member.expanded) {
+                member.expanded = true;
+                let dst = slot * per + compact;
+                let job = self.tails.job(k as usize, l as usize, dst);
+                self.jobs
+                    .push(job.expect("a tail member's LOD is in its frame's tail"));
+            }
+        }
+        slots.clear();
+        self.waiting.tails = slots;
+        let (Some(last), Some(words)) = (self.jobs.last().copied(), &self.tail_words) else {
+            return;
+        };
+        upload.tail_jobs += self.jobs.len();
+        // Workgroups in a rectangle of at most the device's per-dimension limit, the jobs
+        // padded to fill it with the last one (the same writes again).
+        let wide = device.limits().max_compute_workgroups_per_dimension as usize;
+        let x = self.jobs.len().min(wide);
+        let y = self.jobs.len().div_ceil(x);
+        self.jobs.resize(x * y, last);
+        let bytes = (self.jobs.len() * size_of::<TailJob>()) as u64;
+        if self
+            .tail_jobs
+            .as_ref()
+            .is_none_or(|(b, _)| b.size() < bytes)
+        {
+            let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("crowd tail jobs"),
+                size: bytes.next_power_of_two(),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("crowd tails"),
+                layout: &pipeline.tail_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: words.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: self.index_buffer.as_entire_binding(),
+                    },
+                ],
+            });
+            self.tail_jobs = Some((buffer, group));
+        }
+        let (buffer, group) = self.tail_jobs.as_ref().expect("made above");
+        upload.write(queue, buffer, 0, bytemuck::cast_slice(&self.jobs));
+        let mut pass =
+            dispatches
+                .encoder(device)
+                .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("crowd tails"),
+                    timestamp_writes: None,
+                });
+        pass.set_pipeline(&pipeline.tail);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(x as u32, y as u32, 1);
+        upload.dispatches += 1;
+    }
+
     /// Applies this frame's patches of `what` (the runs of each piece in turn): written to its
     /// patch buffer and scattered by one dispatch, recorded in `dispatches` (one submission
     /// for every asset and both kinds of patches: each kind has its own patch buffer).
@@ -1413,6 +1650,26 @@ fn mesh_buffer(device: &wgpu::Device, gpu: &GpuAsset) -> wgpu::Buffer {
         contents: bytemuck::bytes_of(&mesh),
         usage: wgpu::BufferUsages::UNIFORM,
     })
+}
+
+/// A grid morph of `n × n` vertices (a bump rising on one side) built with four frames, for
+/// the tests of the slots and the tail lists: small, and its frames switch.
+#[cfg(test)]
+fn grid_model(n: u32) -> (crate::Asset, DeformingModel) {
+    let (flat, triangles) = crate::simplify::tests::grid(n - 1, 0.0);
+    let z = |x: f32, y: f32| 0.05 * (7.0 * x + 3.0 * y).sin();
+    let v0: Vec<[f32; 3]> = flat.iter().map(|&[x, y, _]| [x, y, z(x, y)]).collect();
+    let v1: Vec<[f32; 3]> = (flat.iter())
+        .map(|&[x, y, _]| [x, y, z(x, y) + 0.3 * (3.0 * x).sin() * y])
+        .collect();
+    let morph = crate::Morph::from_poses(triangles, v0, v1).expect("grid morph");
+    let asset = crate::Builder::new(&morph)
+        .frames(4)
+        .build()
+        .expect("builds")
+        .0;
+    let model = DeformingModel::new(&asset).expect("model");
+    (asset, model)
 }
 
 fn check_finite(what: &'static str, values: &[f32]) -> Result<(), CrowdError> {

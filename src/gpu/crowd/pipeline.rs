@@ -1,6 +1,7 @@
 //! The crowd's GPU programs and the blocks they read: the render pipelines of
 //! `shaders/crowd.wgsl` (strips; one per vertex entry point in use), the scatter that applies a frame's index
-//! patches (`shaders/scatter.wgsl`), the probe that writes an instance's blended positions
+//! patches (`shaders/scatter.wgsl`), the expansion of frames' tail lists into instances'
+//! compact areas (`shaders/tail.wgsl`), the probe that writes an instance's blended positions
 //! back, and the byte layouts of the scene, mesh and instance blocks.
 
 use bytemuck::{Pod, Zeroable};
@@ -9,6 +10,8 @@ use crate::gpu::pipeline::texture_entries;
 use crate::gpu::pipeline::{render_pipeline, vertex_buffers, Formats};
 use crate::gpu::scatter::{compute_storage, Scatter};
 
+use super::tail::TailJob;
+
 /// The WGSL source of the crowd shader: `shaders/shade.wgsl` followed by `shaders/crowd.wgsl`.
 pub const CROWD_WGSL: &str = concat!(
     include_str!("../../../shaders/shade.wgsl"),
@@ -16,6 +19,9 @@ pub const CROWD_WGSL: &str = concat!(
 );
 
 pub use crate::gpu::scatter::SCATTER_WGSL;
+
+/// The WGSL source of the tail expansion (`shaders/tail.wgsl`).
+pub const TAIL_WGSL: &str = include_str!("../../../shaders/tail.wgsl");
 
 /// The scene block (`Scene` in `crowd.wgsl`): camera and light, shared by every asset.
 #[repr(C)]
@@ -211,6 +217,9 @@ pub(super) struct CrowdPipeline {
     formats: Formats,
     renders: Vec<(Variant, wgpu::RenderPipeline)>,
     pub(super) scatter: Scatter,
+    /// `expand_tails` and its bind group's layout (jobs, tail lists, index slots).
+    pub(super) tail_layout: wgpu::BindGroupLayout,
+    pub(super) tail: wgpu::ComputePipeline,
     pub(super) probe_layout: wgpu::BindGroupLayout,
     pub(super) probe: wgpu::ComputePipeline,
 }
@@ -259,6 +268,25 @@ impl CrowdPipeline {
             &shader,
             "cs_positions",
         );
+        let tail_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("crowd tails"),
+            entries: &[
+                compute_storage(0, true, size_of::<TailJob>() as u64),
+                compute_storage(1, true, 4),
+                compute_storage(2, false, 4),
+            ],
+        });
+        let tail_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tail.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(TAIL_WGSL.into()),
+        });
+        let tail = compute(
+            device,
+            "crowd tails",
+            &[&tail_layout],
+            &tail_module,
+            "expand_tails",
+        );
         CrowdPipeline {
             layout,
             render_layout,
@@ -270,6 +298,8 @@ impl CrowdPipeline {
             },
             renders: Vec::new(),
             scatter: Scatter::new(device),
+            tail_layout,
+            tail,
             probe_layout,
             probe,
         }
@@ -399,12 +429,23 @@ mod tests {
     use super::*;
     use crate::gpu::pipeline::validated_wgsl;
 
-    /// Both crowd shaders parse and validate without a GPU, the Rust blocks have the WGSL
+    /// The crowd's shaders parse and validate without a GPU, the Rust blocks have the WGSL
     /// structs' sizes, and every entry point a crowd may pick is there.
     #[test]
     fn crowd_wgsl_validates_and_blocks_match() {
         let crowd = validated_wgsl(CROWD_WGSL);
         validated_wgsl(SCATTER_WGSL);
+        let tail = validated_wgsl(TAIL_WGSL);
+        let job = tail
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some("Job"));
+        match job.map(|(_, ty)| &ty.inner) {
+            Some(naga::TypeInner::Struct { span, .. }) => {
+                assert_eq!(*span as usize, size_of::<TailJob>())
+            }
+            _ => panic!("tail.wgsl has no struct Job"),
+        }
         let size = |name: &str| {
             let (_, ty) = crowd
                 .types

@@ -91,6 +91,14 @@ impl Places {
         out
     }
 
+    /// The instance is drawn from elsewhere (its frame's tail list, written over its compact
+    /// area): the copy is repacked and the regions get every live strip when a record reads
+    /// them again.
+    pub(super) fn leave(&mut self) {
+        self.current = false;
+        self.stale = true;
+    }
+
     /// A dirty log that covers every change of the regions since they were last patched
     /// (the dirty log's contract), for strips of `lengths` whose regions hold `uploaded`:
     /// each strip live in both, whole, and each strip whose length differs. Clears `stale`.
@@ -177,6 +185,16 @@ impl SlotLayout {
     pub(super) fn fit(&mut self, slots: u64) {
         let room = slots.saturating_sub(u64::from(self.regions()));
         self.compact = self.compact.min(room.min(u64::from(u32::MAX)) as u32);
+    }
+
+    /// The record that reads the first `count` slots of the compact area (a frame's tail
+    /// list written there).
+    pub(super) fn tail_record(&self, count: u32) -> SlotRecord {
+        SlotRecord {
+            first: self.regions(),
+            count,
+            compact: true,
+        }
     }
 
     /// Slots of the regions.
@@ -509,31 +527,10 @@ fn packed(state: &DeformingState) -> u32 {
 mod tests {
     use super::*;
     use crate::deform::Lod;
-    use crate::{Builder, Morph};
 
     /// A small grid morph with a few frames, so the walk switches frames.
     fn model() -> DeformingModel {
-        let n = 7u32;
-        let (mut v0, mut v1) = (Vec::new(), Vec::new());
-        for y in 0..n {
-            for x in 0..n {
-                let (fx, fy) = (x as f32 / 6.0, y as f32 / 6.0);
-                let z = 0.05 * (7.0 * fx + 3.0 * fy).sin();
-                v0.push([fx, fy, z]);
-                v1.push([fx, fy, z + 0.3 * (3.0 * fx).sin() * fy]);
-            }
-        }
-        let mut triangles = Vec::new();
-        for y in 0..n - 1 {
-            for x in 0..n - 1 {
-                let i = y * n + x;
-                triangles.push([i, i + 1, i + n]);
-                triangles.push([i + 1, i + n + 1, i + n]);
-            }
-        }
-        let morph = Morph::from_poses(triangles, v0, v1).expect("grid morph");
-        let asset = Builder::new(&morph).frames(4).build().expect("builds").0;
-        DeformingModel::new(&asset).expect("model")
+        super::super::grid_model(7).1
     }
 
     /// The regions as built from scratch from the state's strips.
