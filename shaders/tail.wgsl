@@ -26,8 +26,8 @@ struct Job {
 @group(0) @binding(1) var<storage, read> tails: array<u32>;
 @group(0) @binding(2) var<storage, read_write> indices: array<u32>;
 
-// The survivor of tail vertex `v` at the job's LOD, as the mesh's vertex. The chain is short
-// (the collapses of the frame's last few dozen LODs) and ends: each step is later.
+// The survivor of tail vertex `first` at the job's LOD, as the mesh's vertex. The chain ends:
+// each link is a later step.
 fn survivor(job: Job, first: u32) -> u32 {
     var at = job.vertices + 3u * first;
     while tails[at + 1u] < job.level {

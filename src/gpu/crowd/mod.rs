@@ -138,7 +138,7 @@ impl Default for CrowdRecords {
     fn default() -> Self {
         CrowdRecords {
             compact_share: 0.125,
-            tail_triangles: 256,
+            tail_triangles: 1024,
         }
     }
 }
