@@ -1452,6 +1452,24 @@ fn host_memory_per_instance_is_bounded() -> Result<()> {
     let bound = instance_bound(&kind.model).min(HOST_BYTES_PER_INSTANCE);
     println!("host bytes per body instance: {accounted:.0} held (bound {bound:.0})");
     assert!(accounted <= bound, "an instance holds {accounted:.0} bytes");
+    // At the coarsest LOD every instance draws its frame's tail list and holds no runtime:
+    // its lengths of the regions (4 bytes a strip), its block and record, its fields.
+    let coarsest: Vec<_> = ids
+        .iter()
+        .map(|&id| (id, 0.0, Lod::Fraction(1.0)))
+        .collect();
+    crowd.set(&coarsest)?;
+    crowd.prepare(device, queue);
+    for &id in &ids {
+        assert!(crowd.at(id)?.from_tail && crowd.state(id)?.is_none());
+    }
+    let parked = crowd.stats().instance_host_bytes as f64 / f64::from(count);
+    let parked_bound = (kind.model.layout().strip_count() * 4 + 1024) as f64;
+    println!("host bytes per body instance in a tail list: {parked:.0} (bound {parked_bound})");
+    assert!(
+        parked <= parked_bound,
+        "an instance in a tail list holds {parked:.0} bytes"
+    );
     // The resident set is not measured here: the suite runs other tests beside this one in
     // the same process, so its growth is not this crowd's.
     Ok(())

@@ -6,9 +6,9 @@
 //!   [`DeformingModel`] (every frame's change lists), one index buffer with `capacity` ×
 //!   slots-per-instance slots, one indirect buffer with one record per slot, one instance
 //!   buffer with one [`InstanceBlock`](pipeline) per slot, and one bind group;
-//! * per instance: its [`DeformingState`] (the runtime, which holds the current strips), the
-//!   lengths the GPU holds, one record and one 192-byte block. No index mirror: the runtime's
-//!   dirty log says what to upload.
+//! * per instance: its [`DeformingState`] (the runtime, which holds the current strips; none
+//!   while it is drawn from a tail list), the lengths the GPU holds, one record and one
+//!   192-byte block. No index mirror: the runtime's dirty log says what to upload.
 //!
 //! An instance's slots hold its strips in fixed regions (patched in place) and a compact area:
 //! where its live strips fit there (a coarse LOD), its record draws their copy (each strip in
@@ -474,7 +474,9 @@ fn set_record(
 
 /// One instance: its runtime and what its slots on the GPU hold.
 struct Member {
-    state: DeformingState,
+    /// Its runtime; none while it is drawn from a tail list (made anew, at full detail, when
+    /// it leaves): a distant instance holds no strips.
+    state: Option<DeformingState>,
     /// Live length of every region as the GPU holds it; empty while that is `S0`'s (the
     /// regions of a new instance, not patched since): most of a crowd's instances are drawn
     /// from their compact copies from their first upload on and never need the table.
@@ -510,8 +512,12 @@ impl Member {
         prepares: u64,
         piece: &mut Piece,
     ) {
+        let state = self
+            .state
+            .as_mut()
+            .expect("out of the tail lists: a runtime");
         // Unchanged strips keep their slots, record and compact copy.
-        let changes = self.state.changes();
+        let changes = state.changes();
         if changes == self.changes {
             return;
         }
@@ -520,7 +526,7 @@ impl Member {
         self.patched = prepares;
         let drawn = layout.upload(
             slot * key.2,
-            &mut self.state,
+            state,
             &mut self.places,
             &mut self.uploaded,
             &mut piece.dirty,
@@ -530,9 +536,9 @@ impl Member {
     }
 
     /// Draws it from frame `k`'s tail list at LOD `l` (`count` triangles, in its compact
-    /// area): from the next `prepare` on, which writes them there. Its copy and its regions no
-    /// longer hold what it draws: the copy is repacked and the regions get every live strip
-    /// when it leaves the tail.
+    /// area): from the next `prepare` on, which writes them there. Its runtime is dropped. Its
+    /// copy and its regions no longer hold what it draws: the copy is repacked and the regions
+    /// get every live strip when it leaves the tail.
     #[allow(clippy::too_many_arguments)]
     fn enter_tail(
         &mut self,
@@ -548,6 +554,7 @@ impl Member {
         }
         if self.tail.is_none() {
             self.places.leave();
+            self.state = None;
         }
         self.tail = Some((k as u32, l as u32));
         self.expanded = false;
@@ -557,19 +564,20 @@ impl Member {
         set_record(key, slot, Some(drawn), record, &mut piece.records);
     }
 
-    /// Leaves the tail list where it was drawn from it: its next patch sends its strips from
-    /// scratch (a repacked copy, or every live strip to the regions), even where its runtime
-    /// moves back to where it was.
-    fn leave_tail(&mut self) {
+    /// Its runtime, made anew at full detail where it leaves the tail list it was drawn from:
+    /// its next patch then sends its strips from scratch (a repacked copy, or every live strip
+    /// to the regions).
+    fn leave_tail(&mut self, model: &DeformingModel) -> &mut DeformingState {
         if self.tail.take().is_some() {
             self.changes = u64::MAX;
         }
+        self.state.get_or_insert_with(|| DeformingState::new(model))
     }
 
     /// Heap bytes of the instance: its runtime and lengths, and itself.
     fn heap_bytes(&self) -> usize {
         size_of::<Member>()
-            + self.state.heap_bytes()
+            + self.state.as_ref().map_or(0, DeformingState::heap_bytes)
             + self.uploaded.capacity() * 4
             + self.places.heap_bytes()
     }
@@ -931,7 +939,7 @@ impl Crowd {
         a.dirty_blocks.add(slot);
         a.members[slot as usize] = Some(Member {
             changes: state.changes(),
-            state,
+            state: Some(state),
             uploaded: Vec::new(),
             places: Places::default(),
             pending: None,
@@ -1052,15 +1060,13 @@ impl Crowd {
                         member.enter_tail(layout, key, slot as u32, at, record, &mut piece);
                         continue;
                     }
-                    member.leave_tail();
-                    let plan = (member.state)
-                        .plan(model, t, lod, Strategy::Auto)
-                        .expect("checked move");
+                    let state = member.leave_tail(model);
+                    let plan = (state.plan(model, t, lod, Strategy::Auto)).expect("checked move");
                     if plan.links_survivors(model) {
                         piece.rebuilds.push((slot, plan));
                         continue;
                     }
-                    member.state.apply(model, plan, &mut Survivors::new());
+                    state.apply(model, plan, &mut Survivors::new());
                     member.patch(layout, key, slot as u32, record, prepares, &mut piece);
                 }
                 piece.runs()
@@ -1084,7 +1090,7 @@ impl Crowd {
             let pieces = rebuild_all(
                 model,
                 &mut jobs,
-                |(_, member, _)| &mut member.state,
+                |(_, member, _)| member.state.as_mut().expect("moved out of the tail lists"),
                 |(slot, member, record), piece: &mut Piece| {
                     member.patch(layout, key, *slot, record, prepares, piece);
                 },
@@ -1123,7 +1129,7 @@ impl Crowd {
     /// from its frame's tail list ([`CrowdRecords`]): its runtime is not kept then.
     pub fn state(&self, id: InstanceId) -> Result<Option<&DeformingState>, CrowdError> {
         let member = self.member(id)?;
-        Ok(member.tail.is_none().then_some(&member.state))
+        Ok(member.state.as_ref())
     }
 
     /// Where an instance is: its frame, LOD and triangles, from its runtime or its frame's
@@ -1131,21 +1137,24 @@ impl Crowd {
     pub fn at(&self, id: InstanceId) -> Result<InstanceAt, CrowdError> {
         let member = self.member(id)?;
         let a = &self.assets[id.asset as usize];
-        Ok(match member.tail {
-            Some((k, l)) => InstanceAt {
-                frame: k as usize,
-                lod: l as usize,
-                triangles: (a.tails.triangles(k as usize, l as usize))
-                    .expect("a tail member's LOD is in its frame's tail")
-                    as usize,
-                from_tail: true,
-            },
-            None => InstanceAt {
-                frame: member.state.frame(),
-                lod: member.state.lod(),
-                triangles: member.state.triangle_count(),
+        Ok(match (&member.state, member.tail) {
+            (Some(state), _) => InstanceAt {
+                frame: state.frame(),
+                lod: state.lod(),
+                triangles: state.triangle_count(),
                 from_tail: false,
             },
+            (None, tail) => {
+                let (k, l) = tail.expect("without a runtime: drawn from a tail list");
+                let triangles = a.tails.triangles(k as usize, l as usize);
+                InstanceAt {
+                    frame: k as usize,
+                    lod: l as usize,
+                    triangles: triangles.expect("a tail member's LOD is in its frame's tail")
+                        as usize,
+                    from_tail: true,
+                }
+            }
         })
     }
 
@@ -1379,9 +1388,12 @@ impl Crowd {
             let count = a.members.iter().flatten().count();
             stats.instances += count;
             stats.triangles += live
-                .map(|m| match m.tail {
-                    Some((k, l)) => a.tails.triangles(k as usize, l as usize).unwrap_or(0) as usize,
-                    None => m.state.triangle_count(),
+                .map(|m| match (&m.state, m.tail) {
+                    (Some(state), _) => state.triangle_count(),
+                    (None, Some((k, l))) => {
+                        (a.tails.triangles(k as usize, l as usize)).unwrap_or(0) as usize
+                    }
+                    (None, None) => 0,
                 })
                 .sum::<usize>();
             stats.indices += a.records[..a.drawn as usize]

@@ -97,6 +97,9 @@ impl Places {
     pub(super) fn leave(&mut self) {
         self.current = false;
         self.stale = true;
+        // A repack places every strip anew: the list's memory is free until then.
+        self.placed = Vec::new();
+        self.born = Vec::new();
     }
 
     /// A dirty log that covers every change of the regions since they were last patched
