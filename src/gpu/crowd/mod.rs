@@ -474,8 +474,9 @@ fn set_record(
 
 /// One instance: its runtime and what its slots on the GPU hold.
 struct Member {
-    /// Its runtime; none while it is drawn from a tail list (made anew, at full detail, when
-    /// it leaves): a distant instance holds no strips.
+    /// Its runtime; none until its first move out of the tail lists (it draws `S0` until its
+    /// first move) and while it is drawn from a tail list (made anew, at full detail, when it
+    /// leaves): a distant instance holds no strips.
     state: Option<DeformingState>,
     /// Live length of every region as the GPU holds it; empty while that is `S0`'s (the
     /// regions of a new instance, not patched since): most of a crowd's instances are drawn
@@ -924,8 +925,9 @@ impl Crowd {
             asset: asset.0,
             capacity: a.capacity,
         })?;
-        let state = DeformingState::new(&a.model);
-        // Its compact area holds nothing of it yet: the record reads S0 from the regions.
+        // Its compact area holds nothing of it yet: the record reads S0 from the regions. Its
+        // runtime is made by its first move out of the tail lists (most of a crowd's
+        // instances are distant: their first move takes them to one).
         let record = a.layout.region_record(&a.layout.s0_lengths());
         let key = (self.path, a.gpu.vertex_count(), a.layout.per_instance());
         set_record(
@@ -938,8 +940,8 @@ impl Crowd {
         a.blocks[slot as usize] = InstanceBlock::new(model);
         a.dirty_blocks.add(slot);
         a.members[slot as usize] = Some(Member {
-            changes: state.changes(),
-            state: Some(state),
+            changes: u64::MAX,
+            state: None,
             uploaded: Vec::new(),
             places: Places::default(),
             pending: None,
@@ -1125,8 +1127,9 @@ impl Crowd {
         self.scene_dirty = true;
     }
 
-    /// The runtime of an instance (frame, LOD, triangles, strips), or `None` while it is drawn
-    /// from its frame's tail list ([`CrowdRecords`]): its runtime is not kept then.
+    /// The runtime of an instance (frame, LOD, triangles, strips), or `None` where it has none:
+    /// while it is drawn from its frame's tail list ([`CrowdRecords`]), and before its first
+    /// move (it draws `S0`, frame 0 at full detail).
     pub fn state(&self, id: InstanceId) -> Result<Option<&DeformingState>, CrowdError> {
         let member = self.member(id)?;
         Ok(member.state.as_ref())
@@ -1144,8 +1147,13 @@ impl Crowd {
                 triangles: state.triangle_count(),
                 from_tail: false,
             },
-            (None, tail) => {
-                let (k, l) = tail.expect("without a runtime: drawn from a tail list");
+            (None, None) => InstanceAt {
+                frame: 0,
+                lod: 0,
+                triangles: a.model.layout().triangle_count(),
+                from_tail: false,
+            },
+            (None, Some((k, l))) => {
                 let triangles = a.tails.triangles(k as usize, l as usize);
                 InstanceAt {
                     frame: k as usize,
@@ -1393,7 +1401,7 @@ impl Crowd {
                     (None, Some((k, l))) => {
                         (a.tails.triangles(k as usize, l as usize)).unwrap_or(0) as usize
                     }
-                    (None, None) => 0,
+                    (None, None) => a.model.layout().triangle_count(),
                 })
                 .sum::<usize>();
             stats.indices += a.records[..a.drawn as usize]
