@@ -570,6 +570,19 @@ impl DeformingState {
         }
         let k = model.frame_at(t)?;
         let l = model.resolve(k, lod)?;
+        Ok(self.plan_at(model, k, l, strategy))
+    }
+
+    /// [`plan`](Self::plan) for frame `k` at LOD `l`, already resolved against `model` (this
+    /// state's model): a crowd resolves every move first, to tell the instances drawn from a
+    /// tail list.
+    pub(crate) fn plan_at(
+        &self,
+        model: &DeformingModel,
+        k: usize,
+        l: usize,
+        strategy: Strategy,
+    ) -> Plan {
         let frame = &model.frames[k].changes;
         let steps = if k == self.frame {
             self.state.lod().abs_diff(l)
@@ -583,11 +596,11 @@ impl DeformingState {
             Strategy::Auto => Strategy::Rebuild,
             chosen => chosen,
         };
-        Ok(Plan {
+        Plan {
             frame: k,
             lod: l,
             strategy,
-        })
+        }
     }
 
     /// Carries out `plan` (made by [`plan`](Self::plan) for this state and `model`); a

@@ -1063,7 +1063,7 @@ impl Crowd {
                         continue;
                     }
                     let state = member.leave_tail(model);
-                    let plan = (state.plan(model, t, lod, Strategy::Auto)).expect("checked move");
+                    let plan = state.plan_at(model, k, l, Strategy::Auto);
                     if plan.links_survivors(model) {
                         piece.rebuilds.push((slot, plan));
                         continue;
@@ -1139,31 +1139,7 @@ impl Crowd {
     /// tail list.
     pub fn at(&self, id: InstanceId) -> Result<InstanceAt, CrowdError> {
         let member = self.member(id)?;
-        let a = &self.assets[id.asset as usize];
-        Ok(match (&member.state, member.tail) {
-            (Some(state), _) => InstanceAt {
-                frame: state.frame(),
-                lod: state.lod(),
-                triangles: state.triangle_count(),
-                from_tail: false,
-            },
-            (None, None) => InstanceAt {
-                frame: 0,
-                lod: 0,
-                triangles: a.model.layout().triangle_count(),
-                from_tail: false,
-            },
-            (None, Some((k, l))) => {
-                let triangles = a.tails.triangles(k as usize, l as usize);
-                InstanceAt {
-                    frame: k as usize,
-                    lod: l as usize,
-                    triangles: triangles.expect("a tail member's LOD is in its frame's tail")
-                        as usize,
-                    from_tail: true,
-                }
-            }
-        })
+        Ok(self.assets[id.asset as usize].at(member))
     }
 
     /// A live instance, checked.
@@ -1395,15 +1371,7 @@ impl Crowd {
             let live = a.members.iter().flatten();
             let count = a.members.iter().flatten().count();
             stats.instances += count;
-            stats.triangles += live
-                .map(|m| match (&m.state, m.tail) {
-                    (Some(state), _) => state.triangle_count(),
-                    (None, Some((k, l))) => {
-                        (a.tails.triangles(k as usize, l as usize)).unwrap_or(0) as usize
-                    }
-                    (None, None) => a.model.layout().triangle_count(),
-                })
-                .sum::<usize>();
+            stats.triangles += live.map(|m| a.at(m).triangles).sum::<usize>();
             stats.indices += a.records[..a.drawn as usize]
                 .iter()
                 .map(|r| u64::from(r.index_count))
@@ -1474,6 +1442,35 @@ impl Crowd {
 }
 
 impl CrowdAsset {
+    /// Where `member` (one of this asset's) is: from its runtime, its frame's tail list, or
+    /// `S0` before its first move.
+    fn at(&self, member: &Member) -> InstanceAt {
+        match (&member.state, member.tail) {
+            (Some(state), _) => InstanceAt {
+                frame: state.frame(),
+                lod: state.lod(),
+                triangles: state.triangle_count(),
+                from_tail: false,
+            },
+            (None, None) => InstanceAt {
+                frame: 0,
+                lod: 0,
+                triangles: self.model.layout().triangle_count(),
+                from_tail: false,
+            },
+            (None, Some((k, l))) => {
+                let triangles = self.tails.triangles(k as usize, l as usize);
+                InstanceAt {
+                    frame: k as usize,
+                    lod: l as usize,
+                    triangles: triangles.expect("a tail member's LOD is in its frame's tail")
+                        as usize,
+                    from_tail: true,
+                }
+            }
+        }
+    }
+
     /// Writes the tail lists of the instances that moved in them since the last prepare and
     /// are still there (once each), into their compact areas: the jobs in one write, one
     /// dispatch of a workgroup per job recorded in `dispatches`.
