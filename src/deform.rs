@@ -26,13 +26,13 @@
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::Arc;
+use std::thread::JoinHandle;
 use thiserror::Error;
 
 use crate::asset::{Asset, DEFAULT_MAX_BYTES};
 use crate::collapse::{CollapseSequence, SequenceError};
 use crate::lodstrips::increasing::Increasing;
 use crate::lodstrips::{ChangeListError, Dirty, FrameChanges, StripLayout, StripsState, Survivors};
-#[cfg(feature = "gpu")]
 use crate::par;
 use crate::seams::{check_steps, SeamError, StepBoundaries, Wedges};
 
@@ -526,6 +526,47 @@ pub(crate) fn rebuild_all<J: Send, A: Default, B: Send>(
 pub struct DeformingState {
     state: StripsState,
     frame: usize,
+    /// Frames built on another thread ahead of a switch ([`build_ahead`](Self::build_ahead)); none
+    /// until the first build (a crowd's instances never make one).
+    ahead: Option<Box<Ahead>>,
+}
+
+/// A frame's strips rebuilt on a thread of their own ahead of a switch to it
+/// ([`DeformingState::build_ahead`]), and the state they are built in.
+#[derive(Debug, Default)]
+struct Ahead {
+    /// The build under way, whose thread returns its frame and state.
+    pending: Option<JoinHandle<(usize, StripsState)>>,
+    /// The last build's frame and state (after a switch took it, still a valid state of its
+    /// frame): the next build rebuilds it in place, so a state allocates its second buffer
+    /// once.
+    built: Option<(usize, StripsState)>,
+    /// Switches that took a build ([`DeformingState::switches_built_ahead`]).
+    taken: u64,
+}
+
+impl Ahead {
+    /// Takes the build under way into `built` if it is done; never waits.
+    fn collect(&mut self) {
+        if self.pending.as_ref().is_some_and(JoinHandle::is_finished) {
+            self.finish();
+        }
+    }
+
+    /// Waits for the build under way, if any, and takes it into `built` (nothing where its
+    /// thread panicked).
+    fn finish(&mut self) {
+        if let Some(pending) = self.pending.take() {
+            self.built = pending.join().ok();
+        }
+    }
+}
+
+impl Clone for Ahead {
+    /// Nothing built: a clone starts its own builds.
+    fn clone(&self) -> Ahead {
+        Ahead::default()
+    }
 }
 
 impl DeformingState {
@@ -534,11 +575,13 @@ impl DeformingState {
         DeformingState {
             state: StripsState::at_s0(&model.layout, model.id),
             frame: 0,
+            ahead: None,
         }
     }
 
     /// Moves to time `t` (frame `round(t · (|r| − 1))`, `t` clamped to
-    /// `[0, 1]`) at `lod` resolved in that frame, the cheaper way.
+    /// `[0, 1]`) at `lod` resolved in that frame, the cheaper way: a switch to a frame
+    /// built ahead ([`build_ahead`](Self::build_ahead)) takes its strips if they are ready.
     pub fn set(&mut self, model: &DeformingModel, t: f32, lod: Lod) -> Result<(), SetError> {
         self.set_with(model, t, lod, Strategy::Auto).map(|_| ())
     }
@@ -553,8 +596,138 @@ impl DeformingState {
         strategy: Strategy,
     ) -> Result<Strategy, SetError> {
         let plan = self.plan(model, t, lod, strategy)?;
+        // A switch `Auto` would rebuild takes the strips built ahead for its frame if they
+        // are ready; a strategy the caller chose is carried out as asked.
+        if strategy == Strategy::Auto
+            && plan.strategy == Strategy::Rebuild
+            && self.take_ahead(model, plan)
+        {
+            return Ok(Strategy::Rebuild);
+        }
         self.apply(model, plan, &mut Survivors::new());
         Ok(plan.strategy)
+    }
+
+    /// Starts rebuilding the strips at `(t, lod)` on a thread of its own when `t` is in another
+    /// frame than this state's and [`set`](Self::set) would rebuild to go there. A later
+    /// `set` to that frame takes the strips built, stepped to its own LOD, instead of
+    /// rebuilding on the calling thread: what is left of the switch is a swap of buffers and
+    /// those steps. An application calls it with where it expects to
+    /// be next (an animation's next `t`); [`LodObject`](crate::gpu::LodObject) does by
+    /// itself. Returns whether a build started.
+    ///
+    /// Nothing starts while an earlier build is under way (one at a time), or where the
+    /// strips built last are of that frame and LOD already. From the first build on the state
+    /// keeps a second buffer of its own size (1.2 MB for a 100k-vertex mesh, see
+    /// [`heap_bytes`](Self::heap_bytes)). A `set` to another frame, or made before the build
+    /// is done, moves as if nothing were built and never waits. Worth it for large models
+    /// (a rebuild of [`PARALLEL_SLOTS`](crate::lodstrips::PARALLEL_SLOTS) slots of `S0` takes about a millisecond); a small
+    /// one's rebuild costs less than starting the thread. `t` and `lod` are checked as `set`
+    /// checks them.
+    pub fn build_ahead(
+        &mut self,
+        model: &Arc<DeformingModel>,
+        t: f32,
+        lod: Lod,
+    ) -> Result<bool, SetError> {
+        if self.state.model_id() != model.id {
+            return Err(SetError::WrongModel);
+        }
+        let k = model.frame_at(t)?;
+        let l = model.resolve(k, lod)?;
+        Ok(self.build_ahead_at(model, k, l))
+    }
+
+    /// Switches that took strips built ahead ([`build_ahead`](Self::build_ahead)) since the
+    /// state was made: against the frame switches made, how often the builds came in time.
+    pub fn switches_built_ahead(&self) -> u64 {
+        self.ahead.as_ref().map_or(0, |a| a.taken)
+    }
+
+    /// [`build_ahead`](Self::build_ahead) for frame `k` at LOD `l`, resolved against `model`
+    /// (this state's model).
+    fn build_ahead_at(&mut self, model: &Arc<DeformingModel>, k: usize, l: usize) -> bool {
+        if k == self.frame
+            || self.plan_at(model, k, l, Strategy::Auto).strategy != Strategy::Rebuild
+        {
+            return false;
+        }
+        let ahead = self.ahead.get_or_insert_with(Box::default);
+        ahead.collect();
+        let built_already = matches!(&ahead.built, Some((f, built)) if *f == k && built.lod() == l);
+        if ahead.pending.is_some() || built_already {
+            return false;
+        }
+        let built = ahead.built.take();
+        let model = Arc::clone(model);
+        // A thread of its own, its rebuild on that thread alone: on the pool, the threads
+        // that wake for it and look for more work took the cores from the caller's thread
+        // for milliseconds on 2 cores (BENCHMARKS.md, "Frames built ahead").
+        let build = move || {
+            par::alone(|| {
+                let (from, mut state) =
+                    built.unwrap_or_else(|| (0, StripsState::at_s0(&model.layout, model.id)));
+                let frames = &model.frames;
+                let (from, to) = (&frames[from].changes, &frames[k].changes);
+                state.rebuild(&model.layout, from, to, l, &mut Survivors::new());
+                (k, state)
+            })
+        };
+        let thread = std::thread::Builder::new().name("morphlod-ahead".into());
+        match thread.spawn(build) {
+            Ok(pending) => {
+                ahead.pending = Some(pending);
+                true
+            }
+            // No thread to be had: the switch rebuilds as usual.
+            Err(_) => false,
+        }
+    }
+
+    /// Whether a build started by [`build_ahead`](Self::build_ahead) is still running. A
+    /// caller that wants every switch to take its build (a test, an offline render) waits
+    /// for it to turn false before the move; an interactive one never needs to.
+    pub fn building_ahead(&self) -> bool {
+        let pending = self.ahead.as_ref().and_then(|a| a.pending.as_ref());
+        pending.is_some_and(|p| !p.is_finished())
+    }
+
+    /// Waits for the build under way, if any.
+    #[cfg(test)]
+    fn wait_ahead(&mut self) {
+        if let Some(ahead) = self.ahead.as_deref_mut() {
+            ahead.finish();
+        }
+    }
+
+    /// Carries out `plan`, a switch to another frame, from the strips built ahead for its
+    /// frame, if they are ready and stepping from their LOD to the plan's is cheaper than a
+    /// rebuild: swapped in (every live strip marked), then stepped to the plan's LOD. False
+    /// (nothing done) otherwise.
+    fn take_ahead(&mut self, model: &DeformingModel, plan: Plan) -> bool {
+        let Some(ahead) = self.ahead.as_deref_mut() else {
+            return false;
+        };
+        ahead.collect();
+        let frame = &model.frames[plan.frame].changes;
+        match &mut ahead.built {
+            Some((k, built))
+                if *k == plan.frame
+                    && plan.frame != self.frame
+                    && built.model_id() == model.id
+                    && built.lod().abs_diff(plan.lod) * STEP_COST
+                        <= frame.rebuild_work(&model.layout, plan.lod) =>
+            {
+                self.state.swap_strips(built);
+                // What is left behind is this state's old strips, of its old frame.
+                *k = self.frame;
+                self.state.step_to(frame, plan.lod);
+                self.frame = plan.frame;
+                ahead.taken += 1;
+                true
+            }
+            _ => false,
+        }
     }
 
     /// Where a move to `(t, lod)` goes and how (the request checked, nothing moved).
@@ -670,9 +843,11 @@ impl DeformingState {
         self.state.region_offsets()
     }
 
-    /// Bytes this state holds on the heap (see [`StripsState::heap_bytes`]).
+    /// Bytes this state holds on the heap (see [`StripsState::heap_bytes`]), the strips built
+    /// ahead ([`build_ahead`](Self::build_ahead)) included.
     pub fn heap_bytes(&self) -> usize {
-        self.state.heap_bytes()
+        let ahead = self.ahead.as_ref().and_then(|a| a.built.as_ref());
+        self.state.heap_bytes() + ahead.map_or(0, |(_, built)| built.heap_bytes())
     }
 
     /// A count that grows whenever the strips change (see [`StripsState::changes`]): equal
@@ -683,7 +858,8 @@ impl DeformingState {
 
     /// Hands the dirty log to the uploader and clears it. After a rebuild it
     /// names, per strip, the span of the positions whose value changed and the
-    /// strips whose length changed.
+    /// strips whose length changed; after a switch that took a frame built ahead
+    /// ([`build_ahead`](Self::build_ahead)), every live strip whole.
     pub fn take_dirty(&mut self) -> Dirty {
         self.state.take_dirty()
     }
@@ -879,6 +1055,122 @@ mod tests {
         assert!(covered > 20, "{covered} LODs rebuilt from a tail");
     }
 
+    /// Checks that `state`, just moved to `(t, lod)`, equals a fresh state stepped there
+    /// from `S0`, and that its dirty log replayed onto `mirror` (its buffer and lengths as
+    /// of the last take) gives its strips; takes the log.
+    fn same_as_stepped(
+        state: &mut DeformingState,
+        model: &DeformingModel,
+        t: f32,
+        lod: Lod,
+        mirror: &mut (Vec<u32>, Vec<u32>),
+        at: &str,
+    ) {
+        let mut fresh = DeformingState::new(model);
+        fresh
+            .set_with(model, t, lod, Strategy::Steps)
+            .expect("valid request");
+        assert_eq!(state.frame(), fresh.frame(), "{at}");
+        assert_eq!(
+            (state.lod(), state.triangle_count()),
+            (fresh.lod(), fresh.triangle_count()),
+            "{at}"
+        );
+        assert_eq!(state.lengths(), fresh.lengths(), "{at}");
+        let offsets = state.region_offsets().to_vec();
+        for s in 0..offsets.len() - 1 {
+            assert_eq!(state.strip(s), fresh.strip(s), "{at}, strip {s}");
+        }
+        let dirty = state.take_dirty();
+        let (indices, lens) = mirror;
+        for r in &dirty.ranges {
+            let o = offsets[r.strip as usize] as usize;
+            let span = o + r.start as usize..o + r.end as usize;
+            indices[span.clone()].copy_from_slice(&state.indices()[span]);
+        }
+        for &s in &dirty.lengths {
+            lens[s as usize] = state.lengths()[s as usize];
+        }
+        assert_eq!(&lens[..], state.lengths(), "{at}");
+        for s in 0..offsets.len() - 1 {
+            let live = offsets[s] as usize..(offsets[s] + lens[s]) as usize;
+            assert_eq!(Some(&indices[live]), state.strip(s), "{at}, strip {s}");
+        }
+    }
+
+    /// Switches that take a frame built ahead (at the LOD they go to, or at another one they
+    /// step from; built from `S0` or from the last build, of any frame) leave the strips of
+    /// stepping from `S0`, and a dirty log that takes the old strips to them; builds for a
+    /// frame the walk does not go to, or made while another is under way, change nothing.
+    /// Fails when the swap marks a strip's old live length instead of its new one, leaves
+    /// unmarked a strip the build emptied, or files the strips left behind under the frame
+    /// built (the next build then rebuilds them as if they were of that frame).
+    #[test]
+    fn switches_to_frames_built_ahead_equal_stepping_from_s0() {
+        let model = Arc::new(DeformingModel::new(&wave_asset(24, 6)).expect("model builds"));
+        let frames = model.frame_count();
+        let mut state = DeformingState::new(&model);
+        let mut mirror = (state.indices().to_vec(), state.lengths().to_vec());
+        let mut seed = 0x51_7cc1_b727_u64;
+        let mut unit = || crate::random::next_unit(&mut seed) as f32;
+        let (mut started, mut elsewhere, mut f) = (0, 0, 0.5);
+        for i in 0..240 {
+            let k = state.frame();
+            let frame = match i % 5 {
+                0 | 1 => (k + 1) % frames,
+                2 => k.saturating_sub(1),
+                3 => k,
+                _ => (unit() * frames as f32) as usize % frames,
+            };
+            // The LOD drifts as a camera's would, with a jump now and then, and the coarsest
+            // (a frame's tail) every seventh move.
+            f = if i % 11 == 0 {
+                unit()
+            } else {
+                (f + 0.03 * (unit() - 0.5)).clamp(0.0, 1.0)
+            };
+            let lod = Lod::Fraction(if i % 7 == 0 { 1.0 } else { f });
+            // The build: at the LOD the move goes to, near it, far from it, or for another
+            // frame than the move's.
+            let (to, ahead) = match i % 4 {
+                0 => (frame, Lod::Fraction(f)),
+                1 => (frame, Lod::Fraction((f + 0.02 * unit()).min(1.0))),
+                2 => (frame, Lod::Fraction(unit())),
+                _ => ((frame + 1) % frames, lod),
+            };
+            let l = model.resolve(to, ahead).expect("valid LOD");
+            // Every third run of three moves builds nothing: the strips a switch left behind
+            // stay as they were filed, and a later switch to their frame may take them.
+            let build = (i / 3) % 3 != 2;
+            if build && state.build_ahead_at(&model, to, l) {
+                started += 1;
+                elsewhere += usize::from(to != frame);
+                // Most builds finish before the move; a few are left running, so that the
+                // move may go on without them (and the build, taken after it, is of a frame
+                // the state is no longer at).
+                if i % 9 != 0 {
+                    state.wait_ahead();
+                }
+            }
+            let t = frame as f32 / (frames - 1) as f32;
+            state.set(&model, t, lod).expect("valid request");
+            state.wait_ahead();
+            same_as_stepped(
+                &mut state,
+                &model,
+                t,
+                lod,
+                &mut mirror,
+                &format!("move {i}"),
+            );
+        }
+        let taken = state.switches_built_ahead();
+        assert!(taken > 30, "{taken} of {started} builds taken");
+        assert!(elsewhere > 10, "{elsewhere} builds for frames not gone to");
+        // The build's buffer counts in the state's bytes.
+        assert!(state.heap_bytes() > 2 * state.indices().len() * 4);
+    }
+
     /// The wave model of `wave_asset(24, 6)`, built once for the property test.
     fn wave_model() -> &'static DeformingModel {
         static MODEL: std::sync::OnceLock<DeformingModel> = std::sync::OnceLock::new();
@@ -903,7 +1195,7 @@ mod tests {
             let model = wave_model();
             let frames = model.frame_count();
             let mut state = DeformingState::new(model);
-            let (mut mirror, mut mirror_lens) = (state.indices().to_vec(), state.lengths().to_vec());
+            let mut mirror = (state.indices().to_vec(), state.lengths().to_vec());
             for (i, &(kind, pick, f, rebuild)) in moves.iter().enumerate() {
                 let k = state.frame();
                 let frame = match kind {
@@ -921,33 +1213,8 @@ mod tests {
                 };
                 let strategy = if rebuild { Strategy::Rebuild } else { Strategy::Auto };
                 state.set_with(model, t, lod, strategy).expect("valid request");
-                let mut fresh = DeformingState::new(model);
-                fresh.set_with(model, t, lod, Strategy::Steps).expect("valid request");
                 proptest::prop_assert_eq!(state.frame(), frame);
-                proptest::prop_assert_eq!(
-                    (state.lod(), state.triangle_count()),
-                    (fresh.lod(), fresh.triangle_count()),
-                    "move {}", i
-                );
-                proptest::prop_assert_eq!(state.lengths(), fresh.lengths(), "move {}", i);
-                let offsets = state.region_offsets().to_vec();
-                for s in 0..offsets.len() - 1 {
-                    proptest::prop_assert_eq!(state.strip(s), fresh.strip(s), "move {}, strip {}", i, s);
-                }
-                let dirty = state.take_dirty();
-                for r in &dirty.ranges {
-                    let o = offsets[r.strip as usize] as usize;
-                    let span = o + r.start as usize..o + r.end as usize;
-                    mirror[span.clone()].copy_from_slice(&state.indices()[span]);
-                }
-                for &s in &dirty.lengths {
-                    mirror_lens[s as usize] = state.lengths()[s as usize];
-                }
-                proptest::prop_assert_eq!(&mirror_lens[..], state.lengths(), "move {}", i);
-                for s in 0..offsets.len() - 1 {
-                    let live = offsets[s] as usize..(offsets[s] + mirror_lens[s]) as usize;
-                    proptest::prop_assert_eq!(Some(&mirror[live]), state.strip(s), "move {}, strip {}", i, s);
-                }
+                same_as_stepped(&mut state, model, t, lod, &mut mirror, &format!("move {i}"));
             }
         }
     }

@@ -26,6 +26,23 @@ pub(crate) fn may_split() -> bool {
     rayon::current_thread_index().is_none() && !IN_MAP.get()
 }
 
+/// Runs `f` with nothing in it split over the pool ([`may_split`] false): work on a thread of
+/// its own that must leave the pool's threads, and the cores they run on, to the frame's.
+pub(crate) fn alone<R>(f: impl FnOnce() -> R) -> R {
+    let _restore = Restore(IN_MAP.replace(true));
+    f()
+}
+
+/// Restores the calling thread's [`IN_MAP`] however the work that set it ends (a panic
+/// unwinds through it).
+struct Restore(bool);
+
+impl Drop for Restore {
+    fn drop(&mut self) {
+        IN_MAP.set(self.0);
+    }
+}
+
 /// `items.into_iter().map(f).collect()`, the items taken one at a time by the calling thread
 /// and by up to `rayon::current_num_threads() - 1` pool threads, each taking the next item left
 /// when it is free. The results are in item order. Each item should be worth waking a thread
@@ -36,13 +53,6 @@ pub(crate) fn may_split() -> bool {
 /// A panic in `f` is resumed on the calling thread once every helper has stopped.
 pub(crate) fn map<T: Send, R: Send>(items: Vec<T>, f: impl Fn(T) -> R + Sync) -> Vec<R> {
     // The calling thread's items do not split again, however many helpers there are.
-    // Restored however `map` ends (a panic in an item unwinds through here).
-    struct Restore(bool);
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            IN_MAP.set(self.0);
-        }
-    }
     let _restore = Restore(IN_MAP.replace(true));
     let n = items.len();
     let threads = rayon::current_num_threads();

@@ -17,6 +17,7 @@ use super::commands::RenderCommands;
 use super::{Draws, GpuAsset, GpuError, MorphPipeline, Object, ShadeMode, Topology, Upload};
 use crate::asset::Asset;
 use crate::deform::{DeformingModel, DeformingState, Lod, SetError};
+use crate::lodstrips::PARALLEL_SLOTS;
 use crate::morph::WeightTrack;
 
 /// One deforming mesh with continuous LOD, ready to draw with one multi-draw per frame.
@@ -26,6 +27,28 @@ pub struct LodObject {
     object: Object,
     /// The weight track of an asset made from a weight animation (its targets live on the GPU).
     track: Option<WeightTrack>,
+    /// Whether the next frame is built ahead.
+    build_ahead: BuildAhead,
+    /// The `t` (clamped) and LOD (in steps of its frame) of the last [`set`](Self::set), from
+    /// which the next ones are guessed.
+    last: Option<(f32, usize)>,
+}
+
+/// Whether a [`LodObject`] builds the next frame's strips on a thread of their own while the
+/// current frame is drawn ([`DeformingState::build_ahead`]), so that the `set` that switches
+/// there does not rebuild them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BuildAhead {
+    /// For models of at least [`PARALLEL_SLOTS`] slots of `S0` (a 100k-vertex mesh has
+    /// 250k), where rayon's pool has two threads or more (`RAYON_NUM_THREADS=1` asks for one
+    /// thread, and gets it): a rebuild there takes about a millisecond; a smaller model's
+    /// costs less than starting the thread.
+    #[default]
+    Auto,
+    /// Whatever the model's size and the pool's.
+    Always,
+    /// Never: every switch rebuilds in `set`, and the object keeps one buffer of strips.
+    Never,
 }
 
 impl LodObject {
@@ -74,6 +97,8 @@ impl LodObject {
             state,
             object,
             track,
+            build_ahead: BuildAhead::Auto,
+            last: None,
         })
     }
 
@@ -82,6 +107,10 @@ impl LodObject {
     /// `[0, 1]` are clamped (the CPU and the GPU side use the same `t`); a NaN `t` or LOD is
     /// refused with a [`SetError`] and nothing changes. Nothing is uploaded until
     /// [`prepare`](Self::prepare).
+    ///
+    /// Where `t` goes on as it came (this `t` plus the last step) into the next frame, the
+    /// next frame's strips are built on a thread of their own while this one is drawn, and a
+    /// `set` that switches there takes them (see [`BuildAhead`]; large models by default).
     pub fn set(&mut self, t: f32, lod: Lod) -> Result<(), SetError> {
         self.state.set(&self.model, t, lod)?;
         let dirty = self.state.take_dirty();
@@ -93,7 +122,49 @@ impl LodObject {
         self.object
             .set_pose(t, self.track.as_ref())
             .expect("t is not NaN and the track matches the targets");
+        // Last, so that the build does not compete with this frame's own work.
+        self.build_next(t, lod);
         Ok(())
+    }
+
+    /// Starts building the next frame's strips where the animation goes on as it came: `t`
+    /// plus its last step, at `lod` resolved there plus the LOD's last step (a camera
+    /// closing in moves both).
+    fn build_next(&mut self, t: f32, lod: Lod) {
+        let build = match self.build_ahead {
+            BuildAhead::Auto => {
+                self.model.layout().s0().len() >= PARALLEL_SLOTS && rayon::current_num_threads() > 1
+            }
+            BuildAhead::Always => true,
+            BuildAhead::Never => false,
+        };
+        if !build {
+            return;
+        }
+        // Clamped as the frame is chosen, so that `next` is finite (an infinite `t` is
+        // accepted).
+        let now = (t.clamp(0.0, 1.0), self.state.lod());
+        let Some(last) = self.last.replace(now) else {
+            return;
+        };
+        let next = now.0 + (now.0 - last.0);
+        // `t` and `lod` were just accepted, so neither can be refused here.
+        let k = self.model.frame_at(next).expect("t is not NaN");
+        if k == self.state.frame() {
+            return;
+        }
+        let l = self.model.resolve(k, lod).expect("lod is not NaN");
+        let l = (l + now.1).saturating_sub(last.1);
+        self.state
+            .build_ahead(&self.model, next, Lod::Steps(l))
+            .expect("a request set accepted");
+    }
+
+    /// Whether the next frame's strips are built ahead of a switch to it (default
+    /// [`BuildAhead::Auto`]). Taking effect at the next [`set`](Self::set); a build under way
+    /// is not stopped.
+    pub fn set_build_ahead(&mut self, build_ahead: BuildAhead) {
+        self.build_ahead = build_ahead;
     }
 
     /// Uploads what changed since the last call (index words, indirect records, uniforms; see

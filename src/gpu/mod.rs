@@ -77,7 +77,7 @@ pub use crowd::{
     FrameFigures, InstanceAt, InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL,
     SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS,
 };
-pub use lod_object::{s0_regions, LodObject};
+pub use lod_object::{s0_regions, BuildAhead, LodObject};
 pub use object::{Object, Topology};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
 pub use records::{Draws, GROUP_INDICES};

@@ -39,6 +39,7 @@ pub use build::ChangeListError;
 #[cfg(feature = "gpu")]
 pub(crate) use runtime::for_each_live;
 pub(crate) use runtime::Survivors;
+pub use runtime::PARALLEL_SLOTS;
 pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
 
 use crate::collapse::CollapseSequence;

@@ -688,6 +688,38 @@ impl StripsState {
         (self.cursor, self.triangles) = frame.seek(lod);
     }
 
+    /// Takes the strips of `built` (a state of the same model, at any frame and LOD) and
+    /// leaves it this state's: their buffers, lengths and LODs are swapped, the dirty logs
+    /// stay. This state's log marks every strip live in its new strips whole, and every
+    /// strip whose length changed, as a rebuild writing each live position would: a frame
+    /// built ahead on another thread ([`DeformingState::build_ahead`]) is taken for the cost
+    /// of its marks, not a compare of both buffers (the uploader's diff against what the GPU
+    /// holds is the one compare).
+    ///
+    /// [`DeformingState::build_ahead`]: crate::deform::DeformingState::build_ahead
+    pub(crate) fn swap_strips(&mut self, built: &mut StripsState) {
+        debug_assert_eq!(self.model_id, built.model_id, "a state of another model");
+        std::mem::swap(&mut self.indices, &mut built.indices);
+        std::mem::swap(&mut self.lens, &mut built.lens);
+        std::mem::swap(&mut self.live, &mut built.live);
+        std::mem::swap(&mut self.lod, &mut built.lod);
+        std::mem::swap(&mut self.cursor, &mut built.cursor);
+        std::mem::swap(&mut self.triangles, &mut built.triangles);
+        let chunks = self.lens.chunks(16).zip(built.lens.chunks(16));
+        for (c, (lens, old_lens)) in chunks.enumerate() {
+            let mut live = live_mask(lens) | live_mask(old_lens);
+            while live != 0 {
+                let i = live.trailing_zeros() as usize;
+                live &= live - 1;
+                let s = 16 * c + i;
+                if lens[i] != old_lens[i] {
+                    self.log.mark_len(s);
+                }
+                self.log.mark(s, 0, lens[i]);
+            }
+        }
+    }
+
     /// Hands the dirty log to the uploader and clears it.
     pub fn take_dirty(&mut self) -> Dirty {
         self.log.take()
@@ -809,7 +841,7 @@ impl StripsState {
 /// a 100k-vertex mesh) rebuild on several threads when they can. Below it a rebuild takes
 /// under a millisecond on one thread, and the split's overhead (tasks, the log's parts)
 /// would eat what the threads save.
-pub(crate) const PARALLEL_SLOTS: usize = 1 << 16;
+pub const PARALLEL_SLOTS: usize = 1 << 16;
 
 /// The rebuild of strips `strips` (see [`StripsState::rebuild`]) over their regions
 /// `indices` (from the first strip's region start) and live lengths `lens`, at `l` collapses

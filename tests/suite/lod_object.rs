@@ -9,7 +9,8 @@
 //!   mid-walk, bad calls): after every move the object's index and indirect mirrors equal the
 //!   layout built from scratch from the runtime's strips, the records draw exactly the strips'
 //!   triangles, and after every `prepare` the index and indirect buffers copied back from the GPU
-//!   equal that layout (the uploads brought everything that changed).
+//!   equal that layout (the uploads brought everything that changed). Part of the walk plays
+//!   the animation with the next frames built ahead, and switches take them.
 //!
 //! * `weight_animation_plays_on_the_gpu`: an asset built from makehuman_head's weight
 //!   animation (8 targets, both end poses equal to the base) renders, at several `t`, like a
@@ -27,7 +28,7 @@ use common::strip_draw;
 
 use morphlod::deform::SetError;
 use morphlod::gpu::{
-    self, Draws, GpuError, LodObject, Object, ShadeMode, Topology, Upload, RESTART,
+    self, BuildAhead, Draws, GpuError, LodObject, Object, ShadeMode, Topology, Upload, RESTART,
 };
 use morphlod::io::LoadOptions;
 use morphlod::io::MorphSource;
@@ -294,6 +295,12 @@ enum Move {
     Gap(u64),
     /// Calls that must fail with a typed error and change nothing.
     Bad,
+    /// `set(t + dt, Fraction(lod + dlod))`, both clamped to `[0, 1]` (`lod` the walk's last
+    /// fraction): an animation playing and a camera drifting, whose next frames are built
+    /// ahead while the walk checks the buffers.
+    Play { dt: f32, dlod: f32 },
+    /// `set_build_ahead`: always (`true`) or never.
+    Ahead(bool),
 }
 
 fn move_strategy() -> impl proptest::strategy::Strategy<Value = Move> {
@@ -308,6 +315,8 @@ fn move_strategy() -> impl proptest::strategy::Strategy<Value = Move> {
         1 => any::<bool>().prop_map(Move::Shade),
         1 => prop::sample::select(vec![0u64, 8, 32, 256]).prop_map(Move::Gap),
         1 => Just(Move::Bad),
+        4 => (-0.1f32..0.2, -0.03f32..0.03).prop_map(|(dt, dlod)| Move::Play { dt, dlod }),
+        1 => any::<bool>().prop_map(Move::Ahead),
     ]
 }
 
@@ -402,9 +411,14 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
     let walks = proptest::collection::vec(move_strategy(), 1..40);
     // Frames that used the index scatter and frames that went by writes only, over all walks.
     let (scattered, written_only) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
+    // Switches that took a frame built ahead, over all walks.
+    let built_ahead = std::cell::Cell::new(0);
     let result = runner.run(&walks, |moves| {
         let mut object = LodObject::new(device, pipeline, &asset, Arc::clone(&model))
             .expect("the grid asset uploads");
+        // The grid is far smaller than what `Auto` builds ahead for.
+        object.set_build_ahead(BuildAhead::Always);
+        let mut fraction = 0.0f32;
         let (mut t, mut draws, mut strip_colours) = (
             0.0f32,
             gpu::Draws::Grouped {
@@ -422,7 +436,7 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                     prepare: p,
                 } => {
                     object.set(to, Lod::Fraction(lod)).expect("valid t");
-                    (t, prepare) = (to, p);
+                    (t, fraction, prepare) = (to, lod, p);
                 }
                 Move::Step {
                     finer,
@@ -453,6 +467,16 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                     });
                 }
                 Move::Gap(bytes) => object.object_mut().set_merge_gap(bytes),
+                Move::Play { dt, dlod } => {
+                    t = (t + dt).clamp(0.0, 1.0);
+                    fraction = (fraction + dlod).clamp(0.0, 1.0);
+                    object.set(t, Lod::Fraction(fraction)).expect("valid t");
+                }
+                Move::Ahead(on) => object.set_build_ahead(if on {
+                    BuildAhead::Always
+                } else {
+                    BuildAhead::Never
+                }),
                 Move::Bad => {
                     let before = (
                         object.object().index_mirror().to_vec(),
@@ -549,16 +573,78 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                 );
             }
         }
+        built_ahead.set(built_ahead.get() + object.state().switches_built_ahead());
         Ok(())
     });
     if let Err(failure) = result {
         panic!("{failure}");
     }
     assert!(
+        built_ahead.get() > 0,
+        "no switch of the walks took a frame built ahead"
+    );
+    assert!(
         scattered.get() > 0 && written_only.get() > 0,
         "the walks must upload by the scatter ({} frames) and by writes only ({} frames)",
         scattered.get(),
         written_only.get()
+    );
+    Ok(())
+}
+
+/// An animation played forward and back with the LOD drifting, on a `LodObject` that builds
+/// its next frames ahead: after every frame's `prepare` the index and indirect buffers copied
+/// back from the GPU equal the layout built from scratch from a `DeformingState` moved to the
+/// same `(t, lod)` without builds, and most frame switches took a frame built ahead.
+#[test]
+fn frames_built_ahead_upload_the_strips_of_their_frame() -> Result<(), Error> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let asset = grid_asset(12, 5);
+    let model = Arc::new(DeformingModel::new(&asset)?);
+    let capacities: Vec<usize> = (0..asset.s0.len())
+        .map(|i| asset.s0.strip(i).map_or(0, <[u32]>::len))
+        .collect();
+    let mut object = LodObject::new(device, &ctx.pipeline, &asset, Arc::clone(&model))?;
+    object.set_build_ahead(BuildAhead::Always);
+    let draws = Draws::Grouped {
+        max_indices: gpu::GROUP_INDICES,
+    };
+    let mut oracle = DeformingState::new(&model);
+    let mut switches = 0;
+    for i in 0..120 {
+        // Forward over the frames, then back, four frames per sampled frame.
+        let x = if i < 60 { i } else { 119 - i } as f32 / 59.0;
+        let lod = Lod::Fraction(0.2 + 0.5 * x + 0.01 * (i as f32 * 0.7).sin());
+        // Builds take microseconds on this grid, but the walk's test threads share two cores
+        // with lavapipe's: wait, so that the count below does not depend on the load.
+        while object.state().building_ahead() {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let before = object.state().frame();
+        object.set(x, lod)?;
+        switches += usize::from(object.state().frame() != before);
+        object.prepare(queue);
+        oracle.set_with(&model, x, lod, morphlod::deform::Strategy::Steps)?;
+        let strips: Vec<&[u32]> = (0..capacities.len())
+            .map(|s| oracle.strip(s).unwrap_or(&[]))
+            .collect();
+        let (indices, records) =
+            expected_layout(&strips, &capacities, draws, ctx.first_instance_enabled());
+        let words: Vec<u32> = records.iter().flatten().copied().collect();
+        assert!(
+            ctx.read_words(object.object().index_buffer()) == indices,
+            "frame {i}: the GPU index buffer differs from the layout built from scratch"
+        );
+        let gpu_records = ctx.read_words(object.object().indirect_buffer());
+        assert_eq!(&gpu_records[..words.len()], words.as_slice(), "frame {i}");
+    }
+    let taken = object.state().switches_built_ahead() as usize;
+    assert!(
+        switches >= 8 && taken * 4 >= switches * 3,
+        "{taken} of {switches} frame switches took a frame built ahead"
     );
     Ok(())
 }

@@ -35,8 +35,8 @@ use morphlod::asset::Asset;
 use morphlod::deform::{DeformingModel, Lod};
 use morphlod::gpu::camera::frame_both_poses;
 use morphlod::gpu::{
-    s0_regions, Context, DrawCounter, Draws, GpuError, LodObject, MorphPipeline, Object,
-    RenderTarget, ShadeMode, Topology,
+    s0_regions, BuildAhead, Context, DrawCounter, Draws, GpuError, LodObject, MorphPipeline,
+    Object, RenderTarget, ShadeMode, Topology,
 };
 use morphlod::strip::strip_triangles;
 use morphlod::Error;
@@ -85,6 +85,8 @@ pub struct BenchOptions {
     /// How every object is shaded (an asset without a surface draws faceted whatever this
     /// says).
     pub shade: ShadeMode,
+    /// Whether the strips object builds its next frames ahead (`LodObject::set_build_ahead`).
+    pub build_ahead: BuildAhead,
 }
 
 impl Default for BenchOptions {
@@ -94,6 +96,7 @@ impl Default for BenchOptions {
             size: 512,
             repeats: 3,
             shade: ShadeMode::Textured,
+            build_ahead: BuildAhead::Auto,
         }
     }
 }
@@ -115,6 +118,8 @@ pub struct FrameRow {
     /// CPU time of `LodObject::set` and `LodObject::prepare`, microseconds.
     pub set_us: f64,
     pub prepare_us: f64,
+    /// Whether this frame's `set` switched to a frame built ahead (`BuildAhead`).
+    pub built_ahead: bool,
     /// Index and indirect bytes the strips uploaded this frame.
     pub upload_bytes: u64,
     /// `write_buffer` calls of that upload (index and indirect; uniforms not counted).
@@ -208,6 +213,7 @@ pub fn run_bench(
         let mut strips = LodObject::new(device, &pipeline, asset, Arc::clone(model))?;
         strips.set_view_proj(camera);
         strips.set_shade_mode(options.shade);
+        strips.set_build_ahead(options.build_ahead);
         // Warm-up: first draws create pipelines' backing state and fill caches.
         strips.prepare(queue);
         gpu_frame(device, queue, &target, strips.object())?;
@@ -219,9 +225,11 @@ pub fn run_bench(
             // The encoder is the application's (made every frame with or without LOD), so it
             // is made before the timers.
             let mut encoder = device.create_command_encoder(&Default::default());
+            let taken = strips.state().switches_built_ahead();
             let start = Instant::now();
             strips.set(t, Lod::Fraction(lod))?;
             let set_us = micros(start);
+            let built_ahead = strips.state().switches_built_ahead() > taken;
             let start = Instant::now();
             let upload = strips.prepare_with(queue, &mut encoder);
             let prepare_us = micros(start);
@@ -269,6 +277,7 @@ pub fn run_bench(
                 indices: state.index_count(),
                 set_us,
                 prepare_us,
+                built_ahead,
                 upload_bytes: upload.geometry_bytes(),
                 upload_writes: upload.geometry_writes(),
                 draws,
@@ -458,13 +467,14 @@ impl BenchReport {
         // Upload bytes: the exponential sweep's switches and its other frames after its first.
         // CPU: where the mean goes, the frame switches (a rebuild each) and the other frames.
         let (mut switching, mut staying) = (Vec::new(), Vec::new());
-        let (mut switch_ms, mut other_ms) = (Vec::new(), Vec::new());
+        let (mut switch_ms, mut other_ms, mut built_ahead) = (Vec::new(), Vec::new(), 0);
         for (row, switched) in self.rows.iter().zip(self.frame_switches()) {
             let (bytes, ms) = (row.upload_bytes as f64, (row.set_us + row.prepare_us) / 1e3);
             match switched {
                 Some(true) => switch_ms.push(ms),
                 _ => other_ms.push(ms),
             }
+            built_ahead += usize::from(row.built_ahead);
             match switched {
                 Some(true) if row.sweep == Sweep::Exponential => switching.push(bytes),
                 Some(false) if row.sweep == Sweep::Exponential => staying.push(bytes),
@@ -499,8 +509,9 @@ impl BenchReport {
         );
         let _ = writeln!(
             out,
-            "    ({} frame switches: median {:.3} ms, {:.3} ms of the mean; {} other frames: median {:.3} ms, {:.3} ms of the mean)",
+            "    ({} frame switches, {} of them to a frame built ahead: median {:.3} ms, {:.3} ms of the mean; {} other frames: median {:.3} ms, {:.3} ms of the mean)",
             switch_ms.len(),
+            built_ahead,
             median(&switch_ms),
             share(&switch_ms),
             other_ms.len(),
@@ -540,7 +551,7 @@ impl BenchReport {
         for (i, r) in self.rows.iter().enumerate() {
             let _ = write!(
                 out,
-                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"upload_bytes\":{},\"upload_writes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"faceted_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
+                "{}\n{{\"sweep\":\"{}\",\"frame\":{},\"t\":{},\"lod\":{},\"asset_frame\":{},\"steps\":{},\"triangles\":{},\"indices\":{},\"set_us\":{:.3},\"prepare_us\":{:.3},\"built_ahead\":{},\"upload_bytes\":{},\"upload_writes\":{},\"draws\":{},\"records\":{},\"strips_ms\":{:.4},\"faceted_ms\":{:.4},\"list_triangles\":{},\"list_build_us\":{:.3},\"list_upload_bytes\":{},\"list_ms\":{:.4},\"full_strips_ms\":{:.4},\"full_list_ms\":{:.4},\"full_per_strip_ms\":{:.4}}}",
                 if i == 0 { "" } else { "," },
                 r.sweep.name(),
                 r.frame,
@@ -552,6 +563,7 @@ impl BenchReport {
                 r.indices,
                 r.set_us,
                 r.prepare_us,
+                r.built_ahead,
                 r.upload_bytes,
                 r.upload_writes,
                 r.draws,
@@ -631,6 +643,7 @@ mod tests {
                 size: 48,
                 repeats: 2,
                 shade: ShadeMode::Textured,
+                build_ahead: BuildAhead::Always,
             },
         )?;
         let original: Vec<[u32; 3]> = (0..asset.s0.len())
@@ -682,6 +695,14 @@ mod tests {
         assert_eq!((switched[0], switched[frames]), (None, None));
         let switches = switched.iter().filter(|s| **s == Some(true)).count();
         assert_eq!(switches, 2 * (asset.frames.len() - 1));
+        // Only a frame switch takes a frame built ahead.
+        for (row, switched) in report.rows.iter().zip(&switched) {
+            assert!(
+                !row.built_ahead || *switched == Some(true),
+                "row {}",
+                row.frame
+            );
+        }
         let json = report.to_json();
         assert_eq!(json.matches("\"sweep\":").count(), report.rows.len());
         assert!(report.summary().contains("goals:"));

@@ -189,6 +189,10 @@ struct BenchArgs {
     /// Also write every frame's measurements to this JSON file.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
+    /// Whether the sweeps' strips object builds its next frames on a thread of their own
+    /// (`gpu::BuildAhead`; `auto`: models of at least 65,536 slots of `S0`).
+    #[arg(long = "build-ahead", value_name = "WHEN", value_parser = ["auto", "always", "never"], default_value = "auto")]
+    build_ahead: String,
     /// Also plot frame time and triangles over both sweeps to this PNG file.
     #[arg(long, value_name = "OUT.png")]
     plot: Option<PathBuf>,
@@ -892,6 +896,11 @@ fn bench(args: &BenchArgs) -> Result<(), String> {
         size: args.size,
         repeats: usize::from(args.repeats),
         shade: args.shade.shade(),
+        build_ahead: match args.build_ahead.as_str() {
+            "always" => morphlod::gpu::BuildAhead::Always,
+            "never" => morphlod::gpu::BuildAhead::Never,
+            _ => morphlod::gpu::BuildAhead::Auto,
+        },
     };
     let report = run_bench(&context, &asset, &model, &options).map_err(|e| e.to_string())?;
     print!("{}", report.summary());

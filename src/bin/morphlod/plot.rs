@@ -381,6 +381,7 @@ mod tests {
             indices: 1200 - frame * 110,
             set_us: 1.0,
             prepare_us: 1.0,
+            built_ahead: false,
             upload_bytes: 64,
             draws: 1,
             strips_ms: 3.0 - 0.2 * x,
