@@ -596,12 +596,9 @@ impl DeformingState {
         strategy: Strategy,
     ) -> Result<Strategy, SetError> {
         let plan = self.plan(model, t, lod, strategy)?;
-        // A switch `Auto` would rebuild takes the strips built ahead for its frame if they
-        // are ready; a strategy the caller chose is carried out as asked.
-        if strategy == Strategy::Auto
-            && plan.strategy == Strategy::Rebuild
-            && self.take_ahead(model, plan)
-        {
+        // A switch under `Auto` takes the strips built ahead for its frame where they are
+        // ready and cheaper than the plan; a strategy the caller chose is carried out as asked.
+        if strategy == Strategy::Auto && plan.frame != self.frame && self.take_ahead(model, plan) {
             return Ok(Strategy::Rebuild);
         }
         self.apply(model, plan, &mut Survivors::new());
@@ -609,11 +606,12 @@ impl DeformingState {
     }
 
     /// Starts rebuilding the strips at `(t, lod)` on a thread of its own when `t` is in another
-    /// frame than this state's and [`set`](Self::set) would rebuild to go there. A later
-    /// `set` to that frame takes the strips built, stepped to its own LOD, instead of
-    /// rebuilding on the calling thread: what is left of the switch is a swap of buffers and
-    /// those steps. An application calls it with where it expects to
-    /// be next (an animation's next `t`); [`LodObject`](crate::gpu::LodObject) does by
+    /// frame than this state's and stepping there from the state's LOD would cost at least a
+    /// quarter of a rebuild ([`STEP_COST`]). A later [`set`](Self::set) to that frame takes
+    /// the strips built, stepped to its own LOD, where that costs less than its own plan,
+    /// instead of rebuilding (or stepping) on the calling thread: what is left of the switch
+    /// is a swap of buffers and those steps. An application calls it with where it expects
+    /// to be next (an animation's next `t`); [`LodObject`](crate::gpu::LodObject) does by
     /// itself. Returns whether a build started.
     ///
     /// Nothing starts while an earlier build is under way (one at a time), or where the
@@ -647,9 +645,12 @@ impl DeformingState {
     /// [`build_ahead`](Self::build_ahead) for frame `k` at LOD `l`, resolved against `model`
     /// (this state's model).
     fn build_ahead_at(&mut self, model: &Arc<DeformingModel>, k: usize, l: usize) -> bool {
-        if k == self.frame
-            || self.plan_at(model, k, l, Strategy::Auto).strategy != Strategy::Rebuild
-        {
+        // Not where stepping there costs under a quarter of a rebuild (near full detail): the
+        // switch steps whatever is built. Between that and where `Auto` rebuilds, it may go
+        // either way by the time it comes.
+        let steps = (self.state.lod() + l) * STEP_COST;
+        let rebuild = model.frames[k].changes.rebuild_work(&model.layout, l);
+        if k == self.frame || 4 * steps < rebuild {
             return false;
         }
         let ahead = self.ahead.get_or_insert_with(Box::default);
@@ -701,22 +702,25 @@ impl DeformingState {
     }
 
     /// Carries out `plan`, a switch to another frame, from the strips built ahead for its
-    /// frame, if they are ready and stepping from their LOD to the plan's is cheaper than a
-    /// rebuild: swapped in (every live strip marked), then stepped to the plan's LOD. False
-    /// (nothing done) otherwise.
+    /// frame, if they are ready and stepping from their LOD to the plan's costs less than the
+    /// plan (its steps or its rebuild): swapped in (every live strip marked), then stepped to
+    /// the plan's LOD. False (nothing done) otherwise.
     fn take_ahead(&mut self, model: &DeformingModel, plan: Plan) -> bool {
         let Some(ahead) = self.ahead.as_deref_mut() else {
             return false;
         };
         ahead.collect();
         let frame = &model.frames[plan.frame].changes;
+        let planned = match plan.strategy {
+            Strategy::Rebuild => frame.rebuild_work(&model.layout, plan.lod),
+            _ => (self.state.lod() + plan.lod) * STEP_COST,
+        };
         match &mut ahead.built {
             Some((k, built))
                 if *k == plan.frame
                     && plan.frame != self.frame
                     && built.model_id() == model.id
-                    && built.lod().abs_diff(plan.lod) * STEP_COST
-                        <= frame.rebuild_work(&model.layout, plan.lod) =>
+                    && built.lod().abs_diff(plan.lod) * STEP_COST < planned =>
             {
                 self.state.swap_strips(built);
                 // What is left behind is this state's old strips, of its old frame.
