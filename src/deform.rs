@@ -618,10 +618,10 @@ impl DeformingState {
     /// strips built last are of that frame and LOD already. From the first build on the state
     /// keeps a second buffer of its own size (1.2 MB for a 100k-vertex mesh, see
     /// [`heap_bytes`](Self::heap_bytes)). A `set` to another frame, or made before the build
-    /// is done, moves as if nothing were built and never waits. Worth it for large models
-    /// (a rebuild of [`PARALLEL_SLOTS`](crate::lodstrips::PARALLEL_SLOTS) slots of `S0` takes about a millisecond); a small
-    /// one's rebuild costs less than starting the thread. `t` and `lod` are checked as `set`
-    /// checks them.
+    /// is done, moves as if nothing were built and never waits. Worth it for large models (a
+    /// rebuild of [`PARALLEL_SLOTS`](crate::lodstrips::PARALLEL_SLOTS) slots of `S0` takes
+    /// about a millisecond); a small one's rebuild costs less than starting the thread. `t`
+    /// and `lod` are checked as `set` checks them.
     pub fn build_ahead(
         &mut self,
         model: &Arc<DeformingModel>,
@@ -704,7 +704,8 @@ impl DeformingState {
     /// Carries out `plan`, a switch to another frame, from the strips built ahead for its
     /// frame, if they are ready and stepping from their LOD to the plan's costs less than the
     /// plan (its steps or its rebuild): swapped in (every live strip marked), then stepped to
-    /// the plan's LOD. False (nothing done) otherwise.
+    /// the plan's LOD. False (nothing done) otherwise. Builds are of this state's model
+    /// (`build_ahead` checks it, `swap_strips` asserts it again).
     fn take_ahead(&mut self, model: &DeformingModel, plan: Plan) -> bool {
         let Some(ahead) = self.ahead.as_deref_mut() else {
             return false;
@@ -717,10 +718,7 @@ impl DeformingState {
         };
         match &mut ahead.built {
             Some((k, built))
-                if *k == plan.frame
-                    && plan.frame != self.frame
-                    && built.model_id() == model.id
-                    && built.lod().abs_diff(plan.lod) * STEP_COST < planned =>
+                if *k == plan.frame && built.lod().abs_diff(plan.lod) * STEP_COST < planned =>
             {
                 self.state.swap_strips(built);
                 // What is left behind is this state's old strips, of its old frame.
