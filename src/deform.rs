@@ -628,11 +628,7 @@ impl DeformingState {
         t: f32,
         lod: Lod,
     ) -> Result<bool, SetError> {
-        if self.state.model_id() != model.id {
-            return Err(SetError::WrongModel);
-        }
-        let k = model.frame_at(t)?;
-        let l = model.resolve(k, lod)?;
+        let (k, l) = self.resolve_move(model, t, lod)?;
         Ok(self.build_ahead_at(model, k, l))
     }
 
@@ -644,13 +640,20 @@ impl DeformingState {
 
     /// [`build_ahead`](Self::build_ahead) for frame `k` at LOD `l`, resolved against `model`
     /// (this state's model).
-    fn build_ahead_at(&mut self, model: &Arc<DeformingModel>, k: usize, l: usize) -> bool {
+    pub(crate) fn build_ahead_at(
+        &mut self,
+        model: &Arc<DeformingModel>,
+        k: usize,
+        l: usize,
+    ) -> bool {
+        if k == self.frame {
+            return false;
+        }
         // Not where stepping there costs under a quarter of a rebuild (near full detail): the
         // switch steps whatever is built. Between that and where `Auto` rebuilds, it may go
         // either way by the time it comes.
-        let steps = (self.state.lod() + l) * STEP_COST;
-        let rebuild = model.frames[k].changes.rebuild_work(&model.layout, l);
-        if k == self.frame || 4 * steps < rebuild {
+        let (steps, rebuild) = self.move_costs(model, k, l);
+        if 4 * steps < rebuild {
             return false;
         }
         let ahead = self.ahead.get_or_insert_with(Box::default);
@@ -705,17 +708,17 @@ impl DeformingState {
     /// frame, if they are ready and stepping from their LOD to the plan's costs less than the
     /// plan (its steps or its rebuild): swapped in (every live strip marked), then stepped to
     /// the plan's LOD. False (nothing done) otherwise. Builds are of this state's model
-    /// (`build_ahead` checks it, `swap_strips` asserts it again).
+    /// (`build_ahead` checks it, a `LodObject` builds with its own, `swap_strips` asserts it).
     fn take_ahead(&mut self, model: &DeformingModel, plan: Plan) -> bool {
+        let (steps, rebuild) = self.move_costs(model, plan.frame, plan.lod);
+        let planned = match plan.strategy {
+            Strategy::Rebuild => rebuild,
+            _ => steps,
+        };
         let Some(ahead) = self.ahead.as_deref_mut() else {
             return false;
         };
         ahead.collect();
-        let frame = &model.frames[plan.frame].changes;
-        let planned = match plan.strategy {
-            Strategy::Rebuild => frame.rebuild_work(&model.layout, plan.lod),
-            _ => (self.state.lod() + plan.lod) * STEP_COST,
-        };
         match &mut ahead.built {
             Some((k, built))
                 if *k == plan.frame && built.lod().abs_diff(plan.lod) * STEP_COST < planned =>
@@ -723,7 +726,8 @@ impl DeformingState {
                 self.state.swap_strips(built);
                 // What is left behind is this state's old strips, of its old frame.
                 *k = self.frame;
-                self.state.step_to(frame, plan.lod);
+                self.state
+                    .step_to(&model.frames[plan.frame].changes, plan.lod);
                 self.frame = plan.frame;
                 ahead.taken += 1;
                 true
@@ -740,12 +744,36 @@ impl DeformingState {
         lod: Lod,
         strategy: Strategy,
     ) -> Result<Plan, SetError> {
+        let (k, l) = self.resolve_move(model, t, lod)?;
+        Ok(self.plan_at(model, k, l, strategy))
+    }
+
+    /// The frame and LOD (in steps of that frame) a move of this state to `(t, lod)` goes to,
+    /// the request checked against `model`.
+    fn resolve_move(
+        &self,
+        model: &DeformingModel,
+        t: f32,
+        lod: Lod,
+    ) -> Result<(usize, usize), SetError> {
         if self.state.model_id() != model.id {
             return Err(SetError::WrongModel);
         }
         let k = model.frame_at(t)?;
-        let l = model.resolve(k, lod)?;
-        Ok(self.plan_at(model, k, l, strategy))
+        Ok((k, model.resolve(k, lod)?))
+    }
+
+    /// What moving this state to frame `k` at LOD `l` costs in rebuild work units: by steps
+    /// ([`STEP_COST`] each; back to LOD 0 of this frame first where `k` is another) and by a
+    /// rebuild.
+    fn move_costs(&self, model: &DeformingModel, k: usize, l: usize) -> (usize, usize) {
+        let steps = if k == self.frame {
+            self.state.lod().abs_diff(l)
+        } else {
+            self.state.lod() + l
+        };
+        let rebuild = model.frames[k].changes.rebuild_work(&model.layout, l);
+        (steps * STEP_COST, rebuild)
     }
 
     /// [`plan`](Self::plan) for frame `k` at LOD `l`, already resolved against `model` (this
@@ -758,17 +786,15 @@ impl DeformingState {
         l: usize,
         strategy: Strategy,
     ) -> Plan {
-        let frame = &model.frames[k].changes;
-        let steps = if k == self.frame {
-            self.state.lod().abs_diff(l)
-        } else {
-            self.state.lod() + l
-        };
         let strategy = match strategy {
-            Strategy::Auto if steps * STEP_COST <= frame.rebuild_work(&model.layout, l) => {
-                Strategy::Steps
+            Strategy::Auto => {
+                let (steps, rebuild) = self.move_costs(model, k, l);
+                if steps <= rebuild {
+                    Strategy::Steps
+                } else {
+                    Strategy::Rebuild
+                }
             }
-            Strategy::Auto => Strategy::Rebuild,
             chosen => chosen,
         };
         Plan {

@@ -154,10 +154,11 @@ impl LodObject {
             return;
         }
         let l = self.model.resolve(k, lod).expect("lod is not NaN");
-        let l = (l + now.1).saturating_sub(last.1);
-        self.state
-            .build_ahead(&self.model, next, Lod::Steps(l))
-            .expect("a request set accepted");
+        // Resolved again: the step added may pass the frame's coarsest LOD or a shared
+        // sequence's boundary.
+        let steps = Lod::Steps((l + now.1).saturating_sub(last.1));
+        let l = self.model.resolve(k, steps).expect("a count of steps");
+        self.state.build_ahead_at(&self.model, k, l);
     }
 
     /// Whether the next frame's strips are built ahead of a switch to it (default
