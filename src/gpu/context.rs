@@ -17,8 +17,9 @@ pub struct Context {
 
 impl Context {
     /// The optional features the project's renderers use, requested where the adapter has them.
-    pub const FEATURES: wgpu::Features =
-        wgpu::Features::INDIRECT_FIRST_INSTANCE.union(wgpu::Features::TIMESTAMP_QUERY);
+    pub const FEATURES: wgpu::Features = wgpu::Features::INDIRECT_FIRST_INSTANCE
+        .union(wgpu::Features::TIMESTAMP_QUERY)
+        .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
 
     /// Creates a device on the first adapter wgpu picks (the `WGPU_BACKEND` and
     /// `WGPU_ADAPTER_NAME` environment variables still apply).
@@ -28,7 +29,8 @@ impl Context {
     /// `first_instance`, which the shader's strip colouring reads (without it wgpu zeroes the
     /// field and every strip gets the same colour), and puts a [`super::Crowd`] on its
     /// first-instance path ([`super::CrowdPath`]). `TIMESTAMP_QUERY` lets the crowd benchmark
-    /// time the GPU with timestamps. Multi-draw indirect itself needs no feature.
+    /// time the GPU with timestamps, and `TIMESTAMP_QUERY_INSIDE_ENCODERS` lets it time the
+    /// compute passes before the render pass too. Multi-draw indirect itself needs no feature.
     pub fn headless() -> Result<Context, GpuError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());

@@ -1513,12 +1513,27 @@ fn crowd_bench_reports_both_modes() -> Result<()> {
     let json: serde_json::Value = serde_json::from_str(&report.to_json())?;
     assert_eq!(json["modes"][1]["mode"], "full");
     // GPU time from timestamps where the device has them, said in the report.
-    let timestamps = ctx
-        .device()
-        .features()
-        .contains(wgpu::Features::TIMESTAMP_QUERY);
-    let timing = ["submit + wait", "timestamps (render pass)"][usize::from(timestamps)];
+    let features = ctx.device().features();
+    let timing = if !features.contains(wgpu::Features::TIMESTAMP_QUERY) {
+        "submit + wait"
+    } else if features.contains(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS) {
+        "timestamps (compute + render passes)"
+    } else {
+        "timestamps (render pass)"
+    };
     assert_eq!(json["gpu_timing"], timing);
+    // The frame's GPU time holds its render pass (both from timestamps, where there are any),
+    // and, where the encoder's start is timed, the LOD mode's compute passes before it.
+    if timing.starts_with("timestamps") {
+        for m in &report.modes {
+            let (gpu, pass) = (m.gpu_ms.mean, m.pass_ms.mean);
+            assert!(pass > 0.0 && gpu >= pass, "{m:?}");
+        }
+    }
+    if timing.contains("compute") {
+        let lod = &report.modes[0];
+        assert!(lod.gpu_ms.mean > lod.pass_ms.mean, "{lod:?}");
+    }
     assert!(report.modes.iter().all(|m| m.wait_ms.mean > 0.0));
     let path = ["BaseVertex", "FirstInstance"][usize::from(ctx.ctx.first_instance_enabled())];
     assert!(report.path.starts_with(path), "{}", report.path);

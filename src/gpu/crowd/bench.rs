@@ -6,11 +6,13 @@
 //! error, one instanced draw per level), the alternative a user would pick instead.
 //!
 //! Per frame it times the CPU `set`, `prepare` and the recording of the pass; the GPU with
-//! timestamp queries around the render pass where the device has `TIMESTAMP_QUERY` (the pass
-//! only: the scatter dispatches `Crowd::prepare_with` records before it are not in it), else as
-//! submit + wait; and always submit + wait too (the wall time from `queue.submit` to the end of
-//! `device.poll(wait)`: what a frame costs when the CPU waits for it, submission, scatter and
-//! pass included). It counts bytes uploaded, triangles drawn and frame switches. Figures are
+//! timestamp queries where the device has `TIMESTAMP_QUERY`: around the render pass, and from
+//! the start of the frame's encoder to the pass's end where it also has
+//! `TIMESTAMP_QUERY_INSIDE_ENCODERS` (the compute passes `Crowd::prepare_with` records before
+//! the render pass, i.e. the scatters and the tail lists' expansion, then count as GPU time),
+//! else as submit + wait; and always submit + wait too (the wall time from `queue.submit` to
+//! the end of `device.poll(wait)`: what a frame costs when the CPU waits for it, submission,
+//! compute passes and render pass included). It counts bytes uploaded, triangles drawn and frame switches. Figures are
 //! for benchmarks, never for tests.
 
 use std::sync::Arc;
@@ -100,9 +102,11 @@ pub struct ModeFigures {
     pub set_ms: Stat,
     pub prepare_ms: Stat,
     pub record_ms: Stat,
-    /// GPU milliseconds: the render pass by timestamps, or submit + wait
-    /// ([`CrowdBenchReport::gpu_timing`]).
+    /// GPU milliseconds of the frame's work: the compute passes and the render pass, or the
+    /// render pass alone, by timestamps, or submit + wait ([`CrowdBenchReport::gpu_timing`]).
     pub gpu_ms: Stat,
+    /// GPU milliseconds of the render pass alone, by timestamps (0 without them).
+    pub pass_ms: Stat,
     /// Submit + wait, milliseconds.
     pub wait_ms: Stat,
     pub uploaded_bytes: Stat,
@@ -147,7 +151,8 @@ pub struct CrowdBenchReport {
     pub instances: u32,
     pub vertices: u32,
     pub frames_sampled: usize,
-    /// How GPU time was taken: `timestamps (render pass)` or `submit + wait`.
+    /// How GPU time was taken: `timestamps (compute + render passes)`, `timestamps (render
+    /// pass)` or `submit + wait`.
     pub gpu_timing: &'static str,
     /// The crowd's path, the vertex entry point that drew the asset and the slots of its
     /// instances' compact area ([`CrowdRecords`]).
@@ -182,7 +187,7 @@ pub fn run_crowd_bench(
     };
     crowd.set_records(options.records);
     let id = crowd.add_asset(device, gpu, Arc::clone(&model), options.instances.max(1))?;
-    let timer = PassTimer::new(device, queue);
+    let timer = FrameTimer::new(device, queue);
 
     // The grid: columns along x, rows along z, one asset's size plus a tenth apart.
     let both: Vec<[f32; 3]> = asset.v0.iter().chain(&asset.v1).copied().collect();
@@ -249,7 +254,8 @@ pub fn run_crowd_bench(
         instances: options.instances,
         vertices,
         frames_sampled: model.frame_count(),
-        gpu_timing: match timer {
+        gpu_timing: match &timer {
+            Some(timer) if timer.encoder_start => "timestamps (compute + render passes)",
             Some(_) => "timestamps (render pass)",
             None => "submit + wait",
         },
@@ -268,7 +274,7 @@ pub fn run_crowd_bench(
     let warm = 3;
     let mut moves = Vec::with_capacity(ids.len());
     for mode in modes {
-        let mut rows: [Vec<f64>; 11] = Default::default();
+        let mut rows: [Vec<f64>; 12] = Default::default();
         let mut frames = Vec::with_capacity(options.frames);
         let mut renderer = match (mode, discrete.as_mut()) {
             ("discrete", Some(d)) => Renderer::Discrete(d),
@@ -293,13 +299,16 @@ pub fn run_crowd_bench(
             // The encoder is the application's (made every frame in every mode), so it is
             // made before the timers.
             let mut encoder = device.create_command_encoder(&Default::default());
+            if let Some(timer) = &timer {
+                timer.start(&mut encoder);
+            }
             let a = Instant::now();
             renderer.set(&moves)?;
             let b = Instant::now();
             let upload = renderer.prepare_with(device, queue, &mut encoder);
             let c = Instant::now();
             {
-                let writes = timer.as_ref().map(PassTimer::writes);
+                let writes = timer.as_ref().map(FrameTimer::writes);
                 let mut pass = target.begin_timed_pass(&mut encoder, writes);
                 renderer.render(&mut pass);
             }
@@ -313,7 +322,7 @@ pub fn run_crowd_bench(
                 .poll(wgpu::PollType::wait_indefinitely())
                 .map_err(crate::gpu::GpuError::from)?;
             let e = Instant::now();
-            let pass_ms = timer
+            let gpu = timer
                 .as_ref()
                 .map(|timer| timer.read_ms(device, queue))
                 .transpose()?;
@@ -327,7 +336,8 @@ pub fn run_crowd_bench(
                 ms(a, b),
                 ms(b, c),
                 ms(c, d),
-                pass_ms.unwrap_or(ms(d, e)),
+                gpu.map_or(ms(d, e), |(frame, _)| frame),
+                gpu.map_or(0.0, |(_, pass)| pass),
                 ms(d, e),
                 upload.bytes as f64,
                 upload.writes as f64,
@@ -347,10 +357,10 @@ pub fn run_crowd_bench(
             frames.push(FrameFigures {
                 cpu_ms: values[0] + values[1] + values[2],
                 gpu_ms: values[3],
-                triangles: values[7],
+                triangles: values[8],
             });
         }
-        let [set, prepare, record, gpu, wait, bytes, writes, triangles, switches, draws, indices] =
+        let [set, prepare, record, gpu, pass, wait, bytes, writes, triangles, switches, draws, indices] =
             rows.map(Stat::of);
         report.modes.push(ModeFigures {
             mode,
@@ -358,6 +368,7 @@ pub fn run_crowd_bench(
             prepare_ms: prepare,
             record_ms: record,
             gpu_ms: gpu,
+            pass_ms: pass,
             wait_ms: wait,
             uploaded_bytes: bytes,
             writes,
@@ -460,61 +471,81 @@ impl Renderer<'_> {
     }
 }
 
-/// Two timestamps around the render pass, resolved and read back after each frame.
-struct PassTimer {
+/// The frame's timestamps, resolved and read back after each frame: the start of its encoder
+/// (where the device has `TIMESTAMP_QUERY_INSIDE_ENCODERS`), the render pass's start and end.
+struct FrameTimer {
     queries: wgpu::QuerySet,
     resolved: wgpu::Buffer,
     /// Nanoseconds per timestamp tick.
     period: f64,
+    /// Whether the encoder's start is timed (query 0).
+    encoder_start: bool,
 }
 
-impl PassTimer {
+impl FrameTimer {
     /// A timer where the device has `TIMESTAMP_QUERY`, else `None`.
-    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Option<PassTimer> {
-        if !device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Option<FrameTimer> {
+        let features = device.features();
+        if !features.contains(wgpu::Features::TIMESTAMP_QUERY) {
             return None;
         }
         let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
-            label: Some("crowd bench pass"),
+            label: Some("crowd bench frame"),
             ty: wgpu::QueryType::Timestamp,
-            count: 2,
+            count: 3,
         });
         let resolved = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("crowd bench timestamps"),
-            size: 2 * wgpu::QUERY_SIZE as u64,
+            size: 3 * wgpu::QUERY_SIZE as u64,
             usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        Some(PassTimer {
+        Some(FrameTimer {
             queries,
             resolved,
             period: f64::from(queue.get_timestamp_period()),
+            encoder_start: features.contains(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS),
         })
+    }
+
+    /// Times the start of the frame's encoder, before anything is recorded in it. (Vulkan
+    /// writes it once the commands before it, the frame's buffer writes included, are done.)
+    fn start(&self, encoder: &mut wgpu::CommandEncoder) {
+        if self.encoder_start {
+            encoder.write_timestamp(&self.queries, 0);
+        }
     }
 
     fn writes(&self) -> wgpu::RenderPassTimestampWrites<'_> {
         wgpu::RenderPassTimestampWrites {
             query_set: &self.queries,
-            beginning_of_pass_write_index: Some(0),
-            end_of_pass_write_index: Some(1),
+            beginning_of_pass_write_index: Some(1),
+            end_of_pass_write_index: Some(2),
         }
     }
 
-    /// Resolves the pass's timestamps (recorded after the pass, in the same encoder).
+    /// Resolves the frame's timestamps (recorded after the pass, in the same encoder).
     fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
-        encoder.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
+        encoder.resolve_query_set(&self.queries, 0..3, &self.resolved, 0);
     }
 
-    /// The pass's milliseconds, read back once the frame has run.
+    /// The frame's GPU milliseconds (from the encoder's start where it is timed, else from the
+    /// pass's) and the render pass's, read back once the frame has run.
     fn read_ms(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-    ) -> Result<f64, crate::gpu::GpuError> {
+    ) -> Result<(f64, f64), crate::gpu::GpuError> {
         let encoder = device.create_command_encoder(&Default::default());
         let bytes = crate::gpu::readback::read_back(device, queue, encoder, &self.resolved)?;
-        let [start, end]: [u64; 2] = bytemuck::pod_read_unaligned(&bytes);
-        Ok(end.saturating_sub(start) as f64 * self.period / 1e6)
+        let [start, pass_start, end]: [u64; 3] = bytemuck::pod_read_unaligned(&bytes);
+        let ms = |from: u64| end.saturating_sub(from) as f64 * self.period / 1e6;
+        let frame = if self.encoder_start {
+            start
+        } else {
+            pass_start
+        };
+        Ok((ms(frame), ms(pass_start)))
     }
 }
 
@@ -524,7 +555,7 @@ impl CrowdBenchReport {
         let mut out = format!(
             "crowd of {} x {} vertices ({} sampled frames) on {}; path {}; GPU time: {}\n\
              per instance: {:.1} KB host, {:.1} KB GPU; shared asset: {:.1} MB GPU\n\
-             mode      set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      wait ms (p95)     upload KB (p95)   writes  triangles  frame switches  draws  indices\n",
+             mode      set ms (p95)    prepare ms (p95)  record ms (p95)   GPU ms (p95)      pass ms (p95)     wait ms (p95)     upload KB (p95)   writes  triangles  frame switches  draws  indices\n",
             self.instances,
             self.vertices,
             self.frames_sampled,
@@ -538,12 +569,13 @@ impl CrowdBenchReport {
         for m in &self.modes {
             let pair = |s: Stat| format!("{:7.2} ({:6.2})", s.mean, s.p95);
             out += &format!(
-                "{:9} {}  {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1} {:14.1} {:8.0}\n",
+                "{:9} {}  {}  {}  {}  {}  {}  {:8.1} ({:7.1}) {:6.1} {:10.0} {:6.1} {:14.1} {:8.0}\n",
                 m.mode,
                 pair(m.set_ms),
                 pair(m.prepare_ms),
                 pair(m.record_ms),
                 pair(m.gpu_ms),
+                pair(m.pass_ms),
                 pair(m.wait_ms),
                 m.uploaded_bytes.mean / 1e3,
                 m.uploaded_bytes.p95 / 1e3,
@@ -576,6 +608,7 @@ impl CrowdBenchReport {
                     "prepare_ms": stat(m.prepare_ms),
                     "record_ms": stat(m.record_ms),
                     "gpu_ms": stat(m.gpu_ms),
+                    "pass_ms": stat(m.pass_ms),
                     "wait_ms": stat(m.wait_ms),
                     "uploaded_bytes": stat(m.uploaded_bytes),
                     "writes": stat(m.writes),
