@@ -10,10 +10,11 @@
 //! cargo run --release --example crowd -- --headless --instances 300 --frames 60
 //! ```
 //!
-//! The readout shows instances, triangles drawn (and at full detail), the CPU's `set`,
-//! `prepare` and recording, the GPU's time (submit + wait) and what was uploaded. Keys in the
-//! window: space pauses the animation and the flight, up/down a finer/coarser screen error,
-//! q quits. The two assets are built on first use and cached in `out/crowd/` (see `common`).
+//! Instances out of the camera's view draw nothing (`Crowd::set_culling`, on by default). The
+//! readout shows instances (and those out of view), triangles drawn (and at full detail), the
+//! CPU's `set`, `prepare` and recording, the GPU's time (submit + wait) and what was uploaded.
+//! Keys in the window: space pauses the animation and the flight, up/down a finer/coarser
+//! screen error, q quits. The two assets are built on first use and cached in `out/crowd/` (see `common`).
 
 // The crowd uses the demos' asset cache, readout and window; not their one-object scene.
 #[allow(dead_code)]
@@ -91,6 +92,9 @@ struct Args {
     /// the first tenth of the frames (warm-up) and the last frame (Linux only)
     #[arg(long)]
     max_growth_mb: Option<f64>,
+    /// Draw the instances out of view too (to compare: the same pixels, more vertices)
+    #[arg(long)]
+    no_culling: bool,
 }
 
 fn parse_pixels(text: &str) -> Result<f32, String> {
@@ -189,7 +193,8 @@ struct Figures {
     /// Submit + wait.
     gpu: Duration,
     upload: CrowdUpload,
-    /// Triangles, instances and bytes of the crowd after the frame's `set`.
+    /// Triangles, instances (and those out of view) and bytes of the crowd after the frame's
+    /// `prepare`.
     stats: CrowdStats,
     /// Draw calls the crowd recorded (one multi-draw per asset).
     draws: u64,
@@ -231,6 +236,7 @@ impl Field {
         args: &Args,
     ) -> Result<Field, DemoError> {
         let mut crowd = Crowd::new(device, color_format, Some(RenderTarget::DEPTH_FORMAT));
+        crowd.set_culling(!args.no_culling);
         let faces = args.instances / FACE_EVERY;
         let counts = [args.instances - faces, faces];
         let mut kinds = Vec::new();
@@ -420,7 +426,7 @@ impl Field {
         let per_instance = |bytes: u64| bytes as f64 / 1e3 / stats.instances.max(1) as f64;
         format!(
             "{status}\n\
-             instances {} ({} bodies, {faces} faces), {frames} sampled frames each\n\
+             instances {} ({} bodies, {faces} faces), {frames} sampled frames each, {} out of view\n\
              triangles {} drawn of {} at full detail ({:.1}%), LOD {:.2} px\n\
              draws     {} multi-draw(s): one per asset\n\
              CPU ms    set {:.2}  prepare {:.2}  record {:.3}\n\
@@ -430,6 +436,7 @@ impl Field {
              adapter   {}",
             self.members.len(),
             self.members.len() - faces,
+            stats.culled,
             stats.triangles,
             full,
             100.0 * stats.triangles as f64 / full.max(1) as f64,
@@ -499,9 +506,10 @@ fn run_headless(args: &Args, assets: &[BuiltMorph; 2], out: &Path) -> Result<(),
         morphlod::gpu::save_png(&image, &path).map_err(DemoError::lib)?;
         let f = &field.last;
         println!(
-            "  {} triangles {:8} set {:6.2} ms prepare {:6.2} ms record {:5.2} ms GPU {:7.1} ms uploaded {:8} B",
+            "  {} triangles {:8} culled {:5} set {:6.2} ms prepare {:6.2} ms record {:5.2} ms GPU {:7.1} ms uploaded {:8} B",
             path.display(),
             f.stats.triangles,
+            f.stats.culled,
             f.set.as_secs_f64() * 1e3,
             f.prepare.as_secs_f64() * 1e3,
             f.record.as_secs_f64() * 1e3,

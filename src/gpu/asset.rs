@@ -31,6 +31,9 @@ pub struct GpuAsset {
     targets: Option<Arc<TargetDeltas>>,
     /// The weight animation of an asset made from one (its targets' weights over time).
     track: Option<WeightTrack>,
+    /// A sphere holding both poses (and so every blend of them): centre and radius, object
+    /// space. A crowd culls by it ([`super::Crowd::set_culling`]).
+    bound: ([f32; 3], f32),
 }
 
 /// The morph targets of an asset: CPU deltas (what an object sums on the CPU) and the same
@@ -41,6 +44,8 @@ pub(super) struct TargetDeltas {
     pub(super) positions: Vec<[f32; 3]>,
     /// Target k's normal delta for vertex i at `normals[k n + i]` (empty without).
     pub(super) normals: Vec<[f32; 3]>,
+    /// Target k's longest position delta: a vertex moves at most `|w| reach[k]` by weight w.
+    pub(super) reach: Vec<f32>,
     pub(super) position_buffer: wgpu::Buffer,
     /// A 16-byte zero buffer without normal deltas.
     pub(super) normal_buffer: wgpu::Buffer,
@@ -93,6 +98,7 @@ impl GpuAsset {
             surface,
             targets: None,
             track: None,
+            bound: bounding_sphere(v0.iter().chain(v1)),
         })
     }
 
@@ -175,6 +181,12 @@ impl GpuAsset {
         self.targets.as_ref()
     }
 
+    /// A sphere holding both poses: centre and radius, object space (NaN where a position is
+    /// not finite: then nothing is outside it).
+    pub(super) fn bound(&self) -> ([f32; 3], f32) {
+        self.bound
+    }
+
     /// Uploads the texture the first time any user of the asset prepares; the bytes written
     /// (0 afterwards).
     pub(super) fn upload(&self, queue: &wgpu::Queue) -> u64 {
@@ -245,13 +257,62 @@ impl TargetDeltas {
         } else {
             normals.iter().flatten().copied().collect()
         };
+        let reach = targets
+            .iter()
+            .map(|deltas| round_up(deltas.iter().map(|d| length(*d)).fold(0.0, f64::max)))
+            .collect();
         Ok(TargetDeltas {
             count: targets.len(),
+            reach,
             position_buffer: storage_or_zero(device, "morphlod target deltas", &positions),
             normal_buffer: storage_or_zero(device, "morphlod target normal deltas", &normals),
             positions,
             normals,
         })
+    }
+}
+
+/// A sphere holding `points`: the centre of their box, the radius to the farthest (in `f64`,
+/// rounded up to an `f32` that holds it). NaN where a point is not finite.
+fn bounding_sphere<'a>(points: impl Iterator<Item = &'a [f32; 3]> + Clone) -> ([f32; 3], f32) {
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for p in points.clone() {
+        for c in 0..3 {
+            // `f32::min` ignores NaN: a NaN coordinate is caught by the radius below.
+            (lo[c], hi[c]) = (lo[c].min(p[c]), hi[c].max(p[c]));
+        }
+    }
+    let center = [0, 1, 2].map(|c| ((f64::from(lo[c]) + f64::from(hi[c])) * 0.5) as f32);
+    let radius = points
+        .map(|p| {
+            let d = [0, 1, 2].map(|c| f64::from(p[c]) - f64::from(center[c]));
+            d.iter().map(|x| x * x).sum::<f64>().sqrt()
+        })
+        .fold(0.0, |r: f64, d| {
+            if r.is_nan() || d.is_nan() {
+                f64::NAN
+            } else {
+                r.max(d)
+            }
+        });
+    (center, round_up(radius))
+}
+
+/// The Euclidean length of `d`, in `f64`.
+fn length(d: [f32; 3]) -> f64 {
+    d.iter()
+        .map(|&c| f64::from(c) * f64::from(c))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// `x` as an `f32` no smaller than it (NaN stays NaN).
+fn round_up(x: f64) -> f32 {
+    let y = x as f32;
+    if f64::from(y) < x {
+        y.next_up()
+    } else {
+        y
     }
 }
 
@@ -273,4 +334,29 @@ pub(super) fn storage_or_zero(
         contents,
         usage: wgpu::BufferUsages::STORAGE,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sphere holds every point (a radius rounded down would lose the farthest), and a
+    /// non-finite point gives a NaN radius, which culls nothing.
+    #[test]
+    fn bounding_sphere_holds_every_point() {
+        let points = [
+            [0.1f32, -3.0, 7.3],
+            [2.9, 0.3, -1.0],
+            [1.0 / 3.0, 1e-3, 0.7],
+        ];
+        let (center, radius) = bounding_sphere(points.iter());
+        assert_eq!(center, [1.5, -1.35, 3.15]);
+        for p in &points {
+            let d = (0..3).map(|c| f64::from(p[c]) - f64::from(center[c]));
+            assert!(d.map(|x| x * x).sum::<f64>().sqrt() <= f64::from(radius));
+        }
+        let nan = [[0.0, 0.0, 0.0], [f32::NAN, 1.0, 1.0], [2.0, 2.0, 2.0]];
+        assert!(bounding_sphere(nan.iter()).1.is_nan());
+        assert!(round_up(0.1) >= 0.1 && round_up(f64::NAN).is_nan());
+    }
 }

@@ -1728,3 +1728,117 @@ fn crowd_bench_runs_discrete_lods() -> Result<()> {
     assert_eq!(json["levels"].as_array().map(Vec::len), Some(4));
     Ok(())
 }
+
+/// Culling (on by default): a record draws nothing on the GPU (instance count 0) only where
+/// its instance lies out of view, every instance with a blended vertex in the clip volume
+/// draws, and the image is the one drawn with culling off; views that pan across a row of
+/// instances of two assets (one with 8 weighted targets) cull some, bring them back and
+/// restore every record as it was.
+#[test]
+fn culling_skips_only_instances_out_of_view() -> Result<()> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (ctx.device(), ctx.queue());
+    let kinds = [
+        Kind::new(&ctx, grid_asset(9, 3, 0.4))?,
+        Kind::new(&ctx, head_asset())?,
+    ];
+    let target = RenderTarget::new(device, 64, 48, wgpu::Color::BLUE)?;
+    let mut crowd = crowd_on(&ctx, paths(&ctx)[0])?;
+    // Two rows of unit boxes along x, from -6 to 6, 0.24 apart at depths in -0.5..0.5, so
+    // that some lie across each side of every view, and a view sees about half of them.
+    let row = 51;
+    let mut placed = Vec::new();
+    for (k, kind) in kinds.iter().enumerate() {
+        let asset = crowd.add_asset(device, Arc::clone(&kind.gpu), Arc::clone(&kind.model), row)?;
+        for i in 0..row {
+            let depth = (0.618 * (i + 7 * k as u32) as f32).fract() - 0.5;
+            let at = glam::Vec3::new(0.24 * i as f32 - 6.0, 1.2 * k as f32 - 0.6, depth);
+            let model = kind.place(at, 0.2 * i as f32);
+            placed.push((asset, crowd.add(asset, model)?, model));
+        }
+    }
+    let row = row as usize;
+    for (view, pan) in [0.0f32, 4.5, -3.0, 0.0].into_iter().enumerate() {
+        // A view of x in about pan - 2 .. pan + 2.
+        let view_proj = gpu::camera::fit_to_bounds(
+            [pan - 2.0, -1.0, -0.6],
+            [pan + 2.0, 1.0, 0.6],
+            -glam::Vec3::Z,
+            64.0 / 48.0,
+            gpu::camera::Projection::Perspective { vertical_fov: 0.8 },
+        )?
+        .view_proj();
+        crowd.set_view_proj(view_proj);
+        let moves: Vec<(InstanceId, f32, Lod)> = (placed.iter().enumerate())
+            .map(|(i, &(_, id, _))| (id, (0.37 * (i + view) as f32).fract(), Lod::Fraction(0.4)))
+            .collect();
+        crowd.set(&moves)?;
+        let mut images = Vec::new();
+        let mut words = Vec::new();
+        for culling in [true, false] {
+            crowd.set_culling(culling);
+            crowd.prepare(device, queue);
+            images.push(render(&ctx, &target, |pass| crowd.render(pass)).0);
+            let read = |a| ctx.read_words(crowd.indirect_buffer(a).expect("asset"));
+            words.push([read(placed[0].0), read(placed[row].0)]);
+            if culling {
+                assert_eq!(
+                    crowd.stats().culled,
+                    (placed.iter().enumerate())
+                        .filter(
+                            |&(i, &(_, id, _))| words[0][i / row][id.slot() as usize * 5 + 1] == 0
+                        )
+                        .count(),
+                    "view {view}: the stats count the zeroed records"
+                );
+            }
+        }
+        assert!(
+            images[0] == images[1],
+            "view {view}: culling changed the image"
+        );
+        let mut culled = 0;
+        let mut edge = 0;
+        for (i, &(_, id, model)) in placed.iter().enumerate() {
+            let word = id.slot() as usize * 5;
+            let (on, off) = (&words[0][i / row], &words[1][i / row]);
+            assert_eq!(
+                off[word + 1],
+                1,
+                "view {view}, instance {i}: drawn without culling"
+            );
+            // Only the instance count differs, and only to 0.
+            for w in [0, 2, 3, 4] {
+                assert_eq!(on[word + w], off[word + w], "view {view}, instance {i}");
+            }
+            let blended = crowd.blended_positions(device, queue, id)?;
+            let inside = |p: &[f32; 3]| {
+                let clip = view_proj * model * glam::Vec3::from(*p).extend(1.0);
+                clip.x.abs() <= clip.w && clip.y.abs() <= clip.w && (0.0..=clip.w).contains(&clip.z)
+            };
+            let seen = blended.iter().filter(|p| inside(p)).count();
+            edge += usize::from(seen > 0 && seen < blended.len());
+            if on[word + 1] == 1 {
+                continue;
+            }
+            culled += 1;
+            // The oracle: no vertex of what it draws is in the clip volume.
+            assert_eq!(
+                seen, 0,
+                "view {view}: instance {i} culled with a vertex in view"
+            );
+        }
+        // Instances across the view's sides: where a test that is not conservative fails.
+        assert!(edge >= 4, "view {view}: {edge} instances across the sides");
+        assert!(
+            (10..placed.len() - 10).contains(&culled),
+            "view {view}: {culled} of {} culled",
+            placed.len()
+        );
+        // On again: the next view's prepare starts from every record drawn.
+        crowd.set_culling(true);
+    }
+    Ok(())
+}

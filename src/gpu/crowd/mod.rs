@@ -41,6 +41,7 @@
 //! path, see [`CrowdPath`]) and, for the benchmark's GPU times, `TIMESTAMP_QUERY`.
 
 mod bench;
+mod cull;
 mod discrete;
 mod pipeline;
 mod slots;
@@ -215,9 +216,13 @@ impl CrowdUpload {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct CrowdStats {
     pub instances: usize,
-    /// Triangles the instances draw.
+    /// Instances out of view as of the last prepare ([`Crowd::set_culling`]): their records
+    /// draw nothing.
+    pub culled: usize,
+    /// Triangles the instances in view draw.
     pub triangles: usize,
-    /// Indices the records read, restarts included (as of the last prepare): an instance
+    /// Indices the records of the instances in view read, restarts included (as of the last
+    /// prepare): an instance
     /// drawn from its compact copy reads its live indices, one restart between two strips and
     /// the restarts of its strips' places (at most 1.5× the first two), one drawn from its
     /// regions also the restart tails between its first and last live index.
@@ -245,6 +250,8 @@ pub struct Crowd {
     white_pending: bool,
     /// The compact area of the assets added from now on.
     records: CrowdRecords,
+    /// Whether instances out of view draw nothing ([`Crowd::set_culling`]).
+    culling: bool,
     assets: Vec<CrowdAsset>,
 }
 
@@ -496,6 +503,9 @@ struct Member {
     /// it was), and whether its compact area holds them (written by a `prepare`).
     tail: Option<(u32, u32)>,
     expanded: bool,
+    /// Whether its record's instance count is 0 on the GPU for being out of view (the
+    /// mirror keeps the count it draws in view; `cull.rs`).
+    hidden: bool,
 }
 
 impl Member {
@@ -716,6 +726,7 @@ impl Crowd {
             white: (white, view, sampler),
             white_pending: true,
             records: CrowdRecords::default(),
+            culling: true,
             assets: Vec::new(),
         }
     }
@@ -948,6 +959,7 @@ impl Crowd {
             patched: u64::MAX,
             tail: None,
             expanded: false,
+            hidden: false,
         });
         a.fresh.push(slot);
         a.drawn = a.drawn.max(slot + 1);
@@ -1127,6 +1139,17 @@ impl Crowd {
         self.scene_dirty = true;
     }
 
+    /// Whether an instance out of view draws nothing (default: on). From the next prepare on,
+    /// every prepare tests each instance's bounding sphere (its asset's poses, grown by its
+    /// weights' reach, under its transform) against the view's clip volume and gives the
+    /// record of an instance wholly outside it an instance count of 0 on the GPU. The test
+    /// never culls an instance with a point in view, so the pixels do not change; the GPU
+    /// skips the vertices. Its CPU moves (`set`) still apply, so an instance that comes back
+    /// into view draws its current frame and LOD. Off: every record as [`Crowd::at`] says.
+    pub fn set_culling(&mut self, on: bool) {
+        self.culling = on;
+    }
+
     /// The runtime of an instance (frame, LOD, triangles, strips), or `None` where it has none:
     /// while it is drawn from its frame's tail list ([`CrowdRecords`]), and before its first
     /// move (it draws `S0`, frame 0 at full detail).
@@ -1213,6 +1236,8 @@ impl Crowd {
                 bytemuck::bytes_of(&self.scene),
             );
         }
+        let view_proj = glam::Mat4::from_cols_array_2d(&self.scene.view_proj);
+        let frustum = self.culling.then(|| cull::Frustum::new(view_proj));
         for a in &mut self.assets {
             let texture = a.gpu.upload(queue);
             upload.bytes += texture;
@@ -1250,6 +1275,7 @@ impl Crowd {
             // change several times between two prepares (removed, then added again), so its
             // words keep their last value. Both checked in debug builds, which the tests run
             // on lavapipe.
+            a.cull(frustum.as_ref());
             keep_last_per_word(&mut a.waiting.records);
             let mut record_runs = std::mem::take(&mut a.record_runs);
             record_runs.refill(&a.waiting.records);
@@ -1369,12 +1395,14 @@ impl Crowd {
         let mut stats = CrowdStats::default();
         for a in &self.assets {
             let live = a.members.iter().flatten();
-            let count = a.members.iter().flatten().count();
+            let count = live.clone().count();
             stats.instances += count;
-            stats.triangles += live.map(|m| a.at(m).triangles).sum::<usize>();
-            stats.indices += a.records[..a.drawn as usize]
-                .iter()
-                .map(|r| u64::from(r.index_count))
+            stats.culled += live.clone().filter(|m| m.hidden).count();
+            let shown = live.filter(|m| !m.hidden);
+            stats.triangles += shown.map(|m| a.at(m).triangles).sum::<usize>();
+            stats.indices += (a.records.iter().zip(&a.members))
+                .filter(|(_, m)| m.as_ref().is_some_and(|m| !m.hidden))
+                .map(|(r, _)| u64::from(r.index_count))
                 .sum::<u64>();
             let per_slot = u64::from(a.layout.per_instance()) * 4
                 + ARGS_BYTES

@@ -1,0 +1,196 @@
+//! Instances out of view draw nothing: per `prepare`, each instance's bounding sphere (its
+//! asset's sphere around both poses, grown by its weights' reach, under its transform) is
+//! tested against the view's six clip planes, and the record of an instance wholly outside
+//! one of them gets `instance_count = 0` on the GPU (its mirror keeps the record it draws when
+//! in view). The test is conservative: an instance with any point in the clip volume is never
+//! culled, so culling changes no pixel, only the vertices the GPU runs.
+
+use glam::{Mat4, Vec3, Vec4};
+
+use super::pipeline::{InstanceBlock, WEIGHT_SLOTS};
+use super::CrowdAsset;
+
+/// The word of a record (five `u32`s) that holds its instance count.
+const INSTANCE_COUNT_WORD: u32 = 1;
+
+/// Slack on the plane distances, relative to the sphere's size and place: the GPU's clip
+/// test and this one round differently, and a sphere that grazes a plane must stay drawn.
+const SLACK: f32 = 1e-3;
+
+/// The six planes of a view's clip volume (wgpu's: `-w ≤ x, y ≤ w`, `0 ≤ z ≤ w`), each
+/// `n · p + d ≥ 0` inside, `n` of unit length; a plane whose normal is zero (an infinite far
+/// plane) is left out.
+pub(super) struct Frustum {
+    planes: Vec<Vec4>,
+}
+
+impl Frustum {
+    pub(super) fn new(view_proj: Mat4) -> Frustum {
+        let (x, y, z, w) = (
+            view_proj.row(0),
+            view_proj.row(1),
+            view_proj.row(2),
+            view_proj.row(3),
+        );
+        let planes = [w + x, w - x, w + y, w - y, z, w - z]
+            .into_iter()
+            .filter_map(|p| {
+                let length = p.truncate().length();
+                (length > 0.0 && length.is_finite()).then(|| p / length)
+            })
+            .collect();
+        Frustum { planes }
+    }
+
+    /// Whether the sphere at `center` of `radius` (world space) lies wholly outside one plane.
+    /// NaN anywhere: not outside.
+    fn outside(&self, center: Vec3, radius: f32) -> bool {
+        let slack = SLACK * (radius + center.abs().max_element());
+        self.planes
+            .iter()
+            .any(|p| p.truncate().dot(center) + p.w < -(radius + slack))
+    }
+}
+
+/// Whether `block`'s instance of an asset bounded by `bound` (object space), whose targets
+/// move a vertex at most `reach[k]` per unit weight, lies wholly outside `frustum`. A model
+/// matrix with a projective row is never culled.
+fn outside(
+    frustum: &Frustum,
+    block: &InstanceBlock,
+    (center, radius): ([f32; 3], f32),
+    reach: &[f32],
+) -> bool {
+    let model = Mat4::from_cols_array_2d(&block.model);
+    if model.row(3) != Vec4::W {
+        return false;
+    }
+    // The vertex stage adds the slots' weighted deltas to the blend of the poses.
+    let targets = |slot: usize| (block.targets[slot / 4] >> (8 * (slot % 4))) & 0xFF;
+    let grown = (0..WEIGHT_SLOTS)
+        .filter(|&slot| block.weights[slot] != 0.0)
+        .map(|slot| {
+            block.weights[slot].abs()
+                * reach
+                    .get(targets(slot) as usize)
+                    .copied()
+                    .unwrap_or(f32::NAN)
+        })
+        .fold(radius, |r, d| r + d);
+    // The longest axis the transform scales by bounds the sphere's image.
+    let scale = [model.x_axis, model.y_axis, model.z_axis]
+        .iter()
+        .map(|axis| axis.truncate().length())
+        .fold(0.0, f32::max);
+    frustum.outside(model.transform_point3(Vec3::from(center)), grown * scale)
+}
+
+impl CrowdAsset {
+    /// Brings the instance counts of this asset's records on the GPU in line with `frustum`
+    /// (none: every instance in view), as patches appended to the waiting record patches: an
+    /// instance that left the view gets 0, one that came back its record's count, and a
+    /// record patched since the last prepare of an instance still out of view keeps 0.
+    pub(super) fn cull(&mut self, frustum: Option<&Frustum>) {
+        let reach = self
+            .gpu
+            .targets()
+            .map_or(&[][..], |targets| targets.reach.as_slice());
+        let bound = self.gpu.bound();
+        let members = self.members[..self.drawn as usize].iter_mut();
+        for (slot, (member, (block, record))) in
+            (0u32..).zip(members.zip(self.blocks.iter().zip(&self.records)))
+        {
+            let Some(member) = member else {
+                continue;
+            };
+            let hide = record.instance_count > 0
+                && frustum.is_some_and(|frustum| outside(frustum, block, bound, reach));
+            if hide != member.hidden {
+                member.hidden = hide;
+                let count = if hide { 0 } else { record.instance_count };
+                self.waiting
+                    .records
+                    .push([slot * 5 + INSTANCE_COUNT_WORD, count]);
+            }
+        }
+        // A record `set` or `add` patched since: its count stays 0 while out of view.
+        for [word, value] in &mut self.waiting.records {
+            let slot = (*word / 5) as usize;
+            if *word % 5 == INSTANCE_COUNT_WORD
+                && self.members[slot].as_ref().is_some_and(|m| m.hidden)
+            {
+                *value = 0;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Clip space as world space: the identity view sees x and y in -1..1, z in 0..1.
+    fn clip_cube() -> Frustum {
+        Frustum::new(Mat4::IDENTITY)
+    }
+
+    fn at(x: f32, scale: f32) -> InstanceBlock {
+        let model =
+            Mat4::from_translation(Vec3::new(x, 0.0, 0.5)) * Mat4::from_scale(Vec3::splat(scale));
+        InstanceBlock::new(model)
+    }
+
+    /// A unit sphere at x = 4 is 3 beyond the plane x = 1: out. Its transform's scale, its
+    /// weights times their targets' reach, and a point anywhere within the slack bring it
+    /// back; a projective transform or a NaN is never out.
+    #[test]
+    fn spheres_out_of_view_only() {
+        let frustum = clip_cube();
+        let bound = ([0.0; 3], 1.0);
+        assert!(outside(&frustum, &at(4.0, 1.0), bound, &[]));
+        assert!(!outside(&frustum, &at(0.5, 1.0), bound, &[]));
+        // Scaled by 3 (on one axis is enough), the sphere reaches x = 1.
+        assert!(!outside(&frustum, &at(4.0, 3.0), bound, &[]));
+        let stretched = Mat4::from_translation(Vec3::new(4.0, 0.0, 0.5))
+            * Mat4::from_scale(Vec3::new(1.0, 3.0, 1.0));
+        assert!(!outside(
+            &frustum,
+            &InstanceBlock::new(stretched),
+            bound,
+            &[]
+        ));
+        // Target 1 moves a vertex up to 5 per unit weight: weight -0.5 grows the radius to 3.5.
+        let mut weighted = at(4.0, 1.0);
+        weighted.set_weights(&[0.0, -0.5]);
+        assert!(!outside(&frustum, &weighted, bound, &[0.0, 5.0]));
+        assert!(outside(&frustum, &weighted, bound, &[5.0, 0.0]));
+        // Grazing: a sphere whose surface is on the plane, or just within the slack, is kept.
+        assert!(!outside(&frustum, &at(2.0, 1.0), bound, &[]));
+        assert!(!outside(&frustum, &at(2.0 + 1e-4, 1.0), bound, &[]));
+        assert!(outside(&frustum, &at(2.1, 1.0), bound, &[]));
+        let mut projective = at(4.0, 1.0);
+        projective.model[0][3] = 0.5;
+        assert!(!outside(&frustum, &projective, bound, &[]));
+        assert!(!outside(&frustum, &at(4.0, 1.0), ([0.0; 3], f32::NAN), &[]));
+        assert!(!outside(&frustum, &at(f32::NAN, 1.0), bound, &[]));
+    }
+
+    /// The near and far planes cull too; a far plane at infinity (a zero normal) is left out.
+    #[test]
+    fn depth_planes() {
+        let frustum = clip_cube();
+        let bound = ([0.0; 3], 0.1);
+        let depth = |z: f32| InstanceBlock::new(Mat4::from_translation(Vec3::new(0.0, 0.0, z)));
+        assert!(outside(&frustum, &depth(-0.5), bound, &[]));
+        assert!(outside(&frustum, &depth(1.5), bound, &[]));
+        assert!(!outside(&frustum, &depth(0.5), bound, &[]));
+        // z' = 1 - 1/z style: row 2 equals row 3, so w - z has no normal.
+        let infinite = Mat4::from_cols_array_2d(&[
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 1.0],
+            [0.0, 0.0, 0.0, 0.0],
+        ]);
+        assert_eq!(Frustum::new(infinite).planes.len(), 5);
+    }
+}
