@@ -75,10 +75,13 @@ for pair in 1 2; do
     done
 done
 
-# The demo (800 bodies and 200 faces at the default mix) and the GPU tests, where packed.
+# The demo (800 bodies and 200 faces at the default mix), with and without culling, and the
+# GPU tests, where packed.
 if [ -x "$bin/crowd" ]; then
     run crowd-demo "$bin/crowd" --headless --instances "$crowd" --frames "$frames" \
         --out "$out/crowd-demo"
+    run crowd-demo-no-culling "$bin/crowd" --headless --instances "$crowd" --frames "$frames" \
+        --out "$out/crowd-demo" --no-culling
 fi
 for t in suite memory; do
     # device-pack leaves the test binaries in its unpacked bundle's tests/ (tests/suite is
@@ -97,6 +100,6 @@ for t in suite memory; do
 done
 
 # The summary lines of every bench.
-grep -H -E "^(lod|full|discrete) +[0-9]|CPU set\+prepare|frame switches, " "$out"/*.txt
+grep -H -E "^(lod|full|discrete) +[0-9]|CPU set\+prepare|frame switches, |mean of frames" "$out"/*.txt
 echo "$failed command(s) failed; reports in $out"
 [ "$failed" -eq 0 ]
