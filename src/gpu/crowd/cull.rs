@@ -87,9 +87,10 @@ fn outside(
 
 impl CrowdAsset {
     /// Brings the instance counts of this asset's records on the GPU in line with `frustum`
-    /// (none: every instance in view), as patches appended to the waiting record patches: an
-    /// instance that left the view gets 0, one that came back its record's count, and a
-    /// record patched since the last prepare of an instance still out of view keeps 0.
+    /// (none: every instance in view), as patches appended to the waiting record patches
+    /// (after `set`'s and `add`'s, so they win): 0 for every instance out of view, every
+    /// prepare (8 bytes each, so that a record patched meanwhile cannot draw it), and its
+    /// record's count for one that came back.
     pub(super) fn cull(&mut self, frustum: Option<&Frustum>) {
         let reach = self
             .gpu
@@ -105,22 +106,13 @@ impl CrowdAsset {
             };
             let hide = record.instance_count > 0
                 && frustum.is_some_and(|frustum| outside(frustum, block, bound, reach));
-            if hide != member.hidden {
-                member.hidden = hide;
-                let count = if hide { 0 } else { record.instance_count };
-                self.waiting
-                    .records
-                    .push([slot * 5 + INSTANCE_COUNT_WORD, count]);
+            let word = slot * 5 + INSTANCE_COUNT_WORD;
+            if hide {
+                self.waiting.records.push([word, 0]);
+            } else if member.hidden {
+                self.waiting.records.push([word, record.instance_count]);
             }
-        }
-        // A record `set` or `add` patched since: its count stays 0 while out of view.
-        for [word, value] in &mut self.waiting.records {
-            let slot = (*word / 5) as usize;
-            if *word % 5 == INSTANCE_COUNT_WORD
-                && self.members[slot].as_ref().is_some_and(|m| m.hidden)
-            {
-                *value = 0;
-            }
+            member.hidden = hide;
         }
     }
 }
