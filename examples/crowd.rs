@@ -14,7 +14,8 @@
 //! readout shows instances (and those out of view), triangles drawn (and at full detail), the
 //! CPU's `set`, `prepare` and recording, the GPU's time (submit + wait) and what was uploaded.
 //! Keys in the window: space pauses the animation and the flight, up/down a finer/coarser
-//! screen error, q quits. The two assets are built on first use and cached in `out/crowd/` (see `common`).
+//! screen error, q quits. The two assets are built on first use and cached in `out/crowd/`
+//! (see `common`).
 
 // The crowd uses the demos' asset cache, readout and window; not their one-object scene.
 #[allow(dead_code)]

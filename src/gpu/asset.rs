@@ -12,6 +12,7 @@
 
 use std::sync::Arc;
 
+use glam::Vec3;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::checks::check_size;
@@ -98,7 +99,7 @@ impl GpuAsset {
             surface,
             targets: None,
             track: None,
-            bound: bounding_sphere(v0.iter().chain(v1)),
+            bound: bounding_sphere(&[v0, v1]),
         })
     }
 
@@ -259,7 +260,10 @@ impl TargetDeltas {
         };
         let reach = targets
             .iter()
-            .map(|deltas| round_up(deltas.iter().map(|d| length(*d)).fold(0.0, f64::max)))
+            .map(|deltas| {
+                let longest = deltas.iter().map(|&d| Vec3::from(d).as_dvec3().length());
+                round_up(longest.fold(0.0, f64::max))
+            })
             .collect();
         Ok(TargetDeltas {
             count: targets.len(),
@@ -272,22 +276,19 @@ impl TargetDeltas {
     }
 }
 
-/// A sphere holding `points`: the centre of their box, the radius to the farthest (in `f64`,
-/// rounded up to an `f32` that holds it). NaN where a point is not finite.
-fn bounding_sphere<'a>(points: impl Iterator<Item = &'a [f32; 3]> + Clone) -> ([f32; 3], f32) {
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for p in points.clone() {
-        for c in 0..3 {
-            // `f32::min` ignores NaN: a NaN coordinate is caught by the radius below.
-            (lo[c], hi[c]) = (lo[c].min(p[c]), hi[c].max(p[c]));
-        }
-    }
-    let center = [0, 1, 2].map(|c| ((f64::from(lo[c]) + f64::from(hi[c])) * 0.5) as f32);
-    let radius = points
-        .map(|p| {
-            let d = [0, 1, 2].map(|c| f64::from(p[c]) - f64::from(center[c]));
-            d.iter().map(|x| x * x).sum::<f64>().sqrt()
-        })
+/// A sphere holding the points of `poses`: the centre of their box ([`crate::mesh::bounds`]),
+/// the radius to the farthest (in `f64`, rounded up to an `f32` that holds it). NaN where a
+/// point is not finite.
+fn bounding_sphere(poses: &[&[[f32; 3]]]) -> ([f32; 3], f32) {
+    let (lo, hi) = poses
+        .iter()
+        .filter_map(|pose| crate::mesh::bounds(pose))
+        .map(|(lo, hi)| (Vec3::from(lo), Vec3::from(hi)))
+        .reduce(|(lo, hi), (l, h)| (lo.min(l), hi.max(h)))
+        .unwrap_or_default();
+    let center = ((lo.as_dvec3() + hi.as_dvec3()) * 0.5).as_vec3();
+    let radius = (poses.iter().copied().flatten())
+        .map(|&p| (Vec3::from(p).as_dvec3() - center.as_dvec3()).length())
         .fold(0.0, |r: f64, d| {
             if r.is_nan() || d.is_nan() {
                 f64::NAN
@@ -295,15 +296,7 @@ fn bounding_sphere<'a>(points: impl Iterator<Item = &'a [f32; 3]> + Clone) -> ([
                 r.max(d)
             }
         });
-    (center, round_up(radius))
-}
-
-/// The Euclidean length of `d`, in `f64`.
-fn length(d: [f32; 3]) -> f64 {
-    d.iter()
-        .map(|&c| f64::from(c) * f64::from(c))
-        .sum::<f64>()
-        .sqrt()
+    (center.into(), round_up(radius))
 }
 
 /// `x` as an `f32` no smaller than it (NaN stays NaN).
@@ -349,14 +342,14 @@ mod tests {
             [2.9, 0.3, -1.0],
             [1.0 / 3.0, 1e-3, 0.7],
         ];
-        let (center, radius) = bounding_sphere(points.iter());
+        let (center, radius) = bounding_sphere(&[&points[..2], &points[2..]]);
         assert_eq!(center, [1.5, -1.35, 3.15]);
         for p in &points {
             let d = (0..3).map(|c| f64::from(p[c]) - f64::from(center[c]));
             assert!(d.map(|x| x * x).sum::<f64>().sqrt() <= f64::from(radius));
         }
         let nan = [[0.0, 0.0, 0.0], [f32::NAN, 1.0, 1.0], [2.0, 2.0, 2.0]];
-        assert!(bounding_sphere(nan.iter()).1.is_nan());
+        assert!(bounding_sphere(&[&nan]).1.is_nan());
         assert!(round_up(0.1) >= 0.1 && round_up(f64::NAN).is_nan());
     }
 }

@@ -66,13 +66,12 @@ fn outside(
         return false;
     }
     // The vertex stage adds the slots' weighted deltas to the blend of the poses.
-    let targets = |slot: usize| (block.targets[slot / 4] >> (8 * (slot % 4))) & 0xFF;
     let grown = (0..WEIGHT_SLOTS)
         .filter(|&slot| block.weights[slot] != 0.0)
         .map(|slot| {
             block.weights[slot].abs()
                 * reach
-                    .get(targets(slot) as usize)
+                    .get(block.target(slot) as usize)
                     .copied()
                     .unwrap_or(f32::NAN)
         })

@@ -222,10 +222,9 @@ pub struct CrowdStats {
     /// Triangles the instances in view draw.
     pub triangles: usize,
     /// Indices the records of the instances in view read, restarts included (as of the last
-    /// prepare): an instance
-    /// drawn from its compact copy reads its live indices, one restart between two strips and
-    /// the restarts of its strips' places (at most 1.5× the first two), one drawn from its
-    /// regions also the restart tails between its first and last live index.
+    /// prepare): an instance drawn from its compact copy reads its live indices, one restart
+    /// between two strips and the restarts of its strips' places (at most 1.5× the first two),
+    /// one drawn from its regions also the restart tails between its first and last live index.
     pub indices: u64,
     /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
     /// summed over assets' slots in use.

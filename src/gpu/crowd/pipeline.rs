@@ -135,6 +135,12 @@ impl InstanceBlock {
             self.targets[slot / 4] |= k << (8 * (slot % 4));
         }
     }
+
+    /// The target of weight slot `slot` (`< WEIGHT_SLOTS`), as [`set_weights`](Self::set_weights)
+    /// packed it.
+    pub(super) fn target(&self, slot: usize) -> u32 {
+        (self.targets[slot / 4] >> (8 * (slot % 4))) & 0xFF
+    }
 }
 
 /// How a crowd's vertex stage learns the instance of a vertex (`shaders/crowd.wgsl`).
