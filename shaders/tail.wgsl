@@ -37,7 +37,8 @@ fn survivor(job: Job, first: u32) -> u32 {
 }
 
 // Invocations per job: a distant body's list is ~30 triangles; an NVIDIA warp is 32 wide (on
-// llvmpipe 16, 32 and 64 measured alike within noise: BENCHMARKS.md).
+// llvmpipe 16, 32 and 64 measured alike within noise: docs/benchmarks-log.md, "Distant instances
+// from shared tail lists").
 const LANES: u32 = 32u;
 
 @compute @workgroup_size(LANES)
