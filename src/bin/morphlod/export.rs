@@ -1,7 +1,8 @@
 //! `morphlod export`: the original and its LODs as one glTF binary ([`morphlod::export`]).
 
-use crate::output::{check_output, Written};
-use crate::{command_inputs, load_pair, load_surface, SimplifyWeights};
+use crate::args::SimplifyWeights;
+use crate::load::{load_pair, load_surface};
+use crate::output::{check_output, command_inputs, Written};
 use clap::Args;
 use morphlod::export::{export_glb, ExportOptions, LodSteps, QuantizeOptions, DEFAULT_POSES};
 use morphlod::io::gltf::SourceScene;

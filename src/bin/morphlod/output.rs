@@ -68,6 +68,19 @@ impl From<OutputError> for String {
     }
 }
 
+/// The files a command reads: its input meshes and the landmarks file, if any. No output
+/// may be one of them ([`check_output`]).
+pub(crate) fn command_inputs<'a>(
+    inputs: impl IntoIterator<Item = &'a PathBuf>,
+    landmarks: Option<&'a Path>,
+) -> Vec<&'a Path> {
+    inputs
+        .into_iter()
+        .map(PathBuf::as_path)
+        .chain(landmarks)
+        .collect()
+}
+
 /// Refuses `output` if it is one of `inputs` (module docs) or its extension is not
 /// `written`'s. Call before reading the inputs, so nothing is written on refusal.
 pub(crate) fn check_output(

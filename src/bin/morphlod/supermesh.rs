@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::output::{check_output, Written};
+use crate::output::{check_output, command_inputs, Written};
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use morphlod::asset::save_bytes;
@@ -151,9 +151,20 @@ fn diagonal(mesh: &IndexedMesh) -> f64 {
     })
 }
 
+/// A supermesh with fold-overs is not a bijection between the surfaces (a morphlod bug):
+/// say so, the build goes on.
+pub fn warn_fold_overs(report: &SupermeshReport) {
+    if report.fold_overs > 0 {
+        eprintln!(
+            "warning: {} supermesh triangle(s) fold over on the sphere (should be 0; please report this with the meshes)",
+            report.fold_overs
+        );
+    }
+}
+
 /// `morphlod supermesh A B -o S.glb`.
 pub fn supermesh(args: &SupermeshArgs) -> Result<(), String> {
-    let inputs = crate::command_inputs([&args.a, &args.b], args.landmarks.as_deref());
+    let inputs = command_inputs([&args.a, &args.b], args.landmarks.as_deref());
     check_output(&args.output, Written::Glb, &inputs)?;
     let total = Instant::now();
     let landmarks = read_landmarks(args.landmarks.as_deref())?;
@@ -166,7 +177,7 @@ pub fn supermesh(args: &SupermeshArgs) -> Result<(), String> {
         args.a.display(),
         args.b.display()
     );
-    crate::warn_fold_overs(&report);
+    warn_fold_overs(&report);
     let measure = Instant::now();
     print!("{}", surface_errors(&supermesh, &a, &b, args.samples)?);
     println!(
