@@ -201,6 +201,8 @@ pub enum ExportError {
         min: u32,
         max: u32,
     },
+    #[error("level {level} has a vertex or triangle out of range, or no triangle (the mesh has {vertices} vertices): give levels of this mesh, as morphlod::export::levels makes them")]
+    Level { level: usize, vertices: usize },
     #[error("the mesh's node has an animated transform, which would replace the dequantising transform --quantize puts there: export without --quantize and --compress")]
     QuantizedAnimatedNode,
 }
@@ -248,6 +250,49 @@ pub struct Export {
 /// so a viewer plays it.
 pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, ExportError> {
     check_levels(options)?;
+    let written = check_written(morph, options)?;
+    let lods = choose_levels(morph, options)?;
+    write_levels(morph, lods, options, written)
+}
+
+/// Writes `lods` (LOD0 first; each over `morph`'s vertices, as [`levels`] gives them) as
+/// [`export_glb`] writes its own: for levels chosen over other poses than `morph`'s animation
+/// (a [`levels`] call on the same mesh with another weight track), written with this
+/// morph's animation, names, source scene and quantization. [`ExportOptions::lods`] is not
+/// used; [`ExportOptions::poses`] only counts the poses a quantized file's error is measured
+/// over. A level with a vertex or triangle out of range is refused.
+pub fn export_glb_levels(
+    morph: &Morph,
+    lods: Vec<Lod>,
+    options: &ExportOptions,
+) -> Result<Export, ExportError> {
+    let n = morph.vertex_count();
+    if lods.is_empty() {
+        return Err(ExportError::Level {
+            level: 0,
+            vertices: n,
+        });
+    }
+    for (level, lod) in lods.iter().enumerate() {
+        let count = lod.source_vertex.len();
+        let outside = lod.source_vertex.iter().any(|&v| v as usize >= n)
+            || lod.triangles.iter().flatten().any(|&v| v as usize >= count);
+        if outside || lod.triangles.is_empty() {
+            return Err(ExportError::Level { level, vertices: n });
+        }
+    }
+    let written = check_written(morph, options)?;
+    write_levels(morph, lods, options, written)
+}
+
+/// What [`check_written`] settles before the levels are chosen.
+struct Written {
+    default_weights: Vec<f32>,
+    quantize: Option<QuantizeOptions>,
+}
+
+/// Checks the options about what is written (default weights, source scene, quantization).
+fn check_written(morph: &Morph, options: &ExportOptions) -> Result<Written, ExportError> {
     let targets = morph.targets().len();
     let default_weights = match &options.default_weights {
         Some(w) if w.len() != targets => {
@@ -275,7 +320,22 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
             return Err(ExportError::QuantizedAnimatedNode);
         }
     }
-    let mut lods = choose_levels(morph, options)?;
+    Ok(Written {
+        default_weights,
+        quantize,
+    })
+}
+
+/// Quantizes (when asked) and writes the file of checked levels and options.
+fn write_levels(
+    morph: &Morph,
+    mut lods: Vec<Lod>,
+    options: &ExportOptions,
+    Written {
+        default_weights,
+        quantize,
+    }: Written,
+) -> Result<Export, ExportError> {
     let diagonal = diagonal(morph.base());
     // Quantized after the LODs are chosen: the choice does not depend on it.
     let quantization = quantize.map(|options| {
