@@ -243,6 +243,7 @@ def export(
     position_bits: Optional[int] = None,
     normal_bits: Optional[int] = None,
     uv_bits: Optional[int] = None,
+    pose_weights: Optional[ArrayLike] = None,
     progress: Optional[Progress] = None,
 ) -> List[Level]:
     """``morphlod export``: the original and its levels as one glTF binary file.
@@ -253,6 +254,11 @@ def export(
     attributes, the material and the animation; the chain is declared with ``MSFT_lod``.
     Options as the command line's (``--lods`` is ``fractions``, ``--error`` is ``errors``).
     ``output`` must end in ``.glb`` and not be an input.
+
+    ``pose_weights``: ``(p, t)`` weights of the file's ``t`` morph targets: the levels are
+    chosen over these poses (as :func:`simplify` chooses them) instead of ``poses`` samples
+    of the animation, which is still the one written. ``progress`` gets ``"load"``,
+    ``"simplify"`` and ``"write"`` (and the supermesh's stages for two meshes).
 
     Returns:
         LOD0 (the original) and then one :class:`Level` per fraction or bound, with the
@@ -279,6 +285,7 @@ def export(
         position_bits,
         normal_bits,
         uv_bits,
+        None if pose_weights is None else _floats("pose_weights", pose_weights, (None, None)),
         progress,
     )
 

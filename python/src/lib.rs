@@ -14,7 +14,8 @@
 use morphlod::asset::{inspect_with, save_bytes, AssetInfo, AssetLoadOptions};
 use morphlod::build::{Builder, Progress, Sequences};
 use morphlod::export::{
-    export_glb, levels, ExportOptions, Lod, LodSteps, QuantizeOptions, DEFAULT_POSES,
+    export_glb, export_glb_levels, levels, ExportOptions, Lod, LodSteps, QuantizeOptions,
+    DEFAULT_POSES,
 };
 use morphlod::io::gltf::SourceScene;
 use morphlod::io::{load_attributed, morph_from_pair, Format, LoadError, LoadOptions, MorphSource};
@@ -296,7 +297,7 @@ fn morph_of_arrays(
             for k in 0..t {
                 values.extend((0..t).map(|j| if j == k { 1.0 } else { 0.0 }));
             }
-            (step_track(values, t + 1, t)?, t + 1)
+            (step_track(values, t + 1, t).or_else(fail)?, t + 1)
         }
         Some(p) => {
             let shape = p.shape();
@@ -321,7 +322,7 @@ fn morph_of_arrays(
                     shape[0],
                 )
             } else {
-                (step_track(values, shape[0], t)?, shape[0])
+                (step_track(values, shape[0], t).or_else(fail)?, shape[0])
             }
         }
     };
@@ -337,15 +338,44 @@ fn morph_of_arrays(
 }
 
 /// A STEP track of `poses` keys of `targets` weights each, keyed at `k / (poses − 1)`.
-fn step_track(values: Vec<f32>, poses: usize, targets: usize) -> PyResult<Weights> {
+fn step_track(values: Vec<f32>, poses: usize, targets: usize) -> Result<Weights, MorphError> {
     let times: Vec<f32> = if poses == 1 {
         vec![0.0]
     } else {
         (0..poses).map(|k| k as f32 / (poses - 1) as f32).collect()
     };
-    WeightTrack::new(Interpolation::Step, times, values, targets)
-        .map(Weights::Animated)
-        .or_else(fail)
+    WeightTrack::new(Interpolation::Step, times, values, targets).map(Weights::Animated)
+}
+
+/// `morph` with its weights replaced by the STEP track of `count` weight sets of `targets`
+/// weights ([`step_track`]), for choosing levels over those poses.
+fn with_pose_track(
+    morph: &Morph,
+    values: Vec<f32>,
+    count: usize,
+    targets: usize,
+) -> Result<Morph, String> {
+    if count == 0 || targets != morph.targets().len() {
+        return Err(format!(
+            "pose_weights: shape ({count}, {targets}), expected (p, {}) with p >= 1: one weight per morph target of the file in each pose",
+            morph.targets().len()
+        ));
+    }
+    let weights = match targets {
+        0 => Weights::TwoPose {
+            w0: vec![],
+            w1: vec![],
+        },
+        _ => step_track(values, count, targets).map_err(|e| e.to_string())?,
+    };
+    Morph::from_parts(
+        morph.triangles().to_vec(),
+        morph.base().to_vec(),
+        morph.targets().to_vec(),
+        weights,
+    )
+    .and_then(|m| m.with_attributes(morph.attributes().clone()))
+    .map_err(|e| e.to_string())
 }
 
 /// Checks that `seams` (a label per vertex: equal labels for copies of one surface vertex)
@@ -714,7 +744,7 @@ fn load(
 }
 
 #[pyfunction]
-#[pyo3(signature = (inputs, output, fractions=None, errors=None, poses=DEFAULT_POSES, uv_weight=UV_WEIGHT, normal_weight=NORMAL_WEIGHT, distance_weight=DISTANCE_WEIGHT, animation=None, mesh=None, landmarks=None, quantize=false, compress=false, position_bits=None, normal_bits=None, uv_bits=None, progress=None))]
+#[pyo3(signature = (inputs, output, fractions=None, errors=None, poses=DEFAULT_POSES, uv_weight=UV_WEIGHT, normal_weight=NORMAL_WEIGHT, distance_weight=DISTANCE_WEIGHT, animation=None, mesh=None, landmarks=None, quantize=false, compress=false, position_bits=None, normal_bits=None, uv_bits=None, pose_weights=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn export(
     py: Python<'_>,
@@ -734,9 +764,20 @@ fn export(
     position_bits: Option<u32>,
     normal_bits: Option<u32>,
     uv_bits: Option<u32>,
+    pose_weights: Option<PyReadonlyArray2<'_, f32>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Vec<Level>> {
     let lods = lod_steps(fractions, errors)?;
+    let pose_weights = match &pose_weights {
+        Some(w) => {
+            let shape = w.shape();
+            let flat = w
+                .as_slice()
+                .or_else(|_| fail("pose_weights: the array must be C-contiguous"))?;
+            Some((flat.to_vec(), shape[0], shape[1]))
+        }
+        None => None,
+    };
     let simplify = simplify_options(uv_weight, normal_weight, distance_weight)?;
     let defaults = QuantizeOptions::default();
     let quantize = (quantize || compress).then_some(QuantizeOptions {
@@ -773,19 +814,28 @@ fn export(
             .file_stem()
             .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
         reporter.report("simplify", 0.0);
-        let export = export_glb(
-            &morph,
-            &ExportOptions {
-                lods,
-                poses,
-                simplify,
-                default_weights,
-                name,
-                source,
-                quantize,
-                compress,
-            },
-        )
+        let options = ExportOptions {
+            lods,
+            poses,
+            simplify,
+            default_weights,
+            name,
+            source,
+            quantize,
+            compress,
+        };
+        let export = match pose_weights {
+            None => export_glb(&morph, &options),
+            // The levels over the given weight sets, written with the file's animation.
+            Some((values, count, targets)) => {
+                let over = with_pose_track(&morph, values, count, targets)?;
+                let poses = ExportOptions {
+                    poses: count,
+                    ..options.clone()
+                };
+                levels(&over, &poses).and_then(|lods| export_glb_levels(&morph, lods, &options))
+            }
+        }
         .map_err(|e| e.to_string())?;
         reporter.report("simplify", 1.0);
         std::fs::write(&output, &export.glb)
