@@ -247,7 +247,7 @@ def main():
     print(f"rendered {picture}")
     if os.environ.get("MORPHLOD_UPDATE_DOCS"):
         shutil.copyfile(picture, os.path.join(REPO, "docs", "blender_lods.png"))
-    print("blender add-on test: 1 passed, 0 failed")
+    print("blender: 1 passed, 0 failed")
 
 
 main()
