@@ -67,6 +67,22 @@ def import_morphlod():
     return morphlod
 
 
+def package_or_report(operator):
+    """The package, or None with the install hint reported."""
+    morphlod = import_morphlod()
+    if morphlod is None:
+        operator.report({"ERROR"}, install_hint())
+    return morphlod
+
+
+def finish(operator, lines):
+    """Prints the result lines (the console, a headless run) and reports them (the status bar)."""
+    for line in lines:
+        print(line)
+    operator.report({"INFO"}, "; ".join(lines))
+    return {"FINISHED"}
+
+
 def parse_levels(text, kind):
     try:
         values = [float(v) for v in text.replace(";", ",").split(",") if v.strip()]
@@ -166,9 +182,8 @@ class MORPHLOD_OT_make_lods(LodOptions, bpy.types.Operator):
         self.draw_options(self.layout)
 
     def execute(self, context):
-        morphlod = import_morphlod()
+        morphlod = package_or_report(self)
         if morphlod is None:
-            self.report({"ERROR"}, install_hint())
             return {"CANCELLED"}
         obj = context.active_object
         wm = context.window_manager
@@ -214,10 +229,7 @@ class MORPHLOD_OT_make_lods(LodOptions, bpy.types.Operator):
             f"{len(levels)} LODs of {obj.name} ({len(arrays.key_names)} shape keys) in {total:.2f} s "
             f"(simplification {simplified:.2f} s) in collection {collection.name}"
         )
-        for line in lines:
-            print(line)
-        self.report({"INFO"}, "; ".join(lines))
-        return {"FINISHED"}
+        return finish(self, lines)
 
 
 class MORPHLOD_OT_export_lods(ExportHelper, bpy.types.Operator):
@@ -236,9 +248,8 @@ class MORPHLOD_OT_export_lods(ExportHelper, bpy.types.Operator):
         return obj is not None and obj.type == "MESH" and f"{obj.name}_LODs" in bpy.data.collections
 
     def execute(self, context):
-        morphlod = import_morphlod()
+        morphlod = package_or_report(self)
         if morphlod is None:
-            self.report({"ERROR"}, install_hint())
             return {"CANCELLED"}
         obj = context.active_object
         collection = bpy.data.collections[f"{obj.name}_LODs"]
@@ -269,10 +280,7 @@ class MORPHLOD_OT_export_lods(ExportHelper, bpy.types.Operator):
             for i, level in enumerate(levels)
         ]
         lines.append(f"wrote {self.filepath} in {time.perf_counter() - start:.2f} s")
-        for line in lines:
-            print(line)
-        self.report({"INFO"}, "; ".join(lines))
-        return {"FINISHED"}
+        return finish(self, lines)
 
 
 def export_source(context, obj, path):

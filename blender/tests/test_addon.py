@@ -192,7 +192,7 @@ def render(face, lods, path):
     camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
     camera.data.type = "ORTHO"
     camera.data.ortho_scale = width * len(objects)
-    camera.location = (width * (len(objects) - 1) / 2, -3.0, 0.66)
+    camera.location = (width * (len(objects) - 1) / 2, -3.0, 0.685)
     camera.rotation_euler = (math.pi / 2, 0.0, 0.0)
     scene.collection.objects.link(camera)
     scene.camera = camera
@@ -200,8 +200,8 @@ def render(face, lods, path):
     scene.display.shading.light = "STUDIO"
     scene.display.shading.show_cavity = True
     scene.display.shading.color_type = "TEXTURE"
-    scene.render.resolution_x = 1600
-    scene.render.resolution_y = 520
+    scene.render.resolution_x = 1200
+    scene.render.resolution_y = 330
     scene.render.film_transparent = False
     scene.render.image_settings.file_format = "PNG"
     scene.render.filepath = path
@@ -219,6 +219,21 @@ def main():
     bpy.context.view_layer.objects.active = face
     face.data.calc_loop_triangles()
     source_triangles = len(face.data.loop_triangles)
+
+    # Without the package the operator says how to install it and changes nothing.
+    saved = sys.modules.get("morphlod")
+    sys.modules["morphlod"] = None  # makes `import morphlod` fail
+    try:
+        bpy.ops.morphlod.make_lods()
+        raise AssertionError("make_lods ran without the package")
+    except RuntimeError as e:
+        check("pip install --no-deps --target" in str(e), f"no install hint: {e}")
+    finally:
+        if saved is None:
+            del sys.modules["morphlod"]
+        else:
+            sys.modules["morphlod"] = saved
+    check(f"{face.name}_LODs" not in bpy.data.collections, "a collection made without the package")
 
     start = time.perf_counter()
     result = bpy.ops.morphlod.make_lods(levels=", ".join(map(str, FRACTIONS)), poses="KEYS")

@@ -923,7 +923,7 @@ fn build<'py>(
     let distance = distance_weight.unwrap_or(if shared { DISTANCE_WEIGHT } else { 0.0 });
     let simplify = simplify_options(uv_weight, normal_weight, distance)?;
     let reporter = Reporter::new(progress.as_ref());
-    let result = py.detach(|| -> Result<(AssetInfo, String), String> {
+    let result = py.detach(|| -> Result<(AssetInfo, f64), String> {
         let mut read: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
         read.extend(landmarks.as_deref());
         check_output(&output, "mlod", &read)?;
@@ -958,11 +958,11 @@ fn build<'py>(
         reporter.report("write", 1.0);
         let (_, info) =
             inspect_with(&bytes, &AssetLoadOptions::default()).map_err(|e| e.to_string())?;
-        Ok((info, format!("{:.3}", report.wall.as_secs_f64())))
+        Ok((info, report.wall.as_secs_f64()))
     });
     let (info, seconds) = reporter.finish(result.or_else(fail))?;
     let dict = info_dict(py, &info)?;
-    dict.set_item("build_seconds", seconds.parse::<f64>().unwrap_or(0.0))?;
+    dict.set_item("build_seconds", seconds)?;
     Ok(dict)
 }
 
