@@ -369,7 +369,7 @@ def supermesh(
     on A (``v0``, A's vertices bit for bit) and one on B (``v1``): morphing ``v0`` to ``v1``
     turns A into B. ``landmarks``: ``(k, 2)`` pairs (vertex of A, vertex of B) brought
     together. ``tips``: without landmarks, pair the limb tips of A and B. ``progress`` gets
-    each stage (``"check"``, ``"embed A"``, ...). Meshes that cannot have a supermesh (open,
+    each stage (``"supermesh: check"``, ``"supermesh: embed A"``, ...). Meshes that cannot have a supermesh (open,
     genus > 0, non-manifold, several components) raise MorphlodError naming the check.
     """
     a_positions = _floats("a_positions", a_positions, (None, 3))
