@@ -201,6 +201,8 @@ pub enum ExportError {
         min: u32,
         max: u32,
     },
+    #[error("level {level} has a vertex or triangle out of range, or no triangle (the mesh has {vertices} vertices): give levels of this mesh, as morphlod::export::levels makes them")]
+    Level { level: usize, vertices: usize },
     #[error("the mesh's node has an animated transform, which would replace the dequantising transform --quantize puts there: export without --quantize and --compress")]
     QuantizedAnimatedNode,
 }
@@ -247,15 +249,50 @@ pub struct Export {
 /// LINEAR 0 → 1 → 0 animation over two seconds (the weights of `t = 0`, `t = 1`, `t = 0`),
 /// so a viewer plays it.
 pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, ExportError> {
-    match &options.lods {
-        LodSteps::Fractions(f) => check_fractions(f)?,
-        LodSteps::Errors(e) => check_errors(e)?,
-    }
-    if options.poses == 0 || options.poses > MAX_FRAMES {
-        return Err(ExportError::Poses {
-            poses: options.poses,
+    check_levels(options)?;
+    let written = check_written(morph, options)?;
+    let lods = choose_levels(morph, options)?;
+    write_levels(morph, lods, options, written)
+}
+
+/// Writes `lods` (LOD0 first; each over `morph`'s vertices, as [`levels`] gives them) as
+/// [`export_glb`] writes its own: for levels chosen over other poses than `morph`'s animation
+/// (a [`levels`] call on the same mesh with another weight track), written with this
+/// morph's animation, names, source scene and quantization. [`ExportOptions::lods`] is not
+/// used; [`ExportOptions::poses`] only counts the poses a quantized file's error is measured
+/// over. A level with a vertex or triangle out of range is refused.
+pub fn export_glb_levels(
+    morph: &Morph,
+    lods: Vec<Lod>,
+    options: &ExportOptions,
+) -> Result<Export, ExportError> {
+    let n = morph.vertex_count();
+    if lods.is_empty() {
+        return Err(ExportError::Level {
+            level: 0,
+            vertices: n,
         });
     }
+    for (level, lod) in lods.iter().enumerate() {
+        let count = lod.source_vertex.len();
+        let outside = lod.source_vertex.iter().any(|&v| v as usize >= n)
+            || lod.triangles.iter().flatten().any(|&v| v as usize >= count);
+        if outside || lod.triangles.is_empty() {
+            return Err(ExportError::Level { level, vertices: n });
+        }
+    }
+    let written = check_written(morph, options)?;
+    write_levels(morph, lods, options, written)
+}
+
+/// What [`check_written`] settles before the levels are chosen.
+struct Written {
+    default_weights: Vec<f32>,
+    quantize: Option<QuantizeOptions>,
+}
+
+/// Checks the options about what is written (default weights, source scene, quantization).
+fn check_written(morph: &Morph, options: &ExportOptions) -> Result<Written, ExportError> {
     let targets = morph.targets().len();
     let default_weights = match &options.default_weights {
         Some(w) if w.len() != targets => {
@@ -283,42 +320,23 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
             return Err(ExportError::QuantizedAnimatedNode);
         }
     }
-    let (asset, _) = Builder::new(morph)
-        .frames(options.poses)
-        .sequences(Sequences::Shared(PoseError::Max))
-        .simplify_options(options.simplify.clone())
-        .build()?;
-    let sequence = &asset.frames[0];
-    let boundaries = StepBoundaries::new(sequence, &morph.topology().of_vertex);
-    let triangles = morph.triangles();
+    Ok(Written {
+        default_weights,
+        quantize,
+    })
+}
 
+/// Quantizes (when asked) and writes the file of checked levels and options.
+fn write_levels(
+    morph: &Morph,
+    mut lods: Vec<Lod>,
+    options: &ExportOptions,
+    Written {
+        default_weights,
+        quantize,
+    }: Written,
+) -> Result<Export, ExportError> {
     let diagonal = diagonal(morph.base());
-    let errors = sequence.errors();
-    let relative = |step: usize| errors[step].max(0.0).sqrt() / diagonal;
-    let mut lods = vec![compact(triangles.to_vec(), 1.0, 0, 0.0)];
-    match &options.lods {
-        LodSteps::Fractions(fractions) => {
-            for &fraction in fractions {
-                let step = step_for(sequence, &boundaries, triangles, fraction)?;
-                let mesh = sequence.reference_mesh(triangles, step);
-                lods.push(compact(mesh, fraction, step, relative(step)));
-            }
-        }
-        LodSteps::Errors(bounds) => {
-            for &bound in bounds {
-                let step = step_for_error(&errors, &boundaries, bound * diagonal);
-                let mesh = sequence.reference_mesh(triangles, step);
-                if mesh.is_empty() {
-                    return Err(ExportError::EmptyError {
-                        error: bound,
-                        triangles: triangles.len(),
-                    });
-                }
-                let fraction = mesh.len() as f32 / triangles.len() as f32;
-                lods.push(compact(mesh, fraction, step, relative(step)));
-            }
-        }
-    }
     // Quantized after the LODs are chosen: the choice does not depend on it.
     let quantization = quantize.map(|options| {
         let grid = Grid::new(morph, options.position_bits);
@@ -362,6 +380,72 @@ pub fn export_glb(morph: &Morph, options: &ExportOptions) -> Result<Export, Expo
         lods,
         grid: quantization.map(|q| q.grid),
     })
+}
+
+/// The levels [`export_glb`] writes, LOD0 (the original) first, without writing a file: the
+/// same checks of [`ExportOptions::lods`] and [`ExportOptions::poses`], the same shared
+/// sequence and the same choice of steps, so a caller that draws or imports the LODs itself
+/// (the Python package, the Blender add-on) gets exactly what `morphlod export` would write.
+/// The other options (names, source scene, quantization) are not used.
+pub fn levels(morph: &Morph, options: &ExportOptions) -> Result<Vec<Lod>, ExportError> {
+    check_levels(options)?;
+    choose_levels(morph, options)
+}
+
+/// Refuses LOD steps and pose counts that [`choose_levels`] cannot use.
+fn check_levels(options: &ExportOptions) -> Result<(), ExportError> {
+    match &options.lods {
+        LodSteps::Fractions(f) => check_fractions(f)?,
+        LodSteps::Errors(e) => check_errors(e)?,
+    }
+    if options.poses == 0 || options.poses > MAX_FRAMES {
+        return Err(ExportError::Poses {
+            poses: options.poses,
+        });
+    }
+    Ok(())
+}
+
+/// The shared sequence over `options.poses` sampled poses, and LOD0 and one LOD per fraction
+/// or error bound on it (checked options).
+fn choose_levels(morph: &Morph, options: &ExportOptions) -> Result<Vec<Lod>, ExportError> {
+    let (asset, _) = Builder::new(morph)
+        .frames(options.poses)
+        .sequences(Sequences::Shared(PoseError::Max))
+        .simplify_options(options.simplify.clone())
+        .build()?;
+    let sequence = &asset.frames[0];
+    let boundaries = StepBoundaries::new(sequence, &morph.topology().of_vertex);
+    let triangles = morph.triangles();
+
+    let diagonal = diagonal(morph.base());
+    let errors = sequence.errors();
+    let relative = |step: usize| errors[step].max(0.0).sqrt() / diagonal;
+    let mut lods = vec![compact(triangles.to_vec(), 1.0, 0, 0.0)];
+    match &options.lods {
+        LodSteps::Fractions(fractions) => {
+            for &fraction in fractions {
+                let step = step_for(sequence, &boundaries, triangles, fraction)?;
+                let mesh = sequence.reference_mesh(triangles, step);
+                lods.push(compact(mesh, fraction, step, relative(step)));
+            }
+        }
+        LodSteps::Errors(bounds) => {
+            for &bound in bounds {
+                let step = step_for_error(&errors, &boundaries, bound * diagonal);
+                let mesh = sequence.reference_mesh(triangles, step);
+                if mesh.is_empty() {
+                    return Err(ExportError::EmptyError {
+                        error: bound,
+                        triangles: triangles.len(),
+                    });
+                }
+                let fraction = mesh.len() as f32 / triangles.len() as f32;
+                lods.push(compact(mesh, fraction, step, relative(step)));
+            }
+        }
+    }
+    Ok(lods)
 }
 
 fn check_fractions(lods: &[f32]) -> Result<(), ExportError> {

@@ -373,3 +373,55 @@ fn grid_points_are_the_nearest_within_half_a_step() {
         }
     }
 }
+
+/// `export_glb` is `levels` written by `export_glb_levels`: the same file byte for byte; and
+/// `export_glb_levels` refuses a level that is not over the mesh's vertices.
+#[test]
+fn levels_written_are_export_glb() {
+    let n = 6u32;
+    let base: Vec<[f32; 3]> = (0..n * n)
+        .map(|v| [(v % n) as f32, (v / n) as f32, ((v * 5) % 4) as f32 * 0.2])
+        .collect();
+    let lift: Vec<[f32; 3]> = (0..n * n).map(|v| [0.0, 0.0, (v % 3) as f32]).collect();
+    let targets = vec![MorphTarget {
+        name: "lift".into(),
+        deltas: lift,
+        normal_deltas: None,
+    }];
+    let weights = Weights::TwoPose {
+        w0: vec![0.0],
+        w1: vec![1.0],
+    };
+    let morph = Morph::from_parts(grid_triangles(n), base, targets, weights).unwrap();
+    let options = ExportOptions {
+        lods: LodSteps::Fractions(vec![0.5, 0.2]),
+        poses: 4,
+        ..ExportOptions::default()
+    };
+    let whole = export_glb(&morph, &options).unwrap();
+    let chosen = levels(&morph, &options).unwrap();
+    assert_eq!(chosen.len(), 3);
+    let written = export_glb_levels(&morph, chosen.clone(), &options).unwrap();
+    assert_eq!(written.glb, whole.glb);
+    assert_eq!(written.lods, whole.lods);
+
+    let mut outside = chosen.clone();
+    outside[2].source_vertex[0] = n * n;
+    assert_eq!(
+        export_glb_levels(&morph, outside, &options),
+        Err(ExportError::Level {
+            level: 2,
+            vertices: (n * n) as usize
+        })
+    );
+    let mut dangling = chosen;
+    dangling[1].triangles[0][1] = dangling[1].source_vertex.len() as u32;
+    assert!(matches!(
+        export_glb_levels(&morph, dangling, &options),
+        Err(ExportError::Level { level: 1, .. })
+    ));
+    assert!(matches!(
+        export_glb_levels(&morph, Vec::new(), &options),
+        Err(ExportError::Level { level: 0, .. })
+    ));
+}
