@@ -31,10 +31,14 @@
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
+use std::time::Instant;
 
 use glam::DVec3;
 
 use super::sphere::{check_embedding, orient};
+use super::{Side, Stage, SupermeshError, SupermeshOptions};
+use crate::mesh::clean::Cleaned;
+use crate::mesh::IndexedMesh;
 
 /// Why an embedding failed (only on input the checks should have rejected).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -772,6 +776,58 @@ pub(crate) fn quality(
         mean_area: four_pi / triangles.len().max(1) as f64,
         distortion: [at(0.05), at(0.5), at(0.95)],
     }
+}
+
+/// Both embeddings with their meshes.
+pub(super) struct Embedded {
+    pub(super) a: Vec<DVec3>,
+    pub(super) b: Vec<DVec3>,
+}
+
+/// Stage 2: both embeddings, in parallel, each timed on its own.
+pub(super) fn embed_both(
+    ca: &Cleaned,
+    cb: &Cleaned,
+    options: &SupermeshOptions,
+    seconds: &mut Vec<(Stage, f64)>,
+) -> Result<Embedded, SupermeshError> {
+    let progress = options.progress;
+    let radial = options.radial;
+    let one = |mesh: &IndexedMesh, stage: Stage, side: Side| {
+        let start = Instant::now();
+        let mut report = |f: f32| {
+            if let Some(p) = progress {
+                p(stage, f);
+            }
+        };
+        report(0.0);
+        let out = if radial {
+            self::radial(&mesh.positions, &mesh.triangles).map_err(|folds| {
+                SupermeshError::Embedding {
+                    mesh: side,
+                    what: format!(
+                        "central projection from the origin folds {folds} triangle(s): the mesh is not star-shaped about the origin; turn SupermeshOptions::radial off"
+                    ),
+                }
+            })
+        } else {
+            embed(&mesh.positions, &mesh.triangles, &mut report).map_err(|e| {
+                SupermeshError::Embedding {
+                    mesh: side,
+                    what: format!("{e:?}"),
+                }
+            })
+        };
+        report(1.0);
+        (out, start.elapsed().as_secs_f64())
+    };
+    let ((a, ta), (b, tb)) = rayon::join(
+        || one(&ca.mesh, Stage::EmbedA, Side::A),
+        || one(&cb.mesh, Stage::EmbedB, Side::B),
+    );
+    seconds.push((Stage::EmbedA, ta));
+    seconds.push((Stage::EmbedB, tb));
+    Ok(Embedded { a: a?, b: b? })
 }
 
 #[cfg(test)]
