@@ -2,7 +2,8 @@
 //! and unused elements dropped; vertices never welded, so positions and their
 //! order are kept) and must then be one closed, manifold, genus-0 surface.
 
-use super::{Side, SupermeshError};
+use super::landmarks::map_landmarks;
+use super::{Side, SupermeshError, SupermeshOptions};
 use crate::mesh::clean::{clean, CleanOptions, Cleaned};
 use crate::mesh::IndexedMesh;
 use crate::topology::analyze;
@@ -60,4 +61,17 @@ pub(crate) fn prepare(mesh: &IndexedMesh, side: Side) -> Result<Cleaned, Superme
         });
     }
     Ok(cleaned)
+}
+
+/// Stage 1: both meshes cleaned and checked, landmarks mapped to cleaned indices.
+#[allow(clippy::type_complexity)]
+pub(super) fn check_inputs(
+    a: &IndexedMesh,
+    b: &IndexedMesh,
+    options: &SupermeshOptions,
+) -> Result<(Cleaned, Cleaned, Vec<(u32, u32)>), SupermeshError> {
+    let ca = prepare(a, Side::A)?;
+    let cb = prepare(b, Side::B)?;
+    let landmarks = map_landmarks(&options.landmarks, (a, &ca), (b, &cb))?;
+    Ok((ca, cb, landmarks))
 }

@@ -25,8 +25,11 @@ use std::collections::{HashMap, VecDeque};
 
 use glam::DVec3;
 
+use super::align;
 use super::sphere::{chord_parameter, orient, orient_sos, same_direction, Location, SphereMesh};
+use super::{Stage, SupermeshError, SupermeshOptions};
 use crate::mesh::adjacency::NONE;
+use crate::mesh::IndexedMesh;
 
 /// Where a supermesh vertex comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -589,4 +592,51 @@ fn flip_collinear(sphere: &[DVec3], triangles: &mut [[u32; 3]]) -> Result<(), Ov
         }
     }
     Ok(())
+}
+
+/// How many random rotations the overlay tries before giving up on input
+/// that stays degenerate.
+pub const OVERLAY_ATTEMPTS: usize = 8;
+
+/// Smallest angle (radians) of the random rotation of B's sphere; the angle
+/// is drawn in `[MIN, 2 MIN)`. Small enough not to undo the alignment.
+const PERTURBATION: f64 = 2e-3;
+
+/// Stage 5: the overlay under a tiny random rotation of B, again under
+/// another one while A and B points are degenerate.
+pub(super) fn overlay_with_retries(
+    a: &IndexedMesh,
+    a_sphere: &[DVec3],
+    b: &IndexedMesh,
+    b_sphere: Vec<DVec3>,
+    landmarks: bool,
+    options: &SupermeshOptions,
+) -> Result<(Overlay, Vec<DVec3>, usize), SupermeshError> {
+    let ma = SphereMesh::new(a_sphere, &a.triangles);
+    let attempts = if options.perturb { OVERLAY_ATTEMPTS } else { 1 };
+    let mut progress = |f: f32| {
+        if let Some(p) = options.progress {
+            p(Stage::Overlay, f);
+        }
+    };
+    for attempt in 0..attempts {
+        let mut points = b_sphere.clone();
+        // Landmark pairs sit on exactly one sphere point each: the first try
+        // keeps them there (the overlay merges them), later tries perturb.
+        if options.perturb && !(landmarks && attempt == 0) {
+            let r = align::random_rotation(options.seed.wrapping_add(attempt as u64), PERTURBATION);
+            if !align::rotate(&mut points, &b.triangles, r) {
+                continue;
+            }
+        }
+        let mb = SphereMesh::new(&points, &b.triangles);
+        match overlay(&ma, &mb, &mut progress) {
+            Ok(o) => return Ok((o, points, attempt + 1)),
+            Err(OverlayError::Degenerate) => continue,
+            Err(OverlayError::Inconsistent { a_face, b_face }) => {
+                return Err(SupermeshError::Overlay { a_face, b_face })
+            }
+        }
+    }
+    Err(SupermeshError::Degenerate { attempts })
 }

@@ -15,6 +15,8 @@ use glam::DVec3;
 
 use super::overlay::{Node, Overlay};
 use super::sphere::projective_barycentric;
+use super::{Origin, Supermesh};
+use crate::mesh::clean::Cleaned;
 
 fn d(p: [f32; 3]) -> DVec3 {
     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
@@ -68,4 +70,49 @@ pub(crate) fn poses(overlay: &Overlay, a: &Surface, b: &Surface) -> (Vec<[f32; 3
             } => (a.on_edge(ea, ta), b.on_edge(eb, tb)),
         })
         .unzip()
+}
+
+/// Stage 6: poses and origins (in input indices).
+pub(super) fn assemble(
+    ca: &Cleaned,
+    cb: &Cleaned,
+    a_sphere: &[DVec3],
+    b_sphere: &[DVec3],
+    overlay: &Overlay,
+) -> Supermesh {
+    let surface_a = Surface {
+        positions: &ca.mesh.positions,
+        triangles: &ca.mesh.triangles,
+        sphere: a_sphere,
+    };
+    let surface_b = Surface {
+        positions: &cb.mesh.positions,
+        triangles: &cb.mesh.triangles,
+        sphere: b_sphere,
+    };
+    let (v0, v1) = poses(overlay, &surface_a, &surface_b);
+    let (ma, mb) = (&ca.vertex_map, &cb.vertex_map);
+    let origins = overlay
+        .nodes
+        .iter()
+        .map(|n| match *n {
+            Node::A(v) => Origin::A(ma[v as usize]),
+            Node::B(v) => Origin::B(mb[v as usize]),
+            Node::Both(a, b) => Origin::Both {
+                a: ma[a as usize],
+                b: mb[b as usize],
+            },
+            Node::Crossing { a, b, .. } => Origin::Crossing {
+                a_edge: a.map(|v| ma[v as usize]),
+                b_edge: b.map(|v| mb[v as usize]),
+            },
+        })
+        .collect();
+    Supermesh {
+        triangles: overlay.triangles.clone(),
+        v0,
+        v1,
+        origins,
+        sphere: overlay.sphere.clone(),
+    }
 }

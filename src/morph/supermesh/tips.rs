@@ -22,7 +22,7 @@
 //!    [`MAX_CANDIDATES`].
 //!
 //! Each pairing's least-squares Möbius map is then scored against the
-//! rotation search in `super::pair_tips`.
+//! rotation search by `pair_tips` (`alignment.rs`).
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
