@@ -17,13 +17,13 @@
 
 use crate::asset::{quantize_error, Asset, Surface};
 use crate::collapse::CollapseSequence;
-use crate::morph::{Morph, TopologyMap, Weights};
+use crate::morph::{Morph, TargetBlend, TopologyMap, Weights};
 use crate::seams::{expand, SeamError, SeamRule};
 use crate::simplify::{
     simplify, simplify_poses, simplify_poses_with_seams, simplify_with_seams, PoseError,
     SimplifyOptions,
 };
-use crate::strip::stripify;
+use crate::strip::{stripify, Strips};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -158,31 +158,15 @@ impl<'a> Builder<'a> {
         self
     }
 
+    /// Builds the asset, one named stage after another: the input checked; on a morph with
+    /// vertex attributes, the welded surface and its seam rule; the frames whose poses may
+    /// equal an earlier frame's; then `S0` stripified beside the frames' sequences (on the
+    /// rayon pool); each frame given its sequence (shared where poses are equal); the report
+    /// and the asset.
     pub fn build(&self) -> Result<(Asset, BuildReport), BuildError> {
         let start = Instant::now();
         let morph = self.morph;
-        let frames = self.frames;
-        if frames == 0 || frames > MAX_FRAMES {
-            return Err(BuildError::FrameCount { frames });
-        }
-        let n = morph.vertex_count();
-        if n >= u32::MAX as usize {
-            return Err(BuildError::TooManyVertices { vertices: n });
-        }
-        let triangles = morph.triangles();
-        if let Some((triangle, &corners)) = triangles
-            .iter()
-            .enumerate()
-            .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
-        {
-            return Err(BuildError::DegenerateTriangle { triangle, corners });
-        }
-        let blend = morph.target_blend();
-        if let Some(targets) = blend.as_ref().map(|b| b.deltas.len()) {
-            if targets > crate::asset::MAX_TARGETS {
-                return Err(BuildError::TooManyTargets { targets });
-            }
-        }
+        let blend = self.check_input()?;
 
         // With vertex attributes the simplifier runs on the welded surface under the seam
         // rule; without, the identity map would change nothing but the time taken.
@@ -195,120 +179,15 @@ impl<'a> Builder<'a> {
                 .with_normals(attributes.normals.as_deref())
         });
 
-        let done = AtomicUsize::new(0);
-        let time_of = |k: usize| {
-            if frames == 1 {
-                0.0
-            } else {
-                k as f32 / (frames - 1) as f32
-            }
-        };
-        // Equal poses make equal sequences (the simplifier is deterministic), so a frame
-        // whose sampled positions equal an earlier frame's bit for bit shares that frame's
-        // sequence instead of simplifying again (held poses, a mesh morphed to itself).
-        // `candidate[k]`: the first frame whose pose hashes like frame k's; the poses are
-        // compared in full before sharing.
-        let hashes: Vec<u64> = (0..frames)
-            .into_par_iter()
-            .map(|k| pose_hash(&morph.positions_at(time_of(k))))
-            .collect();
-        let mut first_by_hash: HashMap<u64, usize> = HashMap::new();
-        let candidate: Vec<usize> = hashes
-            .iter()
-            .enumerate()
-            .map(|(k, &h)| *first_by_hash.entry(h).or_insert(k))
-            .collect();
-        let frame = |k: usize| -> Result<(Built, Duration), BuildError> {
-            let begin = Instant::now();
-            let t = time_of(k);
-            let pose = morph.positions_at(t);
-            let j = candidate[k];
-            let same = j != k && {
-                let earlier = morph.positions_at(time_of(j));
-                bit_equal(&pose, &earlier)
-            };
-            let built = if same {
-                Built::SameAs(j)
-            } else {
-                check_finite_pose(k, t, &pose)?;
-                let mut sequence = match &rule {
-                    None => simplify(&pose, triangles, &self.simplify),
-                    Some(rule) => {
-                        let welded = simplify_with_seams(&pose, triangles, rule, &self.simplify);
-                        expand(&welded, triangles, rule)
-                            .map_err(|source| BuildError::Seams { frame: k, source })?
-                    }
-                };
-                for c in &mut sequence.collapses {
-                    c.error = quantize_error(c.error);
-                }
-                Built::Sequence(Arc::new(sequence))
-            };
-            let elapsed = begin.elapsed();
-            let frames_done = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if let Some(report) = self.progress {
-                report(Progress {
-                    frames_done,
-                    frames,
-                });
-            }
-            Ok((built, elapsed))
-        };
-        // The shared sequence: every sampled pose at once, one frame.
-        let shared = |combine: PoseError| -> Result<Vec<(Built, Duration)>, BuildError> {
-            let begin = Instant::now();
-            let poses: Vec<Vec<[f32; 3]>> = (0..frames)
-                .into_par_iter()
-                .map(|k| morph.positions_at(time_of(k)))
-                .collect();
-            for (k, pose) in poses.iter().enumerate() {
-                check_finite_pose(k, time_of(k), pose)?;
-            }
-            let views: Vec<&[[f32; 3]]> = poses.iter().map(Vec::as_slice).collect();
-            let mut sequence = match &rule {
-                None => simplify_poses(&views, triangles, &self.simplify, combine),
-                Some(rule) => {
-                    let welded =
-                        simplify_poses_with_seams(&views, triangles, rule, &self.simplify, combine);
-                    expand(&welded, triangles, rule)
-                        .map_err(|source| BuildError::Seams { frame: 0, source })?
-                }
-            };
-            for c in &mut sequence.collapses {
-                c.error = quantize_error(c.error);
-            }
-            if let Some(report) = self.progress {
-                report(Progress {
-                    frames_done: 1,
-                    frames: 1,
-                });
-            }
-            Ok(vec![(Built::Sequence(Arc::new(sequence)), begin.elapsed())])
-        };
+        let candidate = self.pose_candidates();
         let ((s0, strip_time), (built, frames_wall)) = rayon::join(
-            || {
-                let begin = Instant::now();
-                (stripify(triangles, n), begin.elapsed())
-            },
-            || {
-                let begin = Instant::now();
-                let built: Result<Vec<_>, BuildError> = match self.sequences {
-                    Sequences::PerFrame => (0..frames).into_par_iter().map(frame).collect(),
-                    Sequences::Shared(combine) => shared(combine),
-                };
-                (built, begin.elapsed())
-            },
+            || self.strips(),
+            || self.simplify_frames(rule.as_ref(), &candidate),
         );
         let (built, frame_times): (Vec<Built>, Vec<Duration>) = built?.into_iter().unzip();
-        let mut sequences: Vec<Arc<CollapseSequence>> = Vec::with_capacity(frames);
-        for b in built {
-            // `j < k` and frame j simplified its own pose (it is the first of its hash).
-            let sequence = match b {
-                Built::Sequence(sequence) => sequence,
-                Built::SameAs(j) => sequences[j].clone(),
-            };
-            sequences.push(sequence);
-        }
+        let sequences = share_sequences(built, self.frames);
+        let n = morph.vertex_count();
+        let triangles = morph.triangles();
         let report = BuildReport {
             vertices: n,
             topology_vertices: topology.as_ref().map_or(n, |map| map.topology_count),
@@ -333,6 +212,198 @@ impl<'a> Builder<'a> {
         };
         Ok((asset, report))
     }
+
+    /// The checks made before any work, in this order: the frame count, the vertex count, no
+    /// triangle repeating a vertex, at most [`MAX_TARGETS`](crate::asset::MAX_TARGETS)
+    /// driven targets. Returns the targets' blend the asset gets.
+    fn check_input(&self) -> Result<Option<TargetBlend>, BuildError> {
+        let morph = self.morph;
+        let frames = self.frames;
+        if frames == 0 || frames > MAX_FRAMES {
+            return Err(BuildError::FrameCount { frames });
+        }
+        let n = morph.vertex_count();
+        if n >= u32::MAX as usize {
+            return Err(BuildError::TooManyVertices { vertices: n });
+        }
+        let triangles = morph.triangles();
+        if let Some((triangle, &corners)) = triangles
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+        {
+            return Err(BuildError::DegenerateTriangle { triangle, corners });
+        }
+        let blend = morph.target_blend();
+        if let Some(targets) = blend.as_ref().map(|b| b.deltas.len()) {
+            if targets > crate::asset::MAX_TARGETS {
+                return Err(BuildError::TooManyTargets { targets });
+            }
+        }
+        Ok(blend)
+    }
+
+    /// The time of sampled frame `k`: `k / (|r| − 1)`, or 0 when there is one frame.
+    fn time_of(&self, k: usize) -> f32 {
+        if self.frames == 1 {
+            0.0
+        } else {
+            k as f32 / (self.frames - 1) as f32
+        }
+    }
+
+    /// Equal poses make equal sequences (the simplifier is deterministic), so a frame
+    /// whose sampled positions equal an earlier frame's bit for bit shares that frame's
+    /// sequence instead of simplifying again (held poses, a mesh morphed to itself).
+    /// `candidate[k]`: the first frame whose pose hashes like frame k's; the poses are
+    /// compared in full before sharing ([`simplify_frame`](Self::simplify_frame)).
+    fn pose_candidates(&self) -> Vec<usize> {
+        let hashes: Vec<u64> = (0..self.frames)
+            .into_par_iter()
+            .map(|k| pose_hash(&self.morph.positions_at(self.time_of(k))))
+            .collect();
+        let mut first_by_hash: HashMap<u64, usize> = HashMap::new();
+        hashes
+            .iter()
+            .enumerate()
+            .map(|(k, &h)| *first_by_hash.entry(h).or_insert(k))
+            .collect()
+    }
+
+    /// `S0`: the triangulation `T` stripified (runs beside the frames), and the time taken.
+    fn strips(&self) -> (Strips, Duration) {
+        let begin = Instant::now();
+        let morph = self.morph;
+        (
+            stripify(morph.triangles(), morph.vertex_count()),
+            begin.elapsed(),
+        )
+    }
+
+    /// What each frame is built from, as [`Sequences`] asks: per frame on the rayon pool, or
+    /// the one shared sequence; with the wall time of all frames together.
+    fn simplify_frames(
+        &self,
+        rule: Option<&SeamRule>,
+        candidate: &[usize],
+    ) -> (Result<Vec<(Built, Duration)>, BuildError>, Duration) {
+        let begin = Instant::now();
+        let done = AtomicUsize::new(0);
+        let built: Result<Vec<_>, BuildError> = match self.sequences {
+            Sequences::PerFrame => (0..self.frames)
+                .into_par_iter()
+                .map(|k| self.simplify_frame(k, rule, candidate, &done))
+                .collect(),
+            Sequences::Shared(combine) => self.simplify_shared(combine, rule),
+        };
+        (built, begin.elapsed())
+    }
+
+    /// Frame `k`: its pose simplified (on the welded surface under `rule`, then expanded to
+    /// the attribute vertices, where there is one), or the earlier frame whose pose equals
+    /// its own bit for bit; with the time taken on its worker thread. `done` counts the
+    /// frames finished, for [`progress`](Self::progress).
+    fn simplify_frame(
+        &self,
+        k: usize,
+        rule: Option<&SeamRule>,
+        candidate: &[usize],
+        done: &AtomicUsize,
+    ) -> Result<(Built, Duration), BuildError> {
+        let begin = Instant::now();
+        let morph = self.morph;
+        let triangles = morph.triangles();
+        let t = self.time_of(k);
+        let pose = morph.positions_at(t);
+        let j = candidate[k];
+        let same = j != k && {
+            let earlier = morph.positions_at(self.time_of(j));
+            bit_equal(&pose, &earlier)
+        };
+        let built = if same {
+            Built::SameAs(j)
+        } else {
+            check_finite_pose(k, t, &pose)?;
+            let sequence = match rule {
+                None => simplify(&pose, triangles, &self.simplify),
+                Some(rule) => {
+                    let welded = simplify_with_seams(&pose, triangles, rule, &self.simplify);
+                    expand(&welded, triangles, rule)
+                        .map_err(|source| BuildError::Seams { frame: k, source })?
+                }
+            };
+            Built::Sequence(Arc::new(quantize_errors(sequence)))
+        };
+        let elapsed = begin.elapsed();
+        let frames_done = done.fetch_add(1, Ordering::Relaxed) + 1;
+        self.report_progress(frames_done, self.frames);
+        Ok((built, elapsed))
+    }
+
+    /// The shared sequence: every sampled pose at once, one frame.
+    fn simplify_shared(
+        &self,
+        combine: PoseError,
+        rule: Option<&SeamRule>,
+    ) -> Result<Vec<(Built, Duration)>, BuildError> {
+        let begin = Instant::now();
+        let morph = self.morph;
+        let triangles = morph.triangles();
+        let poses: Vec<Vec<[f32; 3]>> = (0..self.frames)
+            .into_par_iter()
+            .map(|k| morph.positions_at(self.time_of(k)))
+            .collect();
+        for (k, pose) in poses.iter().enumerate() {
+            check_finite_pose(k, self.time_of(k), pose)?;
+        }
+        let views: Vec<&[[f32; 3]]> = poses.iter().map(Vec::as_slice).collect();
+        let sequence = match rule {
+            None => simplify_poses(&views, triangles, &self.simplify, combine),
+            Some(rule) => {
+                let welded =
+                    simplify_poses_with_seams(&views, triangles, rule, &self.simplify, combine);
+                expand(&welded, triangles, rule)
+                    .map_err(|source| BuildError::Seams { frame: 0, source })?
+            }
+        };
+        let sequence = quantize_errors(sequence);
+        self.report_progress(1, 1);
+        Ok(vec![(Built::Sequence(Arc::new(sequence)), begin.elapsed())])
+    }
+
+    /// Tells the [`progress`](Self::progress) callback, if any.
+    fn report_progress(&self, frames_done: usize, frames: usize) {
+        if let Some(report) = self.progress {
+            report(Progress {
+                frames_done,
+                frames,
+            });
+        }
+    }
+}
+
+/// `sequence` with each collapse error rounded to the precision the `.mlod` file keeps
+/// ([`quantize_error`]).
+fn quantize_errors(mut sequence: CollapseSequence) -> CollapseSequence {
+    for c in &mut sequence.collapses {
+        c.error = quantize_error(c.error);
+    }
+    sequence
+}
+
+/// Each frame's sequence from what it was built from: its own, or that of the earlier frame
+/// whose pose it shares.
+fn share_sequences(built: Vec<Built>, frames: usize) -> Vec<Arc<CollapseSequence>> {
+    let mut sequences: Vec<Arc<CollapseSequence>> = Vec::with_capacity(frames);
+    for b in built {
+        // `j < k` and frame j simplified its own pose (it is the first of its hash).
+        let sequence = match b {
+            Built::Sequence(sequence) => sequence,
+            Built::SameAs(j) => sequences[j].clone(),
+        };
+        sequences.push(sequence);
+    }
+    sequences
 }
 
 /// The [`Surface`] of a morph with vertex attributes, welded by `topology`.

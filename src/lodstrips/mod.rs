@@ -1,7 +1,7 @@
 //! The LodStrips model over the common strips `S0`: change lists recorded by
-//! replaying a collapse sequence over the strips (`build.rs`), and the runtime
+//! replaying a collapse sequence over the strips (`build/`), and the runtime
 //! that applies them in both directions to an index buffer laid out as one
-//! fixed region per strip (`runtime.rs`).
+//! fixed region per strip (`runtime/`).
 //!
 //! The data is split so that a deforming object shares everything it can:
 //! [`StripLayout`] (`S0` and the region table) exists once per object, and
@@ -16,7 +16,7 @@
 //! * resizes: degenerate runs cut out of a strip, each replaced by at most three
 //!   copies of its neighbours. Refining restores the run from the record.
 //!
-//! Why a resize keeps every drawn triangle (see `build.rs` for the rule set):
+//! Why a resize keeps every drawn triangle (see `build/` for the rule set):
 //! a run is removed only if every window touching it is degenerate, the
 //! replacement has the same length parity (so every later window keeps its
 //! parity, hence its orientation), and every window created at the junction is
@@ -123,7 +123,7 @@ impl StripLayout {
 /// of a deforming object owns.
 ///
 /// Besides the change stream it keeps the *entry lifetimes* that let a state
-/// be rebuilt at any LOD in one pass (`runtime.rs`): every value the buffer
+/// be rebuilt at any LOD in one pass (`runtime/`): every value the buffer
 /// ever holds at LOD `l` is `anc_l` of an `S0` slot's value or of a copied
 /// neighbour's value, and resizes only remove contiguous runs and put copies in
 /// their place, so the buffer at LOD `l` is exactly the entries alive at `l`,
