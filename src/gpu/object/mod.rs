@@ -27,13 +27,13 @@
 //!   [`WRITE_CALL_BYTES`]), and [`Object::render`] issues one `multi_draw_indexed_indirect`
 //!   over all records.
 //!
-//! The object composes four parts, one file each: the draw records (`records.rs`), the
-//! index mirror and its upload diff (`upload.rs`), the uniforms and morph targets
-//! (`pose.rs`) and the surface (`surface.rs`); this folder owns the buffers, the region layout
-//! and the edits, a file a stage: `make.rs` (the buffers and regions made), `edit.rs` (a
-//! region written, the records re-cut), `dirty.rs` (a LOD runtime's changes checked and
-//! applied), `posing.rs` (pose, targets, transform, colour, light, shade mode) and
-//! `prepare.rs` (the upload); `mod.rs` holds the layout, what it reads back and `render`.
+//! The object composes four parts beside it in `gpu/`: the draw records (`records.rs`), the index
+//! mirror and its upload diff (`upload/`), the uniforms and morph targets (`pose.rs`) and the
+//! surface (`surface.rs`); this folder owns the buffers, the region layout and the edits, a file a
+//! stage: `make.rs` (the buffers and regions made), `edit.rs` (a region written, the records
+//! re-cut), `dirty.rs` (a LOD runtime's changes checked and applied), `posing.rs` (pose, targets,
+//! transform, colour, light, shade mode) and `prepare.rs` (the upload); `mod.rs` holds the layout,
+//! what it reads back and `render`.
 //!
 //! Why grouping draws exactly the strips' triangles, orientation included: a restart ends the
 //! strip being assembled and the next index starts a new one at even parity — the same state a
