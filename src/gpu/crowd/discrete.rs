@@ -19,8 +19,10 @@ use crate::par;
 use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
+use super::add::mesh_buffer;
 use super::pipeline::{InstanceBlock, Variant};
-use super::{check_finite, mesh_buffer, Crowd, CrowdError, CrowdPath, CrowdUpload};
+use super::types::check_finite;
+use super::{Crowd, CrowdError, CrowdPath, CrowdUpload};
 use crate::asset::Asset;
 use crate::collapse::CollapseSequence;
 use crate::deform::{Lod, SetError};

@@ -1,0 +1,153 @@
+//! The moves: `set` moves every named instance in parallel and makes its patches; the
+//! transform, colour, view and culling setters.
+
+use super::patches::Piece;
+use super::types::{check_finite, CrowdError, InstanceId};
+use super::Crowd;
+use crate::deform::{rebuild_all, Lod, Strategy};
+use crate::gpu::pose::clamp_t;
+use crate::lodstrips::Survivors;
+use crate::par;
+
+/// Fewest slots per piece of work of `set`'s parallel pass: a moved instance there costs a
+/// pose and a plan, one that steps or switches to its frame's tail a few microseconds more
+/// (the move and its patches), so that smaller pieces cost more in handing out and in
+/// patch lists than they gain.
+const MOVES_PER_PIECE: usize = 16;
+
+impl Crowd {
+    /// Moves every instance of `moves` to its `(t, lod)` (as
+    /// [`DeformingState::set`](crate::deform::DeformingState::set): `t` and LOD clamped, NaN
+    /// refused), all in parallel, and sets its pose: `mix(V(0), V(1), t)`, or for an asset with a
+    /// weight animation the track's weights at `t` (the 8 largest, see
+    /// [`WEIGHT_SLOTS`](super::WEIGHT_SLOTS)), and makes the patches of its slots that the next
+    /// `prepare` uploads. Everything is checked first: on error nothing moved. An instance named
+    /// twice takes its last move.
+    pub fn set(&mut self, moves: &[(InstanceId, f32, Lod)]) -> Result<(), CrowdError> {
+        // What a move can be refused for (the LOD is resolved once, in the parallel pass).
+        for &(id, t, lod) in moves {
+            let a = self.member_asset(id)?;
+            a.model.frame_at(t)?;
+            lod.check()?;
+        }
+        let mut moved = vec![false; self.assets.len()];
+        for &(id, t, lod) in moves {
+            let a = &mut self.assets[id.asset as usize];
+            if let Some(member) = &mut a.members[id.slot as usize] {
+                member.pending = Some((t, lod));
+            }
+            a.dirty_blocks.add(id.slot);
+            moved[id.asset as usize] = true;
+        }
+        let path = self.path;
+        for (a, _) in self.assets.iter_mut().zip(moved).filter(|(_, m)| *m) {
+            let (model, track, layout, tails) = (&a.model, a.gpu.track(), &a.layout, &a.tails);
+            let key = (path, a.gpu.vertex_count(), layout.per_instance());
+            let prepares = a.prepares;
+            // In parallel, in pieces of consecutive slots (a few a thread, so that pieces
+            // with many frame switches even out): every moved instance's pose and plan; the
+            // moves into a frame's tail list take its record only; the moves that step or
+            // rebuild from a frame's tail are made here, and the instance's patches right
+            // after them; the rebuilds over the mesh are gathered.
+            let per = par::piece_len(a.members.len(), MOVES_PER_PIECE);
+            let parts: Vec<_> = (a.members.chunks_mut(per))
+                .zip(a.blocks.chunks_mut(per))
+                .zip(a.records.chunks_mut(per))
+                .enumerate()
+                .collect();
+            let pieces = par::map(parts, |(k, ((members, blocks), records))| {
+                let mut piece = Piece::default();
+                let slots = (k * per..).zip(members.iter_mut().zip(blocks).zip(records));
+                for (slot, ((member, block), record)) in slots {
+                    let Some(member) = member.as_mut() else {
+                        continue;
+                    };
+                    let Some((t, lod)) = member.pending.take() else {
+                        continue;
+                    };
+                    let t = clamp_t(t).expect("checked time");
+                    block.set_pose(track, t, &mut piece.weights);
+                    // Checked above: cannot fail.
+                    let k = model.frame_at(t).expect("checked time");
+                    let l = model.resolve(k, lod).expect("checked LOD");
+                    if let Some(count) = tails.triangles(k, l) {
+                        let at = (k, l, count);
+                        member.enter_tail(layout, key, slot as u32, at, record, &mut piece);
+                        continue;
+                    }
+                    let state = member.leave_tail(model);
+                    let plan = state.plan_at(model, k, l, Strategy::Auto);
+                    if plan.links_survivors(model) {
+                        piece.rebuilds.push((slot, plan));
+                        continue;
+                    }
+                    state.apply(model, plan, &mut Survivors::new());
+                    member.patch(layout, key, slot as u32, record, prepares, &mut piece);
+                }
+                piece.runs()
+            });
+            let rebuilds = a.waiting.take(pieces);
+            if rebuilds.is_empty() {
+                continue;
+            }
+            // The rebuilds over the mesh, by frame (instances switching to one frame share
+            // its survivors), each instance's patches right after its rebuild.
+            let mut plans = rebuilds.into_iter().peekable();
+            let mut jobs = Vec::with_capacity(plans.len());
+            for (slot, (member, record)) in a.members.iter_mut().zip(&mut a.records).enumerate() {
+                if let (Some(member), Some(&(s, plan))) = (member, plans.peek()) {
+                    if s == slot {
+                        jobs.push((plan, (slot as u32, member, record)));
+                        plans.next();
+                    }
+                }
+            }
+            let pieces = rebuild_all(
+                model,
+                &mut jobs,
+                |(_, member, _)| member.state.as_mut().expect("moved out of the tail lists"),
+                |(slot, member, record), piece: &mut Piece| {
+                    member.patch(layout, key, *slot, record, prepares, piece);
+                },
+                Piece::runs,
+            );
+            a.waiting.take(pieces);
+        }
+        Ok(())
+    }
+
+    /// Sets an instance's object-to-world transform (finite).
+    pub fn set_transform(&mut self, id: InstanceId, model: glam::Mat4) -> Result<(), CrowdError> {
+        check_finite("transform", &model.to_cols_array())?;
+        let a = self.member_asset(id)?;
+        a.blocks[id.slot as usize].set_model(model);
+        a.dirty_blocks.add(id.slot);
+        Ok(())
+    }
+
+    /// Sets an instance's colour (faceted and smooth modes; finite).
+    pub fn set_color(&mut self, id: InstanceId, color: [f32; 4]) -> Result<(), CrowdError> {
+        check_finite("colour", &color)?;
+        let a = self.member_asset(id)?;
+        a.blocks[id.slot as usize].color = color;
+        a.dirty_blocks.add(id.slot);
+        Ok(())
+    }
+
+    /// Sets projection * view for every instance.
+    pub fn set_view_proj(&mut self, view_proj: glam::Mat4) {
+        self.scene.view_proj = view_proj.to_cols_array_2d();
+        self.scene_dirty = true;
+    }
+
+    /// Whether an instance out of view draws nothing (default: on). From the next prepare on,
+    /// every prepare tests each instance's bounding sphere (its asset's poses, grown by its
+    /// weights' reach, under its transform) against the view's clip volume and gives the
+    /// record of an instance wholly outside it an instance count of 0 on the GPU. The test
+    /// never culls an instance with a point in view, so the pixels do not change; the GPU
+    /// skips the vertices. Its CPU moves (`set`) still apply, so an instance that comes back
+    /// into view draws its current frame and LOD. Off: every record as [`Crowd::at`] says.
+    pub fn set_culling(&mut self, on: bool) {
+        self.culling = on;
+    }
+}
