@@ -73,7 +73,7 @@ pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
 pub use crowd::{
     run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdPath,
-    CrowdRecords, CrowdStats, CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels,
+    CrowdRecords, CrowdStats, CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels, DrawnFrom,
     FrameFigures, InstanceAt, InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL,
     SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS,
 };

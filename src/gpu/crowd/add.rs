@@ -1,28 +1,29 @@
-//! Adding assets (their buffers, bind group and tail lists) and adding and removing
-//! instances.
+//! Adding assets (their pool, templates and tail lists) and adding and removing instances.
 
 use std::sync::Arc;
 
-use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
+use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::member::Member;
-use super::patches::{set_record, PatchRuns, Span, Waiting};
+use super::patches::{draw_args, Span, Waiting};
 use super::pipeline::{CrowdPath, InstanceBlock, MeshBlock, Variant};
-use super::slots::{Places, SlotLayout};
+use super::pool::{Pool, GRANULE};
+use super::slots::SlotLayout;
 use super::tail::{TailLists, TRIANGLE_SLOTS};
 use super::types::{check_finite, AssetId, CrowdError, InstanceId};
 use super::{Crowd, CrowdAsset};
 use crate::deform::DeformingModel;
 use crate::gpu::asset::{storage_or_zero, GpuAsset};
 use crate::gpu::pose::default_mode;
-use crate::gpu::records::ARGS_BYTES;
-use crate::gpu::GpuError;
+use crate::gpu::{GpuError, RESTART};
 
 impl Crowd {
-    /// Adds an asset with room for `capacity` instances: its index buffer (`capacity` × the
-    /// slots of `S0` plus one separator per strip), indirect and instance buffers are made
-    /// now. `model` must be made from the asset `gpu` was uploaded from
-    /// ([`CrowdError::ModelMismatch`]), `gpu` on `device` ([`GpuError::OtherDevice`]).
+    /// Adds an asset. Its buffers grow with its instances from the next prepare on (room for
+    /// `capacity` instance blocks is reserved on the host now): no instance count is refused,
+    /// but on the base-vertex path ([`CrowdError::Full`]). `model` must be made from the asset
+    /// `gpu` was uploaded from ([`CrowdError::ModelMismatch`]), `gpu` on `device`
+    /// ([`GpuError::OtherDevice`]); one instance's full-detail indices must fit one of the
+    /// device's buffers ([`CrowdError::TooLarge`]).
     pub fn add_asset(
         &mut self,
         device: &wgpu::Device,
@@ -40,19 +41,19 @@ impl Crowd {
                 asset: n,
             });
         }
+        // A page is bound whole by the scatter and the tail expansion: at most one buffer and
+        // one storage binding of the device.
         let limits = device.limits();
-        let refuse = |why: String| Err(CrowdError::Capacity { capacity, why });
-        if capacity == 0 {
-            return refuse("give room for at least one instance".into());
-        }
-        // The compact area gives way where the slots would pass the device's limits (the
-        // scatter binds the whole index buffer).
-        let max_bytes = limits
+        let limit = limits
             .max_buffer_size
             .min(limits.max_storage_buffer_binding_size);
-        let mut layout = SlotLayout::new(&model, self.records.compact_share);
-        layout.fit(max_bytes / 4 / u64::from(capacity));
-        // A tail list's LODs fit the compact area.
+        let layout = SlotLayout::new(&model, self.records.compact_share);
+        let need = u64::from(layout.regions()) * 4;
+        let mut pool = Pool::new(limit);
+        if layout.regions().next_multiple_of(GRANULE) > pool.page_words() {
+            return Err(CrowdError::TooLarge { need, limit });
+        }
+        // A tail list's LODs fit the largest compact copy.
         let budget = (self.records.tail_triangles).min(layout.compact_slots() / TRIANGLE_SLOTS);
         let mut tails = TailLists::build(&model, budget as usize);
         let words = tails.take_words();
@@ -63,94 +64,52 @@ impl Crowd {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         });
-        let per = u64::from(layout.per_instance().max(1));
-        // base_vertex (an i32) is slot × n, and slot × n + index is the vertex_index (a u32).
-        if self.path == CrowdPath::BaseVertex
-            && u64::from(capacity) * u64::from(n) > i32::MAX as u64
-        {
-            return refuse(format!(
-                "{n} vertices times the capacity passes 2^31 (base_vertex)"
-            ));
-        }
-        let index_bytes = u64::from(capacity) * per * 4;
-        if u64::from(capacity) * per > u64::from(u32::MAX) || index_bytes > max_bytes {
-            return refuse(format!(
-                "{index_bytes} bytes of index slots pass the device's buffer limit"
-            ));
-        }
-        let block_bytes = u64::from(capacity) * size_of::<InstanceBlock>() as u64;
-        if block_bytes > limits.max_storage_buffer_binding_size {
-            return refuse(format!(
-                "{block_bytes} bytes of instance blocks pass the device's binding limit"
-            ));
-        }
-        let record_bytes = u64::from(capacity) * ARGS_BYTES;
-        if record_bytes > limits.max_storage_buffer_binding_size {
-            return refuse(format!(
-                "{record_bytes} bytes of draw records pass the device's binding limit"
-            ));
-        }
-
-        let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("crowd indices"),
-            size: index_bytes,
-            // STORAGE: the scatter writes the patches; COPY_SRC: tests read the slots back.
-            usage: wgpu::BufferUsages::INDEX
-                | wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
+        // The instance blocks are one storage binding; on the base-vertex path base_vertex
+        // (an i32) is slot × n, and slot × n + index is the vertex_index (a u32).
+        let blocks = limits.max_storage_buffer_binding_size / size_of::<InstanceBlock>() as u64;
+        let numbered = i32::MAX as u64 / u64::from(n.max(1));
+        let most = match self.path {
+            CrowdPath::BaseVertex if numbered < blocks => (numbered, "slot times the asset's vertex count passes 2^31 on the base-vertex path; a device with INDIRECT_FIRST_INSTANCE has no such limit"),
+            _ => (blocks, "their instance blocks fill max_storage_buffer_binding_size"),
+        };
+        let most = (most.0 < u64::from(u32::MAX)).then_some((most.0 as u32, most.1));
+        let s0 = pool.alloc(layout.regions(), 0);
+        let restarts = device.create_buffer_init(&BufferInitDescriptor {
+            label: Some("crowd restarts"),
+            contents: bytemuck::cast_slice(&vec![RESTART; layout.regions() as usize]),
+            usage: wgpu::BufferUsages::COPY_SRC,
         });
-        // Zeroed records draw nothing (index and instance counts 0). STORAGE: the scatter
-        // writes the changed record words.
-        let indirect_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("crowd records"),
-            size: record_bytes,
-            usage: wgpu::BufferUsages::INDIRECT
-                | wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let instance_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("crowd instances"),
-            size: block_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mesh_buffer = mesh_buffer(device, &gpu);
-        let bind_group = self.bind_group(device, &gpu, &mesh_buffer, &instance_buffer);
+        let mesh = mesh_buffer(device, &gpu);
         let variant = Variant::new(self.path, gpu.has_surface(), gpu.target_count());
         let render = self.pipeline.render_for(device, variant);
         let id = self.assets.len() as u32;
+        let capacity = capacity as usize;
         self.assets.push(CrowdAsset {
             gpu,
             model,
             layout,
-            capacity,
-            index_buffer,
-            indirect_buffer,
-            instance_buffer,
-            bind_group,
+            pool,
+            s0,
+            s0_written: false,
+            restarts,
+            binds: Vec::new(),
+            mesh,
+            instance_buffer: None,
+            bind_group: None,
             render,
             variant,
-            patch_buffers: [None, None],
-            members: (0..capacity).map(|_| None).collect(),
-            generations: vec![0; capacity as usize],
-            free: (0..capacity).rev().collect(),
-            drawn: 0,
-            records: vec![DrawIndexedIndirectArgs::default(); capacity as usize],
-            blocks: vec![InstanceBlock::new(glam::Mat4::IDENTITY); capacity as usize],
+            members: Vec::with_capacity(capacity),
+            generations: Vec::with_capacity(capacity),
+            free: Vec::new(),
+            blocks: Vec::with_capacity(capacity),
             dirty_blocks: Span::EMPTY,
             waiting: Waiting::default(),
+            arriving: Vec::new(),
             run_list: Vec::new(),
-            fresh: Vec::new(),
             prepares: 0,
-            record_runs: PatchRuns::default(),
             tails,
             tail_words,
-            tail_jobs: None,
-            jobs: Vec::new(),
+            most,
         });
         Ok(AssetId(id))
     }
@@ -207,44 +166,50 @@ impl Crowd {
     }
 
     /// Adds an instance of `asset` at full detail, time 0, with transform `model` (finite),
-    /// in the lowest free slot; drawn from the next prepare.
+    /// in the lowest free slot; drawn from the next prepare (from the asset's shared `S0`
+    /// until its first move: it uploads its record and block, nothing else).
     pub fn add(&mut self, asset: AssetId, model: glam::Mat4) -> Result<InstanceId, CrowdError> {
         check_finite("transform", &model.to_cols_array())?;
+        let path = self.path;
         let a = self
             .assets
             .get_mut(asset.0 as usize)
             .ok_or(CrowdError::UnknownAsset(asset.0))?;
-        let slot = a.free.pop().ok_or(CrowdError::Full {
-            asset: asset.0,
-            capacity: a.capacity,
-        })?;
-        // Its compact area holds nothing of it yet: the record reads S0 from the regions. Its
-        // runtime is made by its first move out of the tail lists (most of a crowd's
-        // instances are distant: their first move takes them to one).
-        let record = a.layout.region_record(&a.layout.s0_lengths());
-        let key = (self.path, a.gpu.vertex_count(), a.layout.per_instance());
-        set_record(
-            key,
-            slot,
-            Some(record),
-            &mut a.records[slot as usize],
-            &mut a.waiting.records,
-        );
+        let n = a.gpu.vertex_count();
+        let slot = match a.free.last() {
+            Some(&slot) => slot,
+            None => a.members.len() as u32,
+        };
+        if let Some((most, why)) = a.most.filter(|&(most, _)| slot >= most) {
+            return Err(CrowdError::Full {
+                asset: asset.0,
+                most,
+                why,
+            });
+        }
+        // Until its first move it draws the S0 of page 0, with its record there.
+        if !a.pool.record_room(a.s0.page as usize) {
+            return Err(CrowdError::Full {
+                asset: asset.0,
+                most: a.members.iter().flatten().count() as u32,
+                why: "the new ones' records fill a storage binding of their page; move some first",
+            });
+        }
+        if a.free.pop().is_none() {
+            a.members.push(None);
+            a.generations.push(0);
+            a.blocks.push(InstanceBlock::new(glam::Mat4::IDENTITY));
+        }
+        // Its runtime is made by its first move out of the tail lists (most of a crowd's
+        // instances are distant: their first move takes them to one), its area by its first
+        // move.
+        let reads = a.layout.region_record(&a.layout.s0_lengths());
+        let record = a.pool.add_record(a.s0.page);
+        let args = draw_args((path, n), slot, a.s0.offset, reads);
+        a.pool.set_record(record, args);
         a.blocks[slot as usize] = InstanceBlock::new(model);
         a.dirty_blocks.add(slot);
-        a.members[slot as usize] = Some(Member {
-            changes: u64::MAX,
-            state: None,
-            uploaded: Vec::new(),
-            places: Places::default(),
-            pending: None,
-            patched: u64::MAX,
-            tail: None,
-            expanded: false,
-            hidden: false,
-        });
-        a.fresh.push(slot);
-        a.drawn = a.drawn.max(slot + 1);
+        a.members[slot as usize] = Some(Member::new(record, reads));
         Ok(InstanceId {
             asset: asset.0,
             slot,
@@ -252,34 +217,23 @@ impl Crowd {
         })
     }
 
-    /// Removes an instance: its record draws nothing from the next prepare and its slot is
-    /// reused by a later [`add`](Self::add); its id is refused from now on.
+    /// Removes an instance: its record draws nothing from the next prepare, its area is freed
+    /// and its slot is reused by a later [`add`](Self::add); its id is refused from now on.
     pub fn remove(&mut self, id: InstanceId) -> Result<(), CrowdError> {
-        let path = self.path;
         let a = self.member_asset(id)?;
         let slot = id.slot as usize;
-        if a.members[slot]
-            .take()
-            .is_some_and(|m| m.patched == a.prepares)
-        {
+        let member = a.members[slot].take().expect("checked live");
+        if member.patched == a.prepares {
             (a.waiting.withdrawn).push((id.slot, a.waiting.index_runs.len()));
-            a.waiting.overlap = true;
         }
+        if let Some(area) = member.area {
+            a.pool.free(area);
+        }
+        a.pool.remove_record(member.record);
         a.generations[slot] = a.generations[slot].wrapping_add(1);
-        let key = (path, a.gpu.vertex_count(), a.layout.per_instance());
-        set_record(
-            key,
-            id.slot,
-            None,
-            &mut a.records[slot],
-            &mut a.waiting.records,
-        );
-        // Lowest slot reused first: keeps the drawn records dense.
+        // Lowest slot reused first: keeps the instance blocks dense.
         let at = a.free.partition_point(|&s| s > id.slot);
         a.free.insert(at, id.slot);
-        while a.drawn > 0 && a.members[a.drawn as usize - 1].is_none() {
-            a.drawn -= 1;
-        }
         Ok(())
     }
 }

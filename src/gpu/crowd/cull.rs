@@ -8,6 +8,7 @@
 use glam::{Mat4, Vec3, Vec4};
 
 use super::pipeline::{InstanceBlock, WEIGHT_SLOTS};
+use super::pool::RECORD_WORDS;
 use super::CrowdAsset;
 
 /// The word of a record (five `u32`s) that holds its instance count.
@@ -96,20 +97,19 @@ impl CrowdAsset {
             .targets()
             .map_or(&[][..], |targets| targets.reach.as_slice());
         let bound = self.gpu.bound();
-        let members = self.members[..self.drawn as usize].iter_mut();
-        for (slot, (member, (block, record))) in
-            (0u32..).zip(members.zip(self.blocks.iter().zip(&self.records)))
-        {
+        for (member, block) in self.members.iter_mut().zip(&self.blocks) {
             let Some(member) = member else {
                 continue;
             };
-            let hide = record.instance_count > 0
-                && frustum.is_some_and(|frustum| outside(frustum, block, bound, reach));
-            let word = slot * 5 + INSTANCE_COUNT_WORD;
+            let page = &mut self.pool.pages[member.record.page as usize];
+            let count = page.records[member.record.entry as usize].instance_count;
+            let hide =
+                count > 0 && frustum.is_some_and(|frustum| outside(frustum, block, bound, reach));
+            let word = member.record.entry * RECORD_WORDS + INSTANCE_COUNT_WORD;
             if hide {
-                self.waiting.records.push([word, 0]);
+                page.record_patches.push([word, 0]);
             } else if member.hidden {
-                self.waiting.records.push([word, record.instance_count]);
+                page.record_patches.push([word, count]);
             }
             member.hidden = hide;
         }

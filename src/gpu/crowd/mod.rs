@@ -1,32 +1,37 @@
 //! A crowd: any number of instances of any number of assets, each instance at its own time,
-//! LOD, transform and colour, drawn with one `multi_draw_indexed_indirect` per asset.
+//! LOD, transform and colour, drawn with one `multi_draw_indexed_indirect` per asset (and page
+//! of its index memory).
 //!
 //! What is shared and what is not (`docs/DESIGN.md`, "Crowds"):
 //! * per asset, once: the [`GpuAsset`] (poses, surface, texture, target deltas), the
-//!   [`DeformingModel`] (every frame's change lists), one index buffer with `capacity` ×
-//!   slots-per-instance slots, one indirect buffer with one record per slot, one instance
+//!   [`DeformingModel`] (every frame's change lists), its index memory (pages: index buffers
+//!   that grow, each with the indirect buffer of the records drawn from it), one instance
 //!   buffer with one [`InstanceBlock`](pipeline) per slot, and one bind group;
 //! * per instance: its [`DeformingState`](crate::deform::DeformingState) (the runtime, which
-//!   holds the current strips; none while it is drawn from a tail list), the lengths the GPU
-//!   holds, one record and one 192-byte block. No index mirror: the runtime's dirty log says
-//!   what to upload.
+//!   holds the current strips; none while it is drawn from a tail list), one area of index
+//!   memory sized to what it draws now, one record and one 192-byte block. No index mirror:
+//!   the runtime's dirty log says what to upload.
 //!
-//! An instance's slots hold its strips in fixed regions (patched in place) and a compact area:
-//! where its live strips fit there (a coarse LOD), its record draws their copy (each strip in
-//! a place it keeps while it fits), so it reads the live indices and a few restarts, not the
-//! restart tails of the regions ([`CrowdRecords`]). At a frame's coarsest LODs (a distant
-//! instance) it is drawn from its frame's tail list instead: one triangle list per frame and
-//! asset on the GPU, expanded into its compact area by a compute pass where its frame or LOD
-//! changed, so that such an instance's move costs no rebuild and no patch (`tail.rs`).
+//! An instance's area holds what it draws (`pool.rs`, `slots.rs`): far away its frame's tail
+//! list (one triangle list per frame and asset on the GPU, expanded into the area by a compute
+//! pass where its frame or LOD changed, so that such an instance's move costs no rebuild and no
+//! patch: `tail.rs`), 4 words a triangle; at coarse LODs a compact copy of its live strips
+//! (each strip in a place it keeps while it fits), a little more than their packed count; close
+//! up its regions (the strips in fixed regions, patched in place). A new instance holds none:
+//! it draws the asset's one shared `S0` until its first move. Areas move to new ones when what
+//! the instance draws changes enough; a growing copy is copied on the GPU, never re-uploaded.
 //!
 //! Per frame: [`set`](Crowd::set) moves every named instance in parallel (rayon) and, on the
 //! same thread right after each move (while the instance's strips are in that core's cache),
 //! makes its index patches (O(changed indices) for the regions and for the compact copy, whose
-//! live indices only where it is repacked) and its record's; [`prepare`](Crowd::prepare)
-//! uploads each asset's patches with one write and applies them with one compute dispatch,
-//! does the same with the changed words of the records, and writes the changed instance
-//! blocks as one contiguous range; [`render`](Crowd::render) binds each asset and issues its
-//! one multi-draw. The caller owns device, queue and pass, as with an [`Object`](super::Object).
+//! live indices only where it is repacked), words of its area; then it settles each moved
+//! instance's area and record; [`prepare`](Crowd::prepare) grows the pages and copies the
+//! areas that moved, uploads each page's patches with one write and applies them with one
+//! compute dispatch, does the same with the changed words of the records, expands the tail
+//! lists and writes the changed instance blocks as one contiguous range;
+//! [`render`](Crowd::render) binds each asset and issues one multi-draw per page (one page
+//! holds a crowd of thousands). The caller owns device, queue and pass, as with an
+//! [`Object`](super::Object).
 //!
 //! The instance of a vertex reaches the shader one of two ways ([`CrowdPath`],
 //! `shaders/crowd.wgsl`): as `first_instance` (the slot), with the poses and surface fetched
@@ -48,6 +53,7 @@ mod discrete;
 mod member;
 mod patches;
 mod pipeline;
+mod pool;
 mod prepare;
 mod render;
 mod set;
@@ -57,7 +63,7 @@ mod types;
 
 use std::sync::Arc;
 
-use wgpu::util::{BufferInitDescriptor, DeviceExt, DrawIndexedIndirectArgs};
+use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 pub use self::bench::{
     run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, FrameFigures, LevelFigures, ModeFigures,
@@ -65,13 +71,14 @@ pub use self::bench::{
 };
 pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
 use self::member::Member;
-use self::patches::{PatchRuns, Span, Waiting};
+use self::patches::{Span, Waiting};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, SceneBlock, Variant};
+use self::pool::{Area, Pool};
 use self::slots::SlotLayout;
-use self::tail::{TailJob, TailLists};
+use self::tail::TailLists;
 pub use self::types::{
-    AssetId, CrowdError, CrowdRecords, CrowdStats, CrowdUpload, InstanceAt, InstanceId,
+    AssetId, CrowdError, CrowdRecords, CrowdStats, CrowdUpload, DrawnFrom, InstanceAt, InstanceId,
 };
 use super::asset::GpuAsset;
 use super::scatter::PatchBuffer;
@@ -100,48 +107,55 @@ struct CrowdAsset {
     gpu: Arc<GpuAsset>,
     model: Arc<DeformingModel>,
     layout: SlotLayout,
-    capacity: u32,
-    index_buffer: wgpu::Buffer,
-    indirect_buffer: wgpu::Buffer,
-    instance_buffer: wgpu::Buffer,
-    bind_group: wgpu::BindGroup,
+    /// Its index memory: pages of areas, each page with the records drawn from it.
+    pool: Pool,
+    /// `S0` in page 0 (the regions at full detail), read by the instances not moved yet;
+    /// written by the first prepare.
+    s0: Area,
+    s0_written: bool,
+    /// Restarts over the regions' words: what new regions are copied from.
+    restarts: wgpu::Buffer,
+    /// Per page, the scatter's and the tail expansion's buffers and bind groups over it.
+    binds: Vec<PageBinds>,
+    /// The asset's block (base colour, vertex count, shade mode), the instance blocks' buffer
+    /// (grown by prepare) and the bind group over them (none before the first prepare).
+    mesh: wgpu::Buffer,
+    instance_buffer: Option<wgpu::Buffer>,
+    bind_group: Option<wgpu::BindGroup>,
     /// Its render pipeline (number in the crowd's [`CrowdPipeline`]) and vertex entry point.
     render: usize,
     variant: Variant,
-    /// The patch lists' GPU buffers, for the index buffer and for the indirect buffer, with
-    /// the scatter's bind group over each; grown on demand.
-    patch_buffers: [Option<PatchBuffer>; 2],
     /// Instance of each slot (`None`: free).
     members: Vec<Option<Member>>,
     /// Generation of each slot, bumped when its instance is removed.
     generations: Vec<u32>,
-    /// Free slots, reused lowest first.
+    /// Free slots, reused lowest first (sorted, highest first).
     free: Vec<u32>,
-    /// Records drawn: one past the highest slot in use.
-    drawn: u32,
-    /// Mirror of the indirect buffer: one record per slot.
-    records: Vec<DrawIndexedIndirectArgs>,
     blocks: Vec<InstanceBlock>,
     dirty_blocks: Span,
     /// The patches made since the last prepare.
     waiting: Waiting,
+    /// Slots whose areas get contents on the GPU at the next prepare (moved or new regions).
+    arriving: Vec<u32>,
     /// Scratch of a scatter: the encoded run list.
     run_list: Vec<u32>,
-    /// Slots added to since the last prepare, once per add: a slot listed that holds an
-    /// instance holds one added since (a slot is added to only while free), whose regions
-    /// get `S0`.
-    fresh: Vec<u32>,
     /// Prepares so far (a [`Member`] notes the one its patches wait for).
     prepares: u64,
-    /// Scratch of prepare: the record runs, kept with their capacity between frames.
-    record_runs: PatchRuns,
-    /// Its frames' tail lists, their words on the GPU (none where no frame has a tail), and
-    /// the job list's buffer and bind group (grown on demand).
+    /// Its frames' tail lists and their words on the GPU (none where no frame has a tail).
     tails: TailLists,
     tail_words: Option<wgpu::Buffer>,
+    /// The most instances the device can draw, and why (none: more than slots number).
+    most: Option<(u32, &'static str)>,
+}
+
+/// What one page's scatters and tail expansion bind, made for one generation of its buffers.
+#[derive(Default)]
+struct PageBinds {
+    generation: u64,
+    /// The patch lists of its indices and of its records, with the scatter's bind groups.
+    patches: [Option<PatchBuffer>; 2],
+    /// The tail jobs' buffer and the expansion's bind group.
     tail_jobs: Option<(wgpu::Buffer, wgpu::BindGroup)>,
-    /// Scratch of prepare: the jobs.
-    jobs: Vec<TailJob>,
 }
 
 impl Crowd {

@@ -14,18 +14,19 @@ use crate::lodstrips::Dirty;
 pub(super) struct Waiting {
     /// Index patches as runs: one list per piece of work of `set`'s passes, in the order made.
     pub(super) index_runs: Vec<PatchRuns>,
-    /// The record words changed, as `[word, value]` patches of the indirect buffer.
-    pub(super) records: Patches,
-    /// Some word may be in two of `index_runs` (an instance moved by two `set`s, or one
-    /// removed after its patches were made): prepare then merges them first.
+    /// Some word may be in two of `index_runs` (an instance patched by two `set`s): prepare
+    /// then keeps its last value.
     pub(super) overlap: bool,
-    /// Slots whose instance was removed after its patches were made, each with the number of
-    /// `index_runs` lists made before: those lists' patches of the slot are dropped (the slot
-    /// may hold a new instance by then, written `S0` before the patches apply).
+    /// Slots whose patches made before were voided (the instance removed, or its area made
+    /// anew), each with the number of `index_runs` lists made before: those lists' runs of
+    /// the slot are dropped (they name words of an area it no longer has).
     pub(super) withdrawn: Vec<(u32, usize)>,
     /// Slots whose instance moved in its frame's tail (maybe twice: `prepare` writes those
     /// still there, once).
     pub(super) tails: Vec<u32>,
+    /// Slots whose instance moved in the current `set`: their areas and records are settled
+    /// after its passes.
+    pub(super) moved: Vec<u32>,
 }
 
 impl Waiting {
@@ -37,32 +38,16 @@ impl Waiting {
             if !runs.values.is_empty() {
                 self.index_runs.push(runs);
             }
-            self.records.extend_from_slice(&piece.records);
             self.tails.extend_from_slice(&piece.tails);
+            self.moved.extend_from_slice(&piece.moved);
             self.overlap |= piece.again;
         }
         rebuilds
     }
 
-    /// Merges the index patches into one list where each word has its last value, less the
-    /// withdrawn slots' patches made before their removal (`per`: slots per instance).
-    pub(super) fn merge(&mut self, per: u32) {
-        let mut patches = Vec::new();
-        for (list, runs) in self.index_runs.iter().enumerate() {
-            for (first, values) in runs.iter() {
-                for (word, &value) in (first..).zip(values) {
-                    let withdrawn = (self.withdrawn.iter())
-                        .any(|&(slot, lists)| list < lists && word / per == slot);
-                    if !withdrawn {
-                        patches.push([word, value]);
-                    }
-                }
-            }
-        }
-        keep_last_per_word(&mut patches);
-        self.index_runs = vec![PatchRuns::of(&patches)];
-        self.withdrawn.clear();
-        self.overlap = false;
+    /// Whether list `list`'s runs of `slot` were withdrawn.
+    pub(super) fn is_withdrawn(&self, slot: u32, list: usize) -> bool {
+        (self.withdrawn.iter()).any(|&(s, lists)| s == slot && list < lists)
     }
 }
 
@@ -92,87 +77,82 @@ pub(super) fn each_word_once(words: impl Iterator<Item = u32>) -> bool {
     words.windows(2).all(|w| w[0] != w[1])
 }
 
-/// `[slot, value]` patches of the index buffer, or `[word, value]` of the indirect buffer.
-type Patches = Vec<[u32; 2]>;
+/// `[word, value]` patches: of an instance's area (words counted from its start) or of a
+/// page's records.
+pub(super) type Patches = Vec<[u32; 2]>;
 
-/// Patches as the scatter sends them: runs of consecutive words, each its first word and the
-/// range of its values in `values` (the patches' values in order).
+/// An instance's patches as the scatter sends them: runs of consecutive words of its area,
+/// each its owner's slot, its first word and the range of its values in `values` (the
+/// patches' values in order).
 #[derive(Default)]
 pub(super) struct PatchRuns {
     pub(super) values: Vec<u32>,
-    runs: Vec<(u32, std::ops::Range<usize>)>,
+    runs: Vec<(u32, u32, std::ops::Range<usize>)>,
 }
 
 impl PatchRuns {
-    /// The runs of `patches`: consecutive words in the list make one run (a compact copy and a
-    /// record are patched in order): 8 bytes of run list for a lone word, 8 plus 4 a word for
-    /// a run.
-    fn of(patches: &[[u32; 2]]) -> PatchRuns {
+    /// The runs of `patches`, whose `owners` are `(slot, end)`: the patches up to `end`
+    /// (from the previous owner's end) are slot `slot`'s. Consecutive words of one owner make
+    /// one run (a compact copy and a record are patched in order): 8 bytes of run list for a
+    /// lone word, 8 plus 4 a word for a run.
+    pub(super) fn of(patches: &[[u32; 2]], owners: &[(u32, usize)]) -> PatchRuns {
         let mut runs = PatchRuns::default();
-        runs.refill(patches);
+        let mut start = 0;
+        for &(slot, end) in owners {
+            for (i, p) in (start..end).zip(&patches[start..end]) {
+                match runs.runs.last_mut() {
+                    Some((owner, first, values))
+                        if *owner == slot
+                            && i > start
+                            && *first + (i - values.start) as u32 == p[0] =>
+                    {
+                        values.end = i + 1;
+                    }
+                    _ => runs.runs.push((slot, p[0], i..i + 1)),
+                }
+            }
+            start = end;
+        }
+        runs.values.extend(patches[..start].iter().map(|p| p[1]));
         runs
     }
 
-    /// [`of`](Self::of), into this list's storage.
-    pub(super) fn refill(&mut self, patches: &[[u32; 2]]) {
-        self.runs.clear();
-        for (i, p) in patches.iter().enumerate() {
-            match self.runs.last_mut() {
-                Some((first, values)) if *first + (i - values.start) as u32 == p[0] => {
-                    values.end = i + 1;
-                }
-                _ => self.runs.push((p[0], i..i + 1)),
-            }
-        }
-        self.values.clear();
-        self.values.extend(patches.iter().map(|p| p[1]));
-    }
-
-    /// Each run as its first word and its values.
-    pub(super) fn iter(&self) -> impl Iterator<Item = (u32, &[u32])> + Clone {
+    /// Each run as its owner's slot, its first word and its values.
+    pub(super) fn iter(&self) -> impl Iterator<Item = (u32, u32, &[u32])> + Clone {
         self.runs
             .iter()
-            .map(|(first, range)| (*first, &self.values[range.clone()]))
+            .map(|(slot, first, range)| (*slot, *first, &self.values[range.clone()]))
     }
 }
 
-/// Sets `record` (slot `slot`'s) to read `what` of its slots (`path`: where the slot rides,
-/// `vertex_count`: the asset's) and appends to `patches` one `[word, value]` patch of the
-/// indirect buffer per word that changed.
-pub(super) fn set_record(
-    (path, vertex_count, per_instance): (CrowdPath, u32, u32),
+/// The record of the instance in `slot` that reads `what` of the words from `offset` of its
+/// page (`path`: where the slot rides, `vertex_count`: the asset's); nothing drawn for no
+/// words.
+pub(super) fn draw_args(
+    (path, vertex_count): (CrowdPath, u32),
     slot: u32,
-    what: Option<SlotRecord>,
-    record: &mut DrawIndexedIndirectArgs,
-    patches: &mut Vec<[u32; 2]>,
-) {
-    // The slot rides in first_instance or in base_vertex (checked to fit in add_asset).
+    offset: u32,
+    what: SlotRecord,
+) -> DrawIndexedIndirectArgs {
+    if what.count == 0 {
+        return DrawIndexedIndirectArgs::default();
+    }
+    // The slot rides in first_instance or in base_vertex (checked to fit in `add`).
     let (base_vertex, first_instance) = match path {
         CrowdPath::FirstInstance => (0, slot),
         CrowdPath::BaseVertex => ((slot * vertex_count) as i32, 0),
     };
-    let new = what
-        .filter(|w| w.count > 0)
-        .map_or_else(Default::default, |w| DrawIndexedIndirectArgs {
-            index_count: w.count,
-            instance_count: 1,
-            first_index: slot * per_instance + w.first,
-            base_vertex,
-            first_instance,
-        });
-    let old: [u32; 5] = bytemuck::cast(*record);
-    let now: [u32; 5] = bytemuck::cast(new);
-    let first_word = slot * 5;
-    for (w, (&o, &v)) in (0u32..).zip(old.iter().zip(&now)) {
-        if o != v {
-            patches.push([first_word + w, v]);
-        }
+    DrawIndexedIndirectArgs {
+        index_count: what.count,
+        instance_count: 1,
+        first_index: offset + what.first,
+        base_vertex,
+        first_instance,
     }
-    *record = new;
 }
 
 /// What one piece of work of `set`'s passes made: its rebuilds over the mesh (left to the
-/// rebuild pass), its instances' index and record patches.
+/// rebuild pass), its instances' index patches and the instances whose area may change.
 #[derive(Default)]
 pub(super) struct Piece {
     /// Scratch of the poses.
@@ -180,19 +160,29 @@ pub(super) struct Piece {
     pub(super) rebuilds: Vec<(usize, Plan)>,
     /// Scratch of the instances' dirty logs, reused from one to the next.
     pub(super) dirty: Dirty,
+    /// Patches of the instances' areas, and whose they are: `(slot, end)`.
     pub(super) patches: Patches,
-    pub(super) records: Patches,
+    pub(super) owners: Vec<(u32, usize)>,
     /// An instance patched a second time since the last prepare.
     pub(super) again: bool,
     /// Slots whose instance moved in its frame's tail.
     pub(super) tails: Vec<u32>,
+    /// Slots whose instance needs its area and record settled.
+    pub(super) moved: Vec<u32>,
 }
 
 impl Piece {
+    /// Notes that the patches from `start` on are `slot`'s.
+    pub(super) fn own(&mut self, slot: u32, start: usize) {
+        if self.patches.len() > start {
+            self.owners.push((slot, self.patches.len()));
+        }
+    }
+
     /// Its index patches as runs, made on the piece's thread: gathered on the calling thread
     /// they were most of the crowd's serial time (tens of thousands of patches a frame).
     pub(super) fn runs(self) -> (PatchRuns, Piece) {
-        (PatchRuns::of(&self.patches), self)
+        (PatchRuns::of(&self.patches, &self.owners), self)
     }
 }
 

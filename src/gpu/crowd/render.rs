@@ -1,10 +1,11 @@
-//! Drawing and looking: `render` (one multi-draw per asset), where each instance is, the
-//! buffers and figures, and the GPU probe of an instance's blended positions.
+//! Drawing and looking: `render` (one multi-draw per asset and page), where each instance
+//! is, the buffers and figures, and the GPU probe of an instance's blended positions.
 
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
-use super::member::Member;
 use super::pipeline::{CrowdPath, InstanceBlock};
+use super::pool::Page;
+use super::slots::DrawnFrom;
 use super::types::{AssetId, CrowdError, CrowdStats, InstanceAt, InstanceId};
 use super::Crowd;
 use crate::deform::DeformingState;
@@ -12,18 +13,35 @@ use crate::gpu::commands::RenderCommands;
 use crate::gpu::records::ARGS_BYTES;
 
 impl Crowd {
-    /// Draws every asset's instances: per asset one bind group, on the first-instance path its
-    /// vertex buffers (poses, surface), its index buffer and exactly one
-    /// `multi_draw_indexed_indirect` over its records (one per slot up to the highest in use;
-    /// free slots draw nothing). Sets its own pipelines (one per vertex entry point in use).
+    /// Draws every asset's instances: per asset one bind group and, on the first-instance
+    /// path, its vertex buffers (poses, surface); per page of its index memory (one holds a
+    /// crowd of thousands) its index buffer and exactly one `multi_draw_indexed_indirect` over
+    /// its records (free ones draw nothing). Sets its own pipelines (one per vertex entry point
+    /// in use). Draws what the last [`prepare`](Self::prepare) uploaded.
     pub fn render(&self, pass: &mut (impl RenderCommands + ?Sized)) {
         let mut bound = None;
-        for a in self.assets.iter().filter(|a| a.drawn > 0) {
+        for a in &self.assets {
+            let Some(group) = &a.bind_group else {
+                continue;
+            };
+            let pages = a.pool.pages.iter().filter_map(|page| match page {
+                Page {
+                    indices: Some(indices),
+                    indirect: Some(indirect),
+                    drawn,
+                    ..
+                } if *drawn > 0 => Some((indices, indirect, *drawn)),
+                _ => None,
+            });
+            let mut pages = pages.peekable();
+            if pages.peek().is_none() {
+                continue;
+            }
             if bound != Some(a.render) {
                 pass.set_pipeline(self.pipeline.render(a.render));
                 bound = Some(a.render);
             }
-            pass.set_bind_group(0, &a.bind_group);
+            pass.set_bind_group(0, group);
             if self.path == CrowdPath::FirstInstance {
                 pass.set_vertex_buffer(0, a.gpu.v0());
                 pass.set_vertex_buffer(1, a.gpu.v1());
@@ -31,8 +49,10 @@ impl Crowd {
                     pass.set_vertex_buffer(2, &surface.buffer);
                 }
             }
-            pass.set_index_buffer(&a.index_buffer, wgpu::IndexFormat::Uint32);
-            pass.multi_draw_indexed_indirect(&a.indirect_buffer, 0, a.drawn);
+            for (indices, indirect, drawn) in pages {
+                pass.set_index_buffer(indices, wgpu::IndexFormat::Uint32);
+                pass.multi_draw_indexed_indirect(indirect, 0, drawn);
+            }
         }
     }
 
@@ -51,26 +71,37 @@ impl Crowd {
         Ok(self.assets[id.asset as usize].at(member))
     }
 
-    /// The index buffer of `asset` (`COPY_SRC`): instance slot `s` owns indices
-    /// `s × slots_per_instance ..`.
-    pub fn index_buffer(&self, asset: AssetId) -> Option<&wgpu::Buffer> {
-        self.assets.get(asset.0 as usize).map(|a| &a.index_buffer)
-    }
-
-    /// The indirect buffer of `asset` (`COPY_SRC`): record `s` draws slot `s`.
-    pub fn indirect_buffer(&self, asset: AssetId) -> Option<&wgpu::Buffer> {
+    /// Pages of `asset`'s index memory (each drawn by one multi-draw).
+    pub fn pages(&self, asset: AssetId) -> usize {
         self.assets
             .get(asset.0 as usize)
-            .map(|a| &a.indirect_buffer)
+            .map_or(0, |a| a.pool.pages.len())
     }
 
-    /// Records `render` draws for `asset` (one past its highest slot in use).
-    pub fn drawn_records(&self, asset: AssetId) -> u32 {
-        self.assets.get(asset.0 as usize).map_or(0, |a| a.drawn)
+    /// Page `page`'s index buffer of `asset` (`COPY_SRC`; none before the first prepare): the
+    /// areas of the instances whose records are in the page's indirect buffer.
+    pub fn index_buffer(&self, asset: AssetId, page: usize) -> Option<&wgpu::Buffer> {
+        let a = self.assets.get(asset.0 as usize)?;
+        a.pool.pages.get(page)?.indices.as_ref()
     }
 
-    /// Index slots of the compact area of each instance of `asset` (the last ones of its
-    /// slot range, [`CrowdRecords`](super::CrowdRecords)).
+    /// Page `page`'s indirect buffer of `asset` (`COPY_SRC`; none before the first prepare):
+    /// one record per instance whose area is in the page (its `first_instance` or
+    /// `base_vertex` names the instance's slot), free records zero.
+    pub fn indirect_buffer(&self, asset: AssetId, page: usize) -> Option<&wgpu::Buffer> {
+        let a = self.assets.get(asset.0 as usize)?;
+        a.pool.pages.get(page)?.indirect.as_ref()
+    }
+
+    /// Records `render` draws from page `page` of `asset` (one past its highest in use).
+    pub fn drawn_records(&self, asset: AssetId, page: usize) -> u32 {
+        let a = self.assets.get(asset.0 as usize);
+        a.and_then(|a| a.pool.pages.get(page))
+            .map_or(0, |p| p.drawn)
+    }
+
+    /// The most words of an instance's compact copy for `asset`
+    /// ([`CrowdRecords`](super::CrowdRecords)).
     pub fn compact_slots(&self, asset: AssetId) -> u32 {
         self.assets
             .get(asset.0 as usize)
@@ -90,36 +121,39 @@ impl Crowd {
             .map(|a| a.variant.entry_point())
     }
 
-    /// Index slots per instance of `asset`.
-    pub fn slots_per_instance(&self, asset: AssetId) -> u32 {
-        self.assets
-            .get(asset.0 as usize)
-            .map_or(0, |a| a.layout.per_instance())
-    }
-
     /// Live instances, triangles drawn and bytes, over all assets.
     pub fn stats(&self) -> CrowdStats {
         let mut stats = CrowdStats::default();
+        let block = size_of::<InstanceBlock>() as u64;
         for a in &self.assets {
-            let live = a.members.iter().flatten();
-            let count = live.clone().count();
-            stats.instances += count;
-            stats.culled += live.clone().filter(|m| m.hidden).count();
-            let shown = live.filter(|m| !m.hidden);
-            stats.triangles += shown.map(|m| a.at(m).triangles).sum::<usize>();
-            stats.indices += (a.records.iter().zip(&a.members))
-                .filter(|(_, m)| m.as_ref().is_some_and(|m| !m.hidden))
-                .map(|(r, _)| u64::from(r.index_count))
-                .sum::<u64>();
-            let per_slot = u64::from(a.layout.per_instance()) * 4
-                + ARGS_BYTES
-                + size_of::<InstanceBlock>() as u64;
-            stats.instance_gpu_bytes += per_slot * count as u64;
-            let mirrors = (ARGS_BYTES as usize + size_of::<InstanceBlock>()) * count;
-            let members: usize = a.members.iter().flatten().map(Member::heap_bytes).sum();
-            stats.instance_host_bytes += (members + mirrors) as u64;
-            stats.shared_gpu_bytes +=
-                a.gpu.gpu_bytes() + a.tail_words.as_ref().map_or(0, |b| b.size());
+            for member in a.members.iter().flatten() {
+                stats.instances += 1;
+                match member.holds {
+                    DrawnFrom::S0 => stats.from_s0 += 1,
+                    DrawnFrom::Tail => stats.from_tails += 1,
+                    DrawnFrom::Copy => stats.from_copies += 1,
+                    DrawnFrom::Regions => stats.from_regions += 1,
+                }
+                let area = member.area.map_or(0, |area| u64::from(area.words) * 4);
+                stats.instance_gpu_bytes += area + ARGS_BYTES + block;
+                stats.instance_host_bytes +=
+                    (member.heap_bytes() + size_of::<InstanceBlock>()) as u64;
+                if member.hidden {
+                    stats.culled += 1;
+                    continue;
+                }
+                stats.triangles += a.at(member).triangles;
+                let page = &a.pool.pages[member.record.page as usize];
+                let record = page.records[member.record.entry as usize];
+                stats.indices += u64::from(record.index_count);
+            }
+            // The records' mirrors, free ones included.
+            let records: usize = a.pool.pages.iter().map(|p| p.records.len()).sum();
+            stats.instance_host_bytes += (records as u64) * ARGS_BYTES;
+            let shared = a.gpu.gpu_bytes() + a.tail_words.as_ref().map_or(0, |b| b.size());
+            stats.shared_gpu_bytes += shared;
+            let blocks = a.instance_buffer.as_ref().map_or(0, |b| b.size());
+            stats.gpu_bytes += shared + a.pool.gpu_bytes() + blocks + a.restarts.size();
         }
         stats
     }
@@ -136,6 +170,7 @@ impl Crowd {
     ) -> Result<Vec<[f32; 3]>, CrowdError> {
         self.state(id)?;
         let a = &self.assets[id.asset as usize];
+        let bind_group = a.bind_group.as_ref().ok_or(CrowdError::NotPrepared)?;
         let n = a.gpu.vertex_count();
         let bytes = u64::from(n) * 12;
         let probed = device.create_buffer(&wgpu::BufferDescriptor {
@@ -167,7 +202,7 @@ impl Crowd {
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_pipeline(&self.pipeline.probe);
-            pass.set_bind_group(0, &a.bind_group, &[]);
+            pass.set_bind_group(0, bind_group, &[]);
             pass.set_bind_group(1, &group, &[]);
             pass.dispatch_workgroups(n.div_ceil(64), 1, 1);
         }

@@ -42,23 +42,21 @@ impl Crowd {
         let path = self.path;
         for (a, _) in self.assets.iter_mut().zip(moved).filter(|(_, m)| *m) {
             let (model, track, layout, tails) = (&a.model, a.gpu.track(), &a.layout, &a.tails);
-            let key = (path, a.gpu.vertex_count(), layout.per_instance());
             let prepares = a.prepares;
+            let lists = a.waiting.index_runs.len();
             // In parallel, in pieces of consecutive slots (a few a thread, so that pieces
             // with many frame switches even out): every moved instance's pose and plan; the
-            // moves into a frame's tail list take its record only; the moves that step or
+            // moves into a frame's tail list note the area they need; the moves that step or
             // rebuild from a frame's tail are made here, and the instance's patches right
             // after them; the rebuilds over the mesh are gathered.
             let per = par::piece_len(a.members.len(), MOVES_PER_PIECE);
             let parts: Vec<_> = (a.members.chunks_mut(per))
                 .zip(a.blocks.chunks_mut(per))
-                .zip(a.records.chunks_mut(per))
                 .enumerate()
                 .collect();
-            let pieces = par::map(parts, |(k, ((members, blocks), records))| {
+            let pieces = par::map(parts, |(k, (members, blocks))| {
                 let mut piece = Piece::default();
-                let slots = (k * per..).zip(members.iter_mut().zip(blocks).zip(records));
-                for (slot, ((member, block), record)) in slots {
+                for (slot, (member, block)) in (k * per..).zip(members.iter_mut().zip(blocks)) {
                     let Some(member) = member.as_mut() else {
                         continue;
                     };
@@ -71,8 +69,7 @@ impl Crowd {
                     let k = model.frame_at(t).expect("checked time");
                     let l = model.resolve(k, lod).expect("checked LOD");
                     if let Some(count) = tails.triangles(k, l) {
-                        let at = (k, l, count);
-                        member.enter_tail(layout, key, slot as u32, at, record, &mut piece);
+                        member.enter_tail(slot as u32, (k, l, count), prepares, &mut piece);
                         continue;
                     }
                     let state = member.leave_tail(model);
@@ -82,36 +79,43 @@ impl Crowd {
                         continue;
                     }
                     state.apply(model, plan, &mut Survivors::new());
-                    member.patch(layout, key, slot as u32, record, prepares, &mut piece);
+                    member.patch(layout, slot as u32, prepares, &mut piece);
                 }
                 piece.runs()
             });
             let rebuilds = a.waiting.take(pieces);
-            if rebuilds.is_empty() {
-                continue;
-            }
-            // The rebuilds over the mesh, by frame (instances switching to one frame share
-            // its survivors), each instance's patches right after its rebuild.
-            let mut plans = rebuilds.into_iter().peekable();
-            let mut jobs = Vec::with_capacity(plans.len());
-            for (slot, (member, record)) in a.members.iter_mut().zip(&mut a.records).enumerate() {
-                if let (Some(member), Some(&(s, plan))) = (member, plans.peek()) {
-                    if s == slot {
-                        jobs.push((plan, (slot as u32, member, record)));
-                        plans.next();
+            if !rebuilds.is_empty() {
+                // The rebuilds over the mesh, by frame (instances switching to one frame
+                // share its survivors), each instance's patches right after its rebuild.
+                let mut plans = rebuilds.into_iter().peekable();
+                let mut jobs = Vec::with_capacity(plans.len());
+                for (slot, member) in a.members.iter_mut().enumerate() {
+                    if let (Some(member), Some(&(s, plan))) = (member, plans.peek()) {
+                        if s == slot {
+                            jobs.push((plan, (slot as u32, member)));
+                            plans.next();
+                        }
                     }
                 }
+                let pieces = rebuild_all(
+                    model,
+                    &mut jobs,
+                    |(_, member)| member.state.as_mut().expect("moved out of the tail lists"),
+                    |(slot, member), piece: &mut Piece| {
+                        member.patch(layout, *slot, prepares, piece);
+                    },
+                    Piece::runs,
+                );
+                a.waiting.take(pieces);
             }
-            let pieces = rebuild_all(
-                model,
-                &mut jobs,
-                |(_, member, _)| member.state.as_mut().expect("moved out of the tail lists"),
-                |(slot, member, record), piece: &mut Piece| {
-                    member.patch(layout, key, *slot, record, prepares, piece);
-                },
-                Piece::runs,
-            );
-            a.waiting.take(pieces);
+            // settleAreas: serially, in slot order, each moved instance's area and record.
+            let mut moved = std::mem::take(&mut a.waiting.moved);
+            moved.sort_unstable();
+            for &slot in &moved {
+                a.settle(path, slot, lists);
+            }
+            moved.clear();
+            a.waiting.moved = moved;
         }
         Ok(())
     }

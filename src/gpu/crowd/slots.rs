@@ -1,50 +1,112 @@
-//! An instance's index slots in its asset's index buffer, and the patches that bring them from
-//! what the GPU holds to the runtime's current strips.
+//! What an instance's area of index memory ([`super::pool`]) holds, and the patches that bring
+//! it from what the GPU holds to the runtime's current strips.
 //!
-//! Every instance of an asset owns `per_instance` consecutive slots. First its regions: region
-//! `r` (strip `r` of `S0`) at `starts[r]..starts[r] + capacity`, followed by one separator
-//! slot that always holds [`RESTART`]: the layout of a strip [`Object`](super::super::Object),
-//! so one record draws all its strips (restarts separate them), and patches keep it current
-//! at O(changed indices). Then its compact area: where the instance's live strips fit in it
-//! (a coarse LOD), they are copied there, each in a place of its own ([`Places`]) that it
-//! keeps while it fits, and its record draws that copy instead of the regions, whose restart
-//! tails would be most of what it reads.
+//! Where its live strips are few (a coarse LOD: their packed count within the compact share of
+//! the regions), the area holds a compact copy of them, each in a place of its own
+//! ([`Places`]) that it keeps while it fits, and the instance's record reads that copy: the
+//! live indices and a few restarts. Else (close to the camera) the area holds its regions:
+//! region `r` (strip `r` of `S0`) at `starts[r]..starts[r] + capacity`, followed by one
+//! separator slot that always holds [`RESTART`]: the layout of a strip
+//! [`Object`](super::super::Object), so one record draws all its strips (restarts separate
+//! them), and patches keep it current at O(changed indices). Each upload says what area it
+//! needs ([`Need`]): a copy that outgrows its area moves to a larger one (its used part copied
+//! on the GPU), a repacked copy takes an area of its size, regions take the whole layout.
 //! The CPU keeps no mirror of the slots: what the GPU holds is known from the runtime's strips
 //! as of the last upload, and the runtime's dirty log says which positions may differ since.
-//! A patch is `[slot, value]`; a frame's patches of all instances are encoded as runs of
-//! consecutive slots and applied by one scatter dispatch.
+//! A patch is `[word, value]`, the word counted from the start of the instance's area; a
+//! frame's patches of all instances are encoded as runs of consecutive words and applied by
+//! one scatter dispatch per page.
 
 use crate::deform::{DeformingModel, DeformingState};
 use crate::lodstrips::{for_each_live, Dirty, DirtyRange};
 
+pub(super) use super::types::DrawnFrom;
+
 use super::super::scatter::RUN_WORDS;
 use super::super::RESTART;
+use super::pool::GRANULE;
 
-/// Where the regions of one instance lie, relative to its first slot.
+/// Where the regions of one instance lie, relative to the start of its area.
 pub(super) struct SlotLayout {
-    /// Region r starts at `starts[r]`; `starts[regions]` is the slot count per instance.
+    /// Region r starts at `starts[r]`; `starts[regions]` is the words of the regions.
     starts: Vec<u32>,
     /// Region r starts at `runtime[r]` in the runtime's packed buffer (no separators).
     runtime: Vec<u32>,
-    /// `S0` with a separator after every region: what a new instance's regions hold.
+    /// `S0` with a separator after every region: what the asset's shared `S0` area holds.
     s0: Vec<u32>,
-    /// Slots of the compact area, after the regions.
+    /// The most words of a compact copy (the compact share of the regions').
     compact: u32,
 }
 
-/// Which slots an instance's one draw record reads, relative to its first slot.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which words of its area (or of the shared `S0`) an instance's one draw record reads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(super) struct SlotRecord {
     pub(super) first: u32,
     pub(super) count: u32,
-    /// Reads the compact area (else the regions).
-    pub(super) compact: bool,
 }
 
-/// Where an instance's live strips lie in its compact area, and whether its regions lag
+/// The area an instance needs after a move: holding `holds`, at least `min` words. Its area is
+/// kept where it holds the same and has at most `max` words (and at least `min`); else it gets
+/// a new one of `room` words (at least `min`), holding the first `keep` words of the old one
+/// (copied on the GPU: a compact copy grown past its area, whose places keep their words) or,
+/// for regions, [`RESTART`] everywhere, which the patches then fill.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Need {
+    pub(super) holds: DrawnFrom,
+    pub(super) min: u32,
+    pub(super) max: u32,
+    pub(super) room: u32,
+    pub(super) keep: u32,
+}
+
+/// The most words an area may keep for a need of `words`: three times that (so that an area
+/// is made anew, and the old one freed, where what the instance draws fell to a third), and
+/// never less than a new area's room of 1.5 times, rounded up to the pool's granule.
+pub(super) fn most_words(words: u32) -> u32 {
+    (3 * words).max(words + words / 2 + 2 * GRANULE)
+}
+
+impl Need {
+    /// The regions: `words` of them, patched where they are (any area holding them is kept:
+    /// the patches are made against what it holds).
+    pub(super) fn regions(words: u32) -> Need {
+        Need {
+            holds: DrawnFrom::Regions,
+            min: words,
+            max: u32::MAX,
+            room: words,
+            keep: 0,
+        }
+    }
+
+    /// Whether an area of `words` (rounded up to the pool's granule) holding `holds` serves
+    /// this need as it is.
+    pub(super) fn keeps(&self, holds: DrawnFrom, words: u32) -> bool {
+        let max = self
+            .max
+            .checked_next_multiple_of(GRANULE)
+            .unwrap_or(u32::MAX);
+        holds == self.holds && (self.min..=max).contains(&words)
+    }
+
+    /// An area for `words` of `holds` written anew, with room to grow by half (at most to
+    /// `largest`): the current one is kept from `words` to [`most_words`].
+    pub(super) fn with_headroom(holds: DrawnFrom, words: u32, largest: u32) -> Need {
+        let room = (words + words / 2).min(largest).max(words);
+        Need {
+            holds,
+            min: words,
+            max: most_words(words),
+            room,
+            keep: 0,
+        }
+    }
+}
+
+/// Where an instance's live strips lie in its compact copy, and whether its regions lag
 /// behind its strips. Empty (no heap) until the instance is first drawn from its copy.
 ///
-/// A strip with a place has `at..at + room` of the compact area, holding its `len` indices as
+/// A strip with a place has `at..at + room` of the copy's area, holding its `len` indices as
 /// of the last upload and [`RESTART`] over the rest, followed by a separator slot that holds
 /// [`RESTART`] (so a place starts after a restart, like a region: a strip decodes with the
 /// same parity, and two never join). Places lie one after another from slot 0 up to `used`,
@@ -58,8 +120,8 @@ pub(super) struct Places {
     placed: Vec<(u32, Place)>,
     /// Scratch of `move_places`: the strips given a first place, merged into `placed` after.
     born: Vec<(u32, Place)>,
-    /// The end of the used part (the record reads within `0..used` of the compact area, from
-    /// its first live index to its last).
+    /// The end of the used part (the record reads within `0..used` of the area, from its
+    /// first live index to its last).
     used: u32,
     /// The copy holds the strips as of the last upload (false while the regions are drawn:
     /// then the copy is repacked when a record reads it again).
@@ -91,9 +153,9 @@ impl Places {
         out
     }
 
-    /// The instance is drawn from elsewhere (its frame's tail list, written over its compact
-    /// area): the copy is repacked and the regions get every live strip when a record reads
-    /// them again.
+    /// The instance is drawn from elsewhere (its frame's tail list, written over its area):
+    /// the copy is repacked and the regions get every live strip when a record reads them
+    /// again.
     pub(super) fn leave(&mut self) {
         self.current = false;
         self.stale = true;
@@ -138,7 +200,7 @@ fn find(placed: &[(u32, Place)], k: &mut usize, r: usize) -> (Option<usize>, Pla
     }
 }
 
-/// Where one strip lies in the compact area (see [`Places`]).
+/// Where one strip lies in the compact copy (see [`Places`]).
 #[derive(Clone, Copy, Debug, Default)]
 struct Place {
     at: u32,
@@ -154,8 +216,8 @@ const READ_BOUND_EIGHTHS: u32 = 12;
 const SLACK_EIGHTHS: u32 = 0;
 
 impl SlotLayout {
-    /// The slots of `model`'s instances, with a compact area of `compact_share` (clamped to
-    /// 0..=1) of the regions' slots.
+    /// The regions of `model`'s instances, and compact copies of at most `compact_share`
+    /// (clamped to 0..=1) of the regions' words.
     pub(super) fn new(model: &DeformingModel, compact_share: f32) -> SlotLayout {
         let layout = model.layout();
         let runtime = layout.region_offsets().to_vec();
@@ -178,39 +240,17 @@ impl SlotLayout {
         }
     }
 
-    /// Slots per instance: the regions (capacities plus separators) and the compact area.
-    pub(super) fn per_instance(&self) -> u32 {
-        self.regions() + self.compact
-    }
-
-    /// Shrinks the compact area (to nothing at most) so that an instance has at most
-    /// `slots`.
-    pub(super) fn fit(&mut self, slots: u64) {
-        let room = slots.saturating_sub(u64::from(self.regions()));
-        self.compact = self.compact.min(room.min(u64::from(u32::MAX)) as u32);
-    }
-
-    /// The record that reads the first `count` slots of the compact area (a frame's tail
-    /// list written there).
-    pub(super) fn tail_record(&self, count: u32) -> SlotRecord {
-        SlotRecord {
-            first: self.regions(),
-            count,
-            compact: true,
-        }
-    }
-
-    /// Slots of the regions.
-    fn regions(&self) -> u32 {
+    /// Words of the regions.
+    pub(super) fn regions(&self) -> u32 {
         *self.starts.last().unwrap_or(&0)
     }
 
-    /// Slots of the compact area.
+    /// The most words of a compact copy.
     pub(super) fn compact_slots(&self) -> u32 {
         self.compact
     }
 
-    /// The regions of a new instance (`S0`, separators).
+    /// The regions at `S0` (separators included): the asset's shared `S0` area.
     pub(super) fn s0(&self) -> &[u32] {
         &self.s0
     }
@@ -221,39 +261,63 @@ impl SlotLayout {
     }
 
     /// Takes `state`'s dirty log (into `dirty`, scratch reused), appends to `out` the patches
-    /// that bring the slots at `base` to its current strips and returns the record that draws
-    /// them. Where the live strips and one restart between two fit the compact area, the
-    /// record reads the copy: moves are patched in the strips' places at O(changed) (a strip
-    /// that grew past its room moves to the end of the used part), and the copy is rewritten
-    /// packed where it was not current, would pass the area or the record would read more than
-    /// [`READ_BOUND_EIGHTHS`]/8 of the packed count; the regions are left behind (`places`
-    /// notes it). Else the record reads the regions from the first live index to the last,
-    /// brought up to date (`uploaded`: their lengths, empty while they are `S0`'s; every live
-    /// strip whole after they were left behind).
+    /// that bring its area (which `held` holds, of `words` words) to its current strips and
+    /// returns the record that draws them and the area that needs. Where the live strips and
+    /// one restart between two fit the compact share, the area holds a copy of them: moves are
+    /// patched in the strips' places at O(changed) (a strip that grew past its room moves to
+    /// the end of the used part, and the area grows, copied on the GPU, where that passes
+    /// it), and the copy is rewritten packed into an area of its size where it was not
+    /// current, the record would read more than [`READ_BOUND_EIGHTHS`]/8 of the packed count
+    /// or the moves would send more bytes; the regions are given up (`places` notes that
+    /// they lag, `uploaded` is emptied). Else the area holds the regions, read from the first
+    /// live index to the last and brought up to date (`uploaded`: their lengths; every live
+    /// strip whole into new regions, which hold restarts, or after they were left behind).
     pub(super) fn upload(
         &self,
-        base: u32,
+        (held, words): (DrawnFrom, u32),
         state: &mut DeformingState,
         places: &mut Places,
         uploaded: &mut Vec<u32>,
         dirty: &mut Dirty,
         out: &mut Vec<[u32; 2]>,
-    ) -> SlotRecord {
+    ) -> (SlotRecord, Need) {
         state.take_dirty_into(dirty);
         let dirty = &*dirty;
         let lengths = state.lengths();
         let packed = packed(state);
-        if packed > 0 && packed <= self.compact {
+        if packed <= self.compact {
             places.stale = true;
-            let mark = out.len();
-            // Moved in their places where that fits and sends fewer bytes than a repack.
-            if !(places.current
-                && self.move_places(base, state, dirty, places, packed, out)
-                && run_bytes(&out[mark..]) <= run_bytes_of_one(packed))
-            {
-                out.truncate(mark);
-                self.repack(base, state, places, packed, out);
+            if held == DrawnFrom::Regions {
+                *uploaded = Vec::new();
             }
+            let mark = out.len();
+            let used = places.used;
+            // Moved in their places where that fits the read bound and sends fewer bytes
+            // than a repack; the area grows where the moved strips pass it.
+            let moved = held == DrawnFrom::Copy
+                && places.current
+                && self.move_places(state, dirty, places, packed, out)
+                && run_bytes(&out[mark..]) <= run_bytes_of_one(packed);
+            let need = if moved {
+                // Grown past its area: twice the area or half again the used part, its used
+                // part copied; shrunk to a third: half again the used part, copied too.
+                let grown = if places.used > words { 2 * words } else { 0 };
+                let room = (places.used + places.used / 2)
+                    .max(grown)
+                    .min(self.compact)
+                    .max(places.used);
+                Need {
+                    holds: DrawnFrom::Copy,
+                    min: places.used,
+                    max: most_words(packed).max(places.used),
+                    room,
+                    keep: used,
+                }
+            } else {
+                out.truncate(mark);
+                self.repack(state, places, packed, out);
+                Need::with_headroom(DrawnFrom::Copy, packed, self.compact)
+            };
             // From the first live index of the copy to the last (every live strip has a
             // place holding its length).
             let (mut first, mut end) = (u32::MAX, 0);
@@ -261,32 +325,34 @@ impl SlotLayout {
                 first = first.min(place.at);
                 end = end.max(place.at + place.len);
             }
-            return SlotRecord {
-                first: self.regions() + first,
-                count: end - first,
-                compact: true,
+            let record = SlotRecord {
+                first: first.min(end),
+                count: end.saturating_sub(first),
             };
+            return (record, need);
         }
         places.current = false;
-        if uploaded.is_empty() {
-            *uploaded = self.s0_lengths();
+        if held != DrawnFrom::Regions {
+            // New regions hold restarts: every live strip goes whole.
+            *uploaded = vec![0; lengths.len()];
+            places.stale = true;
         }
         if places.stale {
             let stale = places.take_stale(uploaded, lengths);
-            self.patches(base, state, &stale, uploaded, out);
+            self.patches(state, &stale, uploaded, out);
         } else {
-            self.patches(base, state, dirty, uploaded, out);
+            self.patches(state, dirty, uploaded, out);
         }
-        self.region_record(lengths)
+        let need = Need::regions(self.regions());
+        (self.region_record(lengths), need)
     }
 
-    /// Appends the patches of `dirty` (the changes since the copy of the instance at `base`
-    /// was last written) to `out`, each strip in its place or moved to the end of the used
-    /// part; false where the used part would pass the compact area or the read bound (the
-    /// caller then repacks; `places` and `out` are left partly written).
+    /// Appends the patches of `dirty` (the changes since the copy was last written) to `out`,
+    /// each strip in its place or moved to the end of the used part; false where the used
+    /// part would pass the compact share or the read bound (the caller then repacks;
+    /// `places` and `out` are left partly written).
     fn move_places(
         &self,
-        base: u32,
         state: &DeformingState,
         dirty: &Dirty,
         places: &mut Places,
@@ -294,14 +360,13 @@ impl SlotLayout {
         out: &mut Vec<[u32; 2]>,
     ) -> bool {
         let (indices, lengths) = (state.indices(), state.lengths());
-        let area = base + self.regions();
         let bound = (packed * READ_BOUND_EIGHTHS / 8).min(self.compact);
         let copy = |r: usize, from: u32, to: u32, at: u32, out: &mut Vec<[u32; 2]>| {
             let source = self.runtime[r];
-            out.extend((from..to).map(|i| [area + at + i, indices[(source + i) as usize]]));
+            out.extend((from..to).map(|i| [at + i, indices[(source + i) as usize]]));
         };
         let restarts = |from: u32, to: u32, out: &mut Vec<[u32; 2]>| {
-            out.extend((area + from..area + to).map(|slot| [slot, RESTART]));
+            out.extend((from..to).map(|word| [word, RESTART]));
         };
         // The strips that outgrow their room move to the end of the used part: their rooms
         // summed first, and where they cannot fit the copy is repacked without the moves
@@ -373,12 +438,11 @@ impl SlotLayout {
         places.used <= bound
     }
 
-    /// Appends to `out` the patches that write `state`'s live strips packed into the compact
-    /// area of the instance at `base`, each in a new place (with [`SLACK_EIGHTHS`] of room to
-    /// grow where that fits the area and the read bound); `packed` (their packed count) fits.
+    /// Appends to `out` the patches that write `state`'s live strips packed from the start of
+    /// the area, each in a new place (with [`SLACK_EIGHTHS`] of room to grow where that fits
+    /// the compact share and the read bound); `packed` (their packed count) fits.
     fn repack(
         &self,
-        base: u32,
         state: &DeformingState,
         places: &mut Places,
         packed: u32,
@@ -396,18 +460,17 @@ impl SlotLayout {
             0
         };
         places.placed.clear();
-        let area = base + self.regions();
         let mut at = 0;
         for_each_live(lengths, |r, len| {
             if at > 0 {
-                out.push([area + at, RESTART]);
+                out.push([at, RESTART]);
                 at += 1;
             }
             let room = len + len * slack_eighths / 8;
             let source = self.runtime[r] as usize;
             let strip = &indices[source..source + len as usize];
-            out.extend(strip.iter().zip(area + at..).map(|(&v, slot)| [slot, v]));
-            out.extend((area + at + len..area + at + room).map(|slot| [slot, RESTART]));
+            out.extend(strip.iter().zip(at..).map(|(&v, word)| [word, v]));
+            out.extend((at + len..at + room).map(|word| [word, RESTART]));
             // In strip order: the list stays sorted.
             places.placed.push((r as u32, Place { at, room, len }));
             at += room;
@@ -432,11 +495,10 @@ impl SlotLayout {
         SlotRecord {
             first,
             count: end - first,
-            compact: false,
         }
     }
 
-    /// Appends to `out` the patches that take the slots at `base` from what the GPU holds
+    /// Appends to `out` the patches that take the regions from what the GPU holds
     /// (the strips of `uploaded` lengths, as of the last upload) to `state`'s current strips,
     /// given `dirty`, everything the runtime changed since (its contract: every changed
     /// position of a live strip lies in a range, every strip whose length changed is listed).
@@ -444,7 +506,6 @@ impl SlotLayout {
     /// patch (so the patches may be applied in any order, and no word is sent twice).
     pub(super) fn patches(
         &self,
-        base: u32,
         state: &DeformingState,
         dirty: &Dirty,
         uploaded: &mut [u32],
@@ -452,7 +513,7 @@ impl SlotLayout {
     ) {
         let (indices, lengths) = (state.indices(), state.lengths());
         let copy = |r: usize, from: u32, to: u32, out: &mut Vec<[u32; 2]>| {
-            let (slot, source) = (base + self.starts[r], self.runtime[r]);
+            let (slot, source) = (self.starts[r], self.runtime[r]);
             out.extend((from..to).map(|i| [slot + i, indices[(source + i) as usize]]));
         };
         for (r, range, _) in by_strip(dirty) {
@@ -466,7 +527,7 @@ impl SlotLayout {
             if new > old {
                 copy(r, old, new, out);
             } else {
-                let slot = base + self.starts[r];
+                let slot = self.starts[r];
                 out.extend((new..old).map(|i| [slot + i, RESTART]));
             }
             uploaded[r] = new;
@@ -579,58 +640,101 @@ mod tests {
         out
     }
 
-    /// One instance's slots on a simulated GPU (its neighbours' slots must stay 0).
+    /// Never written: a word read but never written would draw this vertex.
+    const POISON: u32 = 0xDEAD_BEEF;
+
+    /// One instance's area on a simulated page: moved to a new area (after a gap) wherever an
+    /// upload needs one, as the crowd's pool does; words outside its area stay [`POISON`].
     struct Gpu {
         words: Vec<u32>,
-        base: u32,
-        end: u32,
+        /// Its area's first word and words, and what it holds.
+        area: Option<(u32, u32)>,
+        holds: DrawnFrom,
         /// The dirty-log scratch, reused over a walk as a crowd's piece reuses it.
         dirty: Dirty,
+        /// Areas made anew that kept words of the old one (a copy grown past its area).
+        grown: usize,
     }
 
     impl Gpu {
-        fn new(layout: &SlotLayout) -> Gpu {
-            let base = 3 * layout.per_instance();
-            let end = base + layout.per_instance();
-            // The compact area starts as 0s: a word read but never written draws vertex 0.
-            let mut words = vec![0u32; end as usize + 5];
-            words[base as usize..(base + layout.regions()) as usize].copy_from_slice(layout.s0());
+        fn new() -> Gpu {
             Gpu {
-                words,
-                base,
-                end,
+                words: Vec::new(),
+                area: None,
+                holds: DrawnFrom::S0,
                 dirty: Dirty::default(),
+                grown: 0,
             }
         }
 
-        /// Applies `patches` in reverse order (any order must do), each word once.
-        fn apply(&mut self, patches: &[[u32; 2]]) {
-            let mut slots: Vec<u32> = patches.iter().map(|p| p[0]).collect();
-            slots.sort_unstable();
-            slots.dedup();
-            assert_eq!(slots.len(), patches.len(), "a slot patched twice");
-            for &[slot, value] in patches.iter().rev() {
-                self.words[slot as usize] = value;
+        fn held(&self) -> (DrawnFrom, u32) {
+            (self.holds, self.area.map_or(0, |(_, words)| words))
+        }
+
+        /// What the crowd does with `need` before the patches apply: the area is kept where
+        /// it holds the same and has `min..=max` words; else a new one of `room` words takes
+        /// the old one's first `keep` words (restarts everywhere for regions), and the old
+        /// one's words are poisoned (freed).
+        fn settle(&mut self, need: Need) {
+            assert!(need.min <= need.room && need.min <= need.max, "{need:?}");
+            let fits = self
+                .area
+                .is_some_and(|(_, words)| need.keeps(self.holds, words));
+            if !fits {
+                // The pool rounds areas up to its granule.
+                let room = need.room.next_multiple_of(GRANULE);
+                let at = self.words.len() as u32 + 7;
+                self.words.resize((at + room) as usize, POISON);
+                let new = at as usize..(at + room) as usize;
+                if need.holds == DrawnFrom::Regions {
+                    self.words[new.clone()].fill(RESTART);
+                }
+                if let Some((old, words)) = self.area {
+                    assert!(need.keep <= words, "{need:?}: keeps more than the old area");
+                    let old = old as usize..(old + words) as usize;
+                    let keep = need.keep as usize;
+                    self.words
+                        .copy_within(old.start..old.start + keep, new.start);
+                    self.grown += usize::from(keep > 0);
+                    self.words[old].fill(POISON);
+                } else {
+                    assert_eq!(need.keep, 0, "nothing to keep");
+                }
+                self.area = Some((at, room));
             }
-            let (base, end) = (self.base as usize, self.end as usize);
-            assert!(
-                self.words[..base]
-                    .iter()
-                    .chain(&self.words[end..])
-                    .all(|&w| w == 0),
-                "other slots untouched"
-            );
+            self.holds = need.holds;
+        }
+
+        /// Applies `patches` (words of the area) in reverse order (any order must do), each
+        /// word once, every one within the area.
+        fn apply(&mut self, patches: &[[u32; 2]]) {
+            let mut words: Vec<u32> = patches.iter().map(|p| p[0]).collect();
+            words.sort_unstable();
+            words.dedup();
+            assert_eq!(words.len(), patches.len(), "a word patched twice");
+            let (at, size) = self.area.expect("an area");
+            for &[word, value] in patches.iter().rev() {
+                assert!(word < size, "word {word} past the area's {size}");
+                self.words[(at + word) as usize] = value;
+            }
         }
 
         fn read(&self, record: SlotRecord) -> &[u32] {
-            &self.words[(self.base + record.first) as usize..][..record.count as usize]
+            let (at, size) = self.area.expect("an area");
+            assert!(
+                record.first + record.count <= size,
+                "{record:?} past the area"
+            );
+            &self.words[(at + record.first) as usize..][..record.count as usize]
         }
     }
 
-    /// One upload of `state`'s changes, checked: the record draws exactly the state's
-    /// triangles (with parity); where it reads the regions they are the regions built from
-    /// scratch, with nothing before the first live index or after the last; it reads the
-    /// compact copy exactly where the packed strips fit, and then at most the read bound.
+    /// One upload of `state`'s changes, checked: the area is settled and patched as the crowd
+    /// does, and the record draws exactly the state's triangles (with parity) and no word
+    /// never written; where the area holds the regions they are the regions built from
+    /// scratch, with nothing before the first live index or after the last; it holds the
+    /// compact copy exactly where the packed strips fit the share, and the record then reads
+    /// at most the read bound.
     fn upload_checked(
         layout: &SlotLayout,
         state: &mut DeformingState,
@@ -638,18 +742,20 @@ mod tests {
         uploaded: &mut Vec<u32>,
         gpu: &mut Gpu,
         step: usize,
-    ) -> SlotRecord {
+    ) -> DrawnFrom {
         let mut patches = Vec::new();
-        let record = layout.upload(
-            gpu.base,
+        let (record, need) = layout.upload(
+            gpu.held(),
             state,
             places,
             uploaded,
             &mut gpu.dirty,
             &mut patches,
         );
+        gpu.settle(need);
         gpu.apply(&patches);
         let read = gpu.read(record);
+        assert!(!read.contains(&POISON), "step {step}: a word never written");
         assert_eq!(triangles(read), reference(state), "step {step}");
         // The packed count from the lengths themselves, not the state's running counts.
         let lengths = state.lengths();
@@ -660,28 +766,28 @@ mod tests {
             .sum::<u32>())
         .saturating_sub(1);
         assert_eq!(packed, super::packed(state));
-        assert_eq!(
-            record.compact,
-            packed > 0 && packed <= layout.compact_slots()
-        );
-        if record.compact {
-            assert!(record.first >= layout.regions());
+        let compact = need.holds == DrawnFrom::Copy;
+        assert_eq!(compact, packed <= layout.compact_slots());
+        if compact {
             assert!(record.count >= packed);
             assert!(
                 record.count <= packed * READ_BOUND_EIGHTHS / 8,
                 "step {step}"
             );
+            assert!(uploaded.is_empty(), "regions given up");
         } else {
-            let (base, regions) = (gpu.base as usize, (gpu.base + layout.regions()) as usize);
+            let (at, size) = gpu.area.expect("an area");
+            assert!(size >= layout.regions());
+            let regions = &gpu.words[at as usize..(at + layout.regions()) as usize];
             assert_eq!(
-                &gpu.words[base..regions],
+                regions,
                 from_scratch(layout, state).as_slice(),
                 "step {step}"
             );
             assert_eq!(uploaded.as_slice(), state.lengths());
         }
         assert!(read.first() != Some(&RESTART) && read.last() != Some(&RESTART));
-        record
+        need.holds
     }
 
     /// Over a walk with frame switches and LOD jumps (moves accumulating between uploads),
@@ -693,9 +799,9 @@ mod tests {
         for share in [0.0, 0.3, 1.0] {
             let layout = SlotLayout::new(&model, share);
             let mut state = DeformingState::new(&model);
-            let mut gpu = Gpu::new(&layout);
+            let mut gpu = Gpu::new();
             let mut places = Places::default();
-            // As `Crowd::add` makes it: empty while the regions hold S0.
+            // As `Crowd::add` makes it: no regions.
             let mut uploaded = Vec::new();
             let walk = [
                 (0.0, 0.5),
@@ -713,7 +819,7 @@ mod tests {
                 if step % 2 == 1 {
                     state.set(&model, 1.0 - t, Lod::Fraction(0.3)).expect("set");
                 }
-                let record = upload_checked(
+                let holds = upload_checked(
                     &layout,
                     &mut state,
                     &mut places,
@@ -721,7 +827,7 @@ mod tests {
                     &mut gpu,
                     step,
                 );
-                compacted += usize::from(record.compact);
+                compacted += usize::from(holds == DrawnFrom::Copy);
             }
             // Without a compact area never; with one as large as the regions always.
             assert_eq!(compacted == 0, share == 0.0);
@@ -740,7 +846,7 @@ mod tests {
         let model = model();
         let layout = SlotLayout::new(&model, 0.6);
         let mut state = DeformingState::new(&model);
-        let mut gpu = Gpu::new(&layout);
+        let mut gpu = Gpu::new();
         let mut places = Places::default();
         let mut uploaded = Vec::new();
         let mut seed = 0x2545_f491_4f6c_dd1du64;
@@ -762,17 +868,17 @@ mod tests {
             let strips = state.lengths().len();
             let before = places.dense(strips);
             let (repacks, current) = (places.repacks, places.current);
-            let record = upload_checked(
+            let compact = upload_checked(
                 &layout,
                 &mut state,
                 &mut places,
                 &mut uploaded,
                 &mut gpu,
                 step,
-            );
-            back += usize::from(was_compact && !record.compact);
-            was_compact = record.compact;
-            if !(record.compact && current && places.repacks == repacks) {
+            ) == DrawnFrom::Copy;
+            back += usize::from(was_compact && !compact);
+            was_compact = compact;
+            if !(compact && current && places.repacks == repacks) {
                 continue;
             }
             for (old, now) in before.iter().zip(&places.dense(strips)) {
@@ -784,6 +890,7 @@ mod tests {
             }
         }
         let counts = [
+            gpu.grown,
             within,
             to_end,
             deaths,

@@ -20,9 +20,14 @@ pub enum CrowdError {
     /// An instance that was removed, or never existed.
     #[error("instance {0:?} is not in the crowd (removed, or of another crowd)")]
     UnknownInstance(InstanceId),
-    /// Every slot of the asset holds an instance.
-    #[error("asset {asset} holds its capacity of {capacity} instances; remove one or add the asset again with a larger capacity")]
-    Full { asset: u32, capacity: u32 },
+    /// The asset holds the most instances the device can draw: their blocks fill one storage
+    /// binding, or (base-vertex path) `slot × vertex count` would pass 2³¹.
+    #[error("asset {asset} holds the {most} instances the device can draw ({why}); remove one")]
+    Full {
+        asset: u32,
+        most: u32,
+        why: &'static str,
+    },
     /// A transform or colour with a NaN or infinite entry.
     #[error("the {what} {value} is not finite; pass finite numbers")]
     NonFinite { what: &'static str, value: String },
@@ -35,36 +40,42 @@ pub enum CrowdError {
     /// `INDIRECT_FIRST_INSTANCE`.
     #[error("the first-instance path needs a device with wgpu::Features::INDIRECT_FIRST_INSTANCE; request it when creating the device, or use CrowdPath::BaseVertex")]
     NoFirstInstance,
-    /// A capacity of 0, or one whose slots or vertex numbers do not fit the device or `u32`.
-    #[error("a capacity of {capacity} instances does not fit: {why}")]
+    /// One instance's full-detail index memory (its regions) passes what one buffer of the
+    /// device may hold and bind: such an asset cannot be drawn close up.
+    #[error("one instance of the asset needs {need} bytes of indices at full detail, but the device's buffers hold at most {limit} bytes (max_buffer_size, max_storage_buffer_binding_size); request larger limits or simplify the asset")]
+    TooLarge { need: u64, limit: u64 },
+    /// A [`DiscreteCrowd`](super::DiscreteCrowd)'s fixed list of instances: none, more blocks
+    /// than one binding holds, or more moves than instances.
+    #[error("{capacity} instances do not fit: {why}")]
     Capacity { capacity: u32, why: String },
+    /// A read-back before the first [`prepare`](super::Crowd::prepare) made the buffers.
+    #[error("the crowd's buffers are made by prepare; call it first")]
+    NotPrepared,
 }
 
-/// How much room an instance has for a compact copy of its live strips
+/// What an instance's index memory holds by distance
 /// ([`Crowd::set_records`](super::Crowd::set_records)).
 ///
-/// An instance's index slots hold its strips in fixed regions, one per strip of `S0` with room for
-/// its full length (patched at O(changed indices)); at a coarse LOD most of those slots are
-/// restarts. Each slot range also has a compact area of `compact_share` of the regions' slots:
-/// where the live strips, one restart between two, fit in it, the crowd keeps a copy of them there
-/// (each strip in a place it keeps while it fits, patched as it changes; packed anew where the copy
-/// would read more than 1.5× the packed count) and the instance's one draw record reads that copy,
-/// i.e. the live indices, a restart between two strips and the restarts where strips shrank or
-/// left; otherwise it reads the regions from the first live index to the last. The area shrinks (to
-/// nothing at most) where `capacity` slot ranges would pass the device's buffer or storage binding
-/// size ([`Crowd::compact_slots`](super::Crowd::compact_slots) says what an asset got; llvmpipe
-/// binds 128 MiB: 1000 bodies keep 1,621 slots each). docs/DESIGN.md, "Crowds", has the measurement
-/// behind the default.
+/// Each instance holds one area of its asset's index memory, sized to what it draws now
+/// (docs/DESIGN.md, "Crowds"). Close up it holds its regions: one per strip of `S0` with room
+/// for its full length (patched at O(changed indices)). Where its live strips, one restart
+/// between two, are at most `compact_share` of the regions' words (a coarse LOD), it holds a
+/// compact copy of them instead (each strip in a place it keeps while it fits, patched as it
+/// changes; packed anew where the copy would read more than 1.5× the packed count), a little
+/// more than their packed count, and its one draw record reads the live indices, a restart
+/// between two strips and the restarts where strips shrank or left. docs/DESIGN.md, "Crowds",
+/// has the measurement behind the default.
 ///
 /// At a frame's coarsest LODs, those that draw at most `tail_triangles` triangles (and fit the
-/// compact area, 4 slots a triangle), an instance is drawn from its frame's tail list instead: one
-/// triangle list per frame and asset, shared by every instance, which a compute pass expands into
-/// the instance's compact area where its frame or LOD changed. Its runtime is then not kept
-/// ([`Crowd::state`](super::Crowd::state) gives `None`) and its moves cost no rebuild and no patch.
+/// compact share, 4 words a triangle), an instance is drawn from its frame's tail list instead:
+/// one triangle list per frame and asset, shared by every instance, which a compute pass
+/// expands into the instance's area (4 words a triangle) where its frame or LOD changed. Its
+/// runtime is then not kept ([`Crowd::state`](super::Crowd::state) gives `None`) and its
+/// moves cost no rebuild and no patch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CrowdRecords {
-    /// The compact area's share of the regions' slots, in 0..=1 (clamped): 0 never copies, 1
-    /// always does.
+    /// The largest compact copy as a share of the regions' words, in 0..=1 (clamped): 0 never
+    /// copies, 1 always does.
     pub compact_share: f32,
     /// The most triangles a frame's tail list holds (0: no tail lists). The GPU work of an
     /// instance's expansion and the asset's tail lists grow with it.
@@ -88,8 +99,24 @@ pub struct InstanceAt {
     pub lod: usize,
     /// The triangles it draws.
     pub triangles: usize,
-    /// Drawn from its frame's tail list (see [`CrowdRecords`]).
-    pub from_tail: bool,
+    /// What it is drawn from, which its area holds.
+    pub from: DrawnFrom,
+    /// Words of index memory its area holds (0 while it draws the shared `S0`).
+    pub words: u32,
+}
+
+/// What an instance is drawn from: what its area of index memory holds ([`CrowdRecords`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DrawnFrom {
+    /// No area: its record reads the asset's shared `S0` (a new instance, before its first
+    /// move).
+    S0,
+    /// Its frame's tail list at its LOD, written by the expansion (far away).
+    Tail,
+    /// A compact copy of its live strips (coarse LODs).
+    Copy,
+    /// Its regions (close up).
+    Regions,
 }
 
 /// An asset of a crowd.
@@ -106,8 +133,9 @@ pub struct InstanceId {
 }
 
 impl InstanceId {
-    /// The instance's slot in its asset's buffers (index slots `slot × per_instance ..`, record
-    /// `slot`, instance block `slot`).
+    /// The instance's slot: its instance block's number, what its draw record carries as
+    /// `first_instance` (first-instance path) or as `base_vertex / vertex count` (base-vertex
+    /// path). Its indices and record lie wherever its area is.
     pub fn slot(&self) -> u32 {
         self.slot
     }
@@ -123,16 +151,19 @@ impl InstanceId {
 pub struct CrowdUpload {
     /// Index slots patched (by the scatter), over all assets; record words not counted.
     pub patches: u64,
-    /// Bytes written: run lists of index slots and of record words (8 per lone word, 8 per run
-    /// of up to 16 consecutive words plus 4 a word, headers padded to whole workgroups), new
-    /// instances' `S0`, instance blocks, the scene block and textures.
+    /// Bytes written: run lists of index words and of record words (8 per lone word, 8 per run
+    /// of up to 16 consecutive words plus 4 a word, headers padded to whole workgroups), tail
+    /// jobs, an asset's shared `S0` (once), instance blocks, the scene block and textures.
     pub bytes: u64,
     /// `queue.write_buffer` and `write_texture` calls.
     pub writes: usize,
-    /// Compute dispatches: the scatters (per asset one for index patches and one for record
-    /// patches where it has them; more when a frame's patches pass a binding's size limit)
-    /// and one per asset with tail expansions.
+    /// Compute dispatches: the scatters (per asset and page one for index patches and one for
+    /// record patches where it has them; more when a frame's patches pass a binding's size
+    /// limit) and one per asset and page with tail expansions.
     pub dispatches: usize,
+    /// GPU copies: areas moved to larger ones (a compact copy grown), new regions filled with
+    /// restarts, buffers grown (their old contents copied).
+    pub copies: usize,
     /// Instances written from their frame's tail list (32 bytes of job each).
     pub tail_jobs: usize,
 }
@@ -168,9 +199,18 @@ pub struct CrowdStats {
     /// between two strips and the restarts of its strips' places (at most 1.5× the first two),
     /// one drawn from its regions also the restart tails between its first and last live index.
     pub indices: u64,
-    /// GPU bytes one instance slot costs in its asset's buffers (index slots, record, block),
-    /// summed over assets' slots in use.
+    /// Instances by what their area holds (docs/DESIGN.md, "Crowds"): the asset's shared `S0`
+    /// (not moved yet), their regions (close up), a compact copy of their live strips, their
+    /// frame's tail list (far).
+    pub from_s0: usize,
+    pub from_regions: usize,
+    pub from_copies: usize,
+    pub from_tails: usize,
+    /// GPU bytes the instances hold: their areas of index memory, records and blocks.
     pub instance_gpu_bytes: u64,
+    /// GPU bytes of every buffer the crowd made: index memory (pages as grown), records,
+    /// instance blocks, tail lists and templates, the shared assets.
+    pub gpu_bytes: u64,
     /// GPU bytes shared per asset (the [`GpuAsset`](crate::gpu::GpuAsset)s), summed.
     pub shared_gpu_bytes: u64,
     /// Host bytes the instances hold: runtimes, GPU-side lengths, and their record and block
