@@ -6,8 +6,8 @@
 // * First instance (vs_fetch_*): the draw record of slot s has first_instance = s and
 //   base_vertex = 0, so instance_index is the slot and vertex_index the asset's own vertex. The
 //   poses and surface attributes arrive as vertex buffers (fixed-function fetch); only the
-//   instance block (by instance_index) and the target deltas (by vertex_index) are storage
-//   reads. Needs INDIRECT_FIRST_INSTANCE: without it wgpu requires first_instance = 0. The
+//   instance's placement and pose (by instance_index) and the target deltas (by vertex_index)
+//   are storage reads. Needs INDIRECT_FIRST_INSTANCE: without it wgpu requires first_instance = 0. The
 //   discrete-LOD renderer (gpu::DiscreteCrowd) draws with these entry points too, over
 //   triangle lists, with direct instanced draws (which set instance_index on every device).
 // * Base vertex (vs_pull_*), any device: the record has base_vertex = s * vertex_count and its
@@ -54,12 +54,16 @@ struct Mesh {
     _pad1: u32,
 }
 
-// One instance, 192 bytes (gpu::crowd::InstanceData).
-struct Instance {
+// One instance's placement, 144 bytes (gpu::crowd::InstanceBlock), written where it changes.
+struct Placement {
     model: mat4x4<f32>,
     // Inverse transpose of model's 3x3 in the xyz of the first three columns.
     normal_model: mat4x4<f32>,
     color: vec4<f32>,
+}
+
+// One instance's pose, 48 bytes (gpu::crowd::PoseBlock), written each frame it moves.
+struct Pose {
     // Weights of the 8 target slots (0..4, 4..8).
     weights_lo: vec4<f32>,
     weights_hi: vec4<f32>,
@@ -70,9 +74,20 @@ struct Instance {
     _pad: u32,
 }
 
+// One instance as the functions below read it: its placement and its pose.
+struct Instance {
+    model: mat4x4<f32>,
+    normal_model: mat4x4<f32>,
+    color: vec4<f32>,
+    weights_lo: vec4<f32>,
+    weights_hi: vec4<f32>,
+    targets: vec2<u32>,
+    t: f32,
+}
+
 @group(0) @binding(0) var<uniform> scene: Scene;
 @group(0) @binding(1) var<uniform> mesh: Mesh;
-@group(0) @binding(2) var<storage, read> instances: array<Instance>;
+@group(0) @binding(2) var<storage, read> placements: array<Placement>;
 // V(0), V(1): x, y, z per vertex.
 @group(0) @binding(3) var<storage, read> pose0: array<f32>;
 @group(0) @binding(4) var<storage, read> pose1: array<f32>;
@@ -83,6 +98,14 @@ struct Instance {
 @group(0) @binding(7) var<storage, read> normal_deltas: array<f32>;
 @group(0) @binding(8) var base_texture: texture_2d<f32>;
 @group(0) @binding(9) var base_sampler: sampler;
+@group(0) @binding(10) var<storage, read> poses: array<Pose>;
+
+// Instance `slot`: its placement and its pose.
+fn instance_at(slot: u32) -> Instance {
+    let b = placements[slot];
+    let p = poses[slot];
+    return Instance(b.model, b.normal_model, b.color, p.weights_lo, p.weights_hi, p.targets, p.t);
+}
 
 struct CrowdOut {
     @builtin(position) clip: vec4<f32>,
@@ -242,14 +265,14 @@ fn pulled_plain(inst: Instance, v: u32, offset: vec3<f32>) -> PlainOut {
 fn vs_pull_surface(@builtin(vertex_index) index: u32) -> CrowdOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
-    return pulled(instances[slot], v, vec3<f32>(0.0), vec3<f32>(0.0));
+    return pulled(instance_at(slot), v, vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
 @vertex
 fn vs_pull_surface_targets4(@builtin(vertex_index) index: u32) -> CrowdOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return pulled(inst, v, target_offset4(inst, v), normal_offset4(inst, v));
 }
 
@@ -257,7 +280,7 @@ fn vs_pull_surface_targets4(@builtin(vertex_index) index: u32) -> CrowdOut {
 fn vs_pull_surface_targets8(@builtin(vertex_index) index: u32) -> CrowdOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return pulled(inst, v, target_offset(inst, v), normal_offset(inst, v));
 }
 
@@ -265,14 +288,14 @@ fn vs_pull_surface_targets8(@builtin(vertex_index) index: u32) -> CrowdOut {
 fn vs_pull_plain(@builtin(vertex_index) index: u32) -> PlainOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
-    return pulled_plain(instances[slot], v, vec3<f32>(0.0));
+    return pulled_plain(instance_at(slot), v, vec3<f32>(0.0));
 }
 
 @vertex
 fn vs_pull_plain_targets4(@builtin(vertex_index) index: u32) -> PlainOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return pulled_plain(inst, v, target_offset4(inst, v));
 }
 
@@ -280,7 +303,7 @@ fn vs_pull_plain_targets4(@builtin(vertex_index) index: u32) -> PlainOut {
 fn vs_pull_plain_targets8(@builtin(vertex_index) index: u32) -> PlainOut {
     let slot = index / mesh.vertex_count;
     let v = index - slot * mesh.vertex_count;
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return pulled_plain(inst, v, target_offset(inst, v));
 }
 
@@ -316,7 +339,7 @@ fn fetched(
 // with 4 and with 8 weight slots.
 @vertex
 fn vs_fetch_surface(p: Poses, s: FetchedSurface, @builtin(instance_index) slot: u32) -> CrowdOut {
-    return fetched(instances[slot], p, s, vec3<f32>(0.0), vec3<f32>(0.0));
+    return fetched(instance_at(slot), p, s, vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
 @vertex
@@ -326,7 +349,7 @@ fn vs_fetch_surface_targets4(
     @builtin(vertex_index) v: u32,
     @builtin(instance_index) slot: u32,
 ) -> CrowdOut {
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return fetched(inst, p, s, target_offset4(inst, v), normal_offset4(inst, v));
 }
 
@@ -337,13 +360,13 @@ fn vs_fetch_surface_targets8(
     @builtin(vertex_index) v: u32,
     @builtin(instance_index) slot: u32,
 ) -> CrowdOut {
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return fetched(inst, p, s, target_offset(inst, v), normal_offset(inst, v));
 }
 
 @vertex
 fn vs_fetch_plain(p: Poses, @builtin(instance_index) slot: u32) -> PlainOut {
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return plain_vertex(inst, mix(p.v0, p.v1, inst.t));
 }
 
@@ -353,7 +376,7 @@ fn vs_fetch_plain_targets4(
     @builtin(vertex_index) v: u32,
     @builtin(instance_index) slot: u32,
 ) -> PlainOut {
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset4(inst, v));
 }
 
@@ -363,7 +386,7 @@ fn vs_fetch_plain_targets8(
     @builtin(vertex_index) v: u32,
     @builtin(instance_index) slot: u32,
 ) -> PlainOut {
-    let inst = instances[slot];
+    let inst = instance_at(slot);
     return plain_vertex(inst, mix(p.v0, p.v1, inst.t) + target_offset(inst, v));
 }
 
@@ -396,7 +419,7 @@ fn cs_positions(@builtin(global_invocation_id) id: vec3<u32>) {
     if v >= mesh.vertex_count {
         return;
     }
-    let p = local_position(instances[probe.slot], v);
+    let p = local_position(instance_at(probe.slot), v);
     probed[3u * v] = p.x;
     probed[3u * v + 1u] = p.y;
     probed[3u * v + 2u] = p.z;

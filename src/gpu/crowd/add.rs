@@ -6,7 +6,7 @@ use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::member::Member;
 use super::patches::{draw_args, Span, Waiting};
-use super::pipeline::{CrowdPath, InstanceBlock, MeshBlock, Variant};
+use super::pipeline::{CrowdPath, InstanceBlock, MeshBlock, PoseBlock, Variant};
 use super::pool::{Pool, GRANULE};
 use super::slots::SlotLayout;
 use super::tail::{TailLists, TRIANGLE_SLOTS};
@@ -94,7 +94,7 @@ impl Crowd {
             restarts,
             binds: Vec::new(),
             mesh,
-            instance_buffer: None,
+            instance_buffers: None,
             bind_group: None,
             render,
             variant,
@@ -102,7 +102,9 @@ impl Crowd {
             generations: Vec::with_capacity(capacity),
             free: Vec::new(),
             blocks: Vec::with_capacity(capacity),
+            poses: Vec::with_capacity(capacity),
             dirty_blocks: Span::EMPTY,
+            dirty_poses: Span::EMPTY,
             waiting: Waiting::default(),
             arriving: Vec::new(),
             run_list: Vec::new(),
@@ -119,7 +121,7 @@ impl Crowd {
         device: &wgpu::Device,
         gpu: &GpuAsset,
         mesh: &wgpu::Buffer,
-        instances: &wgpu::Buffer,
+        (placements, poses): (&wgpu::Buffer, &wgpu::Buffer),
     ) -> wgpu::BindGroup {
         let zero = || storage_or_zero(device, "crowd zero", &[]);
         let (deltas, normal_deltas) = match gpu.targets() {
@@ -135,7 +137,7 @@ impl Crowd {
         let buffers = [
             &self.scene_buffer,
             mesh,
-            instances,
+            placements,
             gpu.v0(),
             gpu.v1(),
             &deltas,
@@ -157,6 +159,10 @@ impl Crowd {
         entries.push(wgpu::BindGroupEntry {
             binding: 9,
             resource: wgpu::BindingResource::Sampler(sampler),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 10,
+            resource: poses.as_entire_binding(),
         });
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("crowd asset"),
@@ -199,6 +205,7 @@ impl Crowd {
             a.members.push(None);
             a.generations.push(0);
             a.blocks.push(InstanceBlock::new(glam::Mat4::IDENTITY));
+            a.poses.push(PoseBlock::default());
         }
         // Its runtime is made by its first move out of the tail lists (most of a crowd's
         // instances are distant: their first move takes them to one), its area by its first
@@ -208,7 +215,9 @@ impl Crowd {
         let args = draw_args((path, n), slot, a.s0.offset, reads);
         a.pool.set_record(record, args);
         a.blocks[slot as usize] = InstanceBlock::new(model);
+        a.poses[slot as usize] = PoseBlock::default();
         a.dirty_blocks.add(slot);
+        a.dirty_poses.add(slot);
         a.members[slot as usize] = Some(Member::new(record, reads));
         Ok(InstanceId {
             asset: asset.0,

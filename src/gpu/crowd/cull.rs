@@ -7,7 +7,7 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-use super::pipeline::{InstanceBlock, WEIGHT_SLOTS};
+use super::pipeline::{InstanceBlock, PoseBlock, WEIGHT_SLOTS};
 use super::pool::RECORD_WORDS;
 use super::CrowdAsset;
 
@@ -53,12 +53,12 @@ impl Frustum {
     }
 }
 
-/// Whether `block`'s instance of an asset bounded by `bound` (object space), whose targets
-/// move a vertex at most `reach[k]` per unit weight, lies wholly outside `frustum`. A model
-/// matrix with a projective row is never culled.
-fn outside(
+/// Whether the instance of `block` and `pose` of an asset bounded by `bound` (object space),
+/// whose targets move a vertex at most `reach[k]` per unit weight, lies wholly outside
+/// `frustum`. A model matrix with a projective row is never culled.
+pub(super) fn outside(
     frustum: &Frustum,
-    block: &InstanceBlock,
+    (block, pose): (&InstanceBlock, &PoseBlock),
     (center, radius): ([f32; 3], f32),
     reach: &[f32],
 ) -> bool {
@@ -68,11 +68,11 @@ fn outside(
     }
     // The vertex stage adds the slots' weighted deltas to the blend of the poses.
     let grown = (0..WEIGHT_SLOTS)
-        .filter(|&slot| block.weights[slot] != 0.0)
+        .filter(|&slot| pose.weights[slot] != 0.0)
         .map(|slot| {
-            block.weights[slot].abs()
+            pose.weights[slot].abs()
                 * reach
-                    .get(block.target(slot) as usize)
+                    .get(pose.target(slot) as usize)
                     .copied()
                     .unwrap_or(f32::NAN)
         })
@@ -97,14 +97,15 @@ impl CrowdAsset {
             .targets()
             .map_or(&[][..], |targets| targets.reach.as_slice());
         let bound = self.gpu.bound();
-        for (member, block) in self.members.iter_mut().zip(&self.blocks) {
+        let instances = self.blocks.iter().zip(&self.poses);
+        for (member, instance) in self.members.iter_mut().zip(instances) {
             let Some(member) = member else {
                 continue;
             };
             let page = &mut self.pool.pages[member.record.page as usize];
             let count = page.records[member.record.entry as usize].instance_count;
-            let hide =
-                count > 0 && frustum.is_some_and(|frustum| outside(frustum, block, bound, reach));
+            let hide = count > 0
+                && frustum.is_some_and(|frustum| outside(frustum, instance, bound, reach));
             let word = member.record.entry * RECORD_WORDS + INSTANCE_COUNT_WORD;
             if hide {
                 page.record_patches.push([word, 0]);
@@ -131,6 +132,11 @@ mod tests {
         InstanceBlock::new(model)
     }
 
+    /// Whether the instance of `block` at rest (no weights) is out.
+    fn out(frustum: &Frustum, block: &InstanceBlock, bound: ([f32; 3], f32)) -> bool {
+        outside(frustum, (block, &PoseBlock::default()), bound, &[])
+    }
+
     /// A unit sphere at x = 4 is 3 beyond the plane x = 1: out. Its transform's scale, its
     /// weights times their targets' reach, and a point anywhere within the slack bring it
     /// back; a projective transform or a NaN is never out.
@@ -138,32 +144,28 @@ mod tests {
     fn spheres_out_of_view_only() {
         let frustum = clip_cube();
         let bound = ([0.0; 3], 1.0);
-        assert!(outside(&frustum, &at(4.0, 1.0), bound, &[]));
-        assert!(!outside(&frustum, &at(0.5, 1.0), bound, &[]));
+        assert!(out(&frustum, &at(4.0, 1.0), bound));
+        assert!(!out(&frustum, &at(0.5, 1.0), bound));
         // Scaled by 3 (on one axis is enough), the sphere reaches x = 1.
-        assert!(!outside(&frustum, &at(4.0, 3.0), bound, &[]));
+        assert!(!out(&frustum, &at(4.0, 3.0), bound));
         let stretched = Mat4::from_translation(Vec3::new(4.0, 0.0, 0.5))
             * Mat4::from_scale(Vec3::new(1.0, 3.0, 1.0));
-        assert!(!outside(
-            &frustum,
-            &InstanceBlock::new(stretched),
-            bound,
-            &[]
-        ));
+        assert!(!out(&frustum, &InstanceBlock::new(stretched), bound));
         // Target 1 moves a vertex up to 5 per unit weight: weight -0.5 grows the radius to 3.5.
-        let mut weighted = at(4.0, 1.0);
+        let mut weighted = PoseBlock::default();
         weighted.set_weights(&[0.0, -0.5]);
-        assert!(!outside(&frustum, &weighted, bound, &[0.0, 5.0]));
-        assert!(outside(&frustum, &weighted, bound, &[5.0, 0.0]));
+        let weighted = (&at(4.0, 1.0), &weighted);
+        assert!(!outside(&frustum, weighted, bound, &[0.0, 5.0]));
+        assert!(outside(&frustum, weighted, bound, &[5.0, 0.0]));
         // Grazing: a sphere whose surface is on the plane, or just within the slack, is kept.
-        assert!(!outside(&frustum, &at(2.0, 1.0), bound, &[]));
-        assert!(!outside(&frustum, &at(2.0 + 1e-4, 1.0), bound, &[]));
-        assert!(outside(&frustum, &at(2.1, 1.0), bound, &[]));
+        assert!(!out(&frustum, &at(2.0, 1.0), bound));
+        assert!(!out(&frustum, &at(2.0 + 1e-4, 1.0), bound));
+        assert!(out(&frustum, &at(2.1, 1.0), bound));
         let mut projective = at(4.0, 1.0);
         projective.model[0][3] = 0.5;
-        assert!(!outside(&frustum, &projective, bound, &[]));
-        assert!(!outside(&frustum, &at(4.0, 1.0), ([0.0; 3], f32::NAN), &[]));
-        assert!(!outside(&frustum, &at(f32::NAN, 1.0), bound, &[]));
+        assert!(!out(&frustum, &projective, bound));
+        assert!(!out(&frustum, &at(4.0, 1.0), ([0.0; 3], f32::NAN)));
+        assert!(!out(&frustum, &at(f32::NAN, 1.0), bound));
     }
 
     /// The near and far planes cull too; a far plane at infinity (a zero normal) is left out.
@@ -172,9 +174,9 @@ mod tests {
         let frustum = clip_cube();
         let bound = ([0.0; 3], 0.1);
         let depth = |z: f32| InstanceBlock::new(Mat4::from_translation(Vec3::new(0.0, 0.0, z)));
-        assert!(outside(&frustum, &depth(-0.5), bound, &[]));
-        assert!(outside(&frustum, &depth(1.5), bound, &[]));
-        assert!(!outside(&frustum, &depth(0.5), bound, &[]));
+        assert!(out(&frustum, &depth(-0.5), bound));
+        assert!(out(&frustum, &depth(1.5), bound));
+        assert!(!out(&frustum, &depth(0.5), bound));
         // z' = 1 - 1/z style: row 2 equals row 3, so w - z has no normal.
         let infinite = Mat4::from_cols_array_2d(&[
             [1.0, 0.0, 0.0, 0.0],

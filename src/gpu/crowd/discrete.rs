@@ -20,7 +20,7 @@ use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::add::mesh_buffer;
-use super::pipeline::{InstanceBlock, Variant};
+use super::pipeline::{InstanceBlock, PoseBlock, Variant};
 use super::types::check_finite;
 use super::{Crowd, CrowdError, CrowdPath, CrowdUpload};
 use crate::asset::Asset;
@@ -187,13 +187,15 @@ pub struct DiscreteCrowd {
     index_buffer: wgpu::Buffer,
     /// Index range of each level in `index_buffer`.
     ranges: Vec<Range<u32>>,
-    instance_buffer: wgpu::Buffer,
+    /// The placements and poses, grouped by level, on the GPU.
+    instance_buffers: (wgpu::Buffer, wgpu::Buffer),
     bind_group: wgpu::BindGroup,
-    /// Per instance, in the caller's order: its block and its level.
-    own: Vec<InstanceBlock>,
+    /// Per instance, in the caller's order: its placement, pose and level.
+    own: Vec<(InstanceBlock, PoseBlock)>,
     chosen: Vec<usize>,
-    /// The blocks grouped by level, as uploaded; level `l`'s are `first[l]..first[l + 1]`.
-    grouped: Vec<InstanceBlock>,
+    /// The placements and poses grouped by level, as uploaded; level `l`'s are
+    /// `first[l]..first[l + 1]`.
+    grouped: (Vec<InstanceBlock>, Vec<PoseBlock>),
     first: Vec<u32>,
     dirty: bool,
 }
@@ -240,7 +242,7 @@ impl DiscreteCrowd {
         let mut own = Vec::with_capacity(transforms.len());
         for model in transforms {
             check_finite("transform", &model.to_cols_array())?;
-            own.push(InstanceBlock::new(*model));
+            own.push((InstanceBlock::new(*model), PoseBlock::default()));
         }
         let base = Crowd::new(device, color_format, depth_format);
         // The crowd's fast path (fixed-function fetch, the asset's weight slots), whatever
@@ -264,14 +266,20 @@ impl DiscreteCrowd {
             // COPY_SRC: tests read the levels back.
             usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_SRC,
         });
-        let instance_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("discrete instances"),
-            size: block_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+        let [placements, poses] = [
+            ("discrete placements", size_of::<InstanceBlock>()),
+            ("discrete poses", size_of::<PoseBlock>()),
+        ]
+        .map(|(label, size)| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: u64::from(capacity) * size as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
         });
         let mesh = mesh_buffer(device, &gpu);
-        let bind_group = base.bind_group(device, &gpu, &mesh, &instance_buffer);
+        let bind_group = base.bind_group(device, &gpu, &mesh, (&placements, &poses));
         let mut first = vec![capacity; levels.levels.len() + 1];
         first[0] = 0;
         Ok(DiscreteCrowd {
@@ -281,9 +289,9 @@ impl DiscreteCrowd {
             levels,
             index_buffer,
             ranges,
-            instance_buffer,
+            instance_buffers: (placements, poses),
             bind_group,
-            grouped: own.clone(),
+            grouped: own.iter().copied().unzip(),
             chosen: vec![0; own.len()],
             own,
             first,
@@ -316,10 +324,10 @@ impl DiscreteCrowd {
         // In pieces, a few a thread (the calling thread takes pieces too).
         let per = par::piece_len(moves.len(), 64);
         let parts: Vec<_> = self.own.chunks_mut(per).zip(moves.chunks(per)).collect();
-        par::map(parts, |(blocks, moves)| {
+        par::map(parts, |(own, moves)| {
             let mut weights = Vec::new();
-            for (block, &(t, _)) in blocks.iter_mut().zip(moves) {
-                block.set_pose(track, clamp_t(t).expect("checked time"), &mut weights);
+            for ((_, pose), &(t, _)) in own.iter_mut().zip(moves) {
+                pose.set_pose(track, clamp_t(t).expect("checked time"), &mut weights);
             }
         });
         self.chosen[..levels.len()].copy_from_slice(&levels);
@@ -332,8 +340,9 @@ impl DiscreteCrowd {
             at[l] += at[l - 1];
         }
         self.first.copy_from_slice(&at);
-        for (block, &l) in self.own.iter().zip(&self.chosen) {
-            self.grouped[at[l] as usize] = *block;
+        for (&(block, pose), &l) in self.own.iter().zip(&self.chosen) {
+            self.grouped.0[at[l] as usize] = block;
+            self.grouped.1[at[l] as usize] = pose;
             at[l] += 1;
         }
         self.dirty = true;
@@ -347,12 +356,9 @@ impl DiscreteCrowd {
         upload.bytes += texture;
         upload.writes += usize::from(texture > 0);
         if std::mem::take(&mut self.dirty) {
-            upload.write(
-                queue,
-                &self.instance_buffer,
-                0,
-                bytemuck::cast_slice(&self.grouped),
-            );
+            let (placements, poses) = &self.instance_buffers;
+            upload.write(queue, placements, 0, bytemuck::cast_slice(&self.grouped.0));
+            upload.write(queue, poses, 0, bytemuck::cast_slice(&self.grouped.1));
         }
         upload
     }

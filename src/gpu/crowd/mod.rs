@@ -73,7 +73,7 @@ pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsErr
 use self::member::Member;
 use self::patches::{Span, Waiting};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS};
-use self::pipeline::{CrowdPipeline, InstanceBlock, SceneBlock, Variant};
+use self::pipeline::{CrowdPipeline, InstanceBlock, PoseBlock, SceneBlock, Variant};
 use self::pool::{Area, Pool};
 use self::slots::SlotLayout;
 use self::tail::TailLists;
@@ -117,10 +117,11 @@ struct CrowdAsset {
     restarts: wgpu::Buffer,
     /// Per page, the scatter's and the tail expansion's buffers and bind groups over it.
     binds: Vec<PageBinds>,
-    /// The asset's block (base colour, vertex count, shade mode), the instance blocks' buffer
-    /// (grown by prepare) and the bind group over them (none before the first prepare).
+    /// The asset's block (base colour, vertex count, shade mode), the instances' placements
+    /// and poses on the GPU (grown by prepare) and the bind group over them (none before the
+    /// first prepare).
     mesh: wgpu::Buffer,
-    instance_buffer: Option<wgpu::Buffer>,
+    instance_buffers: Option<(wgpu::Buffer, wgpu::Buffer)>,
     bind_group: Option<wgpu::BindGroup>,
     /// Its render pipeline (number in the crowd's [`CrowdPipeline`]) and vertex entry point.
     render: usize,
@@ -131,8 +132,11 @@ struct CrowdAsset {
     generations: Vec<u32>,
     /// Free slots, reused lowest first (sorted, highest first).
     free: Vec<u32>,
+    /// Each slot's placement and pose, and the slots changed since the last prepare.
     blocks: Vec<InstanceBlock>,
+    poses: Vec<PoseBlock>,
     dirty_blocks: Span,
+    dirty_poses: Span,
     /// The patches made since the last prepare.
     waiting: Waiting,
     /// Slots whose areas get contents on the GPU at the next prepare (moved or new regions).

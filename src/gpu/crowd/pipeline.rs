@@ -46,14 +46,21 @@ pub(super) struct MeshBlock {
 /// Target slots per instance: the weights summed by the vertex stage.
 pub const WEIGHT_SLOTS: usize = 8;
 
-/// One instance's block (`Instance` in `crowd.wgsl`), what a frame uploads per moved
-/// instance: 192 bytes.
+/// One instance's placement (`Placement` in `crowd.wgsl`): its transform, normal matrix and
+/// colour, 144 bytes, uploaded where they change.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub(super) struct InstanceBlock {
     pub(super) model: [[f32; 4]; 4],
     pub(super) normal_model: [[f32; 4]; 4],
     pub(super) color: [f32; 4],
+}
+
+/// One instance's pose (`Pose` in `crowd.wgsl`): its 8 weight slots and their targets, and
+/// `t`; what a frame uploads per moved instance: 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub(super) struct PoseBlock {
     pub(super) weights: [f32; WEIGHT_SLOTS],
     /// One target number per byte, slot 0 in the low byte of `targets[0]`.
     pub(super) targets: [u32; 2],
@@ -62,7 +69,7 @@ pub(super) struct InstanceBlock {
 }
 
 impl InstanceBlock {
-    /// Identity-free default: `model` as given, grey, `t = 0`, no weights.
+    /// `model` as given, grey.
     pub(super) fn new(model: glam::Mat4) -> InstanceBlock {
         let mut block = InstanceBlock::zeroed();
         block.set_model(model);
@@ -77,7 +84,9 @@ impl InstanceBlock {
         self.model = uniforms.model;
         self.normal_model = uniforms.normal_model;
     }
+}
 
+impl PoseBlock {
     /// Sets the pose at time `t` (clamped, not NaN): for an asset with a weight `track`, its
     /// weights at `t` in the slots and `t = 0`; else `t` and no weights. `scratch` holds the
     /// weights on the way (one per thread, not one allocation per instance and frame).
@@ -394,7 +403,7 @@ fn compute(
     })
 }
 
-/// Bindings 0..10 of `crowd.wgsl`'s group 0.
+/// Bindings 0..=10 of `crowd.wgsl`'s group 0.
 fn crowd_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     let all =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
@@ -427,6 +436,7 @@ fn crowd_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     ];
     entries.extend((3..8).map(|binding| storage(binding, 4)));
     entries.extend(texture_entries(8));
+    entries.push(storage(10, size_of::<PoseBlock>()));
     entries
 }
 
@@ -465,8 +475,8 @@ mod tests {
         };
         assert_eq!(size("Scene"), size_of::<SceneBlock>());
         assert_eq!(size("Mesh"), size_of::<MeshBlock>());
-        assert_eq!(size("Instance"), size_of::<InstanceBlock>());
-        assert!(size_of::<InstanceBlock>() <= 256);
+        assert_eq!(size("Placement"), size_of::<InstanceBlock>());
+        assert_eq!(size("Pose"), size_of::<PoseBlock>());
         // Every variant's vertex entry point exists.
         for path in [CrowdPath::FirstInstance, CrowdPath::BaseVertex] {
             for surface in [false, true] {
@@ -491,7 +501,7 @@ mod tests {
 
     #[test]
     fn weight_slots_keep_the_largest_in_target_order() {
-        let mut block = InstanceBlock::new(glam::Mat4::IDENTITY);
+        let mut block = PoseBlock::default();
         block.set_weights(&[0.0, 0.5, 0.0, -0.25]);
         assert_eq!(block.weights[..3], [0.5, -0.25, 0.0]);
         assert_eq!(block.targets, [1 | (3 << 8), 0]);

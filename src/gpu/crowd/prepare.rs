@@ -4,8 +4,8 @@
 
 use super::cull::Frustum;
 use super::member::Arrival;
-use super::patches::{each_word_once, keep_last_per_word, PatchRuns};
-use super::pipeline::{CrowdPipeline, InstanceBlock};
+use super::patches::{each_word_once, keep_last_per_word, PatchRuns, Span};
+use super::pipeline::{CrowdPipeline, InstanceBlock, PoseBlock};
 use super::pool::Move;
 use super::tail::TailJob;
 use super::types::CrowdUpload;
@@ -174,11 +174,17 @@ impl Crowd {
             // expandTails: after the index scatter, which may have patched an area before its
             // instance moved into a tail list.
             a.expand_tails(device, queue, &self.pipeline, dispatches, &mut upload);
+            // writeInstances: the changed placements and poses, one range each.
+            let (placements, poses) = a.instance_buffers.as_ref().expect("grown above");
             if let Some(range) = a.dirty_blocks.take() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
-                let buffer = a.instance_buffer.as_ref().expect("grown above");
-                upload.write(queue, buffer, offset, bytemuck::cast_slice(blocks));
+                upload.write(queue, placements, offset, bytemuck::cast_slice(blocks));
+            }
+            if let Some(range) = a.dirty_poses.take() {
+                let blocks = &a.poses[range.start as usize..range.end as usize];
+                let offset = u64::from(range.start) * size_of::<PoseBlock>() as u64;
+                upload.write(queue, poses, offset, bytemuck::cast_slice(blocks));
             }
             // The areas freed since the last prepare were read by its copies at most: free.
             a.pool.release();
@@ -186,38 +192,49 @@ impl Crowd {
         upload
     }
 
-    /// Makes the instance buffers that no longer hold their assets' blocks anew (doubling),
-    /// with every block written (a copy of the old buffer would land after this frame's
-    /// writes), and the bind groups over them.
+    /// Makes the instance buffers (placements and poses) that no longer hold their assets'
+    /// instances anew (doubling), with every instance written (a copy of the old buffers
+    /// would land after this frame's writes), and the bind groups over them.
     fn grow_instance_buffers(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         upload: &mut CrowdUpload,
     ) {
-        let block = size_of::<InstanceBlock>() as u64;
+        let sizes = [size_of::<InstanceBlock>(), size_of::<PoseBlock>()].map(|s| s as u64);
+        let binding = device.limits().max_storage_buffer_binding_size;
         for i in 0..self.assets.len() {
             let a = &self.assets[i];
-            let need = a.blocks.len().max(1) as u64 * block;
-            if a.instance_buffer.as_ref().is_some_and(|b| b.size() >= need) {
+            let count = a.blocks.len().max(1) as u64;
+            let held = a
+                .instance_buffers
+                .as_ref()
+                .map_or(0, |(b, _)| b.size() / sizes[0]);
+            if held >= count {
                 continue;
             }
-            let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("crowd instances"),
-                // Doubling, from 64 blocks, within the binding (`add` keeps `need` there).
-                size: need
-                    .next_power_of_two()
-                    .max(64 * block)
-                    .min(device.limits().max_storage_buffer_binding_size)
-                    .max(need),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let group = self.bind_group(device, &a.gpu, &a.mesh, &buffer);
+            // Doubling, from 64 instances, within one binding (`add` keeps `count` there).
+            let room = count
+                .next_power_of_two()
+                .max(64)
+                .min(binding / sizes[0])
+                .max(count);
+            let [placements, poses] = [("crowd placements", sizes[0]), ("crowd poses", sizes[1])]
+                .map(|(label, size)| {
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some(label),
+                        size: room * size,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    })
+                });
+            let group = self.bind_group(device, &a.gpu, &a.mesh, (&placements, &poses));
             let a = &mut self.assets[i];
-            upload.write(queue, &buffer, 0, bytemuck::cast_slice(&a.blocks));
-            a.dirty_blocks = super::patches::Span::EMPTY;
-            a.instance_buffer = Some(buffer);
+            upload.write(queue, &placements, 0, bytemuck::cast_slice(&a.blocks));
+            upload.write(queue, &poses, 0, bytemuck::cast_slice(&a.poses));
+            a.dirty_blocks = Span::EMPTY;
+            a.dirty_poses = Span::EMPTY;
+            a.instance_buffers = Some((placements, poses));
             a.bind_group = Some(group);
         }
     }

@@ -3,7 +3,7 @@
 
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
-use super::pipeline::{CrowdPath, InstanceBlock};
+use super::pipeline::{CrowdPath, InstanceBlock, PoseBlock};
 use super::pool::Page;
 use super::slots::DrawnFrom;
 use super::types::{AssetId, CrowdError, CrowdStats, InstanceAt, InstanceId};
@@ -124,7 +124,8 @@ impl Crowd {
     /// Live instances, triangles drawn and bytes, over all assets.
     pub fn stats(&self) -> CrowdStats {
         let mut stats = CrowdStats::default();
-        let block = size_of::<InstanceBlock>() as u64;
+        // An instance's placement and pose, on the GPU and mirrored on the host.
+        let block = (size_of::<InstanceBlock>() + size_of::<PoseBlock>()) as u64;
         for a in &self.assets {
             for member in a.members.iter().flatten() {
                 stats.instances += 1;
@@ -136,8 +137,7 @@ impl Crowd {
                 }
                 let area = member.area.map_or(0, |area| u64::from(area.words) * 4);
                 stats.instance_gpu_bytes += area + ARGS_BYTES + block;
-                stats.instance_host_bytes +=
-                    (member.heap_bytes() + size_of::<InstanceBlock>()) as u64;
+                stats.instance_host_bytes += member.heap_bytes() as u64 + block;
                 if member.hidden {
                     stats.culled += 1;
                     continue;
@@ -152,7 +152,7 @@ impl Crowd {
             stats.instance_host_bytes += (records as u64) * ARGS_BYTES;
             let shared = a.gpu.gpu_bytes() + a.tail_words.as_ref().map_or(0, |b| b.size());
             stats.shared_gpu_bytes += shared;
-            let blocks = a.instance_buffer.as_ref().map_or(0, |b| b.size());
+            let blocks = (a.instance_buffers.as_ref()).map_or(0, |(b, p)| b.size() + p.size());
             stats.gpu_bytes += shared + a.pool.gpu_bytes() + blocks + a.restarts.size();
         }
         stats

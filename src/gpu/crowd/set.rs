@@ -36,7 +36,7 @@ impl Crowd {
             if let Some(member) = &mut a.members[id.slot as usize] {
                 member.pending = Some((t, lod));
             }
-            a.dirty_blocks.add(id.slot);
+            a.dirty_poses.add(id.slot);
             moved[id.asset as usize] = true;
         }
         let path = self.path;
@@ -51,12 +51,12 @@ impl Crowd {
             // after them; the rebuilds over the mesh are gathered.
             let per = par::piece_len(a.members.len(), MOVES_PER_PIECE);
             let parts: Vec<_> = (a.members.chunks_mut(per))
-                .zip(a.blocks.chunks_mut(per))
+                .zip(a.poses.chunks_mut(per))
                 .enumerate()
                 .collect();
-            let pieces = par::map(parts, |(k, (members, blocks))| {
+            let pieces = par::map(parts, |(k, (members, poses))| {
                 let mut piece = Piece::default();
-                for (slot, (member, block)) in (k * per..).zip(members.iter_mut().zip(blocks)) {
+                for (slot, (member, pose)) in (k * per..).zip(members.iter_mut().zip(poses)) {
                     let Some(member) = member.as_mut() else {
                         continue;
                     };
@@ -64,7 +64,7 @@ impl Crowd {
                         continue;
                     };
                     let t = clamp_t(t).expect("checked time");
-                    block.set_pose(track, t, &mut piece.weights);
+                    pose.set_pose(track, t, &mut piece.weights);
                     // Checked above: cannot fail.
                     let k = model.frame_at(t).expect("checked time");
                     let l = model.resolve(k, lod).expect("checked LOD");
