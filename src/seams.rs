@@ -480,6 +480,15 @@ pub fn step_for_fraction(
     boundaries.ceil(lo)
 }
 
+/// The coarsest step boundary whose collapse errors, as distances, are all within `bound`:
+/// how `morphlod export --error` chooses its LODs, and the crowd bench its discrete levels by
+/// error. `errors` is the sequence's ([`CollapseSequence::errors`]).
+pub fn step_for_error(errors: &[f32], boundaries: &StepBoundaries, bound: f32) -> usize {
+    let within = errors.partition_point(|&e| e.max(0.0).sqrt() <= bound);
+    // errors[0] = 0 is always within, so `within` ≥ 1.
+    boundaries.floor(within - 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -38,6 +38,16 @@ impl Frame {
         f32::from_bits(key << self.error_shift).sqrt()
     }
 
+    /// The largest collapse error among the first `l` as a distance (`errors[l]` of the
+    /// field docs): what a [`Lod::MaxError`](super::Lod::MaxError) is compared with.
+    pub(super) fn error_at(&self, l: usize) -> f32 {
+        let l = u32::try_from(l).unwrap_or(u32::MAX);
+        match self.error_steps.count_at_most(l) {
+            0 => 0.0,
+            i => self.error_value(self.error_keys.get(i - 1)),
+        }
+    }
+
     /// The coarsest LOD whose collapse errors, as distances, are all `≤ e`
     /// (full detail when `e < 0`): the LOD before the first growth past `e`.
     pub(super) fn coarsest_within(&self, e: f32) -> usize {

@@ -179,6 +179,15 @@ impl DeformingModel {
         })
     }
 
+    /// The error of frame `k` (clamped to the last frame) at LOD `l` (clamped to its
+    /// coarsest): its largest collapse error among the first `l`, as a distance in the
+    /// poses' units, the quantity a [`Lod::MaxError`] bounds; 0 at full detail. Over the size
+    /// of a pixel at a distance, the screen error an object drawn there makes.
+    pub fn error_at(&self, k: usize, l: usize) -> f32 {
+        let frame = &self.frames[k.min(self.frames.len() - 1)];
+        frame.error_at(l.min(frame.changes.max_lod()))
+    }
+
     /// Bytes of the per-frame data in RAM (change lists, tables), per frame.
     pub fn frame_bytes(&self) -> Vec<usize> {
         self.frames.iter().map(|f| f.byte_size()).collect()

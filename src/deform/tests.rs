@@ -351,3 +351,40 @@ proptest::proptest! {
         }
     }
 }
+
+/// `error_at` is the error `Lod::MaxError` compares with, independently of its tables: on
+/// every frame it is 0 at full detail and, at every LOD, the square root of the largest
+/// recorded collapse error so far (the frame's sequence read directly, errors rounded as the
+/// model stores them, so within a bfloat16 step); a request for a LOD's own error resolves to
+/// that LOD or a coarser one of the same error, and one just below it to a finer LOD.
+#[test]
+fn error_at_is_what_max_error_bounds() {
+    let asset = wave_asset(6, 3);
+    let model = DeformingModel::new(&asset).expect("model builds");
+    let mut checked = 0;
+    for (k, sequence) in asset.frames.iter().enumerate() {
+        let recorded = sequence.errors();
+        let max = model.frame_changes(k).expect("frame").max_lod();
+        assert_eq!(model.error_at(k, 0), 0.0, "frame {k}");
+        for (l, &recorded) in recorded.iter().enumerate().take(max + 1) {
+            let e = model.error_at(k, l);
+            let truth = recorded.max(0.0).sqrt();
+            assert!(
+                (e - truth).abs() <= truth * 1e-2,
+                "frame {k}, LOD {l}: {e} against {truth}"
+            );
+            let at = model.resolve(k, Lod::MaxError(e)).expect("resolves");
+            assert!(at >= l && model.error_at(k, at) == e, "frame {k}, LOD {l}");
+            if l > 0 && e > model.error_at(k, l - 1) {
+                let below = model
+                    .resolve(k, Lod::MaxError(e * (1.0 - 1e-6)))
+                    .expect("resolves");
+                assert!(below < l, "frame {k}, LOD {l}");
+                checked += 1;
+            }
+        }
+        // Past the coarsest LOD: the coarsest's.
+        assert_eq!(model.error_at(k, max + 5), model.error_at(k, max));
+    }
+    assert!(checked > 20, "{checked} error steps");
+}

@@ -18,15 +18,6 @@ pub(super) fn diagonal(positions: &[[f32; 3]]) -> f32 {
     }
 }
 
-/// The last step boundary at which the sequence's error (`errors[l]`, squared) is at most
-/// `bound` (a distance): errors never decrease with the step, so that is the floor of the
-/// last step within the bound.
-pub(super) fn step_for_error(errors: &[f32], boundaries: &StepBoundaries, bound: f32) -> usize {
-    let within = errors.partition_point(|&e| e.max(0.0).sqrt() <= bound);
-    // errors[0] = 0 is always within, so `within` ≥ 1.
-    boundaries.floor(within - 1)
-}
-
 /// The first step boundary whose reference mesh has at most `fraction` of the triangles
 /// ([`step_for_fraction`]); a LOD with no triangle left is refused.
 pub(super) fn step_for(

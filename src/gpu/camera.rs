@@ -139,7 +139,7 @@ pub fn fit_to_bounds(
 }
 
 /// glam's right-handed DirectX/WebGPU perspective (depth in [0, 1]), in f64.
-fn perspective(fov: f64, aspect: f64, near: f64, far: f64) -> DMat4 {
+pub(crate) fn perspective(fov: f64, aspect: f64, near: f64, far: f64) -> DMat4 {
     let h = 1.0 / (fov * 0.5).tan();
     let w = h / aspect;
     let r = far / (near - far);
@@ -164,7 +164,7 @@ fn orthographic(half_w: f64, half_h: f64, near: f64, far: f64) -> DMat4 {
 }
 
 /// glam's right-handed view looking from `eye` along the unit vector `forward`, in f64.
-fn look_to(eye: DVec3, forward: DVec3, up: DVec3) -> DMat4 {
+pub(crate) fn look_to(eye: DVec3, forward: DVec3, up: DVec3) -> DMat4 {
     let s = forward.cross(up).normalize();
     let u = s.cross(forward);
     DMat4::from_cols(

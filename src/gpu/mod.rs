@@ -73,8 +73,9 @@ pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
 pub use crowd::{
     run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdPath,
-    CrowdRecords, CrowdStats, CrowdUpload, DiscreteCrowd, DiscreteLevel, DiscreteLevels, DrawnFrom,
-    FrameFigures, InstanceAt, InstanceId, LevelFigures, LevelsError, ModeFigures, Stat, CROWD_WGSL,
+    CrowdRecords, CrowdScene, CrowdStats, CrowdUpload, DiscreteChoice, DiscreteCrowd,
+    DiscreteLevel, DiscreteLevels, DiscreteOptions, DrawnFrom, FrameFigures, InstanceAt,
+    InstanceId, LevelFigures, LevelsError, ModeFigures, SharedSequence, Stat, CROWD_WGSL,
     SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS,
 };
 pub use lod_object::{s0_regions, BuildAhead, LodObject};

@@ -1678,7 +1678,8 @@ fn discrete_lods_draw_each_instance_level() -> Result<()> {
         }
         crowd.set(&moves)?;
         discrete.set(&discrete_moves)?;
-        let expected: Vec<usize> = (0..9).map(|i| (i + frame) % 4).collect();
+        // All in view (the discrete crowd culls as a crowd does).
+        let expected: Vec<Option<usize>> = (0..9).map(|i| Some((i + frame) % 4)).collect();
         assert_eq!(discrete.instance_levels(), expected);
         assert_eq!(discrete.triangles(), crowd.stats().triangles);
         assert_eq!(discrete.draws(), 4);
@@ -1762,7 +1763,10 @@ fn crowd_bench_runs_discrete_lods() -> Result<()> {
         height: 64,
         pixels: 4.0,
         full_detail: false,
-        discrete: Some(levels.clone()),
+        discrete: Some(gpu::DiscreteOptions {
+            sequence: gpu::SharedSequence::from_asset(&asset)?,
+            levels: gpu::DiscreteChoice::Fractions(DiscreteLevels::FRACTIONS.to_vec()),
+        }),
         ..Default::default()
     };
     let report = gpu::run_crowd_bench(&ctx.ctx, &asset, model, &options)?;

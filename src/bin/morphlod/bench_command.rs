@@ -10,7 +10,9 @@ use crate::{bench_baselines, plot};
 use clap::Args;
 use morphlod::asset::{AssetLoadOptions, DEFAULT_MAX_BYTES};
 use morphlod::deform::DeformingModel;
-use morphlod::gpu::{Context, DiscreteLevels, LevelsError};
+use morphlod::gpu::{
+    Context, CrowdScene, DiscreteChoice, DiscreteOptions, LevelsError, SharedSequence,
+};
 use morphlod::simplify::SimplifyOptions;
 use morphlod::Asset;
 use std::path::PathBuf;
@@ -54,11 +56,16 @@ pub(crate) struct BenchArgs {
     /// a file that would need more is refused before it is decoded.
     #[arg(long = "memory-budget", value_name = "MB", default_value_t = DEFAULT_MAX_BYTES >> 20)]
     memory_budget: u64,
-    /// Instead of the sweeps, a crowd of N instances on a grid (LOD by 1 px of screen error
-    /// and full detail), each at its own phase; `--frames` frames per mode, 1920x1080 unless
-    /// `--size` is given, `--json` writes the report.
+    /// Instead of the sweeps, a crowd of N instances (LOD by 1 px of screen error and full
+    /// detail), each at its own phase; `--frames` frames per mode, 1920x1080 unless `--size`
+    /// is given, `--json` writes the report.
     #[arg(long, value_name = "N")]
     crowd: Option<u32>,
+    /// The crowd bench's scene: `grid` (seen whole from above, a fixed camera) or
+    /// `walk-through` (the camera walks through the crowd at eye height: a few instances
+    /// close up, a band in the middle, most far).
+    #[arg(long, value_name = "SCENE", value_parser = ["grid", "walk-through"], default_value = "grid")]
+    scene: String,
     /// Render frames per loop of the animation in the crowd bench.
     #[arg(long, default_value_t = 120)]
     period: usize,
@@ -82,10 +89,12 @@ pub(crate) struct BenchArgs {
     /// built so, and not run otherwise.
     #[arg(long, value_name = "SHARED.mlod")]
     levels_from: Option<PathBuf>,
-    /// Triangle fractions of the crowd bench's discrete levels below full detail, in (0, 1),
-    /// strictly decreasing (the default is `morphlod export`'s).
-    #[arg(long, value_delimiter = ',', default_value = "0.5,0.25,0.1")]
-    levels: Vec<f32>,
+    /// The crowd bench's discrete levels below full detail: `auto` (by error, as gltfpack's
+    /// `-si` chains: one level per halving of the error from what the scene's farthest
+    /// instance may draw at 1 px down to what its nearest may), or triangle fractions in
+    /// (0, 1), strictly decreasing (`morphlod export --lods`: 0.5,0.25,0.1 is its default).
+    #[arg(long, value_name = "auto|F1,F2,...", default_value = "auto", value_parser = parse_levels)]
+    levels: DiscreteChoice,
     /// Leave out the crowd bench's full-detail mode (slow with many instances on a software
     /// rasteriser).
     #[arg(long)]
@@ -189,18 +198,39 @@ fn baselines_bench(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// The crowd bench's discrete levels: from `--levels-from` (checked to have the benchmarked
-/// asset's vertices), else from the asset when it has one shared sequence; `None` (with a
-/// note) when it has per-frame sequences.
+/// `--levels`: `auto`, or fractions (checked when the levels are made).
+fn parse_levels(text: &str) -> Result<DiscreteChoice, String> {
+    if text == "auto" {
+        return Ok(DiscreteChoice::ByError);
+    }
+    (text.split(','))
+        .map(|f| f.trim().parse::<f32>().map_err(|e| format!("{f:?}: {e}")))
+        .collect::<Result<Vec<f32>, String>>()
+        .map(DiscreteChoice::Fractions)
+}
+
+/// The crowd bench's discrete mode: the shared sequence of `--levels-from` (checked to have
+/// the benchmarked asset's vertices), else of the asset when it has one; `None` (with a
+/// note) when it has per-frame sequences. Fractions are checked here.
 fn discrete_levels(
     args: &BenchArgs,
     asset: &Asset,
     budget: &AssetLoadOptions,
-) -> Result<Option<DiscreteLevels>, String> {
-    let fractions = &args.levels;
+) -> Result<Option<DiscreteOptions>, String> {
+    let checked = |sequence: SharedSequence, at: &std::path::Path| {
+        if let DiscreteChoice::Fractions(fractions) = &args.levels {
+            sequence
+                .levels(fractions)
+                .map_err(|e| format!("{}: {e}", at.display()))?;
+        }
+        Ok(Some(DiscreteOptions {
+            sequence,
+            levels: args.levels.clone(),
+        }))
+    };
     let Some(path) = &args.levels_from else {
-        return match DiscreteLevels::from_asset(asset, fractions) {
-            Ok(levels) => Ok(Some(levels)),
+        return match SharedSequence::from_asset(asset) {
+            Ok(sequence) => checked(sequence, &args.asset),
             Err(e @ LevelsError::NotShared { .. }) => {
                 println!("discrete LODs not run: {e}, and pass it with --levels-from");
                 Ok(None)
@@ -218,9 +248,11 @@ fn discrete_levels(
             args.asset.display()
         ));
     }
-    DiscreteLevels::from_asset(&source, fractions)
-        .map(Some)
-        .map_err(|e| format!("{}: {e}", path.display()))
+    let sequence = SharedSequence::from_asset(&source);
+    checked(
+        sequence.map_err(|e| format!("{}: {e}", path.display()))?,
+        path,
+    )
 }
 
 /// `bench --crowd N`: the crowd benchmark ([`morphlod::gpu::run_crowd_bench`]).
@@ -230,11 +262,15 @@ fn crowd_bench(
     context: &Context,
     asset: &Asset,
     model: Arc<DeformingModel>,
-    discrete: Option<DiscreteLevels>,
+    discrete: Option<DiscreteOptions>,
 ) -> Result<(), String> {
     let size_given = args.size != 512;
     let options = morphlod::gpu::CrowdBenchOptions {
         instances,
+        scene: match args.scene.as_str() {
+            "walk-through" => CrowdScene::WalkThrough,
+            _ => CrowdScene::Grid,
+        },
         frames: args.frames,
         period: args.period,
         width: if size_given { args.size } else { 1920 },

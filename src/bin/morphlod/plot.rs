@@ -450,6 +450,7 @@ mod tests {
                         cpu_ms: scale * (1.0 + 0.1 * i as f64),
                         gpu_ms: scale * 20.0,
                         triangles: scale * 1e4,
+                        ..Default::default()
                     })
                     .collect(),
                 ..Default::default()

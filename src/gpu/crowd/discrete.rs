@@ -20,6 +20,7 @@ use thiserror::Error;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::add::mesh_buffer;
+use super::cull::{outside, Frustum};
 use super::pipeline::{InstanceBlock, PoseBlock, Variant};
 use super::types::check_finite;
 use super::{Crowd, CrowdError, CrowdPath, CrowdUpload};
@@ -28,7 +29,7 @@ use crate::collapse::CollapseSequence;
 use crate::deform::{Lod, SetError};
 use crate::gpu::pose::clamp_t;
 use crate::gpu::{GpuAsset, GpuError};
-use crate::seams::{step_for_fraction, StepBoundaries};
+use crate::seams::{step_for_error, step_for_fraction, StepBoundaries};
 
 /// Why discrete levels could not be made.
 #[derive(Debug, Error, PartialEq)]
@@ -41,6 +42,9 @@ pub enum LevelsError {
         "level fractions must be in (0, 1) and strictly decreasing, as `export --lods`; got {0:?}"
     )]
     Fractions(Vec<f32>),
+    /// Error bounds that are not positive and finite.
+    #[error("level error bounds must be positive and finite distances; got {0:?}")]
+    Errors(Vec<f32>),
     /// A level with no triangle left.
     #[error("the level at {fraction} of {triangles} triangles keeps none; ask a larger fraction")]
     Empty { fraction: f32, triangles: usize },
@@ -58,6 +62,71 @@ pub struct DiscreteLevel {
     pub error: f32,
     /// The reference mesh at `step`, over the asset's vertices.
     pub triangles: Vec<[u32; 3]>,
+}
+
+/// The one collapse sequence of an asset built with one sequence for every pose
+/// (`--sequence shared`, the export's), with the triangles and topology its levels are cut
+/// from.
+#[derive(Clone, Debug)]
+pub struct SharedSequence {
+    sequence: Arc<CollapseSequence>,
+    triangles: Vec<[u32; 3]>,
+    topology: Option<Vec<u32>>,
+}
+
+impl SharedSequence {
+    /// The asset's one sequence, over its `S0`'s triangles; [`LevelsError::NotShared`] where
+    /// its frames have several.
+    pub fn from_asset(asset: &Asset) -> Result<SharedSequence, LevelsError> {
+        let mut distinct: Vec<&Arc<CollapseSequence>> = Vec::new();
+        for frame in &asset.frames {
+            if !distinct
+                .iter()
+                .any(|d| Arc::ptr_eq(d, frame) || **d == *frame)
+            {
+                distinct.push(frame);
+            }
+        }
+        let [sequence] = distinct[..] else {
+            return Err(LevelsError::NotShared {
+                distinct: distinct.len(),
+            });
+        };
+        Ok(SharedSequence {
+            sequence: Arc::clone(sequence),
+            triangles: asset.s0.triangles(),
+            topology: asset.surface.as_ref().map(|s| s.topology.clone()),
+        })
+    }
+
+    /// Its levels at `fractions` ([`DiscreteLevels::new`]).
+    pub fn levels(&self, fractions: &[f32]) -> Result<DiscreteLevels, LevelsError> {
+        let topology = self.topology.as_deref();
+        DiscreteLevels::new(&self.sequence, &self.triangles, topology, fractions)
+    }
+
+    /// Its levels within error `bounds` ([`DiscreteLevels::within`]).
+    pub fn levels_within(&self, bounds: &[f32]) -> Result<DiscreteLevels, LevelsError> {
+        let topology = self.topology.as_deref();
+        DiscreteLevels::within(&self.sequence, &self.triangles, topology, bounds)
+    }
+}
+
+/// `sequence`'s step boundaries by `topology` (`None`: every step is one), handed to `f`.
+fn with_boundaries<T>(
+    sequence: &CollapseSequence,
+    topology: Option<&[u32]>,
+    f: impl FnOnce(&StepBoundaries) -> T,
+) -> T {
+    let identity: Vec<u32>;
+    let of_vertex = match topology {
+        Some(map) => map,
+        None => {
+            identity = (0..sequence.vertex_count).collect();
+            &identity
+        }
+    };
+    f(&StepBoundaries::new(sequence, of_vertex))
 }
 
 /// The levels of discrete LODs, finest first.
@@ -86,23 +155,56 @@ impl DiscreteLevels {
         if !ordered || fractions.iter().any(|&f| !(f > 0.0 && f < 1.0)) {
             return Err(LevelsError::Fractions(fractions.to_vec()));
         }
-        let identity: Vec<u32>;
-        let of_vertex = match topology {
-            Some(map) => map,
-            None => {
-                identity = (0..sequence.vertex_count).collect();
-                &identity
-            }
-        };
-        let boundaries = StepBoundaries::new(sequence, of_vertex);
-        let errors = sequence.errors();
-        let mut levels = Vec::with_capacity(fractions.len() + 1);
-        for fraction in std::iter::once(1.0).chain(fractions.iter().copied()) {
-            let step = if fraction < 1.0 {
-                step_for_fraction(sequence, &boundaries, triangles, fraction)
-            } else {
-                0
+        with_boundaries(sequence, topology, |boundaries| {
+            let steps = fractions.iter().map(|&fraction| {
+                (
+                    fraction,
+                    step_for_fraction(sequence, boundaries, triangles, fraction),
+                )
+            });
+            DiscreteLevels::at_steps(sequence, triangles, steps)
+        })
+    }
+
+    /// Full detail and, per error bound (a distance, as [`DiscreteLevel::error`]), the
+    /// coarsest step boundary of `sequence` whose error is within it (as `morphlod export
+    /// --error`, and gltfpack's `-si` chains): the levels a scene that needs those errors
+    /// draws. Bounds in any order; levels that land on one step are one level.
+    pub fn within(
+        sequence: &CollapseSequence,
+        triangles: &[[u32; 3]],
+        topology: Option<&[u32]>,
+        bounds: &[f32],
+    ) -> Result<DiscreteLevels, LevelsError> {
+        if bounds.iter().any(|&e| !(e > 0.0 && e.is_finite())) {
+            return Err(LevelsError::Errors(bounds.to_vec()));
+        }
+        with_boundaries(sequence, topology, |boundaries| {
+            let errors = sequence.errors();
+            let mut steps: Vec<usize> = (bounds.iter())
+                .map(|&bound| step_for_error(&errors, boundaries, bound))
+                .filter(|&step| step > 0)
+                .collect();
+            steps.sort_unstable();
+            steps.dedup();
+            let fraction = |step: usize| {
+                let kept = sequence.reference_mesh(triangles, step).len();
+                kept as f32 / triangles.len().max(1) as f32
             };
+            let levels = steps.into_iter().map(|step| (fraction(step), step));
+            DiscreteLevels::at_steps(sequence, triangles, levels)
+        })
+    }
+
+    /// Full detail and the levels at `steps` (each with the fraction it stands for).
+    fn at_steps(
+        sequence: &CollapseSequence,
+        triangles: &[[u32; 3]],
+        steps: impl Iterator<Item = (f32, usize)>,
+    ) -> Result<DiscreteLevels, LevelsError> {
+        let errors = sequence.errors();
+        let mut levels = Vec::new();
+        for (fraction, step) in std::iter::once((1.0, 0)).chain(steps) {
             let mesh = sequence.reference_mesh(triangles, step);
             if mesh.is_empty() {
                 return Err(LevelsError::Empty {
@@ -126,22 +228,7 @@ impl DiscreteLevels {
     /// The levels of an asset built with one sequence for every frame (`--sequence shared`,
     /// the export's), over its `S0`'s triangles.
     pub fn from_asset(asset: &Asset, fractions: &[f32]) -> Result<DiscreteLevels, LevelsError> {
-        let mut distinct: Vec<&Arc<CollapseSequence>> = Vec::new();
-        for frame in &asset.frames {
-            if !distinct
-                .iter()
-                .any(|d| Arc::ptr_eq(d, frame) || **d == *frame)
-            {
-                distinct.push(frame);
-            }
-        }
-        let [sequence] = distinct[..] else {
-            return Err(LevelsError::NotShared {
-                distinct: distinct.len(),
-            });
-        };
-        let topology = asset.surface.as_ref().map(|s| s.topology.as_slice());
-        DiscreteLevels::new(sequence, &asset.s0.triangles(), topology, fractions)
+        SharedSequence::from_asset(asset)?.levels(fractions)
     }
 
     /// The levels, finest (full detail) first.
@@ -190,9 +277,12 @@ pub struct DiscreteCrowd {
     /// The placements and poses, grouped by level, on the GPU.
     instance_buffers: (wgpu::Buffer, wgpu::Buffer),
     bind_group: wgpu::BindGroup,
-    /// Per instance, in the caller's order: its placement, pose and level.
+    /// Per instance, in the caller's order: its placement, pose and level (none: out of
+    /// view).
     own: Vec<(InstanceBlock, PoseBlock)>,
-    chosen: Vec<usize>,
+    chosen: Vec<Option<usize>>,
+    /// Whether instances out of view draw nothing (as a crowd's, `Crowd::set_culling`).
+    culling: bool,
     /// The placements and poses grouped by level, as uploaded; level `l`'s are
     /// `first[l]..first[l + 1]`.
     grouped: (Vec<InstanceBlock>, Vec<PoseBlock>),
@@ -292,7 +382,8 @@ impl DiscreteCrowd {
             instance_buffers: (placements, poses),
             bind_group,
             grouped: own.iter().copied().unzip(),
-            chosen: vec![0; own.len()],
+            chosen: vec![Some(0); own.len()],
+            culling: true,
             own,
             first,
             dirty: true,
@@ -304,10 +395,18 @@ impl DiscreteCrowd {
         self.base.set_view_proj(view_proj);
     }
 
+    /// Whether an instance out of view draws nothing (default: on), tested as a crowd tests
+    /// it ([`Crowd::set_culling`]) by each `set` against the view of the last
+    /// [`set_view_proj`](Self::set_view_proj).
+    pub fn set_culling(&mut self, on: bool) {
+        self.culling = on;
+    }
+
     /// Moves instance `i` to `moves[i]` (as [`Crowd::set`]: `t` clamped, the pose from the
     /// asset's weight track or `mix(V(0), V(1), t)`; the level by
     /// [`DiscreteLevels::level_for`]), instances past the end of `moves` stay as they are,
-    /// and groups the instances per level. Checked first: on error nothing moved.
+    /// leaves out the instances out of view (where culling is on) and groups the others per
+    /// level. Checked first: on error nothing moved.
     pub fn set(&mut self, moves: &[(f32, Lod)]) -> Result<(), CrowdError> {
         if moves.len() > self.own.len() {
             return Err(CrowdError::Capacity {
@@ -321,19 +420,31 @@ impl DiscreteCrowd {
             levels.push(self.levels.level_for(lod)?);
         }
         let track = self.gpu.track();
-        // In pieces, a few a thread (the calling thread takes pieces too).
+        let view_proj = glam::Mat4::from_cols_array_2d(&self.base.scene.view_proj);
+        let frustum = self.culling.then(|| Frustum::new(view_proj));
+        let reach = (self.gpu.targets()).map_or(&[][..], |targets| targets.reach.as_slice());
+        let bound = self.gpu.bound();
+        // In pieces, a few a thread (the calling thread takes pieces too): the poses, then
+        // which instances are out of view.
         let per = par::piece_len(moves.len(), 64);
-        let parts: Vec<_> = self.own.chunks_mut(per).zip(moves.chunks(per)).collect();
-        par::map(parts, |(own, moves)| {
+        let parts: Vec<_> = (self.own.chunks_mut(per))
+            .zip(self.chosen.chunks_mut(per))
+            .zip(moves.chunks(per).zip(levels.chunks(per)))
+            .collect();
+        par::map(parts, |((own, chosen), (moves, levels))| {
             let mut weights = Vec::new();
-            for ((_, pose), &(t, _)) in own.iter_mut().zip(moves) {
+            let each = own.iter_mut().zip(chosen).zip(moves.iter().zip(levels));
+            for (((block, pose), chosen), (&(t, _), &level)) in each {
                 pose.set_pose(track, clamp_t(t).expect("checked time"), &mut weights);
+                let hidden = frustum
+                    .as_ref()
+                    .is_some_and(|f| outside(f, (block, pose), bound, reach));
+                *chosen = (!hidden).then_some(level);
             }
         });
-        self.chosen[..levels.len()].copy_from_slice(&levels);
         // A counting sort: the blocks of level l at first[l]..first[l + 1].
         let mut at = vec![0u32; self.levels.levels.len() + 1];
-        for &l in &self.chosen {
+        for &l in self.chosen.iter().flatten() {
             at[l + 1] += 1;
         }
         for l in 1..at.len() {
@@ -341,9 +452,11 @@ impl DiscreteCrowd {
         }
         self.first.copy_from_slice(&at);
         for (&(block, pose), &l) in self.own.iter().zip(&self.chosen) {
-            self.grouped.0[at[l] as usize] = block;
-            self.grouped.1[at[l] as usize] = pose;
-            at[l] += 1;
+            if let Some(l) = l {
+                self.grouped.0[at[l] as usize] = block;
+                self.grouped.1[at[l] as usize] = pose;
+                at[l] += 1;
+            }
         }
         self.dirty = true;
         Ok(())
@@ -387,8 +500,8 @@ impl DiscreteCrowd {
         &self.levels
     }
 
-    /// Each instance's level, in the order of the transforms.
-    pub fn instance_levels(&self) -> &[usize] {
+    /// Each instance's level, in the order of the transforms (none: out of view).
+    pub fn instance_levels(&self) -> &[Option<usize>] {
         &self.chosen
     }
 
@@ -402,12 +515,18 @@ impl DiscreteCrowd {
         &self.ranges
     }
 
-    /// Triangles drawn: each instance's level's.
+    /// Triangles drawn: each instance's in view, its level's.
     pub fn triangles(&self) -> usize {
-        self.chosen
-            .iter()
+        (self.chosen.iter().flatten())
             .map(|&l| self.levels.levels[l].triangles.len())
             .sum()
+    }
+
+    /// GPU bytes it draws from: the levels' indices, the instances' placements and poses,
+    /// the asset.
+    pub fn gpu_bytes(&self) -> u64 {
+        let (placements, poses) = &self.instance_buffers;
+        self.index_buffer.size() + placements.size() + poses.size() + self.gpu.gpu_bytes()
     }
 
     /// Draw calls `render` issues: the levels with instances.

@@ -254,6 +254,7 @@ impl CrowdAsset {
             triangles,
             from: member.holds,
             words: member.area.map_or(0, |area| area.words),
+            culled: member.hidden,
         }
     }
 }

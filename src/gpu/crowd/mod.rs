@@ -66,10 +66,12 @@ use std::sync::Arc;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 pub use self::bench::{
-    run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, FrameFigures, LevelFigures, ModeFigures,
-    Stat,
+    run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, CrowdScene, DiscreteChoice,
+    DiscreteOptions, FrameFigures, LevelFigures, ModeFigures, Stat,
 };
-pub use self::discrete::{DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError};
+pub use self::discrete::{
+    DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError, SharedSequence,
+};
 use self::member::Member;
 use self::patches::{Span, Waiting};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS};

@@ -44,6 +44,9 @@ pub enum CrowdError {
     /// device may hold and bind: such an asset cannot be drawn close up.
     #[error("one instance of the asset needs {need} bytes of indices at full detail, but the device's buffers hold at most {limit} bytes (max_buffer_size, max_storage_buffer_binding_size); request larger limits or simplify the asset")]
     TooLarge { need: u64, limit: u64 },
+    /// The discrete levels of a bench could not be made.
+    #[error(transparent)]
+    Levels(#[from] super::LevelsError),
     /// A [`DiscreteCrowd`](super::DiscreteCrowd)'s fixed list of instances: none, more blocks
     /// than one binding holds, or more moves than instances.
     #[error("{capacity} instances do not fit: {why}")]
@@ -103,6 +106,9 @@ pub struct InstanceAt {
     pub from: DrawnFrom,
     /// Words of index memory its area holds (0 while it draws the shared `S0`).
     pub words: u32,
+    /// Out of view as of the last prepare ([`Crowd::set_culling`](super::Crowd::set_culling)):
+    /// it draws nothing.
+    pub culled: bool,
 }
 
 /// What an instance is drawn from: what its area of index memory holds ([`CrowdRecords`]).
