@@ -1891,6 +1891,13 @@ fn culling_skips_only_instances_out_of_view() -> Result<()> {
             };
             let seen = blended.iter().filter(|p| inside(p)).count();
             edge += usize::from(seen > 0 && seen < blended.len());
+            // Out of view at `set`, an instance is parked at its frame's coarsest LOD; in view
+            // it is at the LOD asked.
+            let kind = &kinds[i / row];
+            let at = crowd.at(id)?;
+            let asked = if on[1] == 1 { 0.4 } else { 1.0 };
+            let lod = kind.model.resolve(at.frame, Lod::Fraction(asked))?;
+            assert_eq!(at.lod, lod, "view {view}, instance {i}: {at:?}");
             if on[1] == 1 {
                 continue;
             }

@@ -1,6 +1,7 @@
 //! The moves: `set` moves every named instance in parallel and makes its patches; the
 //! transform, colour, view and culling setters.
 
+use super::cull::{outside, Frustum};
 use super::patches::Piece;
 use super::types::{check_finite, CrowdError, InstanceId};
 use super::Crowd;
@@ -23,6 +24,12 @@ impl Crowd {
     /// [`WEIGHT_SLOTS`](super::WEIGHT_SLOTS)), and makes the patches of its slots that the next
     /// `prepare` uploads. Everything is checked first: on error nothing moved. An instance named
     /// twice takes its last move.
+    ///
+    /// Where culling is on ([`set_culling`](Self::set_culling)), an instance out of the view
+    /// set so far ([`set_view_proj`](Self::set_view_proj): set this frame's view first) is not
+    /// drawn, so it moves to its frame's coarsest LOD instead of the one asked: far cheaper to
+    /// keep (a tail list, no runtime), and the `set` that sees it in view moves it to the LOD
+    /// asked before anything draws it.
     pub fn set(&mut self, moves: &[(InstanceId, f32, Lod)]) -> Result<(), CrowdError> {
         // What a move can be refused for (the LOD is resolved once, in the parallel pass).
         for &(id, t, lod) in moves {
@@ -40,8 +47,12 @@ impl Crowd {
             moved[id.asset as usize] = true;
         }
         let path = self.path;
+        let view_proj = glam::Mat4::from_cols_array_2d(&self.scene.view_proj);
+        let frustum = self.culling.then(|| Frustum::new(view_proj));
         for (a, _) in self.assets.iter_mut().zip(moved).filter(|(_, m)| *m) {
             let (model, track, layout, tails) = (&a.model, a.gpu.track(), &a.layout, &a.tails);
+            let reach = (a.gpu.targets()).map_or(&[][..], |targets| targets.reach.as_slice());
+            let bound = a.gpu.bound();
             let prepares = a.prepares;
             let lists = a.waiting.index_runs.len();
             // In parallel, in pieces of consecutive slots (a few a thread, so that pieces
@@ -51,12 +62,13 @@ impl Crowd {
             // after them; the rebuilds over the mesh are gathered.
             let per = par::piece_len(a.members.len(), MOVES_PER_PIECE);
             let parts: Vec<_> = (a.members.chunks_mut(per))
-                .zip(a.poses.chunks_mut(per))
+                .zip(a.poses.chunks_mut(per).zip(a.blocks.chunks(per)))
                 .enumerate()
                 .collect();
-            let pieces = par::map(parts, |(k, (members, poses))| {
+            let pieces = par::map(parts, |(k, (members, (poses, blocks)))| {
                 let mut piece = Piece::default();
-                for (slot, (member, pose)) in (k * per..).zip(members.iter_mut().zip(poses)) {
+                let instances = members.iter_mut().zip(poses.iter_mut().zip(blocks));
+                for (slot, (member, (pose, block))) in (k * per..).zip(instances) {
                     let Some(member) = member.as_mut() else {
                         continue;
                     };
@@ -67,6 +79,10 @@ impl Crowd {
                     pose.set_pose(track, t, &mut piece.weights);
                     // Checked above: cannot fail.
                     let k = model.frame_at(t).expect("checked time");
+                    // Out of view: parked at the frame's coarsest LOD.
+                    let hidden =
+                        (frustum.as_ref()).is_some_and(|f| outside(f, (block, pose), bound, reach));
+                    let lod = if hidden { Lod::Fraction(1.0) } else { lod };
                     let l = model.resolve(k, lod).expect("checked LOD");
                     if let Some(count) = tails.triangles(k, l) {
                         member.enter_tail(slot as u32, (k, l, count), prepares, &mut piece);
@@ -149,8 +165,10 @@ impl Crowd {
     /// weights' reach, under its transform) against the view's clip volume and gives the
     /// record of an instance wholly outside it an instance count of 0 on the GPU. The test
     /// never culls an instance with a point in view, so the pixels do not change; the GPU
-    /// skips the vertices. Its CPU moves (`set`) still apply, so an instance that comes back
-    /// into view draws its current frame and LOD. Off: every record as [`Crowd::at`] says.
+    /// skips the vertices, and `set` parks an instance out of view at its frame's coarsest LOD
+    /// (its pose still follows its time), so that it costs next to no CPU either; the `set`
+    /// that sees it in view again moves it to the LOD asked. Off: every instance at the LOD
+    /// asked, every record as [`Crowd::at`] says.
     pub fn set_culling(&mut self, on: bool) {
         self.culling = on;
     }
