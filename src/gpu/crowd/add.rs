@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
-use super::member::Member;
+use super::member::{Member, Spares};
 use super::patches::{draw_args, Span, Waiting};
 use super::pipeline::{CrowdPath, InstanceBlock, MeshBlock, PoseBlock, Variant};
 use super::pool::{Pool, GRANULE};
@@ -109,6 +109,7 @@ impl Crowd {
             arriving: Vec::new(),
             run_list: Vec::new(),
             prepares: 0,
+            spares: Spares::default(),
             tails,
             tail_words,
             most,

@@ -9,6 +9,8 @@ use super::slots::{DrawnFrom, Need, Places, SlotLayout, SlotRecord};
 use super::tail::TRIANGLE_SLOTS;
 use super::types::InstanceAt;
 use super::CrowdAsset;
+use std::sync::Mutex;
+
 use crate::deform::{DeformingModel, DeformingState, Lod};
 
 /// One instance: its runtime and what its area on the GPU holds.
@@ -51,6 +53,41 @@ pub(super) struct Member {
     pub(super) need: Option<Need>,
     /// What its area gets on the GPU before the next prepare's patches.
     pub(super) arrival: Arrival,
+}
+
+/// Runtimes given up by instances that entered a tail list, kept for the next ones that leave
+/// one: a body's runtime is ~130 KB, which made anew costs page faults on every first touch,
+/// and instances cross the view's sides (out of view they are parked in a tail list) every
+/// frame the camera turns. At most [`SPARE_STATES`], so they cost a bounded share of host
+/// memory.
+#[derive(Default)]
+pub(super) struct Spares(Mutex<Vec<DeformingState>>);
+
+/// The most runtimes an asset keeps spare.
+const SPARE_STATES: usize = 32;
+
+impl Spares {
+    /// Keeps `state` for a later instance, where there is room (its dirty log emptied: a new
+    /// owner sends its strips from scratch).
+    fn give(&self, mut state: DeformingState) {
+        let mut spares = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        if spares.len() < SPARE_STATES {
+            state.take_dirty();
+            spares.push(state);
+        }
+    }
+
+    /// A spare runtime, else a new one at full detail.
+    fn take(&self, model: &DeformingModel) -> DeformingState {
+        let spare = self.0.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        spare.unwrap_or_else(|| DeformingState::new(model))
+    }
+
+    /// Heap bytes of the runtimes kept.
+    pub(super) fn heap_bytes(&self) -> usize {
+        let spares = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        spares.iter().map(DeformingState::heap_bytes).sum()
+    }
 }
 
 /// What an instance's new area gets on the GPU before the patches apply.
@@ -137,7 +174,7 @@ impl Member {
         &mut self,
         slot: u32,
         (k, l, count): (usize, usize, u32),
-        prepares: u64,
+        (prepares, spares): (u64, &Spares),
         piece: &mut Piece,
     ) {
         if self.tail == Some((k as u32, l as u32)) {
@@ -145,7 +182,9 @@ impl Member {
         }
         if self.tail.is_none() {
             self.places.leave();
-            self.state = None;
+            if let Some(state) = self.state.take() {
+                spares.give(state);
+            }
             self.uploaded = Vec::new();
         }
         self.tail = Some((k as u32, l as u32));
@@ -163,14 +202,19 @@ impl Member {
         piece.moved.push(slot);
     }
 
-    /// Its runtime, made anew at full detail where it leaves the tail list it was drawn from:
-    /// its next patch then sends its strips from scratch (a repacked copy, or every live strip
-    /// to new regions).
-    pub(super) fn leave_tail(&mut self, model: &DeformingModel) -> &mut DeformingState {
+    /// Its runtime where it leaves the tail list it was drawn from (or has none yet): one an
+    /// instance gave up on entering a tail list where one waits (at its own frame and LOD,
+    /// which the move then leaves), else made anew at full detail. Its next patch sends its
+    /// strips from scratch (a repacked copy, or every live strip to new regions).
+    pub(super) fn leave_tail(
+        &mut self,
+        model: &DeformingModel,
+        spares: &Spares,
+    ) -> &mut DeformingState {
         if self.tail.take().is_some() {
             self.changes = u64::MAX;
         }
-        self.state.get_or_insert_with(|| DeformingState::new(model))
+        self.state.get_or_insert_with(|| spares.take(model))
     }
 
     /// Heap bytes of the instance: its runtime and lengths, and itself.

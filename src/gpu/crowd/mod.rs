@@ -72,7 +72,7 @@ pub use self::bench::{
 pub use self::discrete::{
     DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError, SharedSequence,
 };
-use self::member::Member;
+use self::member::{Member, Spares};
 use self::patches::{Span, Waiting};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, PoseBlock, SceneBlock, Variant};
@@ -147,6 +147,8 @@ struct CrowdAsset {
     run_list: Vec<u32>,
     /// Prepares so far (a [`Member`] notes the one its patches wait for).
     prepares: u64,
+    /// Runtimes kept for instances that leave a tail list.
+    spares: Spares,
     /// Its frames' tail lists and their words on the GPU (none where no frame has a tail).
     tails: TailLists,
     tail_words: Option<wgpu::Buffer>,

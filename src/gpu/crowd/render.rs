@@ -150,6 +150,7 @@ impl Crowd {
             // The records' mirrors, free ones included.
             let records: usize = a.pool.pages.iter().map(|p| p.records.len()).sum();
             stats.instance_host_bytes += (records as u64) * ARGS_BYTES;
+            stats.spare_host_bytes += a.spares.heap_bytes() as u64;
             let shared = a.gpu.gpu_bytes() + a.tail_words.as_ref().map_or(0, |b| b.size());
             stats.shared_gpu_bytes += shared;
             let blocks = (a.instance_buffers.as_ref()).map_or(0, |(b, p)| b.size() + p.size());

@@ -51,6 +51,7 @@ impl Crowd {
         let frustum = self.culling.then(|| Frustum::new(view_proj));
         for (a, _) in self.assets.iter_mut().zip(moved).filter(|(_, m)| *m) {
             let (model, track, layout, tails) = (&a.model, a.gpu.track(), &a.layout, &a.tails);
+            let spares = &a.spares;
             let reach = (a.gpu.targets()).map_or(&[][..], |targets| targets.reach.as_slice());
             let bound = a.gpu.bound();
             let prepares = a.prepares;
@@ -85,10 +86,11 @@ impl Crowd {
                     let lod = if hidden { Lod::Fraction(1.0) } else { lod };
                     let l = model.resolve(k, lod).expect("checked LOD");
                     if let Some(count) = tails.triangles(k, l) {
-                        member.enter_tail(slot as u32, (k, l, count), prepares, &mut piece);
+                        let at = (k, l, count);
+                        member.enter_tail(slot as u32, at, (prepares, spares), &mut piece);
                         continue;
                     }
-                    let state = member.leave_tail(model);
+                    let state = member.leave_tail(model, spares);
                     let plan = state.plan_at(model, k, l, Strategy::Auto);
                     if plan.links_survivors(model) {
                         piece.rebuilds.push((slot, plan));

@@ -222,6 +222,9 @@ pub struct CrowdStats {
     /// Host bytes the instances hold: runtimes, GPU-side lengths, and their record and block
     /// mirrors.
     pub instance_host_bytes: u64,
+    /// Host bytes of the runtimes each asset keeps for the instances that leave a tail list
+    /// (at most 32 an asset: not per instance).
+    pub spare_host_bytes: u64,
 }
 
 pub(super) fn check_finite(what: &'static str, values: &[f32]) -> Result<(), CrowdError> {
