@@ -7,9 +7,7 @@
 //! together). Its own test binary (one test) so that no other test allocates while it
 //! measures; tests/suite/baselines.rs checks the bench's report of the same sizes.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicIsize, Ordering};
-
+use live_heap::held;
 use morphlod::lodstrips::{LodStrips, StripsState};
 use morphlod::simplify::SimplifyOptions;
 
@@ -22,38 +20,11 @@ use model::pm::ProgressiveMesh;
 use model::skip_strips::SkipStrips;
 use model::Baseline;
 
-struct Counting;
-
-/// Bytes allocated and not yet freed.
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        LIVE.fetch_add(layout.size() as isize, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size() as isize, Ordering::Relaxed);
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        LIVE.fetch_add(
-            new_size as isize - layout.size() as isize,
-            Ordering::Relaxed,
-        );
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+#[path = "common/live_heap.rs"]
+mod live_heap;
 
 #[global_allocator]
-static ALLOCATOR: Counting = Counting;
-
-/// The heap bytes `value` holds: what dropping it frees.
-fn held<T>(value: T) -> usize {
-    let before = LIVE.load(Ordering::Relaxed);
-    drop(value);
-    (before - LIVE.load(Ordering::Relaxed)) as usize
-}
+static ALLOCATOR: live_heap::Counting = live_heap::Counting;
 
 #[test]
 fn lodstrips_holds_the_fewest_bytes() {

@@ -12,42 +12,20 @@
 //!
 //! Its own test binary (one test) so that no other test allocates while it measures.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicIsize, Ordering};
 use std::sync::Arc;
 
 mod common;
 
 use common::gpu::Gpu;
+use live_heap::live;
 use morphlod::gpu::{AssetId, Crowd, GpuAsset, InstanceId, RenderTarget};
 use morphlod::{DeformingModel, Lod};
 
-struct Counting;
-
-/// Bytes allocated and not yet freed, by every thread of the process (the crowd's parallel
-/// passes included; the driver's own `malloc`s are not Rust allocations and are not counted).
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        LIVE.fetch_add(layout.size() as isize, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size() as isize, Ordering::Relaxed);
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        LIVE.fetch_add(
-            new_size as isize - layout.size() as isize,
-            Ordering::Relaxed,
-        );
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+#[path = "common/live_heap.rs"]
+mod live_heap;
 
 #[global_allocator]
-static ALLOCATOR: Counting = Counting;
+static ALLOCATOR: live_heap::Counting = live_heap::Counting;
 
 /// Host bytes one more instance of an asset may cost: the goal for a body (13,380
 /// vertices).
@@ -65,10 +43,6 @@ const COUNT: u32 = 40;
 fn instance_bound(model: &DeformingModel) -> f64 {
     let layout = model.layout();
     (layout.s0().len() * 4 + layout.strip_count() * 32 + 4096) as f64
-}
-
-fn live() -> isize {
-    LIVE.load(Ordering::Relaxed)
 }
 
 /// Bytes per instance between two readings of [`live`].
