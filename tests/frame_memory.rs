@@ -21,39 +21,17 @@
 //! ([`Asset::release_frames`]) and that the model keeps resolving every kind of LOD request the
 //! same way afterwards.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicIsize, Ordering};
 use std::sync::Mutex;
 
 use morphlod::deform::{DeformingModel, DeformingState};
 use morphlod::io::{load_morph, LoadOptions, MorphSource};
 use morphlod::{Builder, Lod};
 
-/// Live heap bytes of the whole process.
-struct Counting;
-
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        LIVE.fetch_add(layout.size() as isize, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size() as isize, Ordering::Relaxed);
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        LIVE.fetch_add(
-            new_size as isize - layout.size() as isize,
-            Ordering::Relaxed,
-        );
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+#[path = "common/live_heap.rs"]
+mod live_heap;
 
 #[global_allocator]
-static ALLOCATOR: Counting = Counting;
+static ALLOCATOR: live_heap::Counting = live_heap::Counting;
 
 /// Tests here measure the process's heap: one at a time.
 static ALONE: Mutex<()> = Mutex::new(());
@@ -91,9 +69,9 @@ fn a_built_model_holds_at_most_the_bound_per_vertex_per_frame() {
     // Warm the thread pool and whatever it allocates once.
     drop(DeformingModel::new(&asset).expect("model"));
 
-    let before = LIVE.load(Ordering::SeqCst);
+    let before = live_heap::live();
     let model = DeformingModel::new(&asset).expect("model");
-    let live = (LIVE.load(Ordering::SeqCst) - before) as f64;
+    let live = (live_heap::live() - before) as f64;
     let frames = model.distinct_frames() as f64;
     assert!(frames >= 4.0, "the head's frames are mostly distinct");
 

@@ -4,9 +4,10 @@
 //
 //   node decode.mjs FILE NAME LODS
 //
-// One JSON line: {"lods": [{"name", "translation", "scale", "position": {"type", "base64"},
-// "morphPosition": [...], "morphNormal": [...]}, ...]}, each array's bytes as three holds them
-// (little-endian, as the typed arrays store them), so the caller compares them bit for bit.
+// One JSON line: {"lods": [{"name", "translation", "scale", "index": {"type", "base64"},
+// "position": {...}, "morphPosition": [...], "morphNormal": [...]}, ...]}, each array's bytes
+// as three holds them (little-endian, as the typed arrays store them), so the caller compares
+// them bit for bit.
 // Exits 1 when the file does not load or a LOD node is missing.
 import { readFile } from "node:fs/promises";
 import * as THREE from "three";
@@ -62,7 +63,7 @@ try {
       name: lodName,
       translation: node.position.toArray(),
       scale: node.scale.toArray(),
-      indices: g.index ? g.index.count : 0,
+      index: g.index ? dump(g.index) : null,
       position: dump(g.attributes.position),
       morphPosition: (g.morphAttributes.position || []).map(dump),
       morphNormal: (g.morphAttributes.normal || []).map(dump),

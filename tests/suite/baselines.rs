@@ -600,8 +600,9 @@ fn bad_inputs_are_typed_errors() {
 
 /// `morphlod bench --baselines` on the cow, three frames a test: one run holds the four models'
 /// sizes and every frame of both tests; the strip baselines send the same display strips;
-/// each test ends at the coarsest LOD; LodStrips is the smallest model (Table 1's claim, a
-/// size, not a timing). A mesh that does not exist is refused with its path.
+/// each test ends at the coarsest LOD; LodStrips is the smallest model as the report gives it
+/// (Table 1's claim, a size, not a timing; tests/baseline_sizes.rs measures the models'
+/// buffers behind these figures). A mesh that does not exist is refused with its path.
 #[cfg(feature = "cli")]
 #[test]
 fn bench_baselines_writes_both_tables() {

@@ -318,6 +318,18 @@ fn build_takes_meshes_of_different_connectivity() {
     assert!(stdout.contains("landmarks"), "{}", text(&out));
     let loaded = morphlod::Asset::load(&asset).unwrap();
     assert_eq!(loaded.frames.len(), 4);
+    // The landmark was used: one vertex of the asset is the sphere's north pole at t = 0 and
+    // the cube's corner 0 at t = 1 (the pair merged into one supermesh vertex, each end at its
+    // mesh's position exactly); the automatic alignment puts the pole on the cube's top face.
+    let options = LoadOptions::default();
+    let pole = load_mesh(&a, &options).unwrap().positions[0];
+    let corner = load_mesh(&b, &options).unwrap().positions[0];
+    let paired = (loaded.v0.iter().zip(&loaded.v1)).filter(|&(&p, &q)| (p, q) == (pole, corner));
+    assert_eq!(
+        paired.count(),
+        1,
+        "the pole {pole:?} is not paired with the corner {corner:?}"
+    );
 }
 
 /// Two poses of one mesh: `supermesh` says the connectivity is the same and

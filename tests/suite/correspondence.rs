@@ -76,39 +76,169 @@ fn asset(name: &str) -> IndexedMesh {
 
 // ---------------------------------------------------------------- the measure
 
-/// The oracle of the measure, straight from its definition (docs/DESIGN.md):
-/// `s(t)` with the fixed weights, about the weighted centroid, at any `t`.
-fn s_oracle(tris: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]], t: f64) -> f64 {
-    let d = |p: [f32; 3]| DVec3::from_array(p.map(f64::from));
-    let shares = |v: &[[f32; 3]]| {
-        let mut w = vec![0.0; v.len()];
-        let mut total = 0.0;
-        for tri in tris {
-            let [a, b, c] = tri.map(|i| d(v[i as usize]));
-            let area = 0.5 * (b - a).cross(c - a).length();
-            total += area;
-            for &i in tri {
-                w[i as usize] += area / 3.0;
-            }
-        }
-        w.iter().map(|x| x / total).collect::<Vec<f64>>()
-    };
-    let (w0, w1) = (shares(v0), shares(v1));
-    let w: Vec<f64> = w0.iter().zip(&w1).map(|(a, b)| 0.5 * (a + b)).collect();
-    let rms = |p: &[DVec3]| {
-        let c: DVec3 = p.iter().zip(&w).map(|(&x, &w)| x * w).sum();
-        p.iter()
-            .zip(&w)
-            .map(|(&x, &w)| w * (x - c).length_squared())
-            .sum::<f64>()
-            .sqrt()
-    };
-    let p0: Vec<DVec3> = v0.iter().map(|&p| d(p)).collect();
-    let p1: Vec<DVec3> = v1.iter().map(|&p| d(p)).collect();
-    let pt: Vec<DVec3> = p0.iter().zip(&p1).map(|(&a, &b)| a.lerp(b, t)).collect();
-    rms(&pt) / ((1.0 - t) * rms(&p0) + t * rms(&p1))
+fn d64(p: [f32; 3]) -> DVec3 {
+    DVec3::from_array(p.map(f64::from))
 }
 
+/// Twice the area vector of triangle `t` of `p`: its length is twice the area.
+fn cross(p: &[DVec3], t: [u32; 3]) -> DVec3 {
+    let [a, b, c] = t.map(|i| p[i as usize]);
+    (b - a).cross(c - a)
+}
+
+/// The measure's weights (docs/DESIGN.md, "Correspondence measure"): per vertex the mean of
+/// its area share at `t = 0` and at `t = 1`, a share being a third of its triangles' areas
+/// over the total.
+fn weights(tris: &[[u32; 3]], p0: &[DVec3], p1: &[DVec3]) -> Vec<f64> {
+    let shares = |p: &[DVec3]| {
+        let mut w = vec![0.0; p.len()];
+        let total: f64 = tris.iter().map(|&t| cross(p, t).length() / 2.0).sum();
+        for &t in tris {
+            for i in t {
+                w[i as usize] += cross(p, t).length() / 6.0 / total;
+            }
+        }
+        w
+    };
+    let (w0, w1) = (shares(p0), shares(p1));
+    w0.iter().zip(&w1).map(|(a, b)| 0.5 * (a + b)).collect()
+}
+
+/// The weighted centroid of `p` and its RMS radius about it.
+fn centre_and_radius(p: &[DVec3], w: &[f64]) -> (DVec3, f64) {
+    let c: DVec3 = p.iter().zip(w).map(|(&x, &w)| x * w).sum();
+    let i: f64 = p
+        .iter()
+        .zip(w)
+        .map(|(&x, &w)| w * x.distance_squared(c))
+        .sum();
+    (c, i.sqrt())
+}
+
+fn lerp(p0: &[DVec3], p1: &[DVec3], t: f64) -> Vec<DVec3> {
+    p0.iter().zip(p1).map(|(&a, &b)| a.lerp(b, t)).collect()
+}
+
+/// The oracle of `s(t)`, straight from its definition: the RMS radius of the in-between about
+/// its weighted centroid over the blend of the ends', the weights fixed.
+fn s_of(p0: &[DVec3], p1: &[DVec3], w: &[f64], t: f64) -> f64 {
+    let radius = |p: &[DVec3]| centre_and_radius(p, w).1;
+    radius(&lerp(p0, p1, t)) / ((1.0 - t) * radius(p0) + t * radius(p1))
+}
+
+fn s_oracle(tris: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]], t: f64) -> f64 {
+    let p0: Vec<DVec3> = v0.iter().map(|&p| d64(p)).collect();
+    let p1: Vec<DVec3> = v1.iter().map(|&p| d64(p)).collect();
+    s_of(&p0, &p1, &weights(tris, &p0, &p1), t)
+}
+
+/// Everything the measure reports of the normalised ends, recomputed from the definitions in
+/// docs/DESIGN.md apart from the library's code (its own helpers are not called): `s(t)`, `D`,
+/// the √area and diagonal ratios at `t = ¼, ½, ¾`, and the map's distortion, each triangle's
+/// singular values from the Gram matrices of its edges (`σ₁², σ₂²` the eigenvalues of
+/// `G₀⁻¹G₁`, not the library's frames), percentiles by the triangles' mean area share.
+struct Normalised {
+    s: [f64; 3],
+    d: f64,
+    area_ratio: [f64; 3],
+    diagonal_ratio: [f64; 3],
+    area: [f64; 3],
+    angle: [f64; 2],
+    degenerate: f64,
+}
+
+fn normalised_oracle(tris: &[[u32; 3]], v0: &[[f32; 3]], v1: &[[f32; 3]]) -> Normalised {
+    const T: [f64; 3] = [0.25, 0.5, 0.75];
+    let p0: Vec<DVec3> = v0.iter().map(|&p| d64(p)).collect();
+    let p1: Vec<DVec3> = v1.iter().map(|&p| d64(p)).collect();
+    let w = weights(tris, &p0, &p1);
+    let normalise = |p: &[DVec3]| -> Vec<DVec3> {
+        let (c, r) = centre_and_radius(p, &w);
+        p.iter().map(|&x| (x - c) / r).collect()
+    };
+    let (q0, q1) = (normalise(&p0), normalise(&p1));
+    let d = (0..q0.len())
+        .map(|i| w[i] * q0[i].distance_squared(q1[i]))
+        .sum();
+    let area = |q: &[DVec3]| {
+        tris.iter()
+            .map(|&t| cross(q, t).length() / 2.0)
+            .sum::<f64>()
+    };
+    let diagonal = |q: &[DVec3]| {
+        let lo = q.iter().fold(DVec3::INFINITY, |m, &x| m.min(x));
+        let hi = q.iter().fold(DVec3::NEG_INFINITY, |m, &x| m.max(x));
+        lo.distance(hi)
+    };
+    let ratio = |f: &dyn Fn(&[DVec3]) -> f64, t: f64| {
+        f(&lerp(&q0, &q1, t)) / ((1.0 - t) * f(&q0) + t * f(&q1))
+    };
+    let root_area = |q: &[DVec3]| area(q).sqrt();
+    // Distortion: B scaled to A's total area; per triangle σ₁σ₂ = √(det G₁ / det G₀) and
+    // σ₁² + σ₂² = tr(G₀⁻¹G₁), G the Gram matrix of the edges from the first corner.
+    let (total0, total1) = (area(&q0), area(&q1));
+    let scale = (total0 / total1).sqrt();
+    let mut values: Vec<(f64, f64, f64)> = Vec::new();
+    let mut degenerate = 0.0;
+    for &t in tris {
+        let share = 0.25 * (cross(&q0, t).length() / total0 + cross(&q1, t).length() / total1);
+        if cross(&q0, t).length() == 0.0 || cross(&q1, t).length() == 0.0 {
+            degenerate += share;
+            continue;
+        }
+        let gram = |q: &[DVec3], k: f64| {
+            let [a, b, c] = t.map(|i| q[i as usize] * k);
+            let (e, f) = (b - a, c - a);
+            [e.dot(e), e.dot(f), f.dot(f)]
+        };
+        let ([a, b, c], [x, y, z]) = (gram(&q0, 1.0), gram(&q1, scale));
+        let (det0, det1) = (a * c - b * b, x * z - y * y);
+        // G₀⁻¹ = [c −b; −b a] / det0.
+        let trace = (c * x - 2.0 * b * y + a * z) / det0;
+        let product = (det1 / det0).sqrt();
+        let root = (trace * trace - 4.0 * product * product).max(0.0).sqrt();
+        let (s1, s2) = (((trace + root) / 2.0).sqrt(), ((trace - root) / 2.0).sqrt());
+        values.push((s1 * s2, s1 / s2, share));
+    }
+    // The smallest value whose cumulative share reaches the fraction `f` of the total.
+    let percentile = |key: fn(&(f64, f64, f64)) -> f64, f: f64| {
+        let mut sorted: Vec<(f64, f64)> = values.iter().map(|v| (key(v), v.2)).collect();
+        sorted.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let total: f64 = sorted.iter().map(|v| v.1).sum();
+        let mut sum = 0.0;
+        sorted
+            .iter()
+            .find(|v| {
+                sum += v.1;
+                sum >= f * total
+            })
+            .unwrap()
+            .0
+    };
+    Normalised {
+        s: T.map(|t| s_of(&q0, &q1, &w, t)),
+        d,
+        area_ratio: T.map(|t| ratio(&root_area, t)),
+        diagonal_ratio: T.map(|t| ratio(&diagonal, t)),
+        area: [0.05, 0.5, 0.95].map(|f| percentile(|v| v.0, f)),
+        angle: [0.5, 0.95].map(|f| percentile(|v| v.1, f)),
+        degenerate,
+    }
+}
+
+/// A warp of space with no symmetry the measure could hide behind: twisted about z, stretched
+/// along x, bulged on one side, turned and moved.
+fn warp(p: DVec3) -> DVec3 {
+    let (s, c) = (0.7 * p.z).sin_cos();
+    let twisted = DVec3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z);
+    let bulged = DVec3::new(1.6 * twisted.x, twisted.y, twisted.z) * (1.0 + 0.3 * p.x.tanh());
+    glam::DMat3::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), 0.5) * bulged
+        + DVec3::new(0.5, -2.0, 1.0)
+}
+
+/// The measure against its definition: `s` as placed by the oracle on a wrongly matched copy
+/// (where normalised `s(½)` is `√(1 − D/4)`), every normalised figure by the oracle on an
+/// analytically warped copy with two triangles collapsed, then the identity and the placement.
 #[test]
 fn measure_matches_its_definition() {
     let a = blob(8, 12, 0.3, [1.0, 2.0, 0.5], 3);
@@ -129,6 +259,54 @@ fn measure_matches_its_definition() {
     }
     assert!(m.s[1] < 0.9, "{m:?}");
     assert!((m.s[1] - (1.0 - m.d / 4.0).sqrt()).abs() < 1e-9, "{m:?}");
+    // An analytically warped copy, two of its vertices merged in B (so the triangles on their
+    // edge have no area there): every normalised figure against the oracle, each away from
+    // what the identity gives.
+    let mut warped = deformed(&a, warp);
+    let [x, y, _] = a.triangles[40];
+    warped.positions[x as usize] = warped.positions[y as usize];
+    let m = measure(&a.triangles, &a.positions, &warped.positions);
+    let o = normalised_oracle(&a.triangles, &a.positions, &warped.positions);
+    let close = |what: &str, got: &[f64], want: &[f64]| {
+        for (g, w) in got.iter().zip(want) {
+            assert!(
+                (g - w).abs() <= 1e-9 * w.abs().max(1.0),
+                "{what}: {got:?}, oracle {want:?}"
+            );
+        }
+    };
+    close("s", &m.s, &o.s);
+    close("D", &[m.d], &[o.d]);
+    close("√area ratio", &m.area_ratio, &o.area_ratio);
+    close("diagonal ratio", &m.diagonal_ratio, &o.diagonal_ratio);
+    close("area distortion", &m.distortion.area, &o.area);
+    close("angle distortion", &m.distortion.angle, &o.angle);
+    close("degenerate", &[m.distortion.degenerate], &[o.degenerate]);
+    for k in 0..3 {
+        let t = [0.25, 0.5, 0.75][k];
+        assert!(
+            (m.s_placed[k] - s_oracle(&a.triangles, &a.positions, &warped.positions, t)).abs()
+                < 1e-9
+        );
+        assert!(o.s[k] < 0.99 && o.d > 0.05, "s {:?}, D {}", o.s, o.d);
+        assert!((o.area_ratio[k] - 1.0).abs() > 0.01, "{:?}", o.area_ratio);
+        assert!(
+            (o.diagonal_ratio[k] - 1.0).abs() > 0.01,
+            "{:?}",
+            o.diagonal_ratio
+        );
+    }
+    assert!(
+        o.area[0] < 0.9 && o.area[2] > 1.1 && o.angle[0] > 1.05,
+        "{:?} {:?}",
+        o.area,
+        o.angle
+    );
+    assert!(
+        o.degenerate > 0.0 && o.degenerate < 0.05,
+        "{}",
+        o.degenerate
+    );
     // A scaled, moved copy under the identity: s = 1, D = 0, no distortion.
     let c: Vec<[f32; 3]> = a
         .positions
@@ -488,24 +666,40 @@ proptest! {
         let (s, r) = Supermesh::build(&a, &b, &options).unwrap_or_else(|e| panic!("{pairs:?}: {e}"));
         check_closed(&s, &r, &pairs);
     }
+}
 
-    /// Random pairs (which may contradict each other): either every pair
-    /// closes exactly without folds, or a typed error names the pair the
-    /// fold-rejecting drag could not close; never a half-closed result.
-    #[test]
-    fn random_landmarks_close_or_name_the_pair(seed in any::<u64>(), k in 1usize..6) {
+/// Random pairs (which may contradict each other) on 32 fixed cases: either every pair closes
+/// exactly without folds, or a typed error names the pair the fold-rejecting drag could not
+/// close; never a half-closed result. The cases are seeds 0 to 29 (all close) and two of the
+/// six of seeds 0 to 255 that give up (250 of 256 close), so both outcomes are met; at least
+/// 28 must close, or a build that gave up on everything would pass.
+#[test]
+fn random_landmarks_close_or_name_the_pair() {
+    let mut closed = 0;
+    for i in (0..30u64).chain([138, 159]) {
+        let seed = common::mix(i);
+        let k = 1 + (i % 5) as usize;
         let a = blob(10, 16, 0.3, [1.0, 1.0, 1.0], seed);
         let b = blob(7, 11, 0.2, [2.0, 1.0, 0.5], seed ^ 0x5eed);
         let pairs = random_pairs(&mut Rng(seed), k, a.vertex_count(), b.vertex_count());
-        let options = SupermeshOptions { landmarks: pairs.clone(), seed, ..SupermeshOptions::default() };
+        let options = SupermeshOptions {
+            landmarks: pairs.clone(),
+            seed,
+            ..SupermeshOptions::default()
+        };
         match Supermesh::build(&a, &b, &options) {
-            Ok((s, r)) => check_closed(&s, &r, &pairs),
+            Ok((s, r)) => {
+                check_closed(&s, &r, &pairs);
+                closed += 1;
+            }
             Err(e) => {
-                prop_assert!(matches!(e, SupermeshError::LandmarkUnreached { .. }), "{}", e);
-                prop_assert!(e.landmark_pair().unwrap() < pairs.len());
+                let unreached = matches!(e, SupermeshError::LandmarkUnreached { .. });
+                assert!(unreached, "case {i}: {e}");
+                assert!(e.landmark_pair().unwrap() < pairs.len(), "case {i}: {e}");
             }
         }
     }
+    assert!(closed >= 28, "{closed} of 32 cases closed");
 }
 
 #[test]

@@ -46,8 +46,8 @@
 //!   removed and unknown instances, a full asset, a model of another asset, an asset of another
 //!   device, the first-instance path on a device without the feature: typed errors, and the
 //!   buffers and states are as before.
-//! * `host_memory_per_instance_is_bounded`: the host bytes each added body instance holds (the
-//!   crowd's own accounting) stay below what it must hold and below [`HOST_BYTES_PER_INSTANCE`].
+//! * The host bytes a body instance holds are measured by a counting allocator in a binary of
+//!   their own (tests/crowd_alloc.rs).
 //! * `discrete_lods_draw_each_instance_level`: the bench's discrete-LOD renderer (levels of one
 //!   shared sequence, one instanced draw per level): its index buffer read back holds each
 //!   level's reference mesh (recomputed here from the sequence, at the first step within the
@@ -800,51 +800,56 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
     let kind = Kind::new(&small, asset)?;
     let n = kind.gpu.vertex_count();
     let (device, queue) = (small.device(), small.queue());
-    let mut crowd = crowd_on(&small, paths(&small)[0])?;
-    crowd.set_records(regions_only);
-    let (id, instances) = fill(&small, &mut crowd, &kind, capacity)?;
-    // Most dispatches of one frame, by `prepare` and by `prepare_with`, and most pages.
-    let (mut most, mut pages) = ([0; 2], 0);
-    for step in 0..8 {
-        // The coarsest LOD at one frame, full detail, the coarsest at another frame...
-        let (t, lod) = match step % 2 {
-            0 => (step as f32 / 8.0, Lod::Fraction(1.0)),
-            _ => (0.0, Lod::Steps(0)),
-        };
-        let moves: Vec<_> = instances.iter().map(|&i| (i, t, lod)).collect();
-        crowd.set(&moves)?;
-        let with = step / 2 % 2;
-        let upload = if with == 1 {
-            let mut encoder = device.create_command_encoder(&Default::default());
-            let upload = crowd.prepare_with(device, queue, &mut encoder);
-            queue.submit([encoder.finish()]);
-            upload
-        } else {
-            crowd.prepare(device, queue)
-        };
-        most[with] = most[with].max(upload.dispatches);
-        pages = pages.max(crowd.pages(id));
-        let drawn = drawn_per_slot(&small, &crowd, id, n, capacity as usize);
-        for &i in &instances {
-            let state = crowd
-                .state(i)?
-                .expect("no tail lists without a compact share");
-            let expected: Vec<[u32; 3]> = (0..state.lengths().len())
-                .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
-                .collect();
-            assert_eq!(
-                drawn[i.slot() as usize].triangles,
-                expected,
-                "step {step}, prepare_with {with}, {i:?}"
-            );
+    for path in paths(&small) {
+        let mut crowd = crowd_on(&small, path)?;
+        crowd.set_records(regions_only);
+        let (id, instances) = fill(&small, &mut crowd, &kind, capacity)?;
+        // Most dispatches of one frame, by `prepare` and by `prepare_with`, and most pages.
+        let (mut most, mut pages) = ([0; 2], 0);
+        for step in 0..8 {
+            // The coarsest LOD at one frame, full detail, the coarsest at another frame...
+            let (t, lod) = match step % 2 {
+                0 => (step as f32 / 8.0, Lod::Fraction(1.0)),
+                _ => (0.0, Lod::Steps(0)),
+            };
+            let moves: Vec<_> = instances.iter().map(|&i| (i, t, lod)).collect();
+            crowd.set(&moves)?;
+            let with = step / 2 % 2;
+            let upload = if with == 1 {
+                let mut encoder = device.create_command_encoder(&Default::default());
+                let upload = crowd.prepare_with(device, queue, &mut encoder);
+                queue.submit([encoder.finish()]);
+                upload
+            } else {
+                crowd.prepare(device, queue)
+            };
+            most[with] = most[with].max(upload.dispatches);
+            pages = pages.max(crowd.pages(id));
+            let drawn = drawn_per_slot(&small, &crowd, id, n, capacity as usize);
+            for &i in &instances {
+                let state = crowd
+                    .state(i)?
+                    .expect("no tail lists without a compact share");
+                let expected: Vec<[u32; 3]> = (0..state.lengths().len())
+                    .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
+                    .collect();
+                assert_eq!(
+                    drawn[i.slot() as usize].triangles,
+                    expected,
+                    "{path:?}, step {step}, prepare_with {with}, {i:?}"
+                );
+            }
         }
+        // One dispatch for the records, more than one for the index patches.
+        assert!(
+            most[0] > 2 && most[1] > 2,
+            "{path:?}: no frame needed more than one chunk: {most:?} dispatches at most"
+        );
+        assert!(
+            pages >= 3,
+            "{path:?}: {pages} pages for 5 instances' regions and S0"
+        );
     }
-    // One dispatch for the records, more than one for the index patches.
-    assert!(
-        most[0] > 2 && most[1] > 2,
-        "no frame needed more than one chunk: {most:?} dispatches at most"
-    );
-    assert!(pages >= 3, "{pages} pages for 5 instances' regions and S0");
     Ok(())
 }
 
@@ -891,89 +896,102 @@ fn index_patches_name_each_word_once() -> Result<()> {
     };
     let (device, queue) = (ctx.device(), ctx.queue());
     let kind = Kind::new(&ctx, grid_asset(11, 6, 0.5))?;
-    let mut crowd = crowd_on(&ctx, paths(&ctx)[0])?;
-    crowd.set_records(CrowdRecords {
-        compact_share: 0.0,
-        tail_triangles: 0,
-    });
-    let count = 4;
-    let (_, ids) = fill(&ctx, &mut crowd, &kind, count)?;
-    // Each instance's copy and the lengths its regions hold on the GPU (none before its first
-    // move: it draws the shared S0).
-    let mut copies: Vec<(DeformingState, Option<Vec<u32>>)> = ids
-        .iter()
-        .map(|_| (DeformingState::new(&kind.model), None))
-        .collect();
-    crowd.prepare(device, queue);
-    let mut rng = common::Rng(0xd_1571_11c7);
-    let (mut patches, mut overlapping) = (0, 0);
-    for step in 0..30 {
-        let rounds = 1 + usize::from(step % 3 == 0);
-        let mut words = 0;
-        for round in 0..rounds {
-            let mut moves: Vec<(InstanceId, f32, Lod)> = Vec::new();
-            for &id in &ids {
-                if round == 1 || rng.below(4) != 0 {
-                    moves.push((id, rng.unit(), Lod::Fraction(rng.unit())));
-                }
-            }
-            crowd.set(&moves)?;
-            for &(id, t, lod) in &moves {
-                copies[id.slot() as usize].0.set(&kind.model, t, lod)?;
-            }
-            for (&id, (state, uploaded)) in ids.iter().zip(&mut copies) {
-                // No tail lists without a compact area: no runtime only before a first move.
-                match crowd.state(id)? {
-                    Some(crowd_state) => {
-                        assert_eq!(state.indices(), crowd_state.indices(), "step {step}")
+    for path in paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        crowd.set_records(CrowdRecords {
+            compact_share: 0.0,
+            tail_triangles: 0,
+        });
+        let count = 4;
+        let (_, ids) = fill(&ctx, &mut crowd, &kind, count)?;
+        // Each instance's copy and the lengths its regions hold on the GPU (none before its
+        // first move: it draws the shared S0).
+        let mut copies: Vec<(DeformingState, Option<Vec<u32>>)> = ids
+            .iter()
+            .map(|_| (DeformingState::new(&kind.model), None))
+            .collect();
+        crowd.prepare(device, queue);
+        let mut rng = common::Rng(0xd_1571_11c7);
+        let (mut patches, mut overlapping) = (0, 0);
+        for step in 0..30 {
+            let rounds = 1 + usize::from(step % 3 == 0);
+            let mut words = 0;
+            for round in 0..rounds {
+                let mut moves: Vec<(InstanceId, f32, Lod)> = Vec::new();
+                for &id in &ids {
+                    if round == 1 || rng.below(4) != 0 {
+                        moves.push((id, rng.unit(), Lod::Fraction(rng.unit())));
                     }
-                    None => assert_eq!((state.frame(), state.lod()), (0, 0), "step {step}"),
                 }
-                let dirty = state.take_dirty();
-                let lengths = state.lengths();
-                let mut named = std::collections::BTreeSet::new();
-                let Some(regions) = uploaded.as_mut() else {
-                    if crowd.state(id)?.is_some() {
-                        // Its first move: every live word, into regions of restarts.
-                        for (strip, &len) in (0u32..).zip(lengths) {
-                            named.extend((0..len).map(|i| (strip, i)));
+                crowd.set(&moves)?;
+                for &(id, t, lod) in &moves {
+                    copies[id.slot() as usize].0.set(&kind.model, t, lod)?;
+                }
+                for (&id, (state, uploaded)) in ids.iter().zip(&mut copies) {
+                    // No tail lists without a compact area: no runtime only before a first move.
+                    match crowd.state(id)? {
+                        Some(crowd_state) => {
+                            assert_eq!(
+                                state.indices(),
+                                crowd_state.indices(),
+                                "{path:?}, step {step}"
+                            )
                         }
-                        *uploaded = Some(lengths.to_vec());
-                        words += named.len() as u64;
+                        None => assert_eq!(
+                            (state.frame(), state.lod()),
+                            (0, 0),
+                            "{path:?}, step {step}"
+                        ),
                     }
-                    continue;
-                };
-                for range in &dirty.ranges {
-                    let live = lengths[range.strip as usize];
-                    named.extend((range.start..range.end.min(live)).map(|i| (range.strip, i)));
+                    let dirty = state.take_dirty();
+                    let lengths = state.lengths();
+                    let mut named = std::collections::BTreeSet::new();
+                    let Some(regions) = uploaded.as_mut() else {
+                        if crowd.state(id)?.is_some() {
+                            // Its first move: every live word, into regions of restarts.
+                            for (strip, &len) in (0u32..).zip(lengths) {
+                                named.extend((0..len).map(|i| (strip, i)));
+                            }
+                            *uploaded = Some(lengths.to_vec());
+                            words += named.len() as u64;
+                        }
+                        continue;
+                    };
+                    for range in &dirty.ranges {
+                        let live = lengths[range.strip as usize];
+                        named.extend((range.start..range.end.min(live)).map(|i| (range.strip, i)));
+                    }
+                    for &strip in &dirty.lengths {
+                        let (old, new) = (regions[strip as usize], lengths[strip as usize]);
+                        let grown = (old.min(new)..old.max(new)).map(|i| (strip, i));
+                        overlapping += grown.clone().filter(|w| named.contains(w)).count();
+                        named.extend(grown);
+                        regions[strip as usize] = new;
+                    }
+                    words += named.len() as u64;
                 }
-                for &strip in &dirty.lengths {
-                    let (old, new) = (regions[strip as usize], lengths[strip as usize]);
-                    let grown = (old.min(new)..old.max(new)).map(|i| (strip, i));
-                    overlapping += grown.clone().filter(|w| named.contains(w)).count();
-                    named.extend(grown);
-                    regions[strip as usize] = new;
-                }
-                words += named.len() as u64;
             }
+            let upload = crowd.prepare(device, queue);
+            if rounds == 1 {
+                assert_eq!(
+                    upload.patches, words,
+                    "{path:?}, step {step}: index patches against words"
+                );
+            } else {
+                assert!(
+                    upload.patches <= words && (words == 0 || upload.patches > 0),
+                    "{path:?}, step {step}: {} index patches against {words} words of both moves",
+                    upload.patches
+                );
+            }
+            patches += words;
         }
-        let upload = crowd.prepare(device, queue);
-        if rounds == 1 {
-            assert_eq!(
-                upload.patches, words,
-                "step {step}: index patches against words"
-            );
-        } else {
-            assert!(
-                upload.patches <= words && (words == 0 || upload.patches > 0),
-                "step {step}: {} index patches against {words} words of both moves",
-                upload.patches
-            );
-        }
-        patches += words;
+        // The walk does overlap ranges and growths, so the count can tell.
+        assert!(
+            overlapping > 0,
+            "{path:?}: {patches} words patched, none overlapping"
+        );
     }
-    // The walk does overlap ranges and growths, so the count can tell.
-    assert!(overlapping > 0, "{patches} words patched, none overlapping");
     Ok(())
 }
 
@@ -996,50 +1014,51 @@ fn instances_sharing_a_frame_draw_their_reference_meshes() -> Result<()> {
         .filter_map(|i| s0.strip(i))
         .flat_map(strip_draw)
         .collect();
-    let path = paths(&ctx)[0];
-    let mut crowd = crowd_on(&ctx, path)?;
-    // Enough instances for several pieces of `set`'s parallel pass (at least 16 slots each)
-    // and several runs of one frame's rebuilds.
-    let count = 40;
-    let (asset, ids) = fill(&ctx, &mut crowd, &kind, count)?;
-    let mut rng = common::Rng(0xc0ffee);
-    let frame_t = |k: usize| k as f32 / (frames - 1) as f32;
-    for step in 0..24 {
-        let k = (step + rng.below(2)) % frames;
-        let herd = Lod::Fraction(0.2 + 0.6 * rng.unit());
-        let other_lod = Lod::Fraction(if step % 2 == 0 { 0.05 } else { 0.95 });
-        let mut moves: Vec<(InstanceId, f32, Lod)> = Vec::new();
-        for (i, &id) in ids.iter().enumerate() {
-            match i {
-                0 => moves.push((id, frame_t(k), other_lod)),
-                1 => moves.push((id, frame_t((k + 3) % frames), herd)),
-                2 if step % 3 != 0 => {}
-                _ => moves.push((id, frame_t(k), herd)),
+    for path in paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        // Enough instances for several pieces of `set`'s parallel pass (at least 16 slots each)
+        // and several runs of one frame's rebuilds.
+        let count = 40;
+        let (asset, ids) = fill(&ctx, &mut crowd, &kind, count)?;
+        let mut rng = common::Rng(0xc0ffee);
+        let frame_t = |k: usize| k as f32 / (frames - 1) as f32;
+        for step in 0..24 {
+            let k = (step + rng.below(2)) % frames;
+            let herd = Lod::Fraction(0.2 + 0.6 * rng.unit());
+            let other_lod = Lod::Fraction(if step % 2 == 0 { 0.05 } else { 0.95 });
+            let mut moves: Vec<(InstanceId, f32, Lod)> = Vec::new();
+            for (i, &id) in ids.iter().enumerate() {
+                match i {
+                    0 => moves.push((id, frame_t(k), other_lod)),
+                    1 => moves.push((id, frame_t((k + 3) % frames), herd)),
+                    2 if step % 3 != 0 => {}
+                    _ => moves.push((id, frame_t(k), herd)),
+                }
             }
-        }
-        crowd.set(&moves)?;
-        crowd.prepare(device, queue);
-        let drawn = drawn_per_slot(&ctx, &crowd, asset, kind.gpu.vertex_count(), ids.len());
-        for &id in &ids {
-            let at = crowd.at(id)?;
-            let (frame, lod) = (at.frame, at.lod);
-            let reference = kind.asset.frames[frame].reference_mesh(&triangles, lod);
-            assert_eq!(
-                canonical_multiset(drawn[id.slot() as usize].triangles.iter().copied()),
-                canonical_multiset(reference),
-                "{path:?}, step {step}, {id:?} at frame {frame}, LOD {lod}"
-            );
-        }
-        // Every moved instance is where it was asked to be.
-        for &(id, t, lod) in &moves {
-            let at = crowd.at(id)?;
-            let frame = kind.model.frame_at(t)?;
-            assert_eq!(at.frame, frame, "step {step}, {id:?}");
-            assert_eq!(
-                at.lod,
-                kind.model.resolve(frame, lod)?,
-                "step {step}, {id:?}"
-            );
+            crowd.set(&moves)?;
+            crowd.prepare(device, queue);
+            let drawn = drawn_per_slot(&ctx, &crowd, asset, kind.gpu.vertex_count(), ids.len());
+            for &id in &ids {
+                let at = crowd.at(id)?;
+                let (frame, lod) = (at.frame, at.lod);
+                let reference = kind.asset.frames[frame].reference_mesh(&triangles, lod);
+                assert_eq!(
+                    canonical_multiset(drawn[id.slot() as usize].triangles.iter().copied()),
+                    canonical_multiset(reference),
+                    "{path:?}, step {step}, {id:?} at frame {frame}, LOD {lod}"
+                );
+            }
+            // Every moved instance is where it was asked to be.
+            for &(id, t, lod) in &moves {
+                let at = crowd.at(id)?;
+                let frame = kind.model.frame_at(t)?;
+                assert_eq!(at.frame, frame, "{path:?}, step {step}, {id:?}");
+                assert_eq!(
+                    at.lod,
+                    kind.model.resolve(frame, lod)?,
+                    "{path:?}, step {step}, {id:?}"
+                );
+            }
         }
     }
     Ok(())
@@ -1474,75 +1493,6 @@ fn bad_input_is_refused_and_changes_nothing() -> Result<()> {
     Ok(())
 }
 
-/// Host bytes one more instance of an asset may cost: the goal for a body (13,380
-/// vertices).
-const HOST_BYTES_PER_INSTANCE: f64 = 200_000.0;
-
-/// What an instance must hold, with slack: its runtime's index buffer (4 bytes per `S0`
-/// index), about 32 bytes per strip of bookkeeping (region offsets, live and uploaded
-/// lengths, dirty bounds and lists), its 192-byte block and 20-byte record, 4 KB for the
-/// state's own fields. Nothing per vertex: the survivor table of a rebuild is per thread. An
-/// index mirror per instance (4 more bytes per `S0` index) or a survivor table per instance
-/// (4 per vertex) would break it.
-fn instance_bound(model: &DeformingModel) -> f64 {
-    let layout = model.layout();
-    (layout.s0().len() * 4 + layout.strip_count() * 32 + 4096) as f64
-}
-
-#[test]
-fn host_memory_per_instance_is_bounded() -> Result<()> {
-    let Some(ctx) = Gpu::new() else {
-        return Ok(());
-    };
-    let (device, queue) = (ctx.device(), ctx.queue());
-    // The body of the goal, 2 frames: the footprint of an instance does not depend on the
-    // frame count (S0, strips and vertices are the asset's).
-    let kind = Kind::new(
-        &ctx,
-        common::animated_asset("makehuman_body.glb", "morph", 2),
-    )?;
-    let count = 40;
-    let mut crowd = Crowd::new(
-        device,
-        RenderTarget::COLOR_FORMAT,
-        Some(RenderTarget::DEPTH_FORMAT),
-    );
-    let (_, ids) = fill(&ctx, &mut crowd, &kind, count)?;
-    // Every instance switches frames at several LODs (rebuilds and steps: the dirty lists and
-    // step scratch reach their size) and uploads each time.
-    for (t, lod) in [(1.0, 0.5), (0.0, 0.9), (1.0, 0.1), (0.0, 0.0)] {
-        let moves: Vec<_> = ids.iter().map(|&id| (id, t, Lod::Fraction(lod))).collect();
-        crowd.set(&moves)?;
-        crowd.prepare(device, queue);
-    }
-    let stats = crowd.stats();
-    let accounted = stats.instance_host_bytes as f64 / f64::from(count);
-    let bound = instance_bound(&kind.model).min(HOST_BYTES_PER_INSTANCE);
-    println!("host bytes per body instance: {accounted:.0} held (bound {bound:.0})");
-    assert!(accounted <= bound, "an instance holds {accounted:.0} bytes");
-    // At the coarsest LOD every instance draws its frame's tail list and holds no runtime
-    // and no lengths of regions: its block and record, its fields.
-    let coarsest: Vec<_> = ids
-        .iter()
-        .map(|&id| (id, 0.0, Lod::Fraction(1.0)))
-        .collect();
-    crowd.set(&coarsest)?;
-    crowd.prepare(device, queue);
-    for &id in &ids {
-        assert!(crowd.at(id)?.from == DrawnFrom::Tail && crowd.state(id)?.is_none());
-    }
-    let parked = crowd.stats().instance_host_bytes as f64 / f64::from(count);
-    let parked_bound = 1024.0;
-    println!("host bytes per body instance in a tail list: {parked:.0} (bound {parked_bound})");
-    assert!(
-        parked <= parked_bound,
-        "an instance in a tail list holds {parked:.0} bytes"
-    );
-    // The resident set is not measured here: the suite runs other tests beside this one in
-    // the same process, so its growth is not this crowd's.
-    Ok(())
-}
-
 /// The bench's library entry runs both modes on the same instances: full detail draws every
 /// instance's `S0`, the LOD mode no more, and both report their uploads.
 #[test]
@@ -1808,115 +1758,125 @@ fn culling_skips_only_instances_out_of_view() -> Result<()> {
         Kind::new(&ctx, head_asset())?,
     ];
     let target = RenderTarget::new(device, 64, 48, wgpu::Color::BLUE)?;
-    let mut crowd = crowd_on(&ctx, paths(&ctx)[0])?;
-    // Two rows of unit boxes along x, from -6 to 6, 0.24 apart at depths in -0.5..0.5, so
-    // that some lie across each side of every view, and a view sees about half of them.
-    let row = 51;
-    let mut placed = Vec::new();
-    for (k, kind) in kinds.iter().enumerate() {
-        let asset = crowd.add_asset(device, Arc::clone(&kind.gpu), Arc::clone(&kind.model), row)?;
-        for i in 0..row {
-            let depth = (0.618 * (i + 7 * k as u32) as f32).fract() - 0.5;
-            let at = glam::Vec3::new(0.24 * i as f32 - 6.0, 1.2 * k as f32 - 0.6, depth);
-            let model = kind.place(at, 0.2 * i as f32);
-            placed.push((asset, crowd.add(asset, model)?, model));
+    for path in paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        // Two rows of unit boxes along x, from -6 to 6, 0.24 apart at depths in -0.5..0.5, so
+        // that some lie across each side of every view, and a view sees about half of them.
+        let row = 51;
+        let mut placed = Vec::new();
+        for (k, kind) in kinds.iter().enumerate() {
+            let asset =
+                crowd.add_asset(device, Arc::clone(&kind.gpu), Arc::clone(&kind.model), row)?;
+            for i in 0..row {
+                let depth = (0.618 * (i + 7 * k as u32) as f32).fract() - 0.5;
+                let at = glam::Vec3::new(0.24 * i as f32 - 6.0, 1.2 * k as f32 - 0.6, depth);
+                let model = kind.place(at, 0.2 * i as f32);
+                placed.push((asset, crowd.add(asset, model)?, model));
+            }
         }
-    }
-    let row = row as usize;
-    for (view, pan) in [0.0f32, 4.5, -3.0, 0.0].into_iter().enumerate() {
-        // A view of x in about pan - 2 .. pan + 2.
-        let view_proj = gpu::camera::fit_to_bounds(
-            [pan - 2.0, -1.0, -0.6],
-            [pan + 2.0, 1.0, 0.6],
-            -glam::Vec3::Z,
-            64.0 / 48.0,
-            gpu::camera::Projection::Perspective { vertical_fov: 0.8 },
-        )?
-        .view_proj();
-        crowd.set_view_proj(view_proj);
-        let moves: Vec<(InstanceId, f32, Lod)> = (placed.iter().enumerate())
-            .map(|(i, &(_, id, _))| (id, (0.37 * (i + view) as f32).fract(), Lod::Fraction(0.4)))
-            .collect();
-        crowd.set(&moves)?;
-        let mut images = Vec::new();
-        let mut words = Vec::new();
-        for culling in [true, false] {
-            crowd.set_culling(culling);
-            crowd.prepare(device, queue);
-            images.push(render(&ctx, &target, |pass| crowd.render(pass)).0);
-            // Each instance's record, found by the slot it carries.
-            let drawn: Vec<Vec<SlotDraw>> = (kinds.iter().enumerate())
-                .map(|(k, kind)| {
-                    let n = kind.gpu.vertex_count();
-                    drawn_per_slot(&ctx, &crowd, placed[k * row].0, n, row)
-                })
-                .collect();
-            let records: Vec<[u32; 5]> = (placed.iter().enumerate())
+        let row = row as usize;
+        for (view, pan) in [0.0f32, 4.5, -3.0, 0.0].into_iter().enumerate() {
+            // A view of x in about pan - 2 .. pan + 2.
+            let view_proj = gpu::camera::fit_to_bounds(
+                [pan - 2.0, -1.0, -0.6],
+                [pan + 2.0, 1.0, 0.6],
+                -glam::Vec3::Z,
+                64.0 / 48.0,
+                gpu::camera::Projection::Perspective { vertical_fov: 0.8 },
+            )?
+            .view_proj();
+            crowd.set_view_proj(view_proj);
+            let moves: Vec<(InstanceId, f32, Lod)> = (placed.iter().enumerate())
                 .map(|(i, &(_, id, _))| {
-                    drawn[i / row][id.slot() as usize]
-                        .record
-                        .expect("a record")
-                        .1
+                    (id, (0.37 * (i + view) as f32).fract(), Lod::Fraction(0.4))
                 })
                 .collect();
-            if culling {
+            crowd.set(&moves)?;
+            let mut images = Vec::new();
+            let mut words = Vec::new();
+            for culling in [true, false] {
+                crowd.set_culling(culling);
+                crowd.prepare(device, queue);
+                images.push(render(&ctx, &target, |pass| crowd.render(pass)).0);
+                // Each instance's record, found by the slot it carries.
+                let drawn: Vec<Vec<SlotDraw>> = (kinds.iter().enumerate())
+                    .map(|(k, kind)| {
+                        let n = kind.gpu.vertex_count();
+                        drawn_per_slot(&ctx, &crowd, placed[k * row].0, n, row)
+                    })
+                    .collect();
+                let records: Vec<[u32; 5]> = (placed.iter().enumerate())
+                    .map(|(i, &(_, id, _))| {
+                        drawn[i / row][id.slot() as usize]
+                            .record
+                            .expect("a record")
+                            .1
+                    })
+                    .collect();
+                if culling {
+                    assert_eq!(
+                        crowd.stats().culled,
+                        records.iter().filter(|r| r[1] == 0).count(),
+                        "{path:?}, view {view}: the stats count the zeroed records"
+                    );
+                }
+                words.push(records);
+            }
+            assert!(
+                images[0] == images[1],
+                "{path:?}, view {view}: culling changed the image"
+            );
+            let mut culled = 0;
+            let mut edge = 0;
+            for (i, &(_, id, model)) in placed.iter().enumerate() {
+                let (on, off) = (&words[0][i], &words[1][i]);
                 assert_eq!(
-                    crowd.stats().culled,
-                    records.iter().filter(|r| r[1] == 0).count(),
-                    "view {view}: the stats count the zeroed records"
+                    off[1], 1,
+                    "{path:?}, view {view}, instance {i}: drawn without culling"
+                );
+                // Only the instance count differs, and only to 0.
+                for w in [0, 2, 3, 4] {
+                    assert_eq!(on[w], off[w], "{path:?}, view {view}, instance {i}");
+                }
+                let blended = crowd.blended_positions(device, queue, id)?;
+                let inside = |p: &[f32; 3]| {
+                    let clip = view_proj * model * glam::Vec3::from(*p).extend(1.0);
+                    clip.x.abs() <= clip.w
+                        && clip.y.abs() <= clip.w
+                        && (0.0..=clip.w).contains(&clip.z)
+                };
+                let seen = blended.iter().filter(|p| inside(p)).count();
+                edge += usize::from(seen > 0 && seen < blended.len());
+                // Out of view at `set`, an instance is parked at its frame's coarsest LOD; in
+                // view it is at the LOD asked.
+                let kind = &kinds[i / row];
+                let at = crowd.at(id)?;
+                let asked = if on[1] == 1 { 0.4 } else { 1.0 };
+                let lod = kind.model.resolve(at.frame, Lod::Fraction(asked))?;
+                assert_eq!(at.lod, lod, "{path:?}, view {view}, instance {i}: {at:?}");
+                if on[1] == 1 {
+                    continue;
+                }
+                culled += 1;
+                // The oracle: no vertex of what it draws is in the clip volume.
+                assert_eq!(
+                    seen, 0,
+                    "{path:?}, view {view}: instance {i} culled with a vertex in view"
                 );
             }
-            words.push(records);
-        }
-        assert!(
-            images[0] == images[1],
-            "view {view}: culling changed the image"
-        );
-        let mut culled = 0;
-        let mut edge = 0;
-        for (i, &(_, id, model)) in placed.iter().enumerate() {
-            let (on, off) = (&words[0][i], &words[1][i]);
-            assert_eq!(
-                off[1], 1,
-                "view {view}, instance {i}: drawn without culling"
+            // Instances across the view's sides: where a test that is not conservative fails.
+            assert!(
+                edge >= 4,
+                "{path:?}, view {view}: {edge} instances across the sides"
             );
-            // Only the instance count differs, and only to 0.
-            for w in [0, 2, 3, 4] {
-                assert_eq!(on[w], off[w], "view {view}, instance {i}");
-            }
-            let blended = crowd.blended_positions(device, queue, id)?;
-            let inside = |p: &[f32; 3]| {
-                let clip = view_proj * model * glam::Vec3::from(*p).extend(1.0);
-                clip.x.abs() <= clip.w && clip.y.abs() <= clip.w && (0.0..=clip.w).contains(&clip.z)
-            };
-            let seen = blended.iter().filter(|p| inside(p)).count();
-            edge += usize::from(seen > 0 && seen < blended.len());
-            // Out of view at `set`, an instance is parked at its frame's coarsest LOD; in view
-            // it is at the LOD asked.
-            let kind = &kinds[i / row];
-            let at = crowd.at(id)?;
-            let asked = if on[1] == 1 { 0.4 } else { 1.0 };
-            let lod = kind.model.resolve(at.frame, Lod::Fraction(asked))?;
-            assert_eq!(at.lod, lod, "view {view}, instance {i}: {at:?}");
-            if on[1] == 1 {
-                continue;
-            }
-            culled += 1;
-            // The oracle: no vertex of what it draws is in the clip volume.
-            assert_eq!(
-                seen, 0,
-                "view {view}: instance {i} culled with a vertex in view"
+            assert!(
+                (10..placed.len() - 10).contains(&culled),
+                "{path:?}, view {view}: {culled} of {} culled",
+                placed.len()
             );
+            // On again: the next view's prepare starts from every record drawn.
+            crowd.set_culling(true);
         }
-        // Instances across the view's sides: where a test that is not conservative fails.
-        assert!(edge >= 4, "view {view}: {edge} instances across the sides");
-        assert!(
-            (10..placed.len() - 10).contains(&culled),
-            "view {view}: {culled} of {} culled",
-            placed.len()
-        );
-        // On again: the next view's prepare starts from every record drawn.
-        crowd.set_culling(true);
     }
     Ok(())
 }
