@@ -1,7 +1,8 @@
 #!/usr/bin/env sh
-# Issue 24's figures on a GPU machine in one run: the crowd against full detail and the discrete
-# levels, the 100k-vertex man -> camel object with and without frames built ahead, the crowd
-# demo, and the GPU tests (BENCHMARKS.md, "On a real GPU"). From the project root:
+# The GPU machine's figures in one run: the crowd against full detail and the discrete levels on
+# the grid and on the 10,000-body walk-through (both draw paths), the 100k-vertex man -> camel
+# object with and without frames built ahead, the crowd demo, and the GPU tests (BENCHMARKS.md,
+# "Crowds"). From the project root:
 #
 #   benches/gpu.sh [BIN [OUT]]     BIN: the release binaries (default target/release),
 #                                  OUT: the reports and logs (default out/gpu)
@@ -12,9 +13,10 @@
 #   bash .dev/run sh benches/gpu.sh bin "$OUT"      (with .gl and .dev carried along)
 #
 # The assets are built on that machine by the packed `morphlod` (about a minute on 16 cores).
-# CROWD (default 1000) and FRAMES (default 120; the object's sweeps take twice that) shorten a
-# trial run on a software rasteriser. Every command's output goes to OUT/NAME.txt, its rows to
-# OUT/NAME.json; a failing command is reported and the others still run.
+# CROWD (default 1000), WALKERS (default 10000) and FRAMES (default 120; the object's sweeps take
+# twice that) shorten a trial run on a software rasteriser. Every command's output goes to
+# OUT/NAME.txt, its rows to OUT/NAME.json; a failing command is reported and the others still
+# run.
 set -u
 bin=${1:-target/release}
 out=${2:-out/gpu}
@@ -47,6 +49,7 @@ run() {
     --frames 16 -o "$out/mc16.mlod"
 
 levels="--levels 0.5,0.25,0.1,0.03,0.01"
+walkers=${WALKERS:-10000}
 shared="--levels-from $out/body_shared.mlod"
 crowd() {
     name=$1
@@ -62,6 +65,13 @@ crowd crowd-levels-1pc --skip-full $levels
 crowd crowd-no-tails --skip-full $levels --tail-triangles 0
 crowd crowd-period30 --skip-full $levels --period 30
 crowd crowd-base-vertex --skip-full $levels --crowd-path base-vertex
+# The walk through a crowd of WALKERS (default 10,000; issue 50), the discrete levels chosen by
+# error down to what the farthest body needs, on both draw paths.
+for crowd_path in first-instance base-vertex; do
+    run "walk-$walkers-$crowd_path" "$m" bench "$out/body.mlod" --crowd "$walkers" \
+        --scene walk-through --frames "$frames" --skip-full $shared --crowd-path "$crowd_path" \
+        --json "$out/walk-$walkers-$crowd_path.json"
+done
 # The shared-sequence asset: no frame switches.
 run crowd-shared "$m" bench "$out/body_shared.mlod" --crowd "$crowd" --frames "$frames" \
     --skip-full $levels --json "$out/crowd-shared.json"

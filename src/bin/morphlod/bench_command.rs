@@ -95,6 +95,13 @@ pub(crate) struct BenchArgs {
     /// (0, 1), strictly decreasing (`morphlod export --lods`: 0.5,0.25,0.1 is its default).
     #[arg(long, value_name = "auto|F1,F2,...", default_value = "auto", value_parser = parse_levels)]
     levels: DiscreteChoice,
+    /// The crowd bench's screen-space error, in pixels (its LOD and discrete modes).
+    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    pixels: f32,
+    /// The crowd bench's LOD mode at this screen-space error instead (to compare it with the
+    /// discrete mode at a drawn error no larger than the discrete mode's).
+    #[arg(long, value_name = "PX")]
+    lod_pixels: Option<f32>,
     /// Leave out the crowd bench's full-detail mode (slow with many instances on a software
     /// rasteriser).
     #[arg(long)]
@@ -280,6 +287,8 @@ fn crowd_bench(
             _ => morphlod::gpu::CrowdPath::FirstInstance,
         }),
         full_detail: !args.skip_full,
+        pixels: args.pixels,
+        lod_pixels: args.lod_pixels,
         discrete,
         records: morphlod::gpu::CrowdRecords {
             compact_share: args.compact_share,

@@ -56,6 +56,9 @@ pub struct CrowdBenchOptions {
     pub height: u32,
     /// Screen-space error of the LOD and discrete modes, in pixels.
     pub pixels: f32,
+    /// The LOD mode's own screen-space error, where it differs (so that it can be compared
+    /// with the discrete mode at a drawn error no larger than the discrete mode's).
+    pub lod_pixels: Option<f32>,
     /// Also run full detail (slow on a software rasteriser with many instances).
     pub full_detail: bool,
     /// Also run discrete LODs, cut from this shared sequence (of the same asset's vertices).
@@ -76,6 +79,7 @@ impl Default for CrowdBenchOptions {
             width: 1920,
             height: 1080,
             pixels: 1.0,
+            lod_pixels: None,
             full_detail: true,
             discrete: None,
             path: None,
@@ -392,6 +396,10 @@ impl Run<'_> {
         let mut frames = Vec::with_capacity(options.frames);
         let mut moves = Vec::with_capacity(self.scene.centres.len());
         let mut before = renderer.places();
+        let pixels = match mode {
+            "lod" => options.lod_pixels.unwrap_or(options.pixels),
+            _ => options.pixels,
+        };
         for f in 0..options.frames + WARM {
             // moveInstances: each at its own phase (a golden-ratio spread), its LOD by its
             // distance from this frame's eye.
@@ -406,7 +414,7 @@ impl Run<'_> {
                     _ => {
                         let distance = (*centre - eye).length();
                         let height = options.height as f32;
-                        Lod::screen_error(options.pixels, distance, self.scene.fov, height)
+                        Lod::screen_error(pixels, distance, self.scene.fov, height)
                     }
                 };
                 moves.push((t, lod));
