@@ -294,7 +294,6 @@ fn crowd_bench(
             compact_share: args.compact_share,
             tail_triangles: args.tail_triangles,
         },
-        ..Default::default()
     };
     let report = morphlod::gpu::run_crowd_bench(context, asset, model, &options)
         .map_err(|e| e.to_string())?;
