@@ -72,11 +72,11 @@ pub use asset::GpuAsset;
 pub use commands::{DrawCounter, RenderCommands};
 pub use context::{test_context, Context};
 pub use crowd::{
-    run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdError, CrowdPath,
-    CrowdRecords, CrowdScene, CrowdStats, CrowdUpload, DiscreteChoice, DiscreteCrowd,
-    DiscreteLevel, DiscreteLevels, DiscreteOptions, DrawnFrom, FrameFigures, InstanceAt,
-    InstanceId, LevelFigures, LevelsError, ModeFigures, SharedSequence, Stat, CROWD_WGSL,
-    SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS,
+    run_crowd_bench, AssetId, Crowd, CrowdBenchOptions, CrowdBenchReport, CrowdBenchScene,
+    CrowdError, CrowdPath, CrowdRecords, CrowdScene, CrowdStats, CrowdUpload, DiscreteChoice,
+    DiscreteCrowd, DiscreteLevel, DiscreteLevels, DiscreteOptions, DrawnFrom, FrameFigures,
+    InstanceAt, InstanceId, LevelFigures, LevelsError, ModeFigures, SharedSequence, Stat,
+    CROWD_BENCH_WARM_FRAMES, CROWD_WGSL, SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS,
 };
 pub use lod_object::{s0_regions, BuildAhead, LodObject};
 pub use object::{Object, Topology};

@@ -66,8 +66,9 @@ use std::sync::Arc;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 pub use self::bench::{
-    run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, CrowdScene, DiscreteChoice,
-    DiscreteOptions, FrameFigures, LevelFigures, ModeFigures, Stat,
+    run_crowd_bench, CrowdBenchOptions, CrowdBenchReport, CrowdBenchScene, CrowdScene,
+    DiscreteChoice, DiscreteOptions, FrameFigures, LevelFigures, ModeFigures, Stat,
+    CROWD_BENCH_WARM_FRAMES,
 };
 pub use self::discrete::{
     DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError, SharedSequence,

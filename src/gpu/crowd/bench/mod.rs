@@ -29,8 +29,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-pub use self::scene::CrowdScene;
-use self::scene::Scene;
+pub use self::scene::{CrowdBenchScene, CrowdScene};
 use self::timer::FrameTimer;
 use super::{
     Crowd, CrowdError, CrowdPath, CrowdRecords, CrowdUpload, DiscreteCrowd, DrawnFrom, InstanceId,
@@ -248,7 +247,7 @@ pub fn run_crowd_bench(
     let (lo, hi) = crate::mesh::bounds(&both).ok_or(GpuError::NoVertices)?;
     let aspect = options.width as f32 / options.height as f32;
     let bounds = (Vec3::from(lo), Vec3::from(hi));
-    let scene = Scene::new(options.scene, options.instances, bounds, aspect)?;
+    let scene = CrowdBenchScene::new(options.scene, options.instances, bounds, aspect)?;
     let frames = options.frames + WARM;
 
     // makeCrowds: the LOD crowd, and the discrete one with its levels.
@@ -259,7 +258,7 @@ pub fn run_crowd_bench(
     crowd.set_records(options.records);
     let shared = Arc::clone(&gpu);
     let id = crowd.add_asset(device, gpu, Arc::clone(&model), options.instances)?;
-    let ids = (scene.transforms.iter())
+    let ids = (scene.transforms().iter())
         .map(|&t| crowd.add(id, t))
         .collect::<Result<Vec<InstanceId>, _>>()?;
     let mut discrete = match &options.discrete {
@@ -272,7 +271,7 @@ pub fn run_crowd_bench(
                 }
             };
             let levels = levels?;
-            let d = DiscreteCrowd::new(device, color, depth, shared, levels, &scene.transforms)?;
+            let d = DiscreteCrowd::new(device, color, depth, shared, levels, scene.transforms())?;
             Some(d)
         }
         None => None,
@@ -348,16 +347,17 @@ pub fn run_crowd_bench(
     Ok(report)
 }
 
-/// Frames drawn before the measured ones in each mode.
-const WARM: usize = 3;
+/// Frames drawn before the measured ones in each mode (the scene's frames `0..WARM`).
+pub const CROWD_BENCH_WARM_FRAMES: usize = 3;
+const WARM: usize = CROWD_BENCH_WARM_FRAMES;
 
 /// The error bounds of [`DiscreteChoice::ByError`]: from what the farthest instance may draw
 /// over the scene's frames at the bench's pixel error, halving down to what the nearest may.
-fn error_bounds(scene: &Scene, frames: usize, options: &CrowdBenchOptions) -> Vec<f32> {
+fn error_bounds(scene: &CrowdBenchScene, frames: usize, options: &CrowdBenchOptions) -> Vec<f32> {
     let (mut near, mut far) = (f32::INFINITY, 0.0f32);
     for f in 0..frames {
         let (_, eye) = scene.camera(f);
-        for centre in &scene.centres {
+        for centre in scene.centres() {
             let d = (*centre - eye).length();
             near = near.min(d);
             far = far.max(d);
@@ -376,7 +376,7 @@ struct Run<'a> {
     ctx: &'a Context,
     target: &'a RenderTarget,
     timer: Option<&'a FrameTimer>,
-    scene: &'a Scene,
+    scene: &'a CrowdBenchScene,
     model: &'a DeformingModel,
     options: &'a CrowdBenchOptions,
 }
@@ -394,7 +394,7 @@ impl Run<'_> {
         let options = self.options;
         let mut rows: [Vec<f64>; 19] = Default::default();
         let mut frames = Vec::with_capacity(options.frames);
-        let mut moves = Vec::with_capacity(self.scene.centres.len());
+        let mut moves = Vec::with_capacity(self.scene.centres().len());
         let mut before = renderer.places();
         let pixels = match mode {
             "lod" => options.lod_pixels.unwrap_or(options.pixels),
@@ -406,7 +406,7 @@ impl Run<'_> {
             let (view_proj, eye) = self.scene.camera(f);
             renderer.set_view_proj(view_proj);
             moves.clear();
-            for (i, centre) in self.scene.centres.iter().enumerate() {
+            for (i, centre) in self.scene.centres().iter().enumerate() {
                 let phase = (i as f32 * 0.618_034).fract();
                 let t = (f as f32 / options.period.max(1) as f32 + phase).fract();
                 let lod = match mode {
@@ -414,7 +414,7 @@ impl Run<'_> {
                     _ => {
                         let distance = (*centre - eye).length();
                         let height = options.height as f32;
-                        Lod::screen_error(pixels, distance, self.scene.fov, height)
+                        Lod::screen_error(pixels, distance, self.scene.fov(), height)
                     }
                 };
                 moves.push((t, lod));
@@ -541,7 +541,7 @@ impl Run<'_> {
     fn drawn(&self, renderer: &Renderer, places: &[Option<Place>], eye: Vec3) -> Drawn {
         let height = self.options.height;
         let px = |error: f32, i: usize| {
-            let distance = (self.scene.centres[i] - eye).length();
+            let distance = (self.scene.centres()[i] - eye).length();
             error / self.scene.units_per_pixel(distance, height)
         };
         let mut drawn = Drawn::default();

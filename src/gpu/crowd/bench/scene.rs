@@ -35,14 +35,12 @@ impl CrowdScene {
 /// Render frames a second of the walk (the camera's pace and swing).
 const FRAMES_PER_SECOND: f32 = 60.0;
 
-/// A scene laid out for one asset and viewport: the instances' transforms and centres, and
-/// the camera of each frame.
-pub(super) struct Scene {
-    pub(super) transforms: Vec<Mat4>,
-    /// The world-space centre of each instance's box, whose distance to the eye sets its LOD.
-    pub(super) centres: Vec<Vec3>,
-    /// Vertical field of view, radians.
-    pub(super) fov: f32,
+/// A [`CrowdScene`] laid out for one asset and viewport: the instances' transforms and
+/// centres, and the camera of each frame; what the crowd bench draws.
+pub struct CrowdBenchScene {
+    transforms: Vec<Mat4>,
+    centres: Vec<Vec3>,
+    fov: f32,
     camera: Camera,
 }
 
@@ -59,15 +57,15 @@ struct Walk {
     proj: Mat4,
 }
 
-impl Scene {
+impl CrowdBenchScene {
     /// `instances` placed as `kind` says, of an asset whose two poses span `lo..hi`, seen in a
     /// viewport of `aspect` = width / height.
-    pub(super) fn new(
+    pub fn new(
         kind: CrowdScene,
         instances: u32,
         (lo, hi): (Vec3, Vec3),
         aspect: f32,
-    ) -> Result<Scene, GpuError> {
+    ) -> Result<CrowdBenchScene, GpuError> {
         let size = hi - lo;
         let side = (f64::from(instances).sqrt().ceil() as u32).max(1);
         let fov = 0.8;
@@ -91,7 +89,7 @@ impl Scene {
                         Mat4::from_translation(Vec3::new(x * spacing, 0.0, z * spacing))
                     })
                     .collect();
-                Ok(Scene::placed(
+                Ok(CrowdBenchScene::placed(
                     transforms,
                     centre,
                     fov,
@@ -132,17 +130,22 @@ impl Scene {
                     step: 0.9 * height / FRAMES_PER_SECOND,
                     proj,
                 };
-                Ok(Scene::placed(transforms, centre, fov, Camera::Walk(walk)))
+                Ok(CrowdBenchScene::placed(
+                    transforms,
+                    centre,
+                    fov,
+                    Camera::Walk(walk),
+                ))
             }
         }
     }
 
-    fn placed(transforms: Vec<Mat4>, centre: Vec3, fov: f32, camera: Camera) -> Scene {
+    fn placed(transforms: Vec<Mat4>, centre: Vec3, fov: f32, camera: Camera) -> CrowdBenchScene {
         let centres = transforms
             .iter()
             .map(|t| t.transform_point3(centre))
             .collect();
-        Scene {
+        CrowdBenchScene {
             transforms,
             centres,
             fov,
@@ -150,8 +153,24 @@ impl Scene {
         }
     }
 
-    /// The camera at frame `f`: projection * view, and the eye.
-    pub(super) fn camera(&self, f: usize) -> (Mat4, Vec3) {
+    /// Each instance's transform.
+    pub fn transforms(&self) -> &[Mat4] {
+        &self.transforms
+    }
+
+    /// The world-space centre of each instance's box, whose distance to the eye sets its LOD.
+    pub fn centres(&self) -> &[Vec3] {
+        &self.centres
+    }
+
+    /// The vertical field of view, radians.
+    pub fn fov(&self) -> f32 {
+        self.fov
+    }
+
+    /// The camera at frame `f` (the bench's frames count from 0, warm-up frames included):
+    /// projection * view, and the eye.
+    pub fn camera(&self, f: usize) -> (Mat4, Vec3) {
         match &self.camera {
             Camera::Fixed { view_proj, eye } => (*view_proj, *eye),
             Camera::Walk(walk) => {
@@ -168,7 +187,7 @@ impl Scene {
 
     /// World units one pixel spans at `distance` from the eye, in a viewport `height` pixels
     /// tall (what [`crate::deform::Lod::screen_error`] divides by).
-    pub(super) fn units_per_pixel(&self, distance: f32, height: u32) -> f32 {
+    pub fn units_per_pixel(&self, distance: f32, height: u32) -> f32 {
         2.0 * distance * (self.fov * 0.5).tan() / height as f32
     }
 }
@@ -193,8 +212,8 @@ mod tests {
     #[test]
     fn the_walk_has_near_middle_and_far_instances() {
         let (lo, hi) = (Vec3::new(-0.3, 0.0, -0.15), Vec3::new(0.3, 1.7, 0.15));
-        let scene =
-            Scene::new(CrowdScene::WalkThrough, 10_000, (lo, hi), 16.0 / 9.0).expect("a scene");
+        let scene = CrowdBenchScene::new(CrowdScene::WalkThrough, 10_000, (lo, hi), 16.0 / 9.0)
+            .expect("a scene");
         for f in [0, 60, 120, 240] {
             let (view_proj, eye) = scene.camera(f);
             assert!((eye.y - 0.93 * 1.7).abs() < 1e-4, "eye height");
