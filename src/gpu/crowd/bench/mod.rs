@@ -222,6 +222,12 @@ pub struct CrowdBenchReport {
     pub gpu_bytes_per_instance: f64,
     /// GPU bytes of the shared asset.
     pub shared_gpu_bytes: u64,
+    /// Spawning: the CPU milliseconds of adding every instance, and the LOD mode's first frame
+    /// (every instance's first move and its upload): CPU `set` + `prepare` milliseconds and the
+    /// bytes uploaded.
+    pub spawn_ms: f64,
+    pub first_frame_ms: f64,
+    pub first_frame_bytes: u64,
     pub modes: Vec<ModeFigures>,
     /// The discrete mode's levels (empty when it did not run).
     pub levels: Vec<LevelFigures>,
@@ -258,9 +264,11 @@ pub fn run_crowd_bench(
     crowd.set_records(options.records);
     let shared = Arc::clone(&gpu);
     let id = crowd.add_asset(device, gpu, Arc::clone(&model), options.instances)?;
+    let spawn = Instant::now();
     let ids = (scene.transforms().iter())
         .map(|&t| crowd.add(id, t))
         .collect::<Result<Vec<InstanceId>, _>>()?;
+    let spawn_ms = spawn.elapsed().as_secs_f64() * 1e3;
     let mut discrete = match &options.discrete {
         Some(discrete) => {
             let levels = match &discrete.levels {
@@ -322,10 +330,11 @@ pub fn run_crowd_bench(
             model: &model,
             options,
         };
-        report
-            .modes
-            .push(run.measure(mode, &mut renderer, &mut per_level)?);
+        let (figures, first) = run.measure(mode, &mut renderer, &mut per_level)?;
+        report.modes.push(figures);
         if mode == "lod" {
+            (report.first_frame_ms, report.first_frame_bytes) = first;
+            report.spawn_ms = spawn_ms;
             let stats = crowd.stats();
             let count = f64::from(options.instances.max(1));
             report.host_bytes_per_instance = stats.instance_host_bytes as f64 / count;
@@ -383,19 +392,21 @@ struct Run<'a> {
 
 impl Run<'_> {
     /// Draws `mode` over the scene's frames (after [`WARM`] unmeasured ones) and gathers its
-    /// figures; adds the discrete levels' instance counts to `per_level`.
+    /// figures, and its first frame's CPU `set` + `prepare` milliseconds and upload; adds the
+    /// discrete levels' instance counts to `per_level`.
     fn measure(
         &self,
         mode: &'static str,
         renderer: &mut Renderer,
         per_level: &mut [usize],
-    ) -> Result<ModeFigures, CrowdError> {
+    ) -> Result<(ModeFigures, (f64, u64)), CrowdError> {
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
         let options = self.options;
         let mut rows: [Vec<f64>; 19] = Default::default();
         let mut frames = Vec::with_capacity(options.frames);
         let mut moves = Vec::with_capacity(self.scene.centres().len());
         let mut before = renderer.places();
+        let mut first = (0.0, 0);
         let pixels = match mode {
             "lod" => options.lod_pixels.unwrap_or(options.pixels),
             _ => options.pixels,
@@ -451,6 +462,10 @@ impl Run<'_> {
                 .map(|timer| timer.read_ms(device, queue))
                 .transpose()?;
             // countFrame: where each instance is and the error it draws.
+            let ms = |x: Instant, y: Instant| (y - x).as_secs_f64() * 1e3;
+            if f == 0 {
+                first = (ms(a, c), upload.bytes);
+            }
             let after = renderer.places();
             if f < WARM {
                 before = after;
@@ -471,7 +486,6 @@ impl Run<'_> {
                     per_level[l] += 1;
                 }
             }
-            let ms = |x: Instant, y: Instant| (y - x).as_secs_f64() * 1e3;
             let values = [
                 ms(a, b),
                 ms(b, c),
@@ -508,7 +522,7 @@ impl Run<'_> {
         let max_error_px = frames.iter().fold(0.0, |m: f64, f| m.max(f.max_error_px));
         let [set, prepare, record, gpu, pass, wait, bytes, writes, triangles, switches, draws, indices, steps, culled, regions, copies, tails, gpu_bytes, error] =
             rows.map(Stat::of);
-        Ok(ModeFigures {
+        let figures = ModeFigures {
             mode,
             set_ms: set,
             prepare_ms: prepare,
@@ -531,7 +545,8 @@ impl Run<'_> {
             error_px: error,
             max_error_px,
             frames,
-        })
+        };
+        Ok((figures, first))
     }
 
     /// What the instances in view draw at `places` (a crowd's) or at their levels (discrete
