@@ -4,7 +4,7 @@
 //! render thread, where `set` and `prepare` are called) hands all of its work to the pool and
 //! blocks: nothing runs until a pool thread wakes, and the others join only as they wake in
 //! turn. On the 2-core machine a sleeping pool thread took from 15 µs to over 1 ms to start
-//! (BENCHMARKS.md, "The caller works too"), and a frame switch's rebuild often ran on one
+//! (docs/benchmarks-log.md, "The caller works too"), and a frame switch's rebuild often ran on one
 //! pool thread while the other never woke. [`map`] starts on the calling thread at once and
 //! lets pool threads take items as they wake, so the work never waits for a thread to wake,
 //! only (at the end, as rayon's scopes do) for the helpers it asked for to have run.

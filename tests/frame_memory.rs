@@ -15,8 +15,8 @@
 //! change stream), 29.3 and 29.4 since the crowd's frame-switch tables, 29.42 and 29.57 since
 //! the frames' tails, 28.48 and 28.63 since the error tables became bitmaps (issue 24 decided
 //! ~28.5). Issue 13's goal was 12:
-//! not met, see BENCHMARKS.md ("Per-frame memory after load") for where the bytes go and what
-//! reaching 12 would take.
+//! not met, see docs/benchmarks-log.md, "Per-frame memory after load" for where the bytes go
+//! and what reaching 12 would take.
 //! The test also checks that an asset can drop its decoded sequences once the model is built
 //! ([`Asset::release_frames`]) and that the model keeps resolving every kind of LOD request the
 //! same way afterwards.

@@ -5,7 +5,7 @@
 //! collapse sequence per sampled frame. The change lists are not stored: they
 //! are a deterministic function of `S0` and a frame's sequence, and replaying
 //! a sequence at load time is cheap next to the storage the change lists would
-//! take (see BENCHMARKS.md for both figures).
+//! take (see BENCHMARKS.md, "Memory", for both figures).
 //!
 //! # File layout (version 1, all integers little-endian)
 //!
@@ -54,7 +54,7 @@
 //!
 //! Both exp-Golomb orders are chosen per frame (the smallest stream) and
 //! stored in the frame's first bytes. The bytes per collapse this gives on the
-//! bundled meshes are in BENCHMARKS.md ("Build and asset size").
+//! bundled meshes are in docs/benchmarks-log.md, "Build and asset size".
 //!
 //! # Where the code is
 //!
@@ -529,7 +529,7 @@ impl Asset {
     /// on top. The budget check uses the worse of these, computed from the section sizes
     /// and the frames' lengths before they are decoded (a frame of `b` bytes holds at
     /// most `8 · b / 3` collapses). `tests/asset_budget.rs` holds a crafted file to it (figures
-    /// in BENCHMARKS.md).
+    /// in BENCHMARKS.md, "Memory").
     pub fn load_with(
         path: impl AsRef<Path>,
         options: &AssetLoadOptions,

@@ -110,7 +110,8 @@ impl DeformingState {
         let model = Arc::clone(model);
         // A thread of its own, its rebuild on that thread alone: on the pool, the threads
         // that wake for it and look for more work took the cores from the caller's thread
-        // for milliseconds on 2 cores (BENCHMARKS.md, "Frames built ahead").
+        // for milliseconds on 2 cores (docs/benchmarks-log.md, "One 100k-vertex object: the
+        // next frame built ahead").
         let build = move || {
             par::alone(|| {
                 let (from, mut state) =

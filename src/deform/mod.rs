@@ -107,7 +107,7 @@ pub enum Strategy {
 
 /// Cost of one incremental step in rebuild work units (one entry visited or
 /// one survivor resolved), used by [`Strategy::Auto`]. Set from `cargo bench --bench
-/// deform` (the figures are in BENCHMARKS.md, "Figures behind constants"), rounded
+/// deform` (the figures are in docs/benchmarks-log.md, "Figures behind constants"), rounded
 /// toward stepping, whose dirty log is smaller.
 pub const STEP_COST: usize = 50;
 

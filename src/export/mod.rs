@@ -134,7 +134,8 @@ pub struct ExportOptions {
     /// The simplifier's options for the shared sequence (default: [`SimplifyOptions`]'s, with
     /// the attribute error on for meshes with UVs or given normals, and the distance term on
     /// at [`DISTANCE_WEIGHT`]: an export is made once, offline, and the term lowers the LODs'
-    /// Hausdorff error by a quarter to a half for a build many times longer; BENCHMARKS.md).
+    /// Hausdorff error by a quarter to a half for a build many times longer; BENCHMARKS.md,
+    /// "Export and compression").
     pub simplify: SimplifyOptions,
     /// The meshes' default weights (`mesh.weights`), one per target; `None`: the weights at
     /// `t = 0`.

@@ -8,7 +8,7 @@ use wgpu::util::DrawIndexedIndirectArgs;
 
 /// Index slots per draw record of [`Draws::Grouped`] by default: no limit, the whole object is
 /// one record. Past a few dozen records the count no longer matters to the GPU (the figures
-/// are in BENCHMARKS.md, "Figures behind constants"), so the default takes the fewest.
+/// are in docs/benchmarks-log.md, "Figures behind constants"), so the default takes the fewest.
 pub const GROUP_INDICES: u32 = u32::MAX;
 
 /// Size of one indirect draw record.

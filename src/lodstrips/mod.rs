@@ -225,7 +225,7 @@ impl Tail {
 
 /// `S0` slots per entry of a frame's `block_death`: 2 bytes per 16 slots (0.4 B per vertex on
 /// the head) against the one order per entry (6 B per vertex) it replaced, at a rebuild cost
-/// within noise of it (BENCHMARKS.md, "A frame's memory back to ~28.5 B").
+/// within noise of it (docs/benchmarks-log.md, "A frame's memory back to ~28.5 B").
 pub(crate) const DEATH_BLOCK: usize = 16;
 
 /// Every this many steps the stream position is kept, so a rebuilt state

@@ -3,7 +3,7 @@
 //! index, a LOD or an `S0` slot. Meshes under 65,536 vertices (and strips
 //! under 65,536 indices) take half the bytes, larger ones keep `u32`; a read
 //! stays one load (tighter bit packing made the one-pass rebuild about 1.7×
-//! slower, see BENCHMARKS.md).
+//! slower, see docs/benchmarks-log.md, "Per-frame memory after load (issue 13, item 4)").
 
 /// A table of `u32` values stored as `u16` when every value fits.
 #[derive(Clone, Debug, PartialEq, Eq)]

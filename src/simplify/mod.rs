@@ -139,8 +139,8 @@ pub struct SimplifyOptions {
     /// the poses, scaled as the quadric errors are). So at every step of the sequence each
     /// removed vertex lies within `sqrt(error / distance_weight)` of the coarse surface in the
     /// first pose, where `error` is the largest collapse error so far. Costs build time (many
-    /// times the quadric-only build; BENCHMARKS.md, "Distance term"). 0 (the default) turns
-    /// it off; [`DISTANCE_WEIGHT`] is the measured choice.
+    /// times the quadric-only build; docs/benchmarks-log.md, "Distance term"). 0 (the
+    /// default) turns it off; [`DISTANCE_WEIGHT`] is the measured choice.
     pub distance_weight: f32,
 }
 
@@ -166,7 +166,8 @@ pub enum PoseError {
     /// distances).
     Mean,
     /// The largest of the poses' quadric errors: a collapse is as cheap as its worst pose, so
-    /// no pose is given up for the others (lower error at the worst `t`; BENCHMARKS.md).
+    /// no pose is given up for the others (lower error at the worst `t`; docs/benchmarks-log.md,
+    /// "One sequence for every pose (issue 12, item 1)").
     #[default]
     Max,
 }
@@ -176,7 +177,7 @@ pub const SEAM_WEIGHT: f32 = 1.0;
 
 /// [`SimplifyOptions::uv_weight`]'s default: on makehuman_face at 10% it lowers the UV error's
 /// 95th percentile by a fifth and the mean normal deviation by a tenth against both weights 0,
-/// with the geometric error no larger (BENCHMARKS.md, "Attribute error").
+/// with the geometric error no larger (docs/benchmarks-log.md, "Attribute error").
 pub const UV_WEIGHT: f32 = 4.0;
 /// [`SimplifyOptions::normal_weight`]'s default (same measurement as [`UV_WEIGHT`]; 0.25 shaded
 /// a little better and cost 40% more geometric error).
@@ -185,7 +186,8 @@ pub const NORMAL_WEIGHT: f32 = 0.1;
 /// The [`SimplifyOptions::distance_weight`] to use when turning the term on: on the shared
 /// sequences of makehuman_face and makehuman_body it gave the lowest Hausdorff error of the
 /// weights tried (1, 2, 4, 6, 8, 16; higher weights leave the error to the sampled far side,
-/// lower ones to the quadrics; BENCHMARKS.md).
+/// lower ones to the quadrics; docs/benchmarks-log.md, "The distance term: (d), what `export`
+/// builds by default (2026-11-24)").
 pub const DISTANCE_WEIGHT: f32 = 4.0;
 
 /// Simplifies the mesh to the end and returns every collapse in order.

@@ -408,7 +408,9 @@ fn the_distance_term_gives_one_sequence_on_any_number_of_threads() {
 }
 
 /// The distance term lowers the symmetric Hausdorff error of the bunny at 2% and 5% of its
-/// triangles by a fifth or more against the quadrics alone (measured: see BENCHMARKS.md).
+/// triangles by a fifth or more against the quadrics alone (measured: see
+/// docs/benchmarks-log.md, "The distance term: (d), what `export` builds by default
+/// (2026-11-24)").
 #[test]
 fn distance_term_lowers_the_hausdorff_error() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");

@@ -207,7 +207,8 @@ fn row(name: &str, q: &Quality) {
 /// The attribute term is what lowers the face's UV error and normal deviation at 10%, at a
 /// bounded cost in shape: the same simplifier with both weights 0 (position only) smears the
 /// UVs and normals more, and the geometric error with the term stays within 1.15× of it
-/// (UV p95 0.80×, normal deviation 0.88×, Hausdorff 0.99× measured; BENCHMARKS.md).
+/// (UV p95 0.80×, normal deviation 0.88×, Hausdorff 0.99× measured; docs/benchmarks-log.md,
+/// "Attribute error against meshoptimizer (issue 11, item 3)").
 #[test]
 fn the_attribute_term_lowers_uv_and_normal_error() {
     let morph = face();
@@ -233,7 +234,8 @@ fn the_attribute_term_lowers_uv_and_normal_error() {
 /// The seam edges' planes keep the UV seams where they were, so few samples find their
 /// closest point across a seam on the other UV island: the mean UV error at 10% is within
 /// 1.25× of meshoptimizer's with the same attributes (0.94× measured; without the seam planes,
-/// `seam_weight` 0, it was 2.2×: BENCHMARKS.md).
+/// `seam_weight` 0, it was 2.2×: docs/benchmarks-log.md, "Attribute error against
+/// meshoptimizer (issue 11, item 3)").
 #[test]
 fn seams_stay_in_place() {
     let morph = face();
@@ -257,7 +259,7 @@ fn seams_stay_in_place() {
     );
 }
 
-/// The table in BENCHMARKS.md ("Attribute error against meshoptimizer"):
+/// The table in docs/benchmarks-log.md, "Attribute error against meshoptimizer":
 /// `cargo test --test suite attribute_quality:: -- --ignored --nocapture`.
 #[test]
 #[ignore = "measurement: run with --nocapture"]
@@ -297,9 +299,10 @@ fn attribute_error_against_meshopt() {
     }
 }
 
-/// The build-time cost of the attribute term (BENCHMARKS.md): the face's simplification at
-/// rest, and `Builder` over the `expressions` animation (16 frames, per-frame and shared),
-/// with the default weights and with both weights 0, alternately; the best of 5 rounds.
+/// The build-time cost of the attribute term (BENCHMARKS.md, "Static LOD"): the face's
+/// simplification at rest, and `Builder` over the `expressions` animation (16 frames,
+/// per-frame and shared), with the default weights and with both weights 0, alternately; the
+/// best of 5 rounds.
 /// `cargo test --release --test suite attribute_quality::attribute_term_time -- --ignored --nocapture`.
 #[test]
 #[ignore = "measurement: run in release with --nocapture"]

@@ -413,8 +413,8 @@ fn measure(what: &str, morph: &Morph, frames: usize) {
     );
 }
 
-/// The cost of seams (BENCHMARKS.md, "Seams"): real meshes cut into two UV islands, and the
-/// MakeHuman face (its own UV seams, 52 targets, the `expressions` animation), built with
+/// The cost of seams (docs/benchmarks-log.md, "Seams"): real meshes cut into two UV islands, and
+/// the MakeHuman face (its own UV seams, 52 targets, the `expressions` animation), built with
 /// their attributes against the same morphs welded without them.
 /// `cargo test --release --test suite seams:: -- --ignored --nocapture`
 #[test]

@@ -241,7 +241,8 @@ fn shared_sequence_beats_base_pose_simplification_on_the_body() {
 /// Issue 12's goal on the face with what `export` builds by default (the shared sequence with
 /// the distance term): max-over-t Hausdorff error at most 0.7× meshoptimizer's on the base pose
 /// at 10% and 5% of the triangles, and at 2% no worse than 0.8× (measured 0.73: the goal's
-/// 0.7 is not met there; BENCHMARKS.md). Quadrics alone give 1.06 at 2%, so this fails if the
+/// 0.7 is not met there; docs/benchmarks-log.md, "The face at 2%: what is left, and what did
+/// not close it (2026-11-25)"). Quadrics alone give 1.06 at 2%, so this fails if the
 /// term is lost. 17 t and 20,000 samples a side to fit the test profile.
 #[test]
 fn export_sequence_beats_base_pose_simplification_on_the_face() {
@@ -285,7 +286,7 @@ fn export_sequence_beats_base_pose_simplification_on_the_face() {
     }
 }
 
-/// The harness of BENCHMARKS.md "The face at 2%": the face's shared sequence with the
+/// The harness of docs/benchmarks-log.md, "The face at 2%": the face's shared sequence with the
 /// distance term, built with the options in `FACE_OPTIONS` (space-separated `field=value` of
 /// [`SimplifyOptions`]: `distance_weight`, `normal_weight`, `uv_weight`, `seam_weight`,
 /// `regularization`, `min_normal_cos`, `boundary_weight`; unset, what `export` uses), at 10, 5

@@ -117,8 +117,8 @@ fn quality_vs_meshopt() {
 /// Issue 3's quality goal, asserted in CI on a mid-size mesh: at 10% of the triangles our
 /// reference mesh's symmetric Hausdorff distance to the original is within 1.15× of
 /// `meshopt::simplify`'s at the same count. The bunny at 10% is 1.070× in the full table
-/// (BENCHMARKS.md, "Simplifier quality against meshopt", 200k samples); this run uses fewer
-/// samples to stay fast in the test profile. (Of the 10% rows, cow is 1.208× and man 1.154×:
+/// (docs/benchmarks-log.md, "Simplifier quality against meshopt", 200k samples); this run uses
+/// fewer samples to stay fast in the test profile. (Of the 10% rows, cow is 1.208× and man 1.154×:
 /// the goal is not met on every mesh, see the table.)
 #[test]
 fn bunny_at_10_percent_within_1_15_of_meshopt() {

@@ -25,7 +25,7 @@ pub(super) use self::spans::{clip, coalesce};
 /// Each `queue.write_buffer` allocates a staging buffer and records a copy, so re-sending a
 /// few unchanged words beats a second call; but a frame switch rewrites whole strips, mostly
 /// to the values they already had, and a large gap re-sends those. 32 bytes (8 indices) is
-/// the trade-off measured in BENCHMARKS.md ("Figures behind constants"). A frame of many
+/// the trade-off measured in docs/benchmarks-log.md, "Figures behind constants". A frame of many
 /// spans goes through the scatter instead, which sends exactly the changed words.
 pub const MERGE_GAP_BYTES: u64 = 32;
 

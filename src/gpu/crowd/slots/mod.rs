@@ -130,7 +130,7 @@ pub(super) struct Places {
     /// next upload that draws the regions sends every live strip whole. Which parts changed
     /// is not kept: a per-strip table of them cost a cold cache line per changed strip at
     /// every upload of a coarse instance, for a return to the regions that is rare and sends
-    /// most of a strip anyway (BENCHMARKS.md, "Stale regions sent whole").
+    /// most of a strip anyway (docs/benchmarks-log.md, "Stale regions sent whole").
     stale: bool,
     /// Full rewrites of the copy (tests count them).
     #[cfg(test)]

@@ -82,7 +82,8 @@ fn guarded_umbrella(mass: &[f64], rings: &[Vec<u32>], points: &mut [DVec3], v: u
 /// area matching would allow it, and limbs of the two meshes from being
 /// stretched in different directions (which multiplies the crossings). 1.0
 /// puts man → camel at 0.88× the supermesh size expected of near-uniform
-/// embeddings (0.1: 2.6×; figures in BENCHMARKS.md).
+/// embeddings (0.1: 2.6×; figures in docs/benchmarks-log.md, "After the embedding rework
+/// (area-proportional relaxation, umbrella weight 1.0)").
 const UMBRELLA_WEIGHT: f64 = 1.0;
 
 /// Where `v` should go so that each triangle of its fan gets a share of the
