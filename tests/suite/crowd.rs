@@ -632,11 +632,14 @@ fn buffers_decode_to_each_instance_mesh(
                 .collect();
             crowd.set(&again)?;
         }
-        // An instance removed after its move (its patches made) and its slot taken at once by
-        // a new instance, moved or not, before the prepare: none of the old patches may land
-        // on the new instance's slots.
+        // An instance removed after its move (its patches made, a new area taken where its
+        // need changed, with the contents it waits for) and its slot taken at once by a new
+        // instance, moved or not, before the prepare: none of the old patches, copies or
+        // fills may land on the new instance's slots, and the new one has nothing to wait for.
         if step % 7 == 2 && live.len() > 2 {
-            let at = rng.below(live.len());
+            let at = (live.iter())
+                .position(|id| moves.iter().any(|m| m.0 == *id))
+                .unwrap_or_else(|| rng.below(live.len()));
             let id = live[at];
             crowd.remove(id)?;
             removed.push(id);

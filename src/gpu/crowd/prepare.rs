@@ -288,8 +288,14 @@ impl CrowdAsset {
             let Some(member) = self.members[slot as usize].as_mut() else {
                 continue;
             };
-            let to = member.area.expect("an area to arrive in");
-            match std::mem::replace(&mut member.arrival, Arrival::Nothing) {
+            // A slot emptied and given to a new instance since its move has nothing to
+            // arrive: the new instance's arrival is its own (`Nothing` until it moves).
+            let arrival = std::mem::replace(&mut member.arrival, Arrival::Nothing);
+            if matches!(arrival, Arrival::Nothing) {
+                continue;
+            }
+            let to = member.area.expect("an arrival is set with the area it arrives in");
+            match arrival {
                 Arrival::Nothing => {}
                 Arrival::Copy { from, words } => moves.push(Move { from, to, words }),
                 Arrival::Restarts => fills.push(to),
