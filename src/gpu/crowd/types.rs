@@ -88,8 +88,8 @@ pub struct CrowdRecords {
 impl Default for CrowdRecords {
     fn default() -> Self {
         CrowdRecords {
-            compact_share: 0.125,
-            tail_triangles: 1024,
+            compact_share: 0.25,
+            tail_triangles: 2048,
         }
     }
 }
