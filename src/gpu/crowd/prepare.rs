@@ -294,7 +294,7 @@ impl CrowdAsset {
             if matches!(arrival, Arrival::Nothing) {
                 continue;
             }
-            let to = member.area.expect("an arrival is set with the area it arrives in");
+            let to = member.area.expect("an arrival comes with its area");
             match arrival {
                 Arrival::Nothing => {}
                 Arrival::Copy { from, words } => moves.push(Move { from, to, words }),
