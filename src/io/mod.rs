@@ -214,6 +214,22 @@ pub enum LoadError {
         animation: String,
         mesh: String,
     },
+    /// A skin or its animation is unusable (joints out of range, weights that are negative or
+    /// far from summing to 1, a singular or non-finite inverse bind matrix, a channel that
+    /// cannot be played; see [`crate::skin::SkinError`]).
+    #[error("{path}: {skin}: {source}")]
+    GltfSkin {
+        path: PathBuf,
+        skin: String,
+        #[source]
+        source: crate::skin::SkinError,
+    },
+    #[error("{path}: mesh '{mesh}' is not skinned (its node has no skin, or its primitives no JOINTS_0 and WEIGHTS_0): {what} needs a skinned mesh")]
+    NotSkinned {
+        path: PathBuf,
+        mesh: String,
+        what: String,
+    },
     /// The file's data makes no valid morph (see [`MorphError`]).
     #[error(transparent)]
     Morph(#[from] MorphError),

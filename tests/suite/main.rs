@@ -25,6 +25,7 @@ mod seams;
 mod shared_frames;
 mod shared_sequence;
 mod simplify_quality;
+mod skin_oracle;
 mod soup;
 mod supermesh;
 

@@ -13,7 +13,6 @@ use super::{
 use crate::io::image_header::image_size;
 use crate::io::LoadError;
 use gltf::accessor::{DataType, Dimensions};
-use std::collections::BTreeSet;
 
 /// One attribute as the primitives read so far store it, and why it cannot be carried.
 struct Gathered {
@@ -96,27 +95,7 @@ impl Document {
             wanted.extend(skin.joints().map(|j| j.index()));
             wanted.extend(skin.skeleton().map(|s| s.index()));
         }
-        let mut kept = BTreeSet::new();
-        for node in wanted {
-            let mut current = Some(node);
-            // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
-            while let (Some(n), true) = (current, kept.len() <= parents.len()) {
-                if !kept.insert(n) {
-                    break;
-                }
-                current = parents[n];
-            }
-        }
-        let depth = |mut n: usize| {
-            let mut d = 0;
-            while let (Some(p), true) = (parents[n], d <= parents.len()) {
-                n = p;
-                d += 1;
-            }
-            d
-        };
-        let mut order: Vec<usize> = kept.into_iter().collect();
-        order.sort_by_key(|&n| (depth(n), n));
+        let order = self.with_ancestors(&wanted, &parents);
         let mut position = vec![usize::MAX; parents.len()];
         for (i, &n) in order.iter().enumerate() {
             position[n] = i;
