@@ -12,6 +12,7 @@ mod common;
 
 mod asset_file;
 mod asset_golden;
+mod asset_skin;
 mod attribute_quality;
 mod bad_input;
 mod baselines;
