@@ -85,7 +85,7 @@ mod surface;
 
 pub use error::AssetError;
 pub use frame_codec::quantize_error;
-pub use inspect::{inspect, inspect_with, AssetInfo, FrameInfo, SectionInfo};
+pub use inspect::{inspect, inspect_with, AssetInfo, FrameInfo, SectionInfo, SkinInfo};
 pub use skin::SKIN_VERSION;
 pub use surface::SURFACE_VERSION;
 

@@ -27,7 +27,7 @@ mod polygon;
 mod text;
 
 pub use attributed::{morph_from_pair, AttributeSummary, AttributedMesh, TextureSummary};
-pub use gltf::{load_morph, MorphSource};
+pub use gltf::{load_morph, load_morph_noted, MorphSource};
 pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;
 

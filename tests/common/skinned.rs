@@ -28,7 +28,8 @@ pub enum Layout {
     Float,
     /// JOINTS_0 UNSIGNED_BYTE, WEIGHTS_0 normalized UNSIGNED_SHORT (sums exactly 65535).
     Normalized,
-    /// As `Float`, plus JOINTS_1 / WEIGHTS_1: a tenth of every vertex's weight on `j2`.
+    /// As `Float`, plus JOINTS_1 / WEIGHTS_1: a tenth of every vertex's weight on a joint its
+    /// first set does not use (`j2` below ring 6, the root above).
     TwoSets,
 }
 
@@ -158,8 +159,10 @@ impl SkinnedBar {
         bar.accessor(floats(&inverse), 5126, "MAT4", 3, false, false);
         let mut attributes = json!({"POSITION": 0, "JOINTS_0": 3, "WEIGHTS_0": 4});
         if layout == Layout::TwoSets {
+            // A joint the vertex's first set does not use: j2 below ring 6, the root above.
+            let other = |v: usize| if v / 4 >= 6 { 0u16 } else { 2 };
             let bytes = (0..VERTICES)
-                .flat_map(|_| [2u16, 0, 0, 0])
+                .flat_map(|v| [other(v), 0, 0, 0])
                 .flat_map(u16::to_le_bytes);
             let j = bar.accessor(bytes.collect(), 5123, "VEC4", VERTICES, false, true);
             let w: Vec<f32> = (0..VERTICES).flat_map(|_| [0.1, 0.0, 0.0, 0.0]).collect();

@@ -52,6 +52,8 @@ mod export;
 #[cfg(feature = "cli")]
 mod export_compressed;
 #[cfg(feature = "cli")]
+mod export_skinned;
+#[cfg(feature = "cli")]
 mod gltf_loader;
 #[cfg(feature = "cli")]
 mod gltf_validator;

@@ -102,17 +102,28 @@ impl NodeTransform {
     };
 }
 
-/// One node of a scene: its name and local transform, exactly as the file has them, what an
-/// animation does to that transform, and its parent.
+/// One node of a scene: its name and local transform, exactly as the file has them, and its
+/// parent.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SourceNode {
     pub name: Option<String>,
     pub transform: NodeTransform,
-    /// The animation's channels that drive this node's translation, rotation or scale.
-    pub tracks: Vec<NodeTrack>,
     /// The parent's index in [`SourceScene::nodes`] (always smaller than this node's);
     /// `None` for a scene root.
     pub parent: Option<usize>,
+}
+
+/// One animation of the file, as far as it drives what an export writes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceAnimation {
+    /// Its index in the file.
+    pub index: usize,
+    pub name: Option<String>,
+    /// Its channel on the weights of the mesh's node, as the file has it.
+    pub weights: Option<WeightTrack>,
+    /// Its channels on the translations, rotations and scales of [`SourceScene::nodes`]: the
+    /// node's index there and the track.
+    pub channels: Vec<(usize, NodeTrack)>,
 }
 
 /// A skin as the file has it, its nodes as indices in [`SourceScene::nodes`].
@@ -121,7 +132,7 @@ pub struct SourceSkin {
     pub name: Option<String>,
     pub joints: Vec<usize>,
     pub skeleton: Option<usize>,
-    /// Column-major, at least one per joint (the file's count).
+    /// Column-major, one per joint (a file's extra ones dropped).
     pub inverse_bind_matrices: Option<Vec<[f32; 16]>>,
 }
 
@@ -206,6 +217,9 @@ pub struct SourceScene {
     /// The mesh node's skin, kept when the mesh binds its vertices to it (JOINTS_0 and
     /// WEIGHTS_0 on every primitive).
     pub skin: Option<SourceSkin>,
+    /// Every animation of the file that drives the mesh's weights or one of `nodes`, in file
+    /// order (an animation that drives neither is named in `left_out`).
+    pub animations: Vec<SourceAnimation>,
     /// The vertex attributes a morph does not hold: all but POSITION, NORMAL, COLOR_0 and
     /// the TEXCOORD set of the base-colour texture, kept when every primitive stores them
     /// alike (JOINTS_n and WEIGHTS_n only in pairs, and only with a skin).
@@ -222,35 +236,15 @@ pub struct SourceScene {
 }
 
 /// What an export of the mesh `options` picks carries from the file besides the morph
-/// ([`SourceScene`]): its nodes, skin, material and the vertex attributes a morph does not
-/// hold. The nodes' placement is the one [`load_mesh`] applies with
-/// `options.apply_transforms`, which is itself ignored here: the raw attributes are as stored,
-/// in the mesh's own coordinates, so they go with a morph loaded without it (a baked
-/// transform would not turn their TANGENTs). With `animation` (a name, else a decimal index) each node also
-/// carries that animation's channels on its translation, rotation and scale.
-pub fn source_scene(
-    path: &Path,
-    options: &LoadOptions,
-    animation: Option<&str>,
-) -> Result<SourceScene, LoadError> {
+/// ([`SourceScene`]): its nodes, skin, every animation's channels on them and on the mesh's
+/// weights, the material and the vertex attributes a morph does not hold. The nodes'
+/// placement is the one [`load_mesh`] applies with `options.apply_transforms`, which is
+/// itself ignored here: the raw attributes are as stored, in the mesh's own coordinates, so
+/// they go with a morph loaded without it (a baked transform would not turn their TANGENTs).
+pub fn source_scene(path: &Path, options: &LoadOptions) -> Result<SourceScene, LoadError> {
     let doc = Document::open(path)?;
     let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
-    let animation = match animation {
-        Some(wanted) => {
-            let animations: Vec<gltf::Animation> = doc.document.animations().collect();
-            let names: Vec<Option<&str>> = animations.iter().map(|a| a.name()).collect();
-            let Some(i) = pick(wanted, &names) else {
-                return Err(LoadError::NoSuchAnimation {
-                    path: path.to_path_buf(),
-                    wanted: wanted.to_string(),
-                    available: list_names(&names),
-                });
-            };
-            Some(animations[i].clone())
-        }
-        None => None,
-    };
-    doc.source_scene(&mesh, animation.as_ref())
+    doc.source_scene(&mesh)
 }
 
 /// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
