@@ -9,8 +9,10 @@ use crate::common;
 use common::fix_header;
 use common::skinned::{Layout, SkinnedBar};
 use morphlod::asset::{AssetError, SKIN_VERSION};
+use morphlod::build::Sequences;
 use morphlod::io::{load_morph, LoadOptions, MorphSource};
 use morphlod::morph::Morph;
+use morphlod::simplify::PoseError;
 use morphlod::skin::SkinError;
 use morphlod::{Asset, Builder, DeformingModel};
 use std::path::Path;
@@ -67,6 +69,15 @@ fn skinned_assets_round_trip_and_pose_as_their_morphs() {
         let model = DeformingModel::new(&back).unwrap();
         assert_eq!(model.looping(), name == "walker");
     }
+    // `--sequence shared`: one pose-aware sequence over the clip's poses, one frame, the skin.
+    let (shared, _) = Builder::new(&walker())
+        .frames(8)
+        .sequences(Sequences::Shared(PoseError::Max))
+        .build()
+        .unwrap();
+    assert_eq!((shared.frames.len(), shared.skin.is_some()), (1, true));
+    let back = Asset::from_bytes(&shared.to_bytes()).unwrap();
+    assert_eq!(back, shared);
     let (bar_asset, _) = Builder::new(&bar("frames")).frames(4).build().unwrap();
     let model = DeformingModel::new(&bar_asset).unwrap();
     let frames: Vec<usize> = [0.0, 0.16, 0.17, 0.99, 1.0]

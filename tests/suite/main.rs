@@ -27,6 +27,7 @@ mod shared_frames;
 mod shared_sequence;
 mod simplify_quality;
 mod skin_oracle;
+mod skin_quality;
 mod soup;
 mod supermesh;
 
