@@ -18,7 +18,7 @@
 // browser.
 import { readFile } from "node:fs/promises";
 import * as THREE from "three";
-import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
+import { parse } from "./parse.mjs";
 
 const [file, expectedJson] = process.argv.slice(2);
 const expected = JSON.parse(expectedJson);
@@ -26,16 +26,6 @@ const problems = [];
 const check = (ok, what) => {
   if (!ok) problems.push(what);
 };
-
-function parse(bytes) {
-  const loader = new GLTFLoader();
-  loader.register(() => ({
-    name: "morphlod_textures_undecoded",
-    loadTexture: () => Promise.resolve(new THREE.Texture()),
-  }));
-  const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-  return new Promise((resolve, reject) => loader.parse(buffer, "", resolve, reject));
-}
 
 let summary = {};
 try {

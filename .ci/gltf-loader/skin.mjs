@@ -18,20 +18,10 @@
 // Exits 1 when the file does not load, the mesh is not skinned or a clip is missing.
 import { readFile } from "node:fs/promises";
 import * as THREE from "three";
-import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
+import { parse } from "./parse.mjs";
 
 const [file, meshIndex, samplesJson] = process.argv.slice(2);
 const samples = JSON.parse(samplesJson);
-
-function parse(bytes) {
-  const loader = new GLTFLoader();
-  loader.register(() => ({
-    name: "morphlod_textures_undecoded",
-    loadTexture: () => Promise.resolve(new THREE.Texture()),
-  }));
-  const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-  return new Promise((resolve, reject) => loader.parse(buffer, "", resolve, reject));
-}
 
 try {
   const gltf = await parse(await readFile(file));

@@ -93,9 +93,9 @@ fn one(morph: &'static Morph, name: String, seq: &CollapseSequence, target: usiz
     }
 }
 
-/// gltfpack's output for `extra` options, read back and posed by its own `walk`; `None`
+/// `$GLTFPACK -i makehuman_walker.glb -o OUT -si 0.1 EXTRA...`: the output's path; `None`
 /// without `GLTFPACK`.
-fn gltfpack(extra: &[&str]) -> Option<(Method, usize)> {
+fn run_gltfpack(extra: &[&str]) -> Option<PathBuf> {
     let exe = std::env::var_os("GLTFPACK")?;
     let dir = common::scratch_dir("skin_quality", &format!("gltfpack{}", extra.join("")));
     let out = dir.join("out.glb");
@@ -109,7 +109,13 @@ fn gltfpack(extra: &[&str]) -> Option<(Method, usize)> {
         .status()
         .expect("gltfpack runs");
     assert!(status.success());
-    let morph: &'static Morph = Box::leak(Box::new(walk(&out)));
+    Some(out)
+}
+
+/// gltfpack's output for `extra` options, read back and posed by its own `walk`, and its
+/// triangle count; `None` without `GLTFPACK`.
+fn gltfpack(extra: &[&str]) -> Option<(Method, usize)> {
+    let morph: &'static Morph = Box::leak(Box::new(walk(&run_gltfpack(extra)?)));
     let triangles = morph.triangle_count();
     let name = format!("gltfpack -si 0.1 {}", extra.join(" "));
     Some((
@@ -126,18 +132,7 @@ fn gltfpack(extra: &[&str]) -> Option<(Method, usize)> {
 /// source's (a simplifier keeps a subset), found by their bind positions, bit for bit; `None`
 /// without `GLTFPACK`, or when a vertex is not found.
 fn gltfpack_mesh(morph: &'static Morph) -> Option<Method> {
-    let exe = std::env::var_os("GLTFPACK")?;
-    let dir = common::scratch_dir("skin_quality", "gltfpack_mesh");
-    let out = dir.join("out.glb");
-    let status = std::process::Command::new(exe)
-        .arg("-i")
-        .arg(walker_path())
-        .arg("-o")
-        .arg(&out)
-        .args(["-si", "0.1", "-noq"])
-        .status()
-        .expect("gltfpack runs");
-    assert!(status.success());
+    let out = run_gltfpack(&["-noq"])?;
     let packed = walk(&out);
     let bits = |p: &[f32; 3]| p.map(f32::to_bits);
     let source: std::collections::HashMap<[u32; 3], u32> = morph
