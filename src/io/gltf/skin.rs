@@ -48,7 +48,7 @@ impl Document {
             skin: element.clone(),
             source,
         };
-        let (skeleton, joint_nodes, nodes) = self.skeleton(&skin, &element)?;
+        let (skeleton, joint_nodes, nodes) = self.skeleton(&skin, instance.index(), &element)?;
         let (influences, joints, weights) = self.influences(mesh, &primitives)?;
         let mut out = Skin {
             skeleton,
@@ -110,15 +110,16 @@ impl Document {
     /// ([`Document::with_ancestors`]), with rest transforms (a matrix decomposed, refused where
     /// no translation, rotation and scale reproduce it); each joint's node in it; and each
     /// of its nodes' index in the file. Every joint must be in the scene that shows the
-    /// skinned mesh.
+    /// skinned mesh's node `mesh_node`.
     fn skeleton(
         &self,
         skin: &gltf::Skin,
+        mesh_node: usize,
         element: &str,
     ) -> Result<(Skeleton, Vec<u32>, Vec<usize>), LoadError> {
         let parents = self.parents();
         let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
-        self.check_scene(skin, &joints, &parents, element)?;
+        self.check_scene(mesh_node, &joints, &parents, element)?;
         let order = self.with_ancestors(&joints, &parents);
         let mut position = vec![NO_PARENT; parents.len()];
         for (i, &n) in order.iter().enumerate() {
@@ -176,13 +177,13 @@ impl Document {
         Ok(out)
     }
 
-    /// Refuses a skin with a joint outside the scene that shows the skinned mesh (the default
-    /// scene when it holds the mesh's node, else the first that does; the default or first
-    /// scene when none does): nothing in the scene would place that joint. A file without
-    /// scenes is not checked.
+    /// Refuses a skin with a joint outside the scene that shows the skinned mesh's node
+    /// `mesh_node` (the default scene when it holds it, else the first that does; the default
+    /// or first scene when none does): nothing in the scene would place that joint. A file
+    /// without scenes is not checked.
     fn check_scene(
         &self,
-        skin: &gltf::Skin,
+        mesh_node: usize,
         joints: &[usize],
         parents: &[Option<usize>],
         element: &str,
@@ -198,23 +199,12 @@ impl Document {
         };
         let scenes: Vec<gltf::Scene> = self.document.scenes().collect();
         let holds = |s: &gltf::Scene, node: usize| s.nodes().any(|r| r.index() == root(node));
-        let mesh_node = self
-            .document
-            .nodes()
-            .find(|n| n.skin().map(|s| s.index()) == Some(skin.index()))
-            .map(|n| n.index());
         let default = self.document.default_scene().map_or(0, |s| s.index());
-        let shown = mesh_node
-            .and_then(|m| {
-                let mut order = scenes.iter().filter(|s| holds(s, m));
-                let first = order.next()?;
-                Some(if holds(&scenes[default], m) {
-                    default
-                } else {
-                    first.index()
-                })
-            })
-            .unwrap_or(default);
+        let shown = match scenes.iter().find(|s| holds(s, mesh_node)) {
+            Some(_) if scenes.get(default).is_some_and(|s| holds(s, mesh_node)) => default,
+            Some(first) => first.index(),
+            None => default,
+        };
         let Some(scene) = scenes.get(shown) else {
             return Ok(());
         };
