@@ -2,7 +2,10 @@
 //!
 //! `S0` is stripified once, on the triangulation `T` shared by every pose;
 //! each sampled frame `k` of `|r|` gets its own collapse sequence, computed by
-//! the simplifier on the pose `V(t_k)`, `t_k = k / (|r| - 1)`. Frames are
+//! the simplifier on the pose `V(t_k)`, `t_k = k / (|r| - 1)`; for a morph that loops (a
+//! skinned clip that ends where it starts) `t_k = k / |r|`, since `t = 1` is the pose of
+//! `t = 0` again. A skinned morph's pose is its skinned one ([`Morph::positions_at`]), and the
+//! asset keeps the skin and clip once instead of the poses. Frames are
 //! independent, so they run on the rayon pool, and the stripifier runs beside
 //! them (`rayon::join`): on two cores the strips cost no wall time.
 //!
@@ -209,6 +212,7 @@ impl<'a> Builder<'a> {
             frames: sequences,
             surface: topology.map(|map| surface(morph, map)),
             blend,
+            skin: morph.skinning().cloned(),
         };
         Ok((asset, report))
     }
@@ -243,9 +247,12 @@ impl<'a> Builder<'a> {
         Ok(blend)
     }
 
-    /// The time of sampled frame `k`: `k / (|r| − 1)`, or 0 when there is one frame.
+    /// The time of sampled frame `k`: `k / (|r| − 1)`, or 0 when there is one frame; for a
+    /// morph that loops `k / |r|` (module docs).
     fn time_of(&self, k: usize) -> f32 {
-        if self.frames == 1 {
+        if self.morph.looping() {
+            k as f32 / self.frames as f32
+        } else if self.frames == 1 {
             0.0
         } else {
             k as f32 / (self.frames - 1) as f32

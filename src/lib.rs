@@ -62,6 +62,7 @@ mod par;
 mod random;
 pub mod seams;
 pub mod simplify;
+pub mod skin;
 pub mod strip;
 pub mod topology;
 mod varint;

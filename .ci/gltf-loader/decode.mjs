@@ -10,23 +10,10 @@
 // them bit for bit.
 // Exits 1 when the file does not load or a LOD node is missing.
 import { readFile } from "node:fs/promises";
-import * as THREE from "three";
-import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
+import { parse } from "./parse.mjs";
 import { MeshoptDecoder } from "three/examples/jsm/libs/meshopt_decoder.module.js";
 
 const [file, name, count] = process.argv.slice(2);
-
-function parse(bytes) {
-  const loader = new GLTFLoader();
-  loader.setMeshoptDecoder(MeshoptDecoder);
-  // Node has no image decoding: every texture is answered with an empty texture.
-  loader.register(() => ({
-    name: "morphlod_textures_undecoded",
-    loadTexture: () => Promise.resolve(new THREE.Texture()),
-  }));
-  const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-  return new Promise((resolve, reject) => loader.parse(buffer, "", resolve, reject));
-}
 
 // The attribute's components as stored (no normalization applied), packed one element after
 // the other, whether three keeps them interleaved (a strided view) or not.
@@ -49,7 +36,7 @@ function dump(attribute) {
 
 try {
   await MeshoptDecoder.ready;
-  const gltf = await parse(await readFile(file));
+  const gltf = await parse(await readFile(file), (loader) => loader.setMeshoptDecoder(MeshoptDecoder));
   const lods = [];
   for (let i = 0; i < Number(count); i++) {
     const lodName = `${name}_LOD${i}`;

@@ -8,8 +8,9 @@
 //
 // Every LOD node `<name>_LOD<i>` (LOD0 in the scene, the others only in the node list: three.js
 // ignores MSFT_lod) is a mesh whose geometry has the vertex and index counts the writer wrote and
-// one POSITION (and NORMAL) morph attribute per target; the file's animation clip drives every
-// LOD's morphTargetInfluences (played on all LODs at once, they all move, in step with LOD0).
+// one POSITION (and NORMAL) morph attribute per target; each animation clip that drives weights
+// drives every LOD's morphTargetInfluences (played on all LODs at once, they all move, in step
+// with LOD0); and for a skinned file, how many skinned LODs the node clips move ("skinMoved").
 // Prints one JSON line; exits 1 when a check fails or the file does not load.
 //
 // Node has no image decoding (three.js loads images through the DOM or createImageBitmap): a
@@ -17,7 +18,7 @@
 // browser.
 import { readFile } from "node:fs/promises";
 import * as THREE from "three";
-import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
+import { parse } from "./parse.mjs";
 
 const [file, expectedJson] = process.argv.slice(2);
 const expected = JSON.parse(expectedJson);
@@ -25,16 +26,6 @@ const problems = [];
 const check = (ok, what) => {
   if (!ok) problems.push(what);
 };
-
-function parse(bytes) {
-  const loader = new GLTFLoader();
-  loader.register(() => ({
-    name: "morphlod_textures_undecoded",
-    loadTexture: () => Promise.resolve(new THREE.Texture()),
-  }));
-  const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-  return new Promise((resolve, reject) => loader.parse(buffer, "", resolve, reject));
-}
 
 let summary = {};
 try {
@@ -76,39 +67,73 @@ try {
   }
   check(gltf.scene.getObjectByName(`${expected.name}_LOD0`), "LOD0 is not in the scene");
 
-  // The animation drives every LOD: play the clip on all LODs under one root and sample it.
+  // Each clip that drives weights drives every LOD: play it on all LODs under one root and
+  // sample it.
   let driven = 0;
   if (expected.targets > 0 && lods.length > 0) {
-    check(gltf.animations.length === 1, `${gltf.animations.length} animation clips`);
-    const clip = gltf.animations[0];
+    const clips = gltf.animations.filter((c) => c.tracks.some((t) => t.name.endsWith(".morphTargetInfluences")));
+    check(clips.length >= 1, `${gltf.animations.length} animation clips, none drives morphTargetInfluences`);
     const root = new THREE.Group();
     for (const { mesh } of lods) root.add(mesh);
-    for (const { name } of lods) {
-      const tracks = clip.tracks.filter((t) => t.name === `${name}.morphTargetInfluences`);
-      check(tracks.length === 1, `${name}: ${tracks.length} morphTargetInfluences tracks`);
-    }
-    const rest = lods.map(({ mesh }) => [...mesh.morphTargetInfluences]);
-    const mixer = new THREE.AnimationMixer(root);
-    mixer.clipAction(clip).play();
     const moved = lods.map(() => false);
-    for (let s = 0; s <= 16; s++) {
-      mixer.setTime((clip.duration * s) / 16);
-      const first = lods[0].mesh.morphTargetInfluences;
-      lods.forEach(({ name, mesh }, i) => {
-        const w = mesh.morphTargetInfluences;
-        check(w.every((x, k) => x === first[k]), `${name}: influences [${w}] at step ${s}, LOD0 has [${first}]`);
-        if (w.some((x, k) => x !== rest[i][k])) moved[i] = true;
-      });
+    for (const clip of clips) {
+      for (const { name } of lods) {
+        const tracks = clip.tracks.filter((t) => t.name === `${name}.morphTargetInfluences`);
+        check(tracks.length === 1, `${name}: ${tracks.length} morphTargetInfluences tracks in clip ${clip.name}`);
+      }
+      const rest = lods.map(({ mesh }) => [...mesh.morphTargetInfluences]);
+      const mixer = new THREE.AnimationMixer(root);
+      mixer.clipAction(clip).play();
+      for (let s = 0; s <= 16; s++) {
+        mixer.setTime((clip.duration * s) / 16);
+        const first = lods[0].mesh.morphTargetInfluences;
+        lods.forEach(({ name, mesh }, i) => {
+          const w = mesh.morphTargetInfluences;
+          check(w.every((x, k) => x === first[k]), `${name}: influences [${w}] at step ${s} of ${clip.name}, LOD0 has [${first}]`);
+          if (w.some((x, k) => x !== rest[i][k])) moved[i] = true;
+        });
+      }
+      mixer.stopAllAction();
+      mixer.uncacheRoot(root);
     }
-    lods.forEach(({ name }, i) => check(moved[i], `${name}: the animation never changes its morphTargetInfluences`));
+    lods.forEach(({ name }, i) => check(moved[i], `${name}: no animation changes its morphTargetInfluences`));
     driven = moved.filter((m) => m).length;
+  }
+  // Each clip that moves nodes moves the skinned LODs' vertices: played on the whole scene, a
+  // skinned LOD's vertex 0 (skinned on the CPU by three) is somewhere else at some time.
+  let skinMoved = 0;
+  const jointClips = gltf.animations.filter((c) => c.tracks.some((t) => /\.(position|quaternion|scale)$/.test(t.name)));
+  const skinnedLods = lods.filter(({ mesh }) => mesh.isSkinnedMesh);
+  if (jointClips.length > 0 && skinnedLods.length > 0) {
+    const moved = skinnedLods.map(() => false);
+    for (const clip of jointClips) {
+      const mixer = new THREE.AnimationMixer(gltf.scene);
+      mixer.clipAction(clip).play();
+      // The bones are the scene's nodes (the LODs share them); the LOD meshes are updated too.
+      const at = (time) => {
+        mixer.setTime(time);
+        gltf.scene.updateMatrixWorld(true);
+        return skinnedLods.map(({ mesh }) => {
+          mesh.updateMatrixWorld(true);
+          return mesh.getVertexPosition(0, new THREE.Vector3());
+        });
+      };
+      const start = at(0);
+      for (let s = 1; s <= 8; s++) {
+        at((clip.duration * s) / 9).forEach((p, i) => {
+          if (p.distanceTo(start[i]) > 1e-6) moved[i] = true;
+        });
+      }
+      mixer.stopAllAction();
+    }
+    skinMoved = moved.filter((m) => m).length;
   }
   // Node transform channels (position, quaternion, scale tracks), for sources that animate them.
   const transformTracks = gltf.animations
     .flatMap((clip) => clip.tracks)
     .filter((t) => /\.(position|quaternion|scale)$/.test(t.name))
     .map((t) => t.name);
-  summary = { lods: lods.map(({ name, got }) => ({ name, ...got })), driven, transformTracks };
+  summary = { lods: lods.map(({ name, got }) => ({ name, ...got })), driven, skinMoved, animations: gltf.animations.map((c) => c.name), transformTracks };
 } catch (e) {
   problems.push(`could not load: ${e && e.stack ? e.stack : e}`);
 }

@@ -800,10 +800,8 @@ fn export(
             ),
             [path] => {
                 let (morph, weights) = load_gltf(path, animation.as_deref(), &options)?;
-                // The animation whose weight track the morph plays also moves the nodes.
-                let played = matches!(morph.weights(), Weights::Animated(_))
-                    .then(|| animation.as_deref().unwrap_or("0"));
-                let source = morphlod::io::gltf::source_scene(path, &options, played)
+                // Every animation of the file is written.
+                let source = morphlod::io::gltf::source_scene(path, &options)
                     .map_err(|e| e.to_string())?;
                 (morph, weights, source)
             }

@@ -40,6 +40,23 @@ pub struct AssetInfo {
     pub frames: Vec<FrameInfo>,
     /// Morph targets blended on the GPU (0 for a two-pose asset).
     pub targets: usize,
+    /// For a skinned asset: its skin and clip.
+    pub skin: Option<SkinInfo>,
+}
+
+/// A skinned asset's skin and clip, for [`AssetInfo`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkinInfo {
+    pub joints: usize,
+    /// Skeleton nodes: the joints and their ancestors.
+    pub nodes: usize,
+    /// Joint and weight pairs per vertex.
+    pub influences: usize,
+    pub clip: String,
+    /// Seconds.
+    pub duration: f32,
+    pub channels: usize,
+    pub looping: bool,
 }
 
 impl AssetInfo {
@@ -80,6 +97,19 @@ impl fmt::Display for AssetInfo {
                 f,
                 "  GPU targets       {} (weight animation blended on the GPU)",
                 self.targets
+            )?;
+        }
+        if let Some(s) = &self.skin {
+            writeln!(
+                f,
+                "  skin              {} joints ({} nodes), {} influences a vertex; clip '{}', {} s, {} channels{}",
+                s.joints,
+                s.nodes,
+                s.influences,
+                s.clip,
+                s.duration,
+                s.channels,
+                if s.looping { ", a loop (frames at t = k/|r|)" } else { "" }
             )?;
         }
         writeln!(
@@ -146,6 +176,15 @@ pub fn inspect_with(
         strip_indices: s0.indices.len(),
         frames: frame_infos,
         targets: blend.as_ref().map_or(0, |b| b.deltas.len()),
+        skin: asset.skin.as_ref().map(|s| SkinInfo {
+            joints: s.skin.joint_count(),
+            nodes: s.skin.skeleton.node_count(),
+            influences: s.skin.influences,
+            clip: s.clip.name.clone(),
+            duration: s.clip.duration,
+            channels: s.clip.channels.len(),
+            looping: s.clip.looping,
+        }),
     };
     Ok((asset, info))
 }

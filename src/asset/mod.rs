@@ -75,19 +75,23 @@
 //! without a surface is refused.
 //! Every failure is a typed [`AssetError`]; no input panics.
 
+mod error;
 mod frame_codec;
 mod inspect;
 mod reader;
 mod sections;
+mod skin;
 mod surface;
 
+pub use error::AssetError;
 pub use frame_codec::quantize_error;
-pub use inspect::{inspect, inspect_with, AssetInfo, FrameInfo, SectionInfo};
+pub use inspect::{inspect, inspect_with, AssetInfo, FrameInfo, SectionInfo, SkinInfo};
+pub use skin::SKIN_VERSION;
 pub use surface::SURFACE_VERSION;
 
-use crate::collapse::{CollapseSequence, SequenceError};
-use crate::morph::{MorphError, TargetBlend};
-use crate::seams::SeamError;
+use crate::collapse::CollapseSequence;
+use crate::morph::TargetBlend;
+use crate::skin::Skinning;
 use crate::strip::Strips;
 use frame_codec::Neighbours;
 use sections::{
@@ -95,12 +99,13 @@ use sections::{
     encode_targets, frame_parts, pose_bytes, FramePart,
 };
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
-use thiserror::Error;
 
 /// One deforming object's LOD data, as built by the per-frame builder and
-/// stored in a `.mlod` file. Frame `k` of `frames.len()` samples `t_k = k / (|r| - 1)`.
+/// stored in a `.mlod` file. Frame `k` of `frames.len()` samples `t_k = k / (|r| - 1)`, or
+/// `t_k = k / |r|` when the asset loops ([`Asset::looping`]: a skinned clip that ends where
+/// it starts, whose frame after the last is the first).
 ///
 /// Equal frames share one sequence: the builder and the loader give every frame that
 /// equals an earlier one a clone of that frame's [`Arc`], so memory grows with the
@@ -118,6 +123,10 @@ pub struct Asset {
     /// Vertex attributes for shading, for an asset built from a morph with vertex attributes
     /// (normals, UVs or colours); `None` for position-only sources, drawn faceted.
     pub surface: Option<Surface>,
+    /// For a skinned asset: the skin and the clip that pose `V(0)` (plus the blended targets)
+    /// at every `t` ([`Asset::pose_at`]); `V(0)`, `V(1)` and the targets are in bind space.
+    /// `None` otherwise.
+    pub skin: Option<Skinning>,
 }
 
 /// What the renderer shades an asset's vertices with, beside the positions.
@@ -201,184 +210,10 @@ pub(super) const TAG_FRAMES: [u8; 4] = *b"FRMS";
 pub(super) const TAG_TARGETS: [u8; 4] = *b"TGTS";
 pub(super) const TAG_SURFACE: [u8; 4] = *b"SURF";
 pub(super) const TAG_TEXTURE: [u8; 4] = *b"TEXR";
+pub(super) const TAG_SKIN: [u8; 4] = *b"SKIN";
 pub(super) const SECTION_ENTRY_LEN: usize = 24;
 /// More sections than any version will define: bounds the table before it is read.
-const MAX_SECTIONS: u32 = 64;
-
-/// Why a `.mlod` file could not be read or written.
-#[derive(Debug, Error)]
-pub enum AssetError {
-    #[error("loading this file needs up to {needed} bytes of memory, over the {budget}-byte budget: raise the budget (`--memory-budget MB` on the command line, `AssetLoadOptions::max_bytes` in code) if the file is trusted")]
-    OverBudget { needed: u64, budget: u64 },
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error(
-        "not a .mlod file: it starts with {found:02x?} instead of the .mlod magic {MAGIC:02x?}"
-    )]
-    WrongMagic { found: Vec<u8> },
-    #[error("the file is {length} bytes, shorter than the {HEADER_LEN}-byte .mlod header: it was cut off")]
-    TruncatedHeader { length: usize },
-    #[error("the file is format version {found}, newer than version {VERSION} that this morphlod reads: upgrade morphlod")]
-    NewerVersion { found: u16 },
-    #[error("the file claims format version {found}, which never existed (the first is 1): the file is damaged")]
-    UnknownVersion { found: u16 },
-    #[error("the file sets flags {flags:#06x} that this morphlod does not know: it was written by a newer morphlod, upgrade")]
-    UnknownFlags { flags: u16 },
-    #[error("the header announces a {expected}-byte body but only {found} bytes follow: the file was cut off")]
-    TruncatedBody { expected: u64, found: u64 },
-    #[error("the header announces a {expected}-byte body but {found} bytes follow: the file has trailing data")]
-    TrailingBytes { expected: u64, found: u64 },
-    #[error("checksum mismatch: the header says CRC-32 {stored:#010x}, the body has {computed:#010x}: the file is damaged")]
-    Checksum { stored: u32, computed: u32 },
-    #[error(
-        "the section table lists {count} sections (at most {MAX_SECTIONS}) in a {body}-byte body"
-    )]
-    SectionTable { count: u32, body: u64 },
-    #[error("section '{tag}' spans bytes {offset}..{offset}+{length}, outside the body's section area ({start}..{body})")]
-    SectionOutOfRange {
-        tag: String,
-        offset: u64,
-        length: u64,
-        start: u64,
-        body: u64,
-    },
-    #[error("section '{tag}' appears twice")]
-    DuplicateSection { tag: String },
-    #[error("the required section '{tag}' is missing")]
-    MissingSection { tag: String },
-    #[error("section '{tag}' is {length} bytes, not a whole number of {unit}-byte records")]
-    SectionSize { tag: String, length: u64, unit: u64 },
-    #[error("V0 has {v0} vertices but V1 has {v1}: the poses must match")]
-    PoseSizeMismatch { v0: usize, v1: usize },
-    #[error("the poses have {vertices} vertices, more than 32-bit indices address")]
-    TooManyVertices { vertices: usize },
-    #[error("{pose}: vertex {vertex} is not finite ({value:?})")]
-    NonFinitePosition {
-        pose: &'static str,
-        vertex: usize,
-        value: [f32; 3],
-    },
-    #[error("section '{tag}' ends in the middle of {what}: the file is damaged")]
-    Truncated { tag: &'static str, what: String },
-    #[error("section '{tag}': {what} is a number longer than 64 bits")]
-    BadNumber { tag: &'static str, what: String },
-    #[error("section '{tag}': {what} is {count}, more than the {limit} the data allows")]
-    CountTooLarge {
-        tag: &'static str,
-        what: String,
-        count: u64,
-        limit: u64,
-    },
-    #[error("S0 index {position} is {index}, but the asset has {vertices} vertices")]
-    StripIndex {
-        position: usize,
-        index: u64,
-        vertices: usize,
-    },
-    #[error("S0 offset {strip} is {offset} after {previous} (of {indices} indices): offsets must start at 0, never decrease and end at the index count")]
-    StripOffsets {
-        strip: usize,
-        offset: u64,
-        previous: u64,
-        indices: usize,
-    },
-    #[error("frame {frame} has mode {mode}, which is neither 0 (repeat) nor 1 (coded)")]
-    FrameMode { frame: usize, mode: u8 },
-    #[error("frame 0 says it repeats the previous frame, but there is none")]
-    RepeatFirstFrame,
-    #[error("the asset has no frames; it needs at least one collapse sequence")]
-    NoFrames,
-    #[error("frame {frame}: {source}")]
-    Sequence { frame: usize, source: SequenceError },
-    #[error("frame {frame}, collapse {step}: neighbour symbol {symbol} is past vertex {vertex}'s {neighbours} neighbours and the escape")]
-    NeighbourSymbol {
-        frame: usize,
-        step: usize,
-        vertex: u32,
-        symbol: u64,
-        neighbours: usize,
-    },
-    #[error(
-        "frame {frame}, collapse {step}: the error {value} is not a finite, non-negative number"
-    )]
-    BadError {
-        frame: usize,
-        step: usize,
-        value: f32,
-    },
-    #[error("frame {frame} is {declared} bytes but its data ends after {used}")]
-    FrameLength {
-        frame: usize,
-        declared: usize,
-        used: usize,
-    },
-    #[error("section 'TGTS' holds {targets} morph targets; it must hold 1 to {MAX_TARGETS}")]
-    TargetCount { targets: usize },
-    #[error("section 'TGTS' names interpolation {code}, which is none of 0 (STEP), 1 (LINEAR), 2 (CUBICSPLINE)")]
-    TargetInterpolation { code: u8 },
-    #[error("section 'TGTS' is {length} bytes, but {targets} targets with {keyframes} keyframes over {vertices} vertices take {expected}: the file is damaged")]
-    TargetSize {
-        length: usize,
-        targets: usize,
-        keyframes: usize,
-        vertices: usize,
-        expected: u64,
-    },
-    #[error("section 'TGTS': the weight track is invalid: {source}")]
-    TargetTrack { source: MorphError },
-    #[error("section 'TGTS': target {target}, vertex {vertex} has a delta that is not finite ({value:?})")]
-    NonFiniteDelta {
-        target: usize,
-        vertex: usize,
-        value: [f32; 3],
-    },
-    #[error("section '{tag}' is {length} bytes but its data ends after {used}")]
-    SectionTrailing {
-        tag: &'static str,
-        length: usize,
-        used: usize,
-    },
-    #[error("section '{tag}': checksum mismatch, it says CRC-32 {stored:#010x} but holds {computed:#010x}: the section is damaged")]
-    SectionChecksum {
-        tag: &'static str,
-        stored: u32,
-        computed: u32,
-    },
-    #[error("section '{tag}' has format version {found}; this morphlod reads versions 1 to {SURFACE_VERSION}: upgrade morphlod (0 never existed: the file is damaged)")]
-    SectionVersion { tag: &'static str, found: u8 },
-    #[error(
-        "section 'SURF' sets flags {flags:#04x} that this morphlod does not know: upgrade morphlod"
-    )]
-    SurfaceFlags { flags: u8 },
-    #[error(
-        "section 'SURF': vertex {vertex} names topology vertex {topology}, but there are {count}"
-    )]
-    SurfaceTopology {
-        vertex: usize,
-        topology: u64,
-        count: usize,
-    },
-    #[error("section 'SURF': {attribute} of vertex {vertex} is not finite")]
-    NonFiniteAttribute {
-        attribute: &'static str,
-        vertex: usize,
-    },
-    #[error("section 'SURF' holds normal deltas for {found} targets, but the asset blends {targets}: the file is damaged")]
-    NormalDeltaCount { found: usize, targets: usize },
-    #[error("section 'SURF': the material name is not UTF-8")]
-    MaterialName,
-    #[error("section 'SURF': vertex {vertex} is a copy of vertex {first} (one topology vertex) but moves differently: a seam would open; rebuild the asset")]
-    SurfaceWeld { vertex: usize, first: usize },
-    #[error("frame {frame} does not fit the surface's seams: {source}; rebuild the asset")]
-    SurfaceSteps { frame: usize, source: SeamError },
-    #[error("section 'TEXR' names image format {code}, which is neither 0 (PNG) nor 1 (JPEG)")]
-    TextureFormat { code: u8 },
-    #[error("the file has a texture ('TEXR') but no surface ('SURF') to map it with: the file is damaged")]
-    TextureWithoutSurface,
-}
+pub(super) const MAX_SECTIONS: u32 = 64;
 
 impl Asset {
     /// The format version [`Asset::to_bytes`] writes for this asset: [`VERSION`] with a
@@ -414,6 +249,9 @@ impl Asset {
             if let Some(texture) = &surface.material.texture {
                 sections.push((TAG_TEXTURE, surface::encode_texture(texture)));
             }
+        }
+        if let Some(skinning) = &self.skin {
+            sections.push((TAG_SKIN, skin::encode_skin(skinning)));
         }
 
         let mut body = Vec::new();
@@ -495,6 +333,49 @@ impl Asset {
             + frames
             + blend
             + self.surface.as_ref().map_or(0, Surface::heap_bytes)
+            + self.skin.as_ref().map_or(0, |s| {
+                let channels: usize = s.clip.channels.iter().map(|c| c.track.values.len()).sum();
+                8 * s.skin.joints.len() + 4 * (s.skin.inverse_binds.len() + channels)
+            })
+    }
+
+    /// Whether the asset loops: a skinned clip that ends where it starts. Its frames sample
+    /// `t_k = k / |r|` and [`crate::DeformingModel::frame_at`] wraps from the last to the first.
+    pub fn looping(&self) -> bool {
+        self.skin.as_ref().is_some_and(|s| s.clip.looping)
+    }
+
+    /// The pose the runtime draws at `t ∈ [0, 1]` (clamped; NaN reads as 0), on the CPU: the
+    /// two poses blended, `mix(V(0), V(1), t)`, or with targets `V(0) + Σ_k c_k(t) D_k`
+    /// ([`TargetBlend`]); then for a skinned asset that pose skinned at the clip's time
+    /// `t · duration` ([`Skinning::pose_at`]). The reference a GPU's pose is checked against.
+    pub fn pose_at(&self, t: f32) -> Vec<[f32; 3]> {
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        let morphed: Vec<[f32; 3]> = match &self.blend {
+            None => self
+                .v0
+                .iter()
+                .zip(&self.v1)
+                .map(|(a, b)| std::array::from_fn(|i| a[i] + (b[i] - a[i]) * t))
+                .collect(),
+            Some(blend) => {
+                let mut c = Vec::new();
+                blend.track.offsets_at(t, &mut c);
+                let mut out = self.v0.clone();
+                for (deltas, &w) in blend.deltas.iter().zip(&c) {
+                    for (p, d) in out.iter_mut().zip(deltas) {
+                        for i in 0..3 {
+                            p[i] += w * d[i];
+                        }
+                    }
+                }
+                out
+            }
+        };
+        match &self.skin {
+            None => morphed,
+            Some(skinning) => skinning.pose_at(&morphed, t * skinning.clip.duration),
+        }
     }
 
     /// Writes the file atomically (see [`save_bytes`]).
@@ -633,6 +514,10 @@ fn decode(
         (Err(_), Ok(_)) => return Err(AssetError::TextureWithoutSurface),
         (Err(_), Err(_)) => None,
     };
+    let skin = match section(TAG_SKIN) {
+        Ok(data) => Some(skin::decode_skin(data, n)?),
+        Err(_) => None,
+    };
 
     let mut asset = Asset {
         v0,
@@ -641,6 +526,7 @@ fn decode(
         frames,
         blend,
         surface: None,
+        skin,
     };
     if let Some(surface) = surface {
         surface::check_surface(&asset, &surface)?;
@@ -663,6 +549,8 @@ fn load_bytes_needed(file: usize, table: &[Section], parts: &[FramePart]) -> u64
     // (triangles, fans, offsets) about 40 bytes per index and 24 per vertex at most.
     let strips = 44 * length(TAG_S0) + 24 * n;
     let targets = 2 * length(TAG_TARGETS);
+    // A skin: its joint indices widened to u32 (at most 4 bytes per stored byte).
+    let skin = 4 * length(TAG_SKIN);
     // A surface: at most 4 bytes per stored byte (topology entries widened to u32), plus
     // the seam check's wedges (8 bytes per vertex) and the texture as stored.
     let surface = match length(TAG_SURFACE) {
@@ -680,7 +568,7 @@ fn load_bytes_needed(file: usize, table: &[Section], parts: &[FramePart]) -> u64
     let threads = (rayon::current_num_threads() as u64).min(distinct.len() as u64);
     let scratch = threads * 8 * n;
     let table_bytes = parts.len() as u64 * 64;
-    file as u64 + poses + strips + targets + surface + frames + scratch + table_bytes
+    file as u64 + poses + strips + targets + surface + skin + frames + scratch + table_bytes
 }
 
 pub(super) fn tag_name(tag: [u8; 4]) -> String {

@@ -30,14 +30,14 @@ const HAS_UVS: u8 = 1;
 const HAS_COLORS: u8 = 2;
 const HAS_NAME: u8 = 4;
 
-fn floats(out: &mut Vec<u8>, values: impl IntoIterator<Item = f32>) {
+pub(super) fn floats(out: &mut Vec<u8>, values: impl IntoIterator<Item = f32>) {
     for v in values {
         out.extend_from_slice(&v.to_le_bytes());
     }
 }
 
 /// Appends the CRC-32 of `out` to it.
-fn seal(mut out: Vec<u8>) -> Vec<u8> {
+pub(super) fn seal(mut out: Vec<u8>) -> Vec<u8> {
     let crc = crc32fast::hash(&out);
     out.extend_from_slice(&crc.to_le_bytes());
     out
@@ -102,8 +102,13 @@ pub(super) fn encode_texture(texture: &Texture) -> Vec<u8> {
     seal(out)
 }
 
-/// The section's bytes without its CRC, after checking the CRC and the version.
-fn unseal<'a>(data: &'a [u8], tag: &'static str) -> Result<&'a [u8], AssetError> {
+/// The section's bytes without its CRC and version, after checking the CRC and that the
+/// version is 1 to `newest`.
+pub(super) fn unseal<'a>(
+    data: &'a [u8],
+    tag: &'static str,
+    newest: u8,
+) -> Result<&'a [u8], AssetError> {
     if data.len() < 5 {
         return Err(AssetError::Truncated {
             tag,
@@ -120,10 +125,11 @@ fn unseal<'a>(data: &'a [u8], tag: &'static str) -> Result<&'a [u8], AssetError>
             computed,
         });
     }
-    if content[0] == 0 || content[0] > SURFACE_VERSION {
+    if content[0] == 0 || content[0] > newest {
         return Err(AssetError::SectionVersion {
             tag,
             found: content[0],
+            newest,
         });
     }
     Ok(&content[1..])
@@ -153,7 +159,7 @@ fn read_floats<const N: usize>(
 /// Reads "SURF" for an asset of `n` vertices blending `targets` targets on the GPU (0 for a
 /// two-pose asset). The material's texture is read from "TEXR" by [`decode_texture`].
 pub(super) fn decode_surface(data: &[u8], n: usize, targets: usize) -> Result<Surface, AssetError> {
-    let content = unseal(data, "SURF")?;
+    let content = unseal(data, "SURF", SURFACE_VERSION)?;
     let mut r = Reader::new(content, "SURF");
     let flags = r.byte(&|| "the flags".into())?;
     if flags & !(HAS_UVS | HAS_COLORS | HAS_NAME) != 0 {
@@ -234,7 +240,7 @@ pub(super) fn decode_surface(data: &[u8], n: usize, targets: usize) -> Result<Su
 }
 
 pub(super) fn decode_texture(data: &[u8]) -> Result<Texture, AssetError> {
-    let content = unseal(data, "TEXR")?;
+    let content = unseal(data, "TEXR", SURFACE_VERSION)?;
     let mut r = Reader::new(content, "TEXR");
     let format = match r.byte(&|| "the image format".into())? {
         0 => ImageFormat::Png,

@@ -24,6 +24,8 @@ pub struct DeformingModel {
     /// file, not with its frame count (a repeated frame costs 2 bytes on disk).
     pub(super) frames: Vec<Arc<Frame>>,
     pub(super) id: u64,
+    /// The asset loops ([`Asset::looping`]): `t` wraps from the last frame to the first.
+    looping: bool,
 }
 
 impl DeformingModel {
@@ -123,6 +125,7 @@ impl DeformingModel {
             layout,
             frames,
             id: crate::lodstrips::next_id(),
+            looping: asset.looping(),
         })
     }
 
@@ -150,13 +153,25 @@ impl DeformingModel {
         self.frames.get(k).map(|f| &f.changes)
     }
 
-    /// The frame shown at time `t`: `round(t · (|r| − 1))`, `t` clamped to `[0, 1]`.
+    /// The frame shown at time `t`: `round(t · (|r| − 1))`, `t` clamped to `[0, 1]`. For an
+    /// asset that loops ([`Asset::looping`], frames at `t_k = k / |r|`) `round(t · |r|) mod
+    /// |r|`: each frame shows around its own time, and the last half step before `t = 1`
+    /// (the pose of `t = 0` again) shows frame 0, so the switch at the wrap is no switch.
     pub fn frame_at(&self, t: f32) -> Result<usize, SetError> {
         if t.is_nan() {
             return Err(SetError::TimeNaN);
         }
-        let last = self.frames.len() - 1;
+        let count = self.frames.len();
+        if self.looping {
+            return Ok((t.clamp(0.0, 1.0) * count as f32).round() as usize % count);
+        }
+        let last = count - 1;
         Ok(((t.clamp(0.0, 1.0) * last as f32).round() as usize).min(last))
+    }
+
+    /// Whether the model loops ([`frame_at`](Self::frame_at)).
+    pub fn looping(&self) -> bool {
+        self.looping
     }
 
     /// `lod` as a step count of frame `k` (clamped to the last frame). For an asset with a

@@ -60,6 +60,7 @@ fn wave_tiles(tiles: u32, n: u32, frames: usize) -> Asset {
             .collect(),
         blend: None,
         surface: None,
+        skin: None,
     }
 }
 

@@ -1,11 +1,12 @@
 //! Discrete LODs of a morph as one glTF 2.0 binary (GLB) file that any engine loads: the
 //! original and each LOD as its own mesh and node (`<name>_LOD0`, `_LOD1`, ...), every one
 //! keeping all morph targets, the vertex attributes and the material, and driven by the same
-//! weight animation; the chain declared with `MSFT_lod` on the LOD0 node.
+//! animations; the chain declared with `MSFT_lod` on the LOD0 node.
 //!
 //! All LODs are reference meshes of ONE collapse sequence simplified over sampled poses
 //! ([`crate::build::Sequences::Shared`] with [`PoseError::Max`]), so each LOD's connectivity
-//! serves every pose of the animation. Collapses make no new vertices: a LOD keeps a subset
+//! serves every pose of the animation; for a skinned morph the poses are skinned
+//! ([`Morph::positions_at`]), so the LODs are chosen over the clip's poses, not the bind pose. Collapses make no new vertices: a LOD keeps a subset
 //! of the source vertices, and every value written for a kept vertex (position, normal, UV,
 //! colour, each target's POSITION and NORMAL delta) is the source's `f32`, copied bit for bit.
 //!
@@ -29,10 +30,11 @@
 //!   needs no nodes.)
 //! * its skin: the joints and skeleton with their ancestors (names, transforms, hierarchy),
 //!   the inverse bind matrices bit for bit, and the skin bound to every LOD node;
-//! * its animation's channels on those nodes' translations, rotations and scales
-//!   ([`crate::io::gltf::SourceNode::tracks`]), in the one animation written beside the
-//!   weight track: a node's channels drive that node, the mesh node's drive every LOD node,
-//!   keys and values as the file has them;
+//! * every animation of the file ([`crate::io::gltf::SourceScene::animations`]), each
+//!   written under its name with its weight channel driving every LOD node and its channels on
+//!   those nodes' translations, rotations and scales: a node's channels drive that node, the
+//!   mesh node's drive every LOD node, keys and values as the file has them (a source without
+//!   a weight animation of its own gets the morph's, named `weights`);
 //! * the vertex attributes a morph does not hold (TANGENT, JOINTS_n, WEIGHTS_n, further
 //!   TEXCOORD and COLOR sets, application-specific `_NAME`s) and the targets' TANGENT deltas,
 //!   each kept vertex's bytes as stored, the sets renumbered after the morph's own;
@@ -144,8 +146,8 @@ pub struct ExportOptions {
     pub name: String,
     /// What the source file has besides the morph ([`crate::io::gltf::source_scene`]): its
     /// nodes are written as they are (names, local transforms, parents), the LOD nodes take
-    /// the mesh node's place and local transform (LOD0 also its children), each node's
-    /// [`crate::io::gltf::SourceNode::tracks`] join the animation, the skin binds every LOD,
+    /// the mesh node's place and local transform (LOD0 also its children), every
+    /// [`crate::io::gltf::SourceScene::animations`] is written, the skin binds every LOD,
     /// and the raw attributes are written for each kept vertex bit for bit. Empty (the
     /// default): the LOD0 node is a scene root with no transform.
     pub source: SourceScene,
@@ -314,9 +316,11 @@ fn check_written(morph: &Morph, options: &ExportOptions) -> Result<Written, Expo
     if let Some(q) = &quantize {
         q.check()?;
         let source = &options.source;
-        let animated = source
-            .mesh_node
-            .is_some_and(|m| !source.nodes[m].tracks.is_empty());
+        let animated = source.animations.iter().any(|a| {
+            a.channels
+                .iter()
+                .any(|(node, _)| Some(*node) == source.mesh_node)
+        });
         if animated && source.skin.is_none() {
             return Err(ExportError::QuantizedAnimatedNode);
         }
@@ -520,6 +524,22 @@ fn check_source(morph: &Morph, source: &SourceScene) -> Result<(), ExportError> 
     }
     if source.mesh_node.is_some_and(|m| m >= n) || (source.mesh_node.is_none() && n > 0) {
         return fail(format!("mesh node {:?} of {n} nodes", source.mesh_node));
+    }
+    for (i, a) in source.animations.iter().enumerate() {
+        if let Some(&(node, _)) = a.channels.iter().find(|(node, _)| *node >= n) {
+            return fail(format!("animation {i} drives node {node} of {n} nodes"));
+        }
+        if let Some(w) = a
+            .weights
+            .as_ref()
+            .filter(|w| w.targets() != morph.targets().len())
+        {
+            return fail(format!(
+                "animation {i} has weights for {} targets, the morph has {}",
+                w.targets(),
+                morph.targets().len()
+            ));
+        }
     }
     let skinning = |prefix: &str| {
         source

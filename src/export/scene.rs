@@ -1,14 +1,14 @@
 //! The file: LOD nodes in the source's node tree, `MSFT_lod`, skin, extensions, and the GLB
 //! container around the JSON and the BIN chunk.
 
-use super::animation::{animation, animation_json};
+use super::animation::{animation, animations_json, WrittenAnimation};
 use super::compress::{Buffers, EXT_MESHOPT_COMPRESSION};
 use super::material::{material_json, source_material_json};
 use super::mesh::{flat_accessor, mesh_json, written_names, Quantization};
 use super::quantize::Grid;
 use super::{ExportOptions, Lod};
 use crate::io::gltf::write::{glb, number, quote};
-use crate::io::gltf::{NodeTrack, NodeTransform};
+use crate::io::gltf::NodeTransform;
 use crate::morph::Morph;
 use std::fmt::Write as _;
 
@@ -175,25 +175,33 @@ pub(super) fn write_glb(
     }
     // Every LOD node stands where the mesh node stood, so its channels drive each of them;
     // another node's drive that node.
-    let node_tracks: Vec<(Vec<usize>, &NodeTrack)> = source
-        .nodes
+    let driven = |i: usize| -> Vec<usize> {
+        if Some(i) == mesh_node {
+            (0..lods.len()).collect()
+        } else {
+            vec![written[i]]
+        }
+    };
+    let targets = !morph.targets().is_empty();
+    let mut animations: Vec<WrittenAnimation> = source
+        .animations
         .iter()
         .enumerate()
-        .flat_map(|(i, node)| {
-            let driven: Vec<usize> = if Some(i) == mesh_node {
-                (0..lods.len()).collect()
-            } else {
-                vec![written[i]]
-            };
-            node.tracks.iter().map(move |t| (driven.clone(), t))
+        .map(|(i, a)| WrittenAnimation {
+            name: a.name.clone().unwrap_or_else(|| format!("animation {i}")),
+            weights: a.weights.clone().filter(|_| targets),
+            channels: a.channels.iter().map(|(n, t)| (driven(*n), t)).collect(),
         })
         .collect();
-    let weights = if morph.targets().is_empty() {
-        None
-    } else {
-        animation(morph)
-    };
-    let animation = animation_json(weights.as_ref(), &node_tracks, lods.len(), &mut buffers);
+    // Without a weight animation of its own in the source, the morph's plays.
+    if targets && !animations.iter().any(|a| a.weights.is_some()) {
+        animations.push(WrittenAnimation {
+            name: "weights".into(),
+            weights: animation(morph),
+            channels: Vec::new(),
+        });
+    }
+    let animation = animations_json(&animations, lods.len(), &mut buffers);
     // A skinned mesh's node transform is ignored (glTF 2.0, 3.7.3.3), so the dequantising
     // transform goes into every inverse bind matrix instead: joint · IBM · D · q.
     let grid = quantization.map(|q| &q.grid);

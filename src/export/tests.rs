@@ -237,7 +237,6 @@ fn a_source_scene_that_does_not_fit_is_refused() {
     let node = |parent| SourceNode {
         name: None,
         transform: NodeTransform::IDENTITY,
-        tracks: Vec::new(),
         parent,
     };
     let skin = SourceSkin {

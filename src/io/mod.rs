@@ -27,7 +27,7 @@ mod polygon;
 mod text;
 
 pub use attributed::{morph_from_pair, AttributeSummary, AttributedMesh, TextureSummary};
-pub use gltf::{load_morph, MorphSource};
+pub use gltf::{load_morph, load_morph_noted, MorphSource};
 pub use image_header::image_size;
 pub use polygon::MAX_EAR_CLIPPED_CORNERS;
 
@@ -213,6 +213,22 @@ pub enum LoadError {
         path: PathBuf,
         animation: String,
         mesh: String,
+    },
+    /// A skin or its animation is unusable (joints out of range, weights that are negative or
+    /// far from summing to 1, a singular or non-finite inverse bind matrix, a channel that
+    /// cannot be played; see [`crate::skin::SkinError`]).
+    #[error("{path}: {skin}: {source}")]
+    GltfSkin {
+        path: PathBuf,
+        skin: String,
+        #[source]
+        source: crate::skin::SkinError,
+    },
+    #[error("{path}: mesh '{mesh}' is not skinned (its node has no skin, or its primitives no JOINTS_0 and WEIGHTS_0): {what} needs a skinned mesh")]
+    NotSkinned {
+        path: PathBuf,
+        mesh: String,
+        what: String,
     },
     /// The file's data makes no valid morph (see [`MorphError`]).
     #[error(transparent)]

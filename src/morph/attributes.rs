@@ -250,6 +250,12 @@ impl Morph {
             for target in &self.targets {
                 key.extend(target.deltas[v].map(f32::to_bits));
             }
+            // Copies bound to other joints part when skinned: they are other vertices.
+            if let Some(skin) = self.skinning.as_deref().map(|s| &s.skin) {
+                let i = skin.influences;
+                key.extend(&skin.joints[v * i..(v + 1) * i]);
+                key.extend(skin.weights[v * i..(v + 1) * i].iter().map(|w| w.to_bits()));
+            }
             let next = first.len() as u32;
             of_vertex.push(*first.entry(key.clone()).or_insert(next));
         }

@@ -13,10 +13,16 @@
 //! [`TargetBlend`] (the targets the animation drives and its weight track), and the GPU
 //! draws `V(0) + Σ (w_i(t) − w_i(0)) D_i`, the same surface as [`Morph::positions_at`]
 //! up to float rounding.
+//!
+//! A **skinned** morph ([`Morph::with_skinning`], `skinned.rs`) also carries a skin and a
+//! clip ([`Skinning`]): its pose at `t` is the morphed pose above, skinned at the clip's time
+//! `t · duration` (morph first, then skin, as glTF defines it); `V(0)`, `V(1)` stay the
+//! morphed (bind-space) poses the GPU stores, and [`Morph::positions_at`] is the skinned one.
 
 mod attributes;
+mod skinned;
 pub mod supermesh;
-mod track;
+pub(crate) mod track;
 
 pub use attributes::{
     vertex_normals, Attributes, ImageFormat, Material, Normals, Sampler, Texture, TopologyMap,
@@ -25,6 +31,7 @@ pub use track::{Interpolation, WeightTrack};
 
 use crate::mesh::clean::{clean_poses, CleanOptions, CleanReport};
 use crate::mesh::{IndexedMesh, MeshError};
+use crate::skin::{SkinError, Skinning};
 use thiserror::Error;
 
 /// One morph target: per-vertex position offsets added with a weight, and optionally
@@ -60,6 +67,8 @@ pub struct Morph {
     /// For a morph made from two poses ([`Morph::from_poses`]): `V(1)` as given, which
     /// `base + (v1 − v0)` need not reproduce bit for bit; `positions_at(1)` returns it.
     end_pose: Option<Vec<[f32; 3]>>,
+    /// For a skinned morph: the skin and the clip that pose it ([`Morph::with_skinning`]).
+    skinning: Option<Box<Skinning>>,
 }
 
 /// Why a morph could not be built.
@@ -136,6 +145,8 @@ pub enum MorphError {
     },
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    #[error("the skin: {0}")]
+    Skin(#[from] SkinError),
 }
 
 /// Whether `a` and `b` share their connectivity, as [`Morph::from_meshes`]
@@ -229,6 +240,7 @@ impl Morph {
             weights,
             attributes: Attributes::default(),
             end_pose: None,
+            skinning: None,
         })
     }
 
@@ -335,6 +347,12 @@ impl Morph {
         )?
         .with_attributes(attributes)?;
         morph.end_pose = self.end_pose.as_ref().map(|v| gather(v, vertex_map));
+        morph.skinning = self.skinning.as_ref().map(|s| {
+            Box::new(Skinning {
+                skin: s.skin.select(vertex_map),
+                clip: s.clip.clone(),
+            })
+        });
         Ok(morph)
     }
 
@@ -343,8 +361,9 @@ impl Morph {
     /// connectivity. Welding (asked for, or of a triangle soup) merges only
     /// vertices that coincide in `V(0)` and in every target's offsets, that is
     /// in every pose (a copy that moves apart in some pose is kept apart), and that
-    /// have equal attributes (normals, normal deltas, UVs, colours): the copies of a
-    /// position on either side of a seam stay apart.
+    /// have equal attributes (normals, normal deltas, UVs, colours) and, for a skinned morph,
+    /// equal joints and weights: the copies of a position on either side of a seam stay
+    /// apart.
     pub fn clean(&self, options: &CleanOptions) -> Result<(Morph, CleanReport), MorphError> {
         let base = IndexedMesh::new(self.v0(), self.triangles.clone());
         // Welding compares per-vertex triples bit for bit: a UV (u, v) is compared as
@@ -359,6 +378,7 @@ impl Morph {
             let alpha: Vec<[f32; 3]> = colors.iter().map(|&[.., a]| [a, 0.0, 0.0]).collect();
             [rgb, alpha]
         });
+        let skin = self.skin_triples();
         let also: Vec<&[[f32; 3]]> = self
             .targets
             .iter()
@@ -366,6 +386,7 @@ impl Morph {
             .chain(&a.normals)
             .chain(&uvs)
             .chain(colors.iter().flatten())
+            .chain(&skin)
             .map(Vec::as_slice)
             .collect();
         let cleaned = clean_poses(&base, &also, options)?;
@@ -403,9 +424,9 @@ impl Morph {
     }
 
     /// True when `V(t)` is exactly the linear blend of `V(0)` and `V(1)`, i.e. the
-    /// GPU's two-pose blend reproduces it at every `t`.
+    /// GPU's two-pose blend reproduces it at every `t` (never for a skinned morph).
     pub fn is_linear(&self) -> bool {
-        matches!(self.weights, Weights::TwoPose { .. })
+        matches!(self.weights, Weights::TwoPose { .. }) && self.skinning.is_none()
     }
 
     /// The target weights at `t` (clamped to `[0, 1]`; NaN reads as 0).
@@ -426,7 +447,7 @@ impl Morph {
         }
     }
 
-    /// The positions `V(t)`.
+    /// The positions `V(t)`: for a skinned morph the skinned pose ([`Morph::skinning`]).
     pub fn positions_at(&self, t: f32) -> Vec<[f32; 3]> {
         let mut out = Vec::new();
         self.positions_at_into(t, &mut out);
@@ -436,6 +457,27 @@ impl Morph {
     /// The positions `V(t)` into `out` (resized to the vertex count), so frame
     /// loops reuse one allocation.
     pub fn positions_at_into(&self, t: f32, out: &mut Vec<[f32; 3]>) {
+        match &self.skinning {
+            None => self.morphed_at_into(t, out),
+            Some(skinning) => {
+                let mut bind = Vec::with_capacity(self.base.len());
+                self.morphed_at_into(t, &mut bind);
+                let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+                *out = skinning.pose_at(&bind, t * skinning.clip.duration);
+            }
+        }
+    }
+
+    /// The morphed positions `base + Σ w_i(t) D_i` (for a two-pose morph, `V(1)` as given at
+    /// `t ≥ 1`), before any skinning: the bind-space pose of a skinned morph, `V(t)` of any
+    /// other.
+    pub fn morphed_at(&self, t: f32) -> Vec<[f32; 3]> {
+        let mut out = Vec::new();
+        self.morphed_at_into(t, &mut out);
+        out
+    }
+
+    fn morphed_at_into(&self, t: f32, out: &mut Vec<[f32; 3]>) {
         if let (Some(end), true) = (&self.end_pose, t >= 1.0) {
             out.clear();
             out.extend_from_slice(end);
@@ -459,14 +501,15 @@ impl Morph {
         }
     }
 
-    /// `V(0)`, the first pose the GPU runtime stores.
+    /// `V(0)`, the first pose the GPU runtime stores (for a skinned morph the bind-space
+    /// pose, [`morphed_at`](Self::morphed_at)).
     pub fn v0(&self) -> Vec<[f32; 3]> {
-        self.positions_at(0.0)
+        self.morphed_at(0.0)
     }
 
-    /// `V(1)`, the second pose the GPU runtime stores.
+    /// `V(1)`, the second pose the GPU runtime stores (bind space, as `V(0)`).
     pub fn v1(&self) -> Vec<[f32; 3]> {
-        self.positions_at(1.0)
+        self.morphed_at(1.0)
     }
 
     /// What the GPU needs besides `V(0)` and `V(1)` to draw this morph exactly: `None` for a

@@ -27,6 +27,42 @@ impl Interpolation {
     }
 }
 
+/// Where a time falls among strictly increasing key times (glTF 2.0 §3.11): on one key's value
+/// (before the first key, after the last, or a single key: the end values hold), or inside
+/// the segment from key `k` to `k + 1` at `s ∈ [0, 1)` of its length `dt`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Segment {
+    Hold(usize),
+    Between { k: usize, s: f32, dt: f32 },
+}
+
+/// The [`Segment`] `time` (seconds) falls in; a NaN time reads as before the first key.
+pub(crate) fn segment(times: &[f32], time: f32) -> Segment {
+    // Number of keys at or before `time`: 0 = before the first one.
+    let after = times.partition_point(|&k| k <= time);
+    if after == 0 || after == times.len() {
+        return Segment::Hold(after.saturating_sub(1));
+    }
+    let k = after - 1;
+    let dt = times[k + 1] - times[k];
+    Segment::Between {
+        k,
+        s: (time - times[k]) / dt,
+        dt,
+    }
+}
+
+/// glTF's cubic Hermite spline (Appendix C) on one component at `s` of a segment of length
+/// `dt`: `v0` and its out-tangent `b0` at the start, `v1` and its in-tangent `a1` at the end.
+pub(crate) fn hermite(s: f32, dt: f32, v0: f32, b0: f32, v1: f32, a1: f32) -> f32 {
+    let (s2, s3) = (s * s, s * s * s);
+    let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+    let h10 = (s3 - 2.0 * s2 + s) * dt;
+    let h01 = -2.0 * s3 + 3.0 * s2;
+    let h11 = (s3 - s2) * dt;
+    h00 * v0 + h10 * b0 + h01 * v1 + h11 * a1
+}
+
 /// Weights of `targets` morph targets over time. Immutable after [`WeightTrack::new`]
 /// so the sampling code can index without checks failing.
 #[derive(Clone, Debug, PartialEq)]
@@ -121,37 +157,22 @@ impl WeightTrack {
     pub fn sample_into(&self, time: f32, out: &mut Vec<f32>) {
         out.clear();
         let n = self.targets;
-        // Number of keyframes at or before `time`: 0 = before the first one.
-        let after = self.times.partition_point(|&k| k <= time);
-        if after == 0 || after == self.times.len() {
-            let k = if after == 0 { 0 } else { after - 1 };
-            out.extend_from_slice(self.value(k));
-            return;
-        }
-        let k = after - 1;
-        let (t0, t1) = (self.times[k], self.times[k + 1]);
-        let dt = t1 - t0;
-        let s = (time - t0) / dt;
-        match self.interpolation {
-            Interpolation::Step => out.extend_from_slice(self.value(k)),
-            Interpolation::Linear => {
-                let (a, b) = (self.value(k), self.value(k + 1));
-                out.extend(a.iter().zip(b).map(|(&a, &b)| a + (b - a) * s));
-            }
-            Interpolation::CubicSpline => {
-                // Appendix C: p(s) = h00 v_k + h10 dt b_k + h01 v_k+1 + h11 dt a_k+1,
-                // with b_k the out-tangent of k and a_k+1 the in-tangent of k+1.
-                let (s2, s3) = (s * s, s * s * s);
-                let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
-                let h10 = (s3 - 2.0 * s2 + s) * dt;
-                let h01 = -2.0 * s3 + 3.0 * s2;
-                let h11 = (s3 - s2) * dt;
-                let key0 = &self.values[k * 3 * n..(k + 1) * 3 * n];
-                let key1 = &self.values[(k + 1) * 3 * n..(k + 2) * 3 * n];
-                out.extend((0..n).map(|i| {
-                    h00 * key0[n + i] + h10 * key0[2 * n + i] + h01 * key1[n + i] + h11 * key1[i]
-                }));
-            }
+        match segment(&self.times, time) {
+            Segment::Hold(k) => out.extend_from_slice(self.value(k)),
+            Segment::Between { k, s, dt } => match self.interpolation {
+                Interpolation::Step => out.extend_from_slice(self.value(k)),
+                Interpolation::Linear => {
+                    let (a, b) = (self.value(k), self.value(k + 1));
+                    out.extend(a.iter().zip(b).map(|(&a, &b)| a + (b - a) * s));
+                }
+                Interpolation::CubicSpline => {
+                    let key0 = &self.values[k * 3 * n..(k + 1) * 3 * n];
+                    let key1 = &self.values[(k + 1) * 3 * n..(k + 2) * 3 * n];
+                    out.extend((0..n).map(|i| {
+                        hermite(s, dt, key0[n + i], key0[2 * n + i], key1[n + i], key1[i])
+                    }));
+                }
+            },
         }
     }
 
@@ -166,6 +187,42 @@ impl WeightTrack {
         for (c, w0) in out.iter_mut().zip(&at_zero) {
             *c -= w0;
         }
+    }
+
+    /// The same track lasting until `duration` (seconds, after its last key): a key there
+    /// holds the last key's values, so the track plays as before and the glTF animation it
+    /// belongs to, longer than its own keys, keeps its length when the track is played over
+    /// `t ∈ [0, 1]`. (For CUBICSPLINE the last key's out-tangent and the new key's tangents
+    /// are 0: the old out-tangent was never used, and the new segment stays constant.)
+    /// Unchanged when `duration` is not after the last key.
+    pub fn held_until(&self, duration: f32) -> WeightTrack {
+        let mut track = self.clone();
+        if !duration.is_finite() || duration <= self.duration() {
+            return track;
+        }
+        let n = self.targets;
+        let last = self.value(self.keyframes() - 1).to_vec();
+        if self.interpolation == Interpolation::CubicSpline {
+            let end = track.values.len();
+            track.values[end - n..].fill(0.0);
+            track.values.extend(std::iter::repeat_n(0.0, n));
+            track.values.extend(&last);
+            track.values.extend(std::iter::repeat_n(0.0, n));
+        } else {
+            track.values.extend(&last);
+        }
+        track.times.push(duration);
+        track
+    }
+
+    /// Whether the weights at the end equal those at the start (within `1e-5` of the larger
+    /// magnitude, at least 1): the weights loop.
+    pub fn returns_to_start(&self) -> bool {
+        let (first, last) = (self.value(0), self.value(self.keyframes() - 1));
+        first
+            .iter()
+            .zip(last)
+            .all(|(a, b)| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()).max(1.0))
     }
 
     /// Keyframe times, seconds, strictly increasing.
@@ -302,6 +359,30 @@ mod tests {
         assert_eq!(sample(&track, 2.0), vec![1.0]);
         assert_eq!(sample(&track, 0.0), vec![0.0]);
         assert_eq!(sample(&track, 10.0), vec![0.0]);
+    }
+
+    /// Held until 6 s, each interpolation plays as before up to its last key and holds the
+    /// last values after it.
+    #[test]
+    fn held_until_keeps_the_curve_and_holds_the_end() {
+        let values = vec![
+            9.0, 0.0, 2.0, -1.0, 1.0, 4.0, 3.0, 0.5, 7.0, // CUBICSPLINE: in, value, out
+        ];
+        let cubic = WeightTrack::new(Interpolation::CubicSpline, times(), values, 1).unwrap();
+        let linear =
+            WeightTrack::new(Interpolation::Linear, times(), vec![0.0, 1.0, 0.5], 1).unwrap();
+        for track in [cubic, linear] {
+            let held = track.held_until(6.0);
+            assert_eq!(held.duration(), 6.0);
+            for time in [0.0, 1.3, 2.0, 3.7, 4.0] {
+                assert_eq!(sample(&held, time), sample(&track, time), "at {time} s");
+            }
+            for time in [4.5, 5.99, 6.0, 8.0] {
+                assert!(close(&sample(&held, time), &[0.5]), "at {time} s");
+            }
+            assert_eq!(track.held_until(3.0), track, "not after the last key");
+            assert!(!track.returns_to_start());
+        }
     }
 
     #[test]

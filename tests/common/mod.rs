@@ -17,6 +17,7 @@
 
 #[cfg(feature = "gpu")]
 pub mod gpu;
+pub mod skinned;
 pub mod validator;
 
 use morphlod::asset::HEADER_LEN;

@@ -132,6 +132,7 @@ fn tiny_asset() -> Asset {
         })],
         blend: None,
         surface: None,
+        skin: None,
     }
 }
 
@@ -714,7 +715,7 @@ fn damaged_surface_sections_are_refused() {
                 d[0] = version;
                 reseal(d);
             }),
-            AssetError::SectionVersion { tag: "SURF", found } if found == version
+            AssetError::SectionVersion { tag: "SURF", found, .. } if found == version
         ));
     }
     assert!(matches!(

@@ -574,3 +574,4 @@ proptest! {
 // The per-format files under tests/suite/bad_input/.
 mod gltf;
 mod gltf_attributes;
+mod gltf_skin;

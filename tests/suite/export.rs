@@ -503,7 +503,7 @@ fn a_skinned_character_keeps_its_skin_and_every_attribute() {
     validate_clean(&input);
     let options = LoadOptions::default();
     let morph = load_morph(&input, &options, &MorphSource::Animation("0".into())).unwrap();
-    let source = morphlod::io::gltf::source_scene(&input, &options, Some("0")).unwrap();
+    let source = morphlod::io::gltf::source_scene(&input, &options).unwrap();
     assert!(source.left_out.is_empty(), "{:?}", source.left_out);
     let export = export_glb(
         &morph,
@@ -652,7 +652,7 @@ fn skinning_without_a_skin_is_left_out_with_a_note() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{stderr}");
     for semantic in ["JOINTS_0", "WEIGHTS_0"] {
-        let note = format!("note: not exported: {semantic}: its node has no skin");
+        let note = format!("warning: not exported: {semantic}: its node has no skin");
         assert!(stderr.contains(&note), "{note}: {stderr}");
     }
     let exported = gltf::Gltf::from_slice(&std::fs::read(&out).unwrap()).unwrap();
@@ -690,7 +690,7 @@ fn a_non_finite_inverse_bind_matrix_is_refused() {
     let mut bytes = std::fs::read(&bin).unwrap();
     bytes[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     std::fs::write(&bin, bytes).unwrap();
-    let err = morphlod::io::gltf::source_scene(&input, &LoadOptions::default(), Some("0"))
+    let err = morphlod::io::gltf::source_scene(&input, &LoadOptions::default())
         .unwrap_err()
         .to_string();
     assert!(

@@ -12,6 +12,7 @@ mod common;
 
 mod asset_file;
 mod asset_golden;
+mod asset_skin;
 mod attribute_quality;
 mod bad_input;
 mod baselines;
@@ -25,6 +26,8 @@ mod seams;
 mod shared_frames;
 mod shared_sequence;
 mod simplify_quality;
+mod skin_oracle;
+mod skin_quality;
 mod soup;
 mod supermesh;
 
@@ -49,6 +52,8 @@ mod cli_supermesh;
 mod export;
 #[cfg(feature = "cli")]
 mod export_compressed;
+#[cfg(feature = "cli")]
+mod export_skinned;
 #[cfg(feature = "cli")]
 mod gltf_loader;
 #[cfg(feature = "cli")]

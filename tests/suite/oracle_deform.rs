@@ -62,6 +62,7 @@ fn build_asset(morph: &Morph, frames: usize) -> Asset {
         frames: sequences,
         blend: morph.target_blend(),
         surface: None,
+        skin: None,
     }
 }
 
@@ -187,7 +188,14 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
         errors: asset.frames.iter().map(|seq| seq.errors()).collect(),
     };
     let r = asset.frames.len();
-    let last = (r - 1).max(1) as f32;
+    // Frame k samples t = k / last; a loop's t = 1 is frame 0 again (`frame_at`).
+    let looping = asset.looping();
+    let last = if looping {
+        r as f32
+    } else {
+        (r - 1).max(1) as f32
+    };
+    let end = if looping { 0 } else { r - 1 };
     let mut rng = Rng(seed);
     let mut state = DeformingState::new(&model);
     let mut mirror = Mirror::new(state.region_offsets(), state.indices(), state.lengths());
@@ -204,18 +212,18 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
                 ((k as f32 + rng.unit() * 0.9 - 0.45) / last, k)
             }
             1 => {
-                let k = if rng.below(2) == 0 {
-                    (k0 + 1).min(r - 1)
-                } else {
-                    k0.saturating_sub(1)
+                let k = match (rng.below(2) == 0, looping) {
+                    (true, true) => (k0 + 1) % r,
+                    (true, false) => (k0 + 1).min(r - 1),
+                    (false, _) => k0.saturating_sub(1),
                 };
                 (k as f32 / last, k)
             }
             2 => match rng.below(4) {
                 0 => (0.0, 0),
-                1 => (1.0, r - 1),
+                1 => (1.0, end),
                 2 => (-3.0, 0),
-                _ => (7.5, r - 1),
+                _ => (7.5, end),
             },
             // The same frame, somewhere within its rounding window.
             _ => ((k0 as f32 + rng.unit() * 0.9 - 0.45) / last, k0),
@@ -331,6 +339,49 @@ fn animated_morph_cube() {
     walk("AnimatedMorphCube", morph.triangles(), &asset, 10_000, 4);
 }
 
+/// The walker's `walk`, built by the production [`morphlod::Builder`] over its skinned poses:
+/// a loop, so its 8 frames sample `t_k = k / 8` and `t` wraps from frame 7 to frame 0. Each
+/// frame is the simplifier's sequence of the skinned pose at its time (the CPU reference,
+/// `Morph::positions_at`), errors rounded as the asset stores them, and the walk draws every
+/// frame's reference mesh at every LOD it reaches.
+#[test]
+fn makehuman_walker_skinned_loop() {
+    let morph = load_morph(
+        "makehuman_walker.glb",
+        MorphSource::Animation("walk".into()),
+    );
+    let (asset, _) = morphlod::Builder::new(&morph)
+        .frames(8)
+        .build()
+        .expect("the walker builds");
+    assert!(asset.looping() && asset.skin.is_some());
+    assert_eq!(asset.skin.as_ref(), morph.skinning());
+    let tris = morph.triangles();
+    asset.frames.par_iter().enumerate().for_each(|(k, seq)| {
+        let pose = morph.positions_at(k as f32 / 8.0);
+        let own = simplify(&pose, tris, &SimplifyOptions::default());
+        let pairs = |s: &CollapseSequence| -> Vec<(u32, u32)> {
+            s.collapses.iter().map(|c| (c.u, c.w)).collect()
+        };
+        assert_eq!(
+            pairs(seq),
+            pairs(&own),
+            "frame {k}: the skinned pose's sequence"
+        );
+        let quantized = own
+            .collapses
+            .iter()
+            .map(|c| morphlod::asset::quantize_error(c.error));
+        assert!(
+            seq.collapses.iter().map(|c| c.error).eq(quantized),
+            "frame {k}: errors"
+        );
+    });
+    // The poses differ: frame 2 (a quarter of the walk) is not frame 0's sequence.
+    assert_ne!(asset.frames[0], asset.frames[2]);
+    walk("makehuman_walker 'walk'", tris, &asset, 10_000, 6);
+}
+
 /// Frames whose sequences have nothing in common: random collapse orders
 /// over a grid with holes (every frame a different order and length), which
 /// stresses rebuilds and switches far more than neighbouring poses do.
@@ -364,6 +415,7 @@ fn unrelated_random_frames() {
         frames: sequences,
         blend: None,
         surface: None,
+        skin: None,
     };
     walk("random frames", &tris, &asset, 10_000, 5);
 }
@@ -444,6 +496,7 @@ fn bad_assets_and_requests_are_rejected() {
         frames: vec![Arc::new(random_sequence(&tris, 4, 2, &mut Rng(1)))],
         blend: None,
         surface: None,
+        skin: None,
     };
     let model = DeformingModel::new(&good).expect("valid asset");
     let bad = |edit: &dyn Fn(&mut Asset)| {

@@ -25,9 +25,19 @@ pub(crate) struct BuildArgs {
     /// glTF: morph from the base mesh to this morph target (name or index).
     #[arg(long, value_name = "NAME|INDEX", conflicts_with = "animation")]
     target: Option<String>,
-    /// glTF: follow this weight animation (name or index) over its duration.
+    /// glTF: follow this weight animation (name or index) over its duration; for a skinned
+    /// mesh any animation: its joint channels pose the skin (a clip that ends where it starts
+    /// is a loop: frames at t = k/|r|), its weight channel (if any) the targets.
     #[arg(long, value_name = "NAME|INDEX")]
     animation: Option<String>,
+    /// glTF, skinned mesh: play this animation's weight channel beside the --animation clip,
+    /// each once over t ∈ [0, 1] (a body's shape animation beside a walk).
+    #[arg(long = "weights", value_name = "NAME|INDEX", requires = "animation")]
+    weight_animation: Option<String>,
+    /// Skinned mesh: the most joints a vertex keeps (the GPU's 4); a vertex with more keeps its
+    /// largest weights, renormalised, and the displacement this makes is reported.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(1..=16))]
+    max_influences: u8,
     /// glTF: the mesh to load, by name or index (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     mesh: Option<String>,
@@ -83,7 +93,8 @@ pub(crate) fn build(args: &BuildArgs) -> Result<(), String> {
         gltf_mesh: args.mesh.clone(),
         ..LoadOptions::default()
     };
-    let morph = load_morph(args, &options)?;
+    let mut morph = load_morph(args, &options)?;
+    report_skin(&mut morph, args.max_influences as usize);
     let load_time = total.elapsed();
     let clean_start = Instant::now();
     let morph = clean_morph(morph, &clean_options(args.weld, args.no_weld))?;
@@ -183,10 +194,14 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     Format::from_path(path).map_or("mesh", Format::name)
                 ));
             }
-            let source = match (&args.target, &args.animation) {
-                (Some(t), _) => MorphSource::Target(t.clone()),
-                (None, Some(a)) => MorphSource::Animation(a.clone()),
-                (None, None) => {
+            let source = match (&args.target, &args.animation, &args.weight_animation) {
+                (Some(t), _, _) => MorphSource::Target(t.clone()),
+                (None, Some(a), None) => MorphSource::Animation(a.clone()),
+                (None, Some(a), Some(w)) => MorphSource::AnimationWithWeights {
+                    animation: a.clone(),
+                    weights: w.clone(),
+                },
+                (None, None, _) => {
                     return Err(format!(
                         "{}: one input needs --target NAME or --animation NAME (`morphlod info {}` lists them), or give two meshes",
                         path.display(),
@@ -194,12 +209,51 @@ fn load_morph(args: &BuildArgs, options: &LoadOptions) -> Result<Morph, String> 
                     ))
                 }
             };
-            let morph =
-                morphlod::io::load_morph(path, options, &source).map_err(|e| e.to_string())?;
+            let (morph, notes) = morphlod::io::load_morph_noted(path, options, &source)
+                .map_err(|e| e.to_string())?;
+            for note in notes {
+                eprintln!("warning: {note}");
+            }
             check_texture(morph.attributes(), path)?;
             Ok(morph)
         }
         _ => Err("give one glTF file or two meshes".into()),
+    }
+}
+
+/// For a skinned morph: keeps at most `max` influences a vertex (saying what that moved) and
+/// says what the asset keeps of the skin and clip.
+fn report_skin(morph: &mut Morph, max: usize) {
+    if let Some(reduction) = morph.reduce_influences(max).filter(|r| r.vertices > 0) {
+        let diagonal = morphlod::mesh::bounds(&morph.v0()).map_or(1.0, |(lo, hi)| {
+            glam::Vec3::from(hi).distance(glam::Vec3::from(lo))
+        });
+        eprintln!(
+            "warning: {} vertices had more than {max} joints: each keeps its {max} largest \
+             weights, renormalised (dropped at most {:.4} of a vertex's weight; the pose moves by \
+             at most {:.3e}, {:.2e} of the bind pose's diagonal, over the clip's keys)",
+            reduction.vertices,
+            reduction.max_dropped_weight,
+            reduction.max_displacement,
+            reduction.max_displacement / diagonal
+        );
+    }
+    if let Some(skinning) = morph.skinning() {
+        let (skin, clip) = (&skinning.skin, &skinning.clip);
+        eprintln!(
+            "note: a skinned mesh: {} joints, {} influences a vertex; clip '{}' ({} s, {} channels){}; \
+             the asset keeps the skin and the clip, and every frame simplifies the skinned pose",
+            skin.joint_count(),
+            skin.influences,
+            clip.name,
+            clip.duration,
+            clip.channels.len(),
+            if clip.looping {
+                ", a loop: frames sample t = k/|r| and the last is followed by the first"
+            } else {
+                ""
+            }
+        );
     }
 }
 

@@ -43,9 +43,15 @@ pub(crate) struct ExportArgs {
     poses: usize,
     #[command(flatten)]
     weights: SimplifyWeights,
-    /// glTF: the weight animation to follow (name or index; default: the first).
+    /// glTF: the weight animation to follow (name or index; default: the first); for a
+    /// skinned mesh the clip whose skinned poses the LODs are chosen over. Every animation of
+    /// the file is written either way.
     #[arg(long, value_name = "NAME|INDEX")]
     animation: Option<String>,
+    /// glTF, skinned mesh: the animation whose weights play beside the clip while the LODs are
+    /// chosen (default: the clip's own, else the file's first weight animation).
+    #[arg(long = "weights", value_name = "NAME|INDEX")]
+    weight_animation: Option<String>,
     /// glTF: the mesh to export, by name or index (default: the first).
     #[arg(long, value_name = "NAME|INDEX")]
     mesh: Option<String>,
@@ -92,17 +98,30 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
         ),
         [path] => {
             let (morph, weights) = load_gltf(path, args.animation.as_deref(), &options)?;
-            // The animation whose weight track the morph plays also moves the scene's nodes.
-            let played = matches!(morph.weights(), Weights::Animated(_))
-                .then(|| args.animation.as_deref().unwrap_or("0"));
-            let source = morphlod::io::gltf::source_scene(path, &options, played)
-                .map_err(|e| e.to_string())?;
+            let source =
+                morphlod::io::gltf::source_scene(path, &options).map_err(|e| e.to_string())?;
+            // A skinned clip without weights of its own is posed beside the file's first
+            // weight animation, so the LODs see the targets' poses too.
+            let beside = args.weight_animation.clone().or_else(|| {
+                let first = source.animations.iter().find(|a| a.weights.is_some());
+                first.map(|a| a.index.to_string())
+            });
+            let morph = match (morph.skinning(), morph.weights(), beside) {
+                (Some(_), Weights::TwoPose { .. }, Some(weights)) => {
+                    let source = MorphSource::AnimationWithWeights {
+                        animation: args.animation.clone().unwrap_or("0".into()),
+                        weights,
+                    };
+                    morphlod::io::load_morph(path, &options, &source).map_err(|e| e.to_string())?
+                }
+                _ => morph,
+            };
             (morph, weights, source)
         }
         _ => return Err("give one glTF file or two meshes".into()),
     };
     for line in &source.left_out {
-        eprintln!("note: not exported: {line}");
+        eprintln!("warning: not exported: {line}");
     }
     let name = args.inputs[0]
         .file_stem()
@@ -178,8 +197,9 @@ pub(crate) fn export(args: &ExportArgs) -> Result<(), String> {
 }
 
 /// A glTF mesh with all its targets, driven by the chosen (or first) weight animation, and
-/// the mesh's default weights. Without an animation (and none asked for) the morph runs from
-/// the base to the default weights; without targets it is the static mesh.
+/// the mesh's default weights; a skinned mesh posed by the chosen (or first) animation as its
+/// clip. Without an animation (and none asked for) the morph runs from the base to the
+/// default weights; without targets or a skin it is the static mesh.
 fn load_gltf(
     path: &Path,
     animation: Option<&str>,
@@ -196,16 +216,21 @@ fn load_gltf(
     let by_default = load_surface(path, options)?;
     let default_weights = match by_default.weights() {
         Weights::TwoPose { w1, .. } if !by_default.targets().is_empty() => Some(w1.clone()),
-        _ => return Ok((by_default, None)),
+        _ => None,
     };
     let source = MorphSource::Animation(animation.unwrap_or("0").to_string());
-    match morphlod::io::load_morph(path, options, &source) {
-        Ok(morph) => Ok((morph, default_weights)),
-        Err(LoadError::NoSuchAnimation { .. } | LoadError::NoWeightChannel { .. })
-            if animation.is_none() =>
-        {
-            Ok((by_default, default_weights))
+    match morphlod::io::load_morph_noted(path, options, &source) {
+        Ok((morph, notes)) => {
+            for note in notes {
+                eprintln!("warning: {note}");
+            }
+            Ok((morph, default_weights))
         }
+        Err(
+            LoadError::NoSuchAnimation { .. }
+            | LoadError::NoWeightChannel { .. }
+            | LoadError::NoTargets { .. },
+        ) if animation.is_none() => Ok((by_default, default_weights)),
         Err(e) => Err(e.to_string()),
     }
 }

@@ -60,61 +60,49 @@ impl Document {
     }
 
     /// The channels of `animation` on node `node`'s translation, rotation and scale, checked
-    /// as [`WeightTrack::new`] checks a weight track: finite, strictly increasing times, and
-    /// finite values, as many as the keys ask for.
+    /// as [`WeightTrack::new`] checks a weight track ([`super::NodeTrack::problem`]): finite,
+    /// strictly increasing times, and finite values, as many as the keys ask for.
     pub(super) fn node_tracks(
         &self,
         animation: &gltf::Animation,
         node: usize,
     ) -> Result<Vec<super::NodeTrack>, LoadError> {
-        use gltf::animation::Property;
         let mut tracks = Vec::new();
         for channel in animation.channels() {
             if channel.target().node().index() != node {
                 continue;
             }
-            let (property, dimensions) = match channel.target().property() {
-                Property::Translation => (super::NodeProperty::Translation, Dimensions::Vec3),
-                Property::Rotation => (super::NodeProperty::Rotation, Dimensions::Vec4),
-                Property::Scale => (super::NodeProperty::Scale, Dimensions::Vec3),
-                Property::MorphTargetWeights => continue,
+            let Some(property) = node_property(channel.target().property()) else {
+                continue;
+            };
+            let dimensions = match property {
+                super::NodeProperty::Rotation => Dimensions::Vec4,
+                _ => Dimensions::Vec3,
             };
             let sampler = channel.sampler();
             let (element, times, values) = self.sampler_keys(animation, &sampler, dimensions)?;
-            let interpolation = interpolation(sampler.interpolation());
-            let per_key = property.components()
-                * if interpolation == crate::morph::Interpolation::CubicSpline {
-                    3
-                } else {
-                    1
-                };
-            let problem = if times.is_empty() {
-                Some("has no keyframe".to_string())
-            } else if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[0] >= w[1])
-            {
-                Some("has key times that are not finite and strictly increasing".to_string())
-            } else if values.len() != times.len() * per_key {
-                Some(format!(
-                    "has {} output values for {} keys, expected {}",
-                    values.len(),
-                    times.len(),
-                    times.len() * per_key
-                ))
-            } else if values.iter().any(|v| !v.is_finite()) {
-                Some("has a value that is not finite".to_string())
-            } else {
-                None
-            };
-            if let Some(problem) = problem {
-                return Err(self.data_error(&element, problem));
-            }
-            tracks.push(super::NodeTrack {
+            let track = super::NodeTrack {
                 property,
-                interpolation,
+                interpolation: interpolation(sampler.interpolation()),
                 times,
                 values,
-            });
+            };
+            if let Some(problem) = track.problem() {
+                return Err(self.data_error(&element, problem));
+            }
+            tracks.push(track);
         }
         Ok(tracks)
+    }
+}
+
+/// The property of a channel on a node's transform (`None` for weights).
+fn node_property(property: gltf::animation::Property) -> Option<super::NodeProperty> {
+    use gltf::animation::Property;
+    match property {
+        Property::Translation => Some(super::NodeProperty::Translation),
+        Property::Rotation => Some(super::NodeProperty::Rotation),
+        Property::Scale => Some(super::NodeProperty::Scale),
+        Property::MorphTargetWeights => None,
     }
 }

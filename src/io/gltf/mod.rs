@@ -20,18 +20,24 @@ mod morph_tests;
 mod nodes;
 mod primitives;
 mod scene;
+mod skin;
+#[cfg(test)]
+mod skin_tests;
 #[cfg(feature = "export")]
 pub(crate) use scene::texture_infos;
 pub mod summary;
 pub mod write;
 
+pub use crate::skin::{NodeProperty, NodeTrack};
 pub use summary::{inspect, AnimationSummary, GltfSummary, MeshSummary, WeightChannelSummary};
 
 use crate::io::{AttributedMesh, LoadError, LoadOptions};
 use crate::mesh::IndexedMesh;
 use crate::morph::{Attributes, Interpolation, Morph, MorphTarget, WeightTrack, Weights};
+use crate::skin::Skinning;
 use attributes::VertexAttributes;
 use document::Document;
+use skin::SkinRead;
 use std::path::Path;
 
 /// Which poses of a glTF mesh's morph targets make the morph.
@@ -42,8 +48,17 @@ pub enum MorphSource {
     /// morph shows exactly that target), `V(1)` = base + the target at weight 1.
     Target(String),
     /// A weight animation, by name or index, played over its whole duration,
-    /// evaluated with its own interpolation (STEP, LINEAR or CUBICSPLINE).
+    /// evaluated with its own interpolation (STEP, LINEAR or CUBICSPLINE). For a skinned
+    /// mesh (its node has a skin, its primitives JOINTS_0 and WEIGHTS_0) any animation: a
+    /// skinned morph whose clip is the animation's channels on the skeleton and whose weights
+    /// are its weight channel (held to the animation's length), or the mesh's default weights
+    /// when it has none ([`crate::skin`]).
     Animation(String),
+    /// A skinned mesh's animation `animation` (as [`MorphSource::Animation`]) with the weight
+    /// channel of animation `weights` (another one, such as a body's shape animation beside a
+    /// walk), played over the clip: as `t` runs over `[0, 1]` the clip plays once and the
+    /// weight animation once, each over its own length.
+    AnimationWithWeights { animation: String, weights: String },
     /// `V(0)` = base (all weights 0), `V(1)` = the mesh's default weights
     /// (`mesh.weights`, all 0 when absent).
     DefaultWeights,
@@ -87,17 +102,28 @@ impl NodeTransform {
     };
 }
 
-/// One node of a scene: its name and local transform, exactly as the file has them, what an
-/// animation does to that transform, and its parent.
+/// One node of a scene: its name and local transform, exactly as the file has them, and its
+/// parent.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SourceNode {
     pub name: Option<String>,
     pub transform: NodeTransform,
-    /// The animation's channels that drive this node's translation, rotation or scale.
-    pub tracks: Vec<NodeTrack>,
     /// The parent's index in [`SourceScene::nodes`] (always smaller than this node's);
     /// `None` for a scene root.
     pub parent: Option<usize>,
+}
+
+/// One animation of the file, as far as it drives what an export writes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceAnimation {
+    /// Its index in the file.
+    pub index: usize,
+    pub name: Option<String>,
+    /// Its channel on the weights of the mesh's node, as the file has it.
+    pub weights: Option<WeightTrack>,
+    /// Its channels on the translations, rotations and scales of [`SourceScene::nodes`]: the
+    /// node's index there and the track.
+    pub channels: Vec<(usize, NodeTrack)>,
 }
 
 /// A skin as the file has it, its nodes as indices in [`SourceScene::nodes`].
@@ -106,7 +132,7 @@ pub struct SourceSkin {
     pub name: Option<String>,
     pub joints: Vec<usize>,
     pub skeleton: Option<usize>,
-    /// Column-major, at least one per joint (the file's count).
+    /// Column-major, one per joint (a file's extra ones dropped).
     pub inverse_bind_matrices: Option<Vec<[f32; 16]>>,
 }
 
@@ -191,6 +217,9 @@ pub struct SourceScene {
     /// The mesh node's skin, kept when the mesh binds its vertices to it (JOINTS_0 and
     /// WEIGHTS_0 on every primitive).
     pub skin: Option<SourceSkin>,
+    /// Every animation of the file that drives the mesh's weights or one of `nodes`, in file
+    /// order (an animation that drives neither is named in `left_out`).
+    pub animations: Vec<SourceAnimation>,
     /// The vertex attributes a morph does not hold: all but POSITION, NORMAL, COLOR_0 and
     /// the TEXCOORD set of the base-colour texture, kept when every primitive stores them
     /// alike (JOINTS_n and WEIGHTS_n only in pairs, and only with a skin).
@@ -206,81 +235,22 @@ pub struct SourceScene {
     pub left_out: Vec<String>,
 }
 
-/// A node property an animation channel drives.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NodeProperty {
-    Translation,
-    Rotation,
-    Scale,
-}
-
-impl NodeProperty {
-    /// The glTF `path`.
-    pub fn name(self) -> &'static str {
-        match self {
-            NodeProperty::Translation => "translation",
-            NodeProperty::Rotation => "rotation",
-            NodeProperty::Scale => "scale",
-        }
-    }
-
-    /// Components per value: 4 for a rotation (a quaternion x, y, z, w), else 3.
-    pub fn components(self) -> usize {
-        match self {
-            NodeProperty::Rotation => 4,
-            _ => 3,
-        }
-    }
-}
-
-/// One animation channel on a node's transform, as its sampler has it: key times in seconds
-/// (finite, strictly increasing) and per key [`NodeProperty::components`] values (for
-/// `CubicSpline` an in-tangent, the value and an out-tangent, the glTF layout), read as `f32`
-/// (normalized integer rotations converted as the glTF specification says).
-#[derive(Clone, Debug, PartialEq)]
-pub struct NodeTrack {
-    pub property: NodeProperty,
-    pub interpolation: Interpolation,
-    pub times: Vec<f32>,
-    pub values: Vec<f32>,
-}
-
 /// What an export of the mesh `options` picks carries from the file besides the morph
-/// ([`SourceScene`]): its nodes, skin, material and the vertex attributes a morph does not
-/// hold. The nodes' placement is the one [`load_mesh`] applies with
-/// `options.apply_transforms`, which is itself ignored here: the raw attributes are as stored,
-/// in the mesh's own coordinates, so they go with a morph loaded without it (a baked
-/// transform would not turn their TANGENTs). With `animation` (a name, else a decimal index) each node also
-/// carries that animation's channels on its translation, rotation and scale.
-pub fn source_scene(
-    path: &Path,
-    options: &LoadOptions,
-    animation: Option<&str>,
-) -> Result<SourceScene, LoadError> {
+/// ([`SourceScene`]): its nodes, skin, every animation's channels on them and on the mesh's
+/// weights, the material and the vertex attributes a morph does not hold. The nodes'
+/// placement is the one [`load_mesh`] applies with `options.apply_transforms`, which is
+/// itself ignored here: the raw attributes are as stored, in the mesh's own coordinates, so
+/// they go with a morph loaded without it (a baked transform would not turn their TANGENTs).
+pub fn source_scene(path: &Path, options: &LoadOptions) -> Result<SourceScene, LoadError> {
     let doc = Document::open(path)?;
     let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
-    let animation = match animation {
-        Some(wanted) => {
-            let animations: Vec<gltf::Animation> = doc.document.animations().collect();
-            let names: Vec<Option<&str>> = animations.iter().map(|a| a.name()).collect();
-            let Some(i) = pick(wanted, &names) else {
-                return Err(LoadError::NoSuchAnimation {
-                    path: path.to_path_buf(),
-                    wanted: wanted.to_string(),
-                    available: list_names(&names),
-                });
-            };
-            Some(animations[i].clone())
-        }
-        None => None,
-    };
-    doc.source_scene(&mesh, animation.as_ref())
+    doc.source_scene(&mesh)
 }
 
 /// One mesh with its vertex attributes and material ([`crate::io::load_attributed`]):
 /// chosen and placed by `options` as [`load_mesh`] does; its targets are not kept.
 pub fn load_attributed(path: &Path, options: &LoadOptions) -> Result<AttributedMesh, LoadError> {
-    let data = read_morph(path, options)?;
+    let data = read_morph(&Document::open(path)?, options)?;
     Ok(AttributedMesh::unsplit(
         super::validated(data.mesh, path)?,
         data.attributes,
@@ -298,16 +268,11 @@ struct GltfMorph {
     targets: Vec<MorphTarget>,
     attributes: Attributes,
     default_weights: Vec<f32>,
-    animations: Vec<AnimationWeights>,
+    /// Per animation of the file, its weight track for this mesh.
+    animations: Vec<Option<WeightTrack>>,
 }
 
-struct AnimationWeights {
-    name: Option<String>,
-    track: Option<WeightTrack>,
-}
-
-fn read_morph(path: &Path, options: &LoadOptions) -> Result<GltfMorph, LoadError> {
-    let doc = Document::open(path)?;
+fn read_morph(doc: &Document, options: &LoadOptions) -> Result<GltfMorph, LoadError> {
     let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
     let geometry = doc.geometry(&mesh, true)?;
     let names = target_names(&mesh, geometry.targets.len());
@@ -328,12 +293,7 @@ fn read_morph(path: &Path, options: &LoadOptions) -> Result<GltfMorph, LoadError
     let animations = doc
         .document
         .animations()
-        .map(|animation| {
-            Ok(AnimationWeights {
-                name: animation.name().map(str::to_string),
-                track: doc.weight_track(&animation, &mesh, deltas.len())?,
-            })
-        })
+        .map(|animation| doc.weight_track(&animation, &mesh, deltas.len()))
         .collect::<Result<Vec<_>, LoadError>>()?;
     let targets = names
         .into_iter()
@@ -362,13 +322,51 @@ fn read_morph(path: &Path, options: &LoadOptions) -> Result<GltfMorph, LoadError
 }
 
 /// A morph from a glTF mesh's morph targets (see [`MorphSource`]). The mesh is
-/// chosen and placed by `options` exactly as [`load_mesh`] does.
+/// chosen and placed by `options` exactly as [`load_mesh`] does (a skinned mesh is not placed:
+/// its joints place it). What loading changed is dropped; [`load_morph_noted`] returns it.
 pub fn load_morph(
     path: &Path,
     options: &LoadOptions,
     source: &MorphSource,
 ) -> Result<Morph, LoadError> {
-    let data = read_morph(path, options)?;
+    load_morph_noted(path, options, source).map(|(morph, _)| morph)
+}
+
+/// [`load_morph`], and what loading changed that a user should be told, a line each (a
+/// skin's weights renormalised).
+pub fn load_morph_noted(
+    path: &Path,
+    options: &LoadOptions,
+    source: &MorphSource,
+) -> Result<(Morph, Vec<String>), LoadError> {
+    let doc = Document::open(path)?;
+    let mesh = doc.select_mesh(options.gltf_mesh.as_deref())?;
+    let clip = match source {
+        MorphSource::Animation(a) => Some((a, None)),
+        MorphSource::AnimationWithWeights { animation, weights } => {
+            Some((animation, Some(weights.as_str())))
+        }
+        _ => None,
+    };
+    if let Some((animation, weights)) = clip {
+        if let Some(read) = doc.skin_of(&mesh)? {
+            // The skin places the mesh: its node's transform is not applied.
+            let options = LoadOptions {
+                apply_transforms: false,
+                ..options.clone()
+            };
+            let data = read_morph(&doc, &options)?;
+            return skinned_morph(&doc, data, read, animation, weights);
+        }
+        if weights.is_some() {
+            return Err(LoadError::NotSkinned {
+                path: path.to_path_buf(),
+                mesh: display_name(mesh.name(), mesh.index()),
+                what: "a weight animation played beside a clip".into(),
+            });
+        }
+    }
+    let data = read_morph(&doc, options)?;
     let shown = path.to_path_buf();
     if data.targets.is_empty() {
         return Err(LoadError::NoTargets {
@@ -398,17 +396,12 @@ pub fn load_morph(
             w0: vec![0.0; targets.len()],
             w1: data.default_weights,
         },
-        MorphSource::Animation(wanted) => {
-            let names: Vec<Option<&str>> =
-                data.animations.iter().map(|a| a.name.as_deref()).collect();
-            let Some(i) = pick(wanted, &names) else {
-                return Err(LoadError::NoSuchAnimation {
-                    path: shown,
-                    wanted: wanted.clone(),
-                    available: list_names(&names),
-                });
-            };
-            match data.animations.into_iter().nth(i).and_then(|a| a.track) {
+        MorphSource::Animation(wanted)
+        | MorphSource::AnimationWithWeights {
+            animation: wanted, ..
+        } => {
+            let i = animation_index(&doc, wanted)?;
+            match data.animations.into_iter().nth(i).flatten() {
                 Some(track) => Weights::Animated(track),
                 None => {
                     return Err(LoadError::NoWeightChannel {
@@ -420,10 +413,83 @@ pub fn load_morph(
             }
         }
     };
-    Ok(
-        Morph::from_parts(data.mesh.triangles, data.mesh.positions, targets, weights)?
-            .with_attributes(data.attributes)?,
-    )
+    let morph = Morph::from_parts(data.mesh.triangles, data.mesh.positions, targets, weights)?
+        .with_attributes(data.attributes)?;
+    Ok((morph, Vec::new()))
+}
+
+/// The animation `wanted` names (a name, else a decimal index).
+fn animation_index(doc: &Document, wanted: &str) -> Result<usize, LoadError> {
+    let names: Vec<Option<&str>> = doc.document.animations().map(|a| a.name()).collect();
+    pick(wanted, &names).ok_or_else(|| LoadError::NoSuchAnimation {
+        path: doc.path.clone(),
+        wanted: wanted.to_string(),
+        available: list_names(&names),
+    })
+}
+
+/// The skinned morph of `data` posed by the skin `read` and the clip of animation
+/// `animation`; its weights from `weights`' weight channel when given, else from the clip's
+/// own (held to the clip's length), else the mesh's default weights, constant. It loops when
+/// both the joints and the weights end where they start.
+fn skinned_morph(
+    doc: &Document,
+    data: GltfMorph,
+    read: SkinRead,
+    animation: &str,
+    weights: Option<&str>,
+) -> Result<(Morph, Vec<String>), LoadError> {
+    let animations: Vec<gltf::Animation> = doc.document.animations().collect();
+    let clip_animation = &animations[animation_index(doc, animation)?];
+    let mut clip = doc.clip(clip_animation, &read)?;
+    let mut tracks = data.animations.into_iter();
+    let track = match weights {
+        Some(wanted) => {
+            let i = animation_index(doc, wanted)?;
+            let track = tracks.nth(i).flatten();
+            if track.is_none() {
+                return Err(LoadError::NoWeightChannel {
+                    path: doc.path.clone(),
+                    animation: wanted.to_string(),
+                    mesh: data.mesh_name,
+                });
+            }
+            track
+        }
+        None => tracks
+            .nth(clip_animation.index())
+            .flatten()
+            .map(|t| t.held_until(clip.duration)),
+    };
+    let weights_loop = track.as_ref().is_none_or(WeightTrack::returns_to_start);
+    clip.looping = weights_loop && clip.returns_to_start(&read.skin.skeleton);
+    let weights = match track {
+        Some(track) => Weights::Animated(track),
+        None => Weights::TwoPose {
+            w0: data.default_weights.clone(),
+            w1: data.default_weights,
+        },
+    };
+    let mut notes = Vec::new();
+    let changed = read.renormalized;
+    if changed.vertices > 0 {
+        notes.push(format!(
+            "{}: the weights of {} vertices did not sum to 1 (furthest: {}) and were renormalised",
+            read.element, changed.vertices, changed.worst_sum
+        ));
+    }
+    let morph = Morph::from_parts(
+        data.mesh.triangles,
+        data.mesh.positions,
+        data.targets,
+        weights,
+    )?
+    .with_attributes(data.attributes)?
+    .with_skinning(Skinning {
+        skin: read.skin,
+        clip,
+    })?;
+    Ok((morph, notes))
 }
 
 pub(super) fn quoted(name: &Option<String>) -> String {

@@ -119,6 +119,33 @@ impl Document {
         Ok(())
     }
 
+    /// `nodes` and all their ancestors, each once, parents before children: by depth, then
+    /// in file order (`parents` as [`parents`](Self::parents) gives them).
+    pub(super) fn with_ancestors(&self, nodes: &[usize], parents: &[Option<usize>]) -> Vec<usize> {
+        let mut kept = std::collections::BTreeSet::new();
+        for &node in nodes {
+            let mut current = Some(node);
+            // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
+            while let (Some(n), true) = (current, kept.len() <= parents.len()) {
+                if !kept.insert(n) {
+                    break;
+                }
+                current = parents[n];
+            }
+        }
+        let depth = |mut n: usize| {
+            let mut d = 0;
+            while let (Some(p), true) = (parents[n], d <= parents.len()) {
+                n = p;
+                d += 1;
+            }
+            d
+        };
+        let mut order: Vec<usize> = kept.into_iter().collect();
+        order.sort_by_key(|&n| (depth(n), n));
+        order
+    }
+
     pub(super) fn world_matrix(&self, node: usize) -> glam::Mat4 {
         let local = |i: usize| {
             self.document

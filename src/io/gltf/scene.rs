@@ -1,18 +1,19 @@
 //! What an export carries from its source file besides the morph ([`super::source_scene`]):
 //! where the mesh stands in its scene (the node that instances it and its ancestors, and
-//! for a skinned mesh the skin's joints, skeleton and their ancestors, each with the played
-//! animation's channels), and the vertex attributes morphlod does not interpret (TANGENT,
+//! for a skinned mesh the skin's joints, skeleton and their ancestors), every animation's
+//! channels on those nodes and on the mesh's weights, and the vertex attributes morphlod
+//! does not interpret (TANGENT,
 //! JOINTS_n, WEIGHTS_n, further TEXCOORD and COLOR sets, application-specific `_NAME`s), as
 //! the file stores them.
 
 use super::document::Document;
 use super::{
-    display_name, NodeTransform, RawAttribute, SourceImage, SourceMaterial, SourceNode,
-    SourceScene, SourceSkin, SourceTexture,
+    display_name, NodeTransform, RawAttribute, SourceAnimation, SourceImage, SourceMaterial,
+    SourceNode, SourceScene, SourceSkin, SourceTexture,
 };
 use crate::io::image_header::image_size;
 use crate::io::LoadError;
-use gltf::accessor::{DataType, Dimensions};
+use gltf::accessor::Dimensions;
 use std::collections::BTreeSet;
 
 /// One attribute as the primitives read so far store it, and why it cannot be carried.
@@ -25,13 +26,8 @@ struct Gathered {
 }
 
 impl Document {
-    /// The source scene of `mesh` (see [`SourceScene`]), its nodes' channels read from
-    /// `animation`.
-    pub(super) fn source_scene(
-        &self,
-        mesh: &gltf::Mesh,
-        animation: Option<&gltf::Animation>,
-    ) -> Result<SourceScene, LoadError> {
+    /// The source scene of `mesh` (see [`SourceScene`]).
+    pub(super) fn source_scene(&self, mesh: &gltf::Mesh) -> Result<SourceScene, LoadError> {
         let mut left_out = Vec::new();
         let RawAttributes {
             mut attributes,
@@ -64,6 +60,12 @@ impl Document {
         }
         let Some(instance) = self.instance(mesh) else {
             drop_skinning(&mut attributes, "no node instances the mesh", &mut left_out);
+            for animation in self.document.animations() {
+                left_out.push(format!(
+                    "animation {}: no node instances the mesh",
+                    display_name(animation.name(), animation.index())
+                ));
+            }
             return Ok(SourceScene {
                 attributes,
                 target_attributes,
@@ -96,27 +98,7 @@ impl Document {
             wanted.extend(skin.joints().map(|j| j.index()));
             wanted.extend(skin.skeleton().map(|s| s.index()));
         }
-        let mut kept = BTreeSet::new();
-        for node in wanted {
-            let mut current = Some(node);
-            // `precheck` refused cyclic hierarchies; the bound keeps this walk finite regardless.
-            while let (Some(n), true) = (current, kept.len() <= parents.len()) {
-                if !kept.insert(n) {
-                    break;
-                }
-                current = parents[n];
-            }
-        }
-        let depth = |mut n: usize| {
-            let mut d = 0;
-            while let (Some(p), true) = (parents[n], d <= parents.len()) {
-                n = p;
-                d += 1;
-            }
-            d
-        };
-        let mut order: Vec<usize> = kept.into_iter().collect();
-        order.sort_by_key(|&n| (depth(n), n));
+        let order = self.with_ancestors(&wanted, &parents);
         let mut position = vec![usize::MAX; parents.len()];
         for (i, &n) in order.iter().enumerate() {
             position[n] = i;
@@ -126,17 +108,14 @@ impl Document {
             .iter()
             .map(|&n| {
                 let node = &source_nodes[n];
-                Ok(SourceNode {
+                SourceNode {
                     name: node.name().map(str::to_owned),
                     transform: transform(node),
-                    tracks: match animation {
-                        Some(animation) => self.node_tracks(animation, n)?,
-                        None => Vec::new(),
-                    },
                     parent: parents[n].map(|p| position[p]),
-                })
+                }
             })
-            .collect::<Result<Vec<_>, LoadError>>()?;
+            .collect();
+        let animations = self.source_animations(mesh, &order, &mut left_out)?;
         let skin = match skin {
             Some(skin) => Some(self.skin(&skin, &position, &attributes)?),
             None => None,
@@ -145,12 +124,69 @@ impl Document {
             nodes,
             mesh_node: Some(position[instance.index()]),
             skin,
+            animations,
             attributes,
             target_attributes,
             material,
             uv_set,
             left_out,
         })
+    }
+
+    /// Every animation's channels on the weights of the node instancing `mesh` and on the
+    /// transforms of `kept` (the written nodes, in order); an animation that drives neither
+    /// is named in `left_out`, as are channels on other nodes.
+    fn source_animations(
+        &self,
+        mesh: &gltf::Mesh,
+        kept: &[usize],
+        left_out: &mut Vec<String>,
+    ) -> Result<Vec<SourceAnimation>, LoadError> {
+        let targets = mesh
+            .primitives()
+            .next()
+            .map_or(0, |p| p.morph_targets().len());
+        let instance = self.instance(mesh).map(|n| n.index());
+        let mut out = Vec::new();
+        for animation in self.document.animations() {
+            let name = display_name(animation.name(), animation.index());
+            let weights = match targets {
+                0 => None,
+                _ => self.weight_track(&animation, mesh, targets)?,
+            };
+            let mut channels = Vec::new();
+            for (at, &node) in kept.iter().enumerate() {
+                channels.extend(
+                    self.node_tracks(&animation, node)?
+                        .into_iter()
+                        .map(|t| (at, t)),
+                );
+            }
+            let elsewhere: BTreeSet<usize> = animation
+                .channels()
+                .map(|c| c.target().node().index())
+                .filter(|n| !kept.contains(n) && Some(*n) != instance)
+                .collect();
+            if !elsewhere.is_empty() {
+                left_out.push(format!(
+                    "animation {name}: its channels on nodes {elsewhere:?} (not the mesh's node, \
+                     its skeleton or their ancestors)"
+                ));
+            }
+            if weights.is_none() && channels.is_empty() {
+                left_out.push(format!(
+                    "animation {name}: it drives none of the nodes exported"
+                ));
+                continue;
+            }
+            out.push(SourceAnimation {
+                index: animation.index(),
+                name: animation.name().map(str::to_owned),
+                weights,
+                channels,
+            });
+        }
+        Ok(out)
     }
 
     /// `skin` with its joints and skeleton as positions in the written nodes; its inverse
@@ -164,42 +200,12 @@ impl Document {
     ) -> Result<SourceSkin, LoadError> {
         let element = format!("skin {}", display_name(skin.name(), skin.index()));
         let joints: Vec<usize> = skin.joints().map(|j| position[j.index()]).collect();
-        let inverse_bind_matrices = match skin.inverse_bind_matrices() {
-            Some(accessor) => {
-                let what = format!("{element} inverseBindMatrices");
-                if accessor.dimensions() != Dimensions::Mat4
-                    || accessor.data_type() != DataType::F32
-                {
-                    return Err(self.data_error(
-                        &what,
-                        format!(
-                            "is {:?} {:?}; glTF asks for FLOAT MAT4",
-                            accessor.data_type(),
-                            accessor.dimensions()
-                        ),
-                    ));
-                }
-                if accessor.count() < joints.len() {
-                    return Err(self.data_error(
-                        &what,
-                        format!(
-                            "has {} matrices for {} joints",
-                            accessor.count(),
-                            joints.len()
-                        ),
-                    ));
-                }
-                // Decoded and checked finite as every float accessor is.
-                let floats = self.read_floats(&accessor, &what, Dimensions::Mat4)?;
-                Some(
-                    floats
-                        .chunks_exact(16)
-                        .map(|m| std::array::from_fn(|i| m[i]))
-                        .collect(),
-                )
-            }
-            None => None,
-        };
+        let inverse_bind_matrices = self.inverse_binds(skin)?.map(|floats| {
+            floats
+                .chunks_exact(16)
+                .map(|m| std::array::from_fn(|i| m[i]))
+                .collect()
+        });
         for attribute in attributes
             .iter()
             .filter(|a| a.semantic.starts_with("JOINTS_"))
@@ -721,7 +727,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("morphlod-scene-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = disagreeing_primitives(&dir);
-        let scene = super::super::source_scene(&path, &LoadOptions::default(), None).unwrap();
+        let scene = super::super::source_scene(&path, &LoadOptions::default()).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
         let carried: Vec<&str> = scene
             .attributes

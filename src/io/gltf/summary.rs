@@ -39,7 +39,8 @@ pub struct AnimationSummary {
     pub name: Option<String>,
     /// Channels whose path is `weights`.
     pub weight_channels: Vec<WeightChannelSummary>,
-    /// Channels animating translation, rotation or scale (not used by morphlod).
+    /// Channels animating translation, rotation or scale (a skinned mesh's clip moves its
+    /// joints with them).
     pub other_channels: usize,
 }
 
