@@ -801,8 +801,8 @@ fn export(
             [path] => {
                 let (morph, weights) = load_gltf(path, animation.as_deref(), &options)?;
                 // Every animation of the file is written.
-                let source = morphlod::io::gltf::source_scene(path, &options)
-                    .map_err(|e| e.to_string())?;
+                let source =
+                    morphlod::io::gltf::source_scene(path, &options).map_err(|e| e.to_string())?;
                 (morph, weights, source)
             }
             _ => return Err("give one glTF file or two meshes".into()),
