@@ -54,6 +54,7 @@ pub mod export;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod io;
+mod keyframes;
 pub mod lodstrips;
 pub mod mesh;
 pub mod metrics;

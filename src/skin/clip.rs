@@ -3,8 +3,8 @@
 
 use super::skeleton::{Skeleton, TRS, UNIT_TOLERANCE};
 use super::SkinError;
-use crate::morph::track::{hermite, segment, Segment};
-use crate::morph::Interpolation;
+use crate::keyframes::Interpolation;
+use crate::keyframes::{hermite, segment, Segment};
 use glam::Quat;
 
 /// A node property an animation channel drives.

@@ -1,7 +1,7 @@
 //! The skin's definitions checked on cases computed by hand.
 
 use super::*;
-use crate::morph::Interpolation;
+use crate::keyframes::Interpolation;
 
 /// A root at the origin and its child "arm" at (0, 1, 0), which turns about z from 0° at
 /// 0 s to 90° at 1 s (LINEAR); the arm's inverse bind matrix undoes its rest translation.
