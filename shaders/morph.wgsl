@@ -1,5 +1,6 @@
 // morphlod: blend two poses of one mesh and shade it. Compiled after shade.wgsl (the shading
-// it shares with crowd.wgsl): gpu::MORPH_WGSL is the two files concatenated.
+// it shares with crowd.wgsl) and skin.wgsl (skinning): gpu::MORPH_WGSL is the three files
+// concatenated.
 //
 // Vertex stage: every vertex has its position in pose 0 (buffer slot 0, location 0) and in
 // pose 1 (buffer slot 1, location 1); the drawn position is mix(v0, v1, t) with the exact t
@@ -20,6 +21,10 @@
 // t = 0 and t = 1, UVs and colours (buffer slot 2, interleaved), and a normal offset per vertex
 // summed on the CPU exactly like the position offset, and hands the fragment stage
 // normalize(mix(n0, n1, t) + noff) in world space. Still no loop and no branch over targets.
+// vs_skinned and vs_skinned_surface are the same two stages for a skinned asset: the morphed
+// position and normal are then skinned at the clip's phase (skin.wgsl: morph first, then skin,
+// as glTF says); cs_skinned and cs_skinned_surface (at the end) run the same functions in a
+// compute pass, so a test reads back exactly what the vertex stage draws.
 //
 // Fragment stage of a position-only mesh (fs_main), and the faceted mode of fs_surface: normals
 // come from screen-space derivatives of the world position,
@@ -60,6 +65,8 @@ struct Uniforms {
     // 1: encode the textured mode's linear colour to sRGB (the target format stores values as
     // is); 0: the target is sRGB and encodes itself.
     encode_srgb: u32,
+    // The clip's phase in [0, 1] (skinned layouts only; skin.wgsl).
+    clip_t: f32,
 }
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
@@ -69,6 +76,9 @@ struct Uniforms {
 @group(0) @binding(2) var<storage, read> normal_offsets: array<f32>;
 @group(0) @binding(3) var base_texture: texture_2d<f32>;
 @group(0) @binding(4) var base_sampler: sampler;
+// Only in the skinned layouts: the asset's baked clip and its per-vertex joints and weights
+// (skin.wgsl says how they are laid out).
+@group(0) @binding(5) var<storage, read> skin_data: array<u32>;
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -95,14 +105,16 @@ fn local_position(v0: vec3<f32>, v1: vec3<f32>, vertex: u32) -> vec3<f32> {
     return mix(v0, v1, u.t) + vec3<f32>(offsets[at], offsets[at + 1u], offsets[at + 2u]);
 }
 
-@vertex
-fn vs_main(
-    @location(0) v0: vec3<f32>,
-    @location(1) v1: vec3<f32>,
-    @builtin(instance_index) instance: u32,
-    @builtin(vertex_index) vertex: u32,
-) -> VertexOut {
-    let world = u.model * vec4<f32>(local_position(v0, v1, vertex), 1.0);
+// The blended normal of vertex `vertex` in object space (not normalised).
+fn local_normal(n0: vec3<f32>, n1: vec3<f32>, vertex: u32) -> vec3<f32> {
+    let at = 3u * vertex;
+    let noff = vec3<f32>(normal_offsets[at], normal_offsets[at + 1u], normal_offsets[at + 2u]);
+    return mix(n0, n1, u.t) + noff;
+}
+
+// A position-only vertex at object-space position `local`.
+fn plain_out(local: vec3<f32>, instance: u32) -> VertexOut {
+    let world = u.model * vec4<f32>(local, 1.0);
     var out: VertexOut;
     out.clip = u.view_proj * world;
     out.world = world.xyz;
@@ -110,8 +122,29 @@ fn vs_main(
     return out;
 }
 
-@vertex
-fn vs_surface(
+// A surface vertex at object-space position `local` with object-space normal `normal`.
+fn surface_out(local: vec3<f32>, normal: vec3<f32>, uv: vec2<f32>, color: vec4<f32>, instance: u32) -> SurfaceOut {
+    let world = u.model * vec4<f32>(local, 1.0);
+    var out: SurfaceOut;
+    out.clip = u.view_proj * world;
+    out.world = world.xyz;
+    out.strip = instance;
+    out.normal = unit_or_zero((u.normal_model * vec4<f32>(unit_or_zero(normal), 0.0)).xyz);
+    out.uv = uv;
+    out.color = color;
+    return out;
+}
+
+// The attributes of a position-only vertex.
+struct PlainIn {
+    @location(0) v0: vec3<f32>,
+    @location(1) v1: vec3<f32>,
+    @builtin(instance_index) instance: u32,
+    @builtin(vertex_index) vertex: u32,
+}
+
+// The attributes of a vertex with a surface.
+struct SurfaceIn {
     @location(0) v0: vec3<f32>,
     @location(1) v1: vec3<f32>,
     @location(2) n0: vec3<f32>,
@@ -120,19 +153,33 @@ fn vs_surface(
     @location(5) color: vec4<f32>,
     @builtin(instance_index) instance: u32,
     @builtin(vertex_index) vertex: u32,
-) -> SurfaceOut {
-    let world = u.model * vec4<f32>(local_position(v0, v1, vertex), 1.0);
-    let at = 3u * vertex;
-    let noff = vec3<f32>(normal_offsets[at], normal_offsets[at + 1u], normal_offsets[at + 2u]);
-    let local_normal = unit_or_zero(mix(n0, n1, u.t) + noff);
-    var out: SurfaceOut;
-    out.clip = u.view_proj * world;
-    out.world = world.xyz;
-    out.strip = instance;
-    out.normal = unit_or_zero((u.normal_model * vec4<f32>(local_normal, 0.0)).xyz);
-    out.uv = uv;
-    out.color = color;
-    return out;
+}
+
+@vertex
+fn vs_main(in: PlainIn) -> VertexOut {
+    return plain_out(local_position(in.v0, in.v1, in.vertex), in.instance);
+}
+
+@vertex
+fn vs_surface(in: SurfaceIn) -> SurfaceOut {
+    let p = local_position(in.v0, in.v1, in.vertex);
+    return surface_out(p, local_normal(in.n0, in.n1, in.vertex), in.uv, in.color, in.instance);
+}
+
+// The skinned stages: the morphed position (and normal) as above, then skinned at the clip's
+// phase (skin.wgsl).
+@vertex
+fn vs_skinned(in: PlainIn) -> VertexOut {
+    let p = local_position(in.v0, in.v1, in.vertex);
+    let skinned = skin_vertex(p, vec3<f32>(0.0), in.vertex, u.clip_t);
+    return plain_out(skinned.position, in.instance);
+}
+
+@vertex
+fn vs_skinned_surface(in: SurfaceIn) -> SurfaceOut {
+    let p = local_position(in.v0, in.v1, in.vertex);
+    let skinned = skin_vertex(p, local_normal(in.n0, in.n1, in.vertex), in.vertex, u.clip_t);
+    return surface_out(skinned.position, skinned.normal, in.uv, in.color, in.instance);
 }
 
 @fragment
@@ -147,4 +194,52 @@ fn fs_surface(in: SurfaceOut) -> @location(0) vec4<f32> {
     let texel = textureSample(base_texture, base_sampler, in.uv);
     let material = Material(u.mode, u.color, u.base_color, u.light, u.encode_srgb);
     return shade_surface(in.world, in.strip, in.normal, texel, in.color, material);
+}
+
+// The probe of a skinned object (gpu::Object::skinned_pose): the vertex stages' positions and
+// normals (object space, before the model transform; the normal not normalised), computed by
+// the same functions from V(0), V(1) and the surface read as storage, written 6 floats a vertex.
+@group(1) @binding(0) var<storage, read> probe_v0: array<f32>;
+@group(1) @binding(1) var<storage, read> probe_v1: array<f32>;
+// The surface buffer (12 floats a vertex: n0, n1, uv, colour); any buffer without a surface.
+@group(1) @binding(2) var<storage, read> probe_surface: array<f32>;
+@group(1) @binding(3) var<storage, read_write> probed: array<f32>;
+
+fn probe_vec3(values: vec3<f32>, at: u32) {
+    probed[at] = values.x;
+    probed[at + 1u] = values.y;
+    probed[at + 2u] = values.z;
+}
+
+// Vertex `v`'s morphed position from the probe's copies of V(0) and V(1).
+fn probe_position(v: u32) -> vec3<f32> {
+    let at = 3u * v;
+    let v0 = vec3<f32>(probe_v0[at], probe_v0[at + 1u], probe_v0[at + 2u]);
+    let v1 = vec3<f32>(probe_v1[at], probe_v1[at + 1u], probe_v1[at + 2u]);
+    return local_position(v0, v1, v);
+}
+
+@compute @workgroup_size(64)
+fn cs_skinned(@builtin(global_invocation_id) id: vec3<u32>) {
+    let v = id.x;
+    if v >= arrayLength(&probe_v0) / 3u {
+        return;
+    }
+    let skinned = skin_vertex(probe_position(v), vec3<f32>(0.0), v, u.clip_t);
+    probe_vec3(skinned.position, 6u * v);
+    probe_vec3(skinned.normal, 6u * v + 3u);
+}
+
+@compute @workgroup_size(64)
+fn cs_skinned_surface(@builtin(global_invocation_id) id: vec3<u32>) {
+    let v = id.x;
+    if v >= arrayLength(&probe_v0) / 3u {
+        return;
+    }
+    let at = 12u * v;
+    let n0 = vec3<f32>(probe_surface[at], probe_surface[at + 1u], probe_surface[at + 2u]);
+    let n1 = vec3<f32>(probe_surface[at + 3u], probe_surface[at + 4u], probe_surface[at + 5u]);
+    let skinned = skin_vertex(probe_position(v), local_normal(n0, n1, v), v, u.clip_t);
+    probe_vec3(skinned.position, 6u * v);
+    probe_vec3(skinned.normal, 6u * v + 3u);
 }

@@ -16,6 +16,7 @@ use glam::Vec3;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::checks::check_size;
+use super::skin::GpuSkin;
 use super::surface::GpuSurface;
 use super::GpuError;
 use crate::asset::{Asset, Surface, MAX_TARGETS};
@@ -32,6 +33,8 @@ pub struct GpuAsset {
     targets: Option<Arc<TargetDeltas>>,
     /// The weight animation of an asset made from one (its targets' weights over time).
     track: Option<WeightTrack>,
+    /// A skinned asset's baked clip and vertex skin.
+    skin: Option<GpuSkin>,
     /// A sphere holding both poses (and so every blend of them): centre and radius, object
     /// space. A crowd culls by it ([`super::Crowd::set_culling`]).
     bound: ([f32; 3], f32),
@@ -99,13 +102,17 @@ impl GpuAsset {
             surface,
             targets: None,
             track: None,
+            skin: None,
             bound: bounding_sphere(&[v0, v1]),
         })
     }
 
     /// `asset`'s poses, surface and morph targets (position and normal deltas) with its weight
-    /// track: what [`super::LodObject`] and a crowd draw an asset with. A track that does not
-    /// drive exactly the asset's targets is [`GpuError::TrackMismatch`].
+    /// track, and for a skinned asset its clip baked at uniform keys and its vertices' joints
+    /// and weights (`docs/DESIGN.md`, "The GPU layout"): what [`super::LodObject`] and a crowd
+    /// draw an asset with. A track that does not drive exactly the asset's targets is
+    /// [`GpuError::TrackMismatch`]; a skin that cannot be drawn is [`GpuError::Skin`],
+    /// [`GpuError::SkinInfluences`], [`GpuError::SkinJoints`] or [`GpuError::ClipTooLarge`].
     pub fn from_asset(device: &wgpu::Device, asset: &Asset) -> Result<Arc<GpuAsset>, GpuError> {
         let poses = (asset.v0.as_slice(), asset.v1.as_slice());
         let surface = asset.surface.as_ref();
@@ -126,6 +133,9 @@ impl GpuAsset {
                 gpu.surface.is_some(),
             )?));
             gpu.track = Some(blend.track.clone());
+        }
+        if let Some(skinning) = &asset.skin {
+            gpu.skin = Some(GpuSkin::new(device, skinning, gpu.vertex_count as usize)?);
         }
         Ok(Arc::new(gpu))
     }
@@ -150,20 +160,39 @@ impl GpuAsset {
         self.track.as_ref()
     }
 
+    /// Whether the asset is skinned: objects drawing it skin on the GPU.
+    pub fn is_skinned(&self) -> bool {
+        self.skin.is_some()
+    }
+
+    /// For a skinned asset, `N`: its clip is baked at the `N + 1` keys `t = i / N`
+    /// ([`crate::skin::BakedClip::intervals_for`]).
+    pub fn clip_intervals(&self) -> Option<u32> {
+        self.skin.as_ref().map(|s| s.intervals)
+    }
+
+    /// For a skinned asset, the GPU bytes of its baked clip (the keys' joint rows, shared by
+    /// every object drawing it).
+    pub fn clip_bytes(&self) -> Option<u64> {
+        self.skin.as_ref().map(|s| s.clip_bytes)
+    }
+
     /// Whether the buffers live on `device`. wgpu numbers devices per `wgpu::Instance`, so this
     /// tells apart the devices of one instance, not devices of two instances.
     pub fn is_on(&self, device: &wgpu::Device) -> bool {
         self.device == *device
     }
 
-    /// GPU bytes the asset holds: poses, surface buffer and texture, target deltas.
+    /// GPU bytes the asset holds: poses, surface buffer and texture, target deltas, baked clip
+    /// and vertex skin.
     pub fn gpu_bytes(&self) -> u64 {
         let targets = self
             .targets
             .as_ref()
             .map_or(0, |t| t.position_buffer.size() + t.normal_buffer.size());
         let surface = self.surface.as_ref().map_or(0, GpuSurface::gpu_bytes);
-        self.v0.size() + self.v1.size() + surface + targets
+        let skin = self.skin.as_ref().map_or(0, GpuSkin::gpu_bytes);
+        self.v0.size() + self.v1.size() + surface + targets + skin
     }
 
     pub(super) fn v0(&self) -> &wgpu::Buffer {
@@ -176,6 +205,10 @@ impl GpuAsset {
 
     pub(super) fn surface(&self) -> Option<&GpuSurface> {
         self.surface.as_ref()
+    }
+
+    pub(super) fn skin(&self) -> Option<&GpuSkin> {
+        self.skin.as_ref()
     }
 
     pub(super) fn targets(&self) -> Option<&Arc<TargetDeltas>> {

@@ -103,7 +103,8 @@ impl LodObject {
     }
 
     /// Moves to time `t` at `lod`: runs the CPU model, hands its dirty log to the GPU object's
-    /// mirror and sets the blend parameter. `t` outside `[0, 1]` and LOD fractions outside
+    /// mirror and sets the blend parameter (and a skinned asset's clip phase: the GPU skins
+    /// at `t`, [`Object::set_clip_t`], while the strips are the frame `t` shows). `t` outside `[0, 1]` and LOD fractions outside
     /// `[0, 1]` are clamped (the CPU and the GPU side use the same `t`); a NaN `t` or LOD is
     /// refused with a [`SetError`] and nothing changes. Nothing is uploaded until
     /// [`prepare`](Self::prepare).
@@ -122,6 +123,8 @@ impl LodObject {
         self.object
             .set_pose(t, self.track.as_ref())
             .expect("t is not NaN and the track matches the targets");
+        // A skinned asset's clip plays on the same t (its joints at t · duration).
+        self.object.set_clip_t(t).expect("t is not NaN");
         // Last, so that the build does not compete with this frame's own work.
         self.build_next(t, lod);
         Ok(())

@@ -65,6 +65,8 @@ mod readback;
 mod records;
 mod render_target;
 mod scatter;
+mod skin;
+mod skin_probe;
 mod surface;
 mod upload;
 
@@ -83,6 +85,8 @@ pub use object::{Object, Topology};
 pub use pipeline::{MorphPipeline, ShadeMode, Uniforms, MORPH_WGSL};
 pub use records::{Draws, GROUP_INDICES};
 pub use render_target::{save_png, RenderTarget};
+pub use skin::{GPU_INFLUENCES, GPU_JOINTS};
+pub use skin_probe::SkinnedPose;
 pub use surface::decode_texture;
 pub use upload::{Upload, MERGE_GAP_BYTES, WRITE_CALL_BYTES};
 
@@ -218,6 +222,29 @@ pub enum GpuError {
     /// A texture larger than the device allows.
     #[error("the base-colour texture is {width}x{height} but the device allows at most {max} pixels a side; downscale it")]
     TextureSize { width: u32, height: u32, max: u32 },
+    /// A skinned asset whose skin or clip does not fit its mesh or each other.
+    #[error("the asset's skin cannot be drawn: {source}; rebuild the asset from its source")]
+    Skin {
+        #[source]
+        source: crate::skin::SkinError,
+    },
+    /// More influences a vertex than the GPU skins with.
+    #[error("the skin has {influences} influences a vertex but the GPU skins with at most {max}; rebuild the asset with `morphlod build --max-influences {max}`")]
+    SkinInfluences { influences: usize, max: usize },
+    /// More joints than the GPU's 16-bit joint indices name.
+    #[error("the skin has {joints} joints but the GPU names at most {max} (16-bit joint indices); split the skeleton")]
+    SkinJoints { joints: usize, max: usize },
+    /// A clip whose baked keys do not fit one storage buffer.
+    #[error("the clip's baked keys need {bytes} bytes ({keys} keys x {joints} joints x 48 bytes) but the device allows at most {max} in one storage buffer; shorten the clip or skin fewer joints")]
+    ClipTooLarge {
+        keys: u64,
+        joints: usize,
+        bytes: u64,
+        max: u64,
+    },
+    /// A skinned operation on an object whose asset has no skin.
+    #[error("the object's asset is not skinned")]
+    NotSkinned,
     /// The blend parameter `t` is NaN (values outside `[0, 1]` are clamped).
     #[error("t is NaN; pass a time in [0, 1]")]
     TimeNaN,

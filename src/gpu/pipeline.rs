@@ -4,14 +4,17 @@
 //! each object owns its uniform buffer and bind group, so switching objects costs one
 //! `set_bind_group` and no pipeline change.
 
+use std::sync::OnceLock;
+
 use bytemuck::{Pod, Zeroable};
 
 use super::scatter::Scatter;
 
 /// The WGSL source of the morph shader: `shaders/shade.wgsl` (the shading it shares with the
-/// crowd) followed by `shaders/morph.wgsl`.
+/// crowd), `shaders/skin.wgsl` (skinning from baked keys) and `shaders/morph.wgsl`.
 pub const MORPH_WGSL: &str = concat!(
     include_str!("../../shaders/shade.wgsl"),
+    include_str!("../../shaders/skin.wgsl"),
     include_str!("../../shaders/morph.wgsl")
 );
 
@@ -61,7 +64,7 @@ impl ShadeMode {
 }
 
 /// The uniform block of `morph.wgsl`, byte for byte (WGSL uniform layout: three `mat4x4`,
-/// three `vec4`, three 32-bit scalars, padded to 16 bytes).
+/// three `vec4`, four 32-bit scalars).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Uniforms {
@@ -80,8 +83,8 @@ pub struct Uniforms {
     pub mode: u32,
     /// 1 when the textured mode encodes its colour to sRGB (a linear target format).
     pub encode_srgb: u32,
-    /// WGSL rounds the struct up to a multiple of 16 bytes.
-    pub _padding: [u32; 1],
+    /// The clip's phase in `[0, 1]`, for a skinned asset (`shaders/skin.wgsl`).
+    pub clip_t: f32,
 }
 
 impl Uniforms {
@@ -98,7 +101,7 @@ impl Uniforms {
             t: 0.0,
             mode: ShadeMode::Faceted.shader_value(),
             encode_srgb: 1,
-            _padding: [0; 1],
+            clip_t: 0.0,
         }
     }
 
@@ -160,29 +163,37 @@ pub(crate) fn vertex_buffers(surface: bool) -> Vec<Option<wgpu::VertexBufferLayo
 }
 
 /// The morph render pipelines: for position-only objects and for objects with a surface, each
-/// for triangle strips and lists; and the index scatter their objects upload with.
+/// for triangle strips and lists; the same for skinned assets, made when the first skinned
+/// object is; and the index scatter their objects upload with.
 pub struct MorphPipeline {
     plain: Variant,
     surface: Variant,
+    /// The skinned variants and their probe, made on first use (most applications draw no
+    /// skinned asset, and every pipeline costs a compile).
+    skinned: OnceLock<SkinnedPipelines>,
+    shader: wgpu::ShaderModule,
+    formats: Formats,
     scatter: Scatter,
     /// The colour format is not sRGB: the textured mode encodes its output itself.
     encode_srgb: bool,
 }
 
 /// The pipelines of one vertex layout and their bind group layout.
-struct Variant {
-    bind_group_layout: wgpu::BindGroupLayout,
-    strip: wgpu::RenderPipeline,
-    list: wgpu::RenderPipeline,
+pub(super) struct Variant {
+    pub(super) bind_group_layout: wgpu::BindGroupLayout,
+    pub(super) strip: wgpu::RenderPipeline,
+    pub(super) list: wgpu::RenderPipeline,
 }
 
-/// Which vertex layout (and entry points) a pipeline uses.
+/// Which vertex layout, bindings and entry points a pipeline uses: `V(0)`, `V(1)` and bindings
+/// 0 and 1 always (`vs_main`, `fs_main`); with `surface` also the surface buffer and bindings
+/// 2 to 4 (`vs_surface`, `fs_surface`); with `skinned` also binding 5, the clip's keys and the
+/// vertices' joints and weights, and every buffer visible to the probe's compute stage too
+/// (`vs_skinned`, `vs_skinned_surface`).
 #[derive(Clone, Copy)]
-enum Layout {
-    /// `V(0)`, `V(1)`: `vs_main`, `fs_main`, bindings 0 and 1.
-    Plain,
-    /// Also the surface buffer: `vs_surface`, `fs_surface`, bindings 0 to 4.
-    Surface,
+pub(super) struct Layout {
+    pub(super) surface: bool,
+    pub(super) skinned: bool,
 }
 
 impl MorphPipeline {
@@ -219,12 +230,26 @@ impl MorphPipeline {
             depth: depth_format,
             cull_mode,
         };
+        let layout = |surface| Layout {
+            surface,
+            skinned: false,
+        };
         MorphPipeline {
-            plain: Variant::new(device, &shader, formats, Layout::Plain),
-            surface: Variant::new(device, &shader, formats, Layout::Surface),
+            plain: Variant::new(device, &shader, formats, layout(false)),
+            surface: Variant::new(device, &shader, formats, layout(true)),
+            skinned: OnceLock::new(),
+            shader,
+            formats,
             scatter: Scatter::new(device),
             encode_srgb: !color_format.is_srgb(),
         }
+    }
+
+    /// The pipelines of skinned objects, made on the first call (on `device`, the one this
+    /// pipeline was made on).
+    pub(crate) fn skinned(&self, device: &wgpu::Device) -> &SkinnedPipelines {
+        self.skinned
+            .get_or_init(|| SkinnedPipelines::new(device, &self.shader, self.formats))
     }
 
     /// The layout of the bind group of a position-only object (binding 0: [`Uniforms`],
@@ -334,16 +359,18 @@ pub(super) fn render_pipeline(
 }
 
 impl Variant {
-    fn new(
+    pub(super) fn new(
         device: &wgpu::Device,
         shader: &wgpu::ShaderModule,
         formats: Formats,
         layout: Layout,
     ) -> Variant {
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(match layout {
-                Layout::Plain => "morph uniforms",
-                Layout::Surface => "morph uniforms and surface",
+            label: Some(match (layout.surface, layout.skinned) {
+                (false, false) => "morph uniforms",
+                (true, false) => "morph uniforms and surface",
+                (false, true) => "morph uniforms and skin",
+                (true, true) => "morph uniforms, surface and skin",
             }),
             entries: &bind_group_entries(layout),
         });
@@ -352,11 +379,13 @@ impl Variant {
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
-        let (vs, fs) = match layout {
-            Layout::Plain => ("vs_main", "fs_main"),
-            Layout::Surface => ("vs_surface", "fs_surface"),
+        let (vs, fs) = match (layout.surface, layout.skinned) {
+            (false, false) => ("vs_main", "fs_main"),
+            (true, false) => ("vs_surface", "fs_surface"),
+            (false, true) => ("vs_skinned", "fs_main"),
+            (true, true) => ("vs_skinned_surface", "fs_surface"),
         };
-        let buffers = vertex_buffers(matches!(layout, Layout::Surface));
+        let buffers = vertex_buffers(layout.surface);
         let build = |label: &str, topology| {
             render_pipeline(
                 device,
@@ -380,11 +409,17 @@ impl Variant {
 }
 
 /// The bindings of one layout: uniforms and offsets for every object; normal offsets, texture
-/// and sampler for objects with a surface.
+/// and sampler for objects with a surface; the clip's keys and the vertex skin for skinned
+/// objects, whose buffers the probe's compute stage reads too.
 fn bind_group_entries(layout: Layout) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let compute = if layout.skinned {
+        wgpu::ShaderStages::COMPUTE
+    } else {
+        wgpu::ShaderStages::NONE
+    };
     let storage = |binding| wgpu::BindGroupLayoutEntry {
         binding,
-        visibility: wgpu::ShaderStages::VERTEX,
+        visibility: wgpu::ShaderStages::VERTEX | compute,
         ty: wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Storage { read_only: true },
             has_dynamic_offset: false,
@@ -395,7 +430,7 @@ fn bind_group_entries(layout: Layout) -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut entries = vec![
         wgpu::BindGroupLayoutEntry {
             binding: 0,
-            visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+            visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | compute,
             ty: wgpu::BindingType::Buffer {
                 ty: wgpu::BufferBindingType::Uniform,
                 has_dynamic_offset: false,
@@ -407,10 +442,13 @@ fn bind_group_entries(layout: Layout) -> Vec<wgpu::BindGroupLayoutEntry> {
         // objects without targets bind a small zero buffer.
         storage(1),
     ];
-    if let Layout::Surface = layout {
+    if layout.surface {
         // The normal offsets, laid out and bound like the position offsets.
         entries.push(storage(2));
         entries.extend(texture_entries(3));
+    }
+    if layout.skinned {
+        entries.push(storage(5));
     }
     entries
 }
@@ -436,6 +474,72 @@ pub(crate) fn texture_entries(first: u32) -> [wgpu::BindGroupLayoutEntry; 2] {
             count: None,
         },
     ]
+}
+
+/// The skinned pipelines of a [`super::MorphPipeline`] and its probe.
+pub(crate) struct SkinnedPipelines {
+    pub(super) plain: Variant,
+    pub(super) surface: Variant,
+    /// Group 1 of the probe: V(0), V(1), the surface, the output.
+    pub(super) probe_layout: wgpu::BindGroupLayout,
+    pub(super) probe_plain: wgpu::ComputePipeline,
+    pub(super) probe_surface: wgpu::ComputePipeline,
+}
+
+impl SkinnedPipelines {
+    pub(super) fn new(
+        device: &wgpu::Device,
+        shader: &wgpu::ShaderModule,
+        formats: Formats,
+    ) -> SkinnedPipelines {
+        let layout = |surface| Layout {
+            surface,
+            skinned: true,
+        };
+        let plain = Variant::new(device, shader, formats, layout(false));
+        let surface = Variant::new(device, shader, formats, layout(true));
+        let buffer = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(4),
+            },
+            count: None,
+        };
+        let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("morph skin probe"),
+            entries: &[
+                buffer(0, true),
+                buffer(1, true),
+                buffer(2, true),
+                buffer(3, false),
+            ],
+        });
+        let probe = |variant: &Variant, entry| {
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("morph skin probe"),
+                bind_group_layouts: &[Some(&variant.bind_group_layout), Some(&probe_layout)],
+                immediate_size: 0,
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&layout),
+                module: shader,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        SkinnedPipelines {
+            probe_plain: probe(&plain, "cs_skinned"),
+            probe_surface: probe(&surface, "cs_skinned_surface"),
+            plain,
+            surface,
+            probe_layout,
+        }
+    }
 }
 
 /// `source` parsed and validated by naga, for the shader tests of the object and the crowd
@@ -472,7 +576,16 @@ mod tests {
             .collect();
         assert_eq!(
             entry_points,
-            ["vs_main", "vs_surface", "fs_main", "fs_surface"]
+            [
+                "vs_main",
+                "vs_surface",
+                "vs_skinned",
+                "vs_skinned_surface",
+                "fs_main",
+                "fs_surface",
+                "cs_skinned",
+                "cs_skinned_surface"
+            ]
         );
     }
 
@@ -506,6 +619,7 @@ mod tests {
             ("t", std::mem::offset_of!(Uniforms, t)),
             ("mode", std::mem::offset_of!(Uniforms, mode)),
             ("encode_srgb", std::mem::offset_of!(Uniforms, encode_srgb)),
+            ("clip_t", std::mem::offset_of!(Uniforms, clip_t)),
         ];
         let expected: Vec<(String, u32)> = expected
             .iter()

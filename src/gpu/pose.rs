@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
-use super::asset::TargetDeltas;
+use super::asset::{GpuAsset, TargetDeltas};
 use super::pipeline::{MorphPipeline, ShadeMode, Uniforms};
 use super::surface::GpuSurface;
 use super::GpuError;
@@ -43,12 +43,8 @@ pub(super) struct PoseUpload {
 impl Pose {
     /// Default uniforms, no morph targets; with a surface, the textured mode when it has a
     /// texture and smooth otherwise, faceted without one.
-    pub(super) fn new(
-        device: &wgpu::Device,
-        pipeline: &MorphPipeline,
-        vertex_count: u32,
-        surface: Option<&GpuSurface>,
-    ) -> Self {
+    pub(super) fn new(device: &wgpu::Device, pipeline: &MorphPipeline, asset: &GpuAsset) -> Self {
+        let surface = asset.surface();
         let mut uniforms = Uniforms::new();
         uniforms.encode_srgb = u32::from(pipeline.encodes_srgb());
         if let Some(surface) = surface {
@@ -63,16 +59,15 @@ impl Pose {
         let offset_buffer = no_targets(device);
         let normal_offset_buffer = no_targets(device);
         Pose {
-            vertex_count,
+            vertex_count: asset.vertex_count(),
             uniforms,
             dirty: false,
             bind_group: bind_group(
                 device,
                 pipeline,
                 &uniform_buffer,
-                &offset_buffer,
-                &normal_offset_buffer,
-                surface,
+                (&offset_buffer, &normal_offset_buffer),
+                asset,
             ),
             uniform_buffer,
             offset_buffer,
@@ -82,19 +77,13 @@ impl Pose {
         }
     }
 
-    fn rebind(
-        &mut self,
-        device: &wgpu::Device,
-        pipeline: &MorphPipeline,
-        surface: Option<&GpuSurface>,
-    ) {
+    fn rebind(&mut self, device: &wgpu::Device, pipeline: &MorphPipeline, asset: &GpuAsset) {
         self.bind_group = bind_group(
             device,
             pipeline,
             &self.uniform_buffer,
-            &self.offset_buffer,
-            &self.normal_offset_buffer,
-            surface,
+            (&self.offset_buffer, &self.normal_offset_buffer),
+            asset,
         );
     }
 
@@ -139,6 +128,13 @@ impl Pose {
         Ok(())
     }
 
+    /// The clip's phase (skinned assets), clamped to `[0, 1]`; NaN is refused.
+    pub(super) fn set_clip_t(&mut self, t: f32) -> Result<(), GpuError> {
+        self.uniforms.clip_t = clamp_t(t)?;
+        self.dirty = true;
+        Ok(())
+    }
+
     pub(super) fn set_view_proj(&mut self, view_proj: glam::Mat4) {
         self.uniforms.view_proj = view_proj.to_cols_array_2d();
         self.dirty = true;
@@ -152,11 +148,11 @@ impl Pose {
         pipeline: &MorphPipeline,
         targets: &[Vec<[f32; 3]>],
         normals: &[Vec<[f32; 3]>],
-        surface: Option<&GpuSurface>,
+        asset: &GpuAsset,
     ) -> Result<(), GpuError> {
         let vertices = self.vertex_count as usize;
         let deltas = TargetDeltas::new(device, targets, normals, vertices, self.has_surface)?;
-        self.share_targets(device, pipeline, Arc::new(deltas), surface);
+        self.share_targets(device, pipeline, Arc::new(deltas), asset);
         Ok(())
     }
 
@@ -167,7 +163,7 @@ impl Pose {
         device: &wgpu::Device,
         pipeline: &MorphPipeline,
         deltas: Arc<TargetDeltas>,
-        surface: Option<&GpuSurface>,
+        asset: &GpuAsset,
     ) {
         let vertices = self.vertex_count as usize;
         let offsets = |present: bool| {
@@ -187,7 +183,7 @@ impl Pose {
         let has_normals = has_targets && !deltas.normals.is_empty();
         self.offset_buffer = offsets(has_targets);
         self.normal_offset_buffer = offsets(has_normals);
-        self.rebind(device, pipeline, surface);
+        self.rebind(device, pipeline, asset);
         let per_vertex = |present: bool| vec![[0.0; 3]; if present { vertices } else { 0 }];
         self.targets = Targets {
             weights: vec![0.0; deltas.count],
@@ -351,14 +347,14 @@ fn no_targets(device: &wgpu::Device) -> wgpu::Buffer {
     })
 }
 
-/// The bind group of the plain layout, or of the surface layout when there is a surface.
+/// The bind group of the plain layout, or of the surface layout when `asset` has a surface;
+/// of the skinned one of either when it is skinned.
 fn bind_group(
     device: &wgpu::Device,
     pipeline: &MorphPipeline,
     uniforms: &wgpu::Buffer,
-    targets: &wgpu::Buffer,
-    normal_targets: &wgpu::Buffer,
-    surface: Option<&GpuSurface>,
+    (targets, normal_targets): (&wgpu::Buffer, &wgpu::Buffer),
+    asset: &GpuAsset,
 ) -> wgpu::BindGroup {
     let mut entries = vec![
         wgpu::BindGroupEntry {
@@ -370,7 +366,7 @@ fn bind_group(
             resource: targets.as_entire_binding(),
         },
     ];
-    let layout = match surface {
+    let layout = match asset.surface() {
         None => pipeline.bind_group_layout(),
         Some(surface) => {
             entries.extend([
@@ -388,6 +384,22 @@ fn bind_group(
                 },
             ]);
             pipeline.surface_bind_group_layout()
+        }
+    };
+    let layout = match asset.skin() {
+        None => layout,
+        Some(skin) => {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 5,
+                resource: skin.buffer.as_entire_binding(),
+            });
+            let skinned = pipeline.skinned(device);
+            let variant = if asset.has_surface() {
+                &skinned.surface
+            } else {
+                &skinned.plain
+            };
+            &variant.bind_group_layout
         }
     };
     device.create_bind_group(&wgpu::BindGroupDescriptor {

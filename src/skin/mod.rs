@@ -17,11 +17,14 @@
 //! [`Clip::key_times`]) as one array.
 //!
 //! Files: `skeleton.rs` (the hierarchy, rest transforms, world matrices) → `clip.rs` (the
-//! channels and their sampling) → this file (the skin, its checks, the pose).
+//! channels and their sampling) → this file (the skin, its checks, the pose) → `bake.rs` (the
+//! joint matrices at uniform keys, what the GPU skins from: [`BakedClip`]).
 
+mod bake;
 mod clip;
 mod skeleton;
 
+pub use bake::{BakedClip, BAKE_RATE, ROW_FLOATS};
 pub use clip::{Clip, JointChannel, NodeProperty, NodeTrack};
 pub use skeleton::{trs_matrix, Skeleton, NO_PARENT, TRS, UNIT_TOLERANCE};
 

@@ -42,6 +42,8 @@ mod image_oracle;
 #[cfg(feature = "gpu")]
 mod lod_object;
 #[cfg(feature = "gpu")]
+mod skin_gpu;
+#[cfg(feature = "gpu")]
 mod textured;
 
 #[cfg(feature = "cli")]

@@ -90,7 +90,7 @@ impl Object {
         if let Some(deltas) = asset.targets() {
             object
                 .pose
-                .share_targets(device, pipeline, Arc::clone(deltas), asset.surface());
+                .share_targets(device, pipeline, Arc::clone(deltas), &asset);
         }
         Ok(object)
     }
@@ -166,13 +166,25 @@ impl Object {
                 | wgpu::BufferUsages::COPY_DST
                 | wgpu::BufferUsages::COPY_SRC,
         });
-        let render_pipeline = match (topology, asset.has_surface()) {
-            (Topology::Strip, false) => pipeline.strip().clone(),
-            (Topology::List, false) => pipeline.list().clone(),
-            (Topology::Strip, true) => pipeline.surface_strip().clone(),
-            (Topology::List, true) => pipeline.surface_list().clone(),
+        let variants = asset.is_skinned().then(|| pipeline.skinned(device));
+        let render_pipeline = match (topology, asset.has_surface(), variants) {
+            (Topology::Strip, false, None) => pipeline.strip().clone(),
+            (Topology::List, false, None) => pipeline.list().clone(),
+            (Topology::Strip, true, None) => pipeline.surface_strip().clone(),
+            (Topology::List, true, None) => pipeline.surface_list().clone(),
+            (topology, surface, Some(skinned)) => {
+                let variant = if surface {
+                    &skinned.surface
+                } else {
+                    &skinned.plain
+                };
+                match topology {
+                    Topology::Strip => variant.strip.clone(),
+                    Topology::List => variant.list.clone(),
+                }
+            }
         };
-        let pose = Pose::new(device, pipeline, vertex_count, asset.surface());
+        let pose = Pose::new(device, pipeline, &asset);
         let fits = index_buffer.size() <= device.limits().max_storage_buffer_binding_size;
         let scatter = ObjectScatter {
             device: device.clone(),

@@ -3,6 +3,7 @@
 
 use super::Object;
 use crate::gpu::pipeline::{MorphPipeline, ShadeMode};
+use crate::gpu::skin_probe::{probe, SkinnedPose};
 use crate::gpu::GpuError;
 use crate::morph::WeightTrack;
 
@@ -11,6 +12,38 @@ impl Object {
     /// `[0, 1]` as the CPU runtime clamps it. NaN is [`GpuError::TimeNaN`] and changes nothing.
     pub fn set_t(&mut self, t: f32) -> Result<(), GpuError> {
         self.pose.set_t(t)
+    }
+
+    /// Sets the clip's phase of a skinned asset (`t ∈ [0, 1]`, clamped: the clip's time
+    /// `t · duration`; NaN is [`GpuError::TimeNaN`]): the vertex stage blends the two baked
+    /// keys around it (`docs/DESIGN.md`, "The GPU layout"). An unskinned object ignores it.
+    pub fn set_clip_t(&mut self, t: f32) -> Result<(), GpuError> {
+        self.pose.set_clip_t(t)
+    }
+
+    /// What the vertex stage of this skinned object computes for every vertex as of the last
+    /// [`prepare`](Self::prepare) (object space, before the model transform): the same WGSL
+    /// functions run in a compute pass over `V(0)`, `V(1)` and the surface, read back. How
+    /// tests check the GPU's skinning against the CPU's ([`crate::skin::Skinning::pose_at`]);
+    /// it waits for the GPU. `pipeline` is the one the object was made with; an object whose
+    /// asset is not skinned is [`GpuError::NotSkinned`].
+    pub fn skinned_pose(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pipeline: &MorphPipeline,
+    ) -> Result<SkinnedPose, GpuError> {
+        if !self.asset.is_skinned() {
+            return Err(GpuError::NotSkinned);
+        }
+        let pipelines = pipeline.skinned(device);
+        probe(
+            device,
+            queue,
+            pipelines,
+            &self.asset,
+            self.pose.bind_group(),
+        )
     }
 
     /// Sets projection * view (world to clip space; wgpu clip space: z in [0, 1], y up).
@@ -31,7 +64,7 @@ impl Object {
         targets: &[Vec<[f32; 3]>],
     ) -> Result<(), GpuError> {
         self.pose
-            .set_targets(device, pipeline, targets, &[], self.asset.surface())
+            .set_targets(device, pipeline, targets, &[], &self.asset)
     }
 
     /// As [`set_targets`](Self::set_targets), with each target's normal deltas (`normals`
@@ -46,7 +79,7 @@ impl Object {
         normals: &[Vec<[f32; 3]>],
     ) -> Result<(), GpuError> {
         self.pose
-            .set_targets(device, pipeline, targets, normals, self.asset.surface())
+            .set_targets(device, pipeline, targets, normals, &self.asset)
     }
 
     /// Sets the pose at animation time `t` (clamped to `[0, 1]`; NaN is
