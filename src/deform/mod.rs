@@ -45,7 +45,7 @@ mod tests;
 use thiserror::Error;
 
 use crate::collapse::SequenceError;
-use crate::lodstrips::{ChangeListError, Dirty, StripsState, Survivors};
+use crate::lodstrips::{ChangeListError, Dirty, IndexWidth, Indices, StripsState, Survivors};
 use crate::seams::SeamError;
 use ahead::Ahead;
 #[cfg(feature = "gpu")]
@@ -234,9 +234,14 @@ impl DeformingState {
         self.state.live_strip_count()
     }
 
-    /// The whole index buffer (all regions, live parts and stale tails).
-    pub fn indices(&self) -> &[u32] {
+    /// The whole index buffer (all regions, live parts and stale tails), in its width.
+    pub fn indices(&self) -> Indices<'_> {
         self.state.indices()
+    }
+
+    /// The width the indices are stored in (see [`StripsState::index_width`]).
+    pub fn index_width(&self) -> IndexWidth {
+        self.state.index_width()
     }
 
     /// Live length of every strip (its draw's `index_count`).
@@ -245,7 +250,7 @@ impl DeformingState {
     }
 
     /// Live indices of strip `i`, or `None` past the last strip.
-    pub fn strip(&self, i: usize) -> Option<&[u32]> {
+    pub fn strip(&self, i: usize) -> Option<Indices<'_>> {
         self.state.strip(i)
     }
 

@@ -3,6 +3,7 @@
 //! `object`, `pose`, `surface` and `asset`, so none of them imports another for a helper.
 
 use super::{GpuError, RESTART};
+use crate::lodstrips::StripIndex;
 
 /// [`GpuError::BufferTooLarge`] when `bytes` exceed `max`.
 pub(super) fn check_size(what: &'static str, bytes: u64, max: u64) -> Result<(), GpuError> {
@@ -15,20 +16,21 @@ pub(super) fn check_size(what: &'static str, bytes: u64, max: u64) -> Result<(),
 /// Every index of `indices` (region `region`) names one of `vertices` vertices, or is
 /// [`RESTART`] where `restart_allowed` (strip topology): [`GpuError::IndexOutOfRange`] at the
 /// first that does not.
-pub(super) fn check_indices(
+pub(super) fn check_indices<I: StripIndex>(
     region: usize,
-    indices: &[u32],
+    indices: &[I],
     vertices: u32,
     restart_allowed: bool,
 ) -> Result<(), GpuError> {
-    let bad = indices
-        .iter()
-        .position(|&i| i >= vertices && !(restart_allowed && i == RESTART));
+    let bad = indices.iter().position(|&i| {
+        let i: u32 = i.into();
+        i >= vertices && !(restart_allowed && i == RESTART)
+    });
     match bad {
         Some(position) => Err(GpuError::IndexOutOfRange {
             region,
             position,
-            index: indices[position],
+            index: indices[position].into(),
             vertices,
             restart_allowed,
         }),

@@ -37,10 +37,13 @@ mod runtime;
 
 pub use build::ChangeListError;
 #[cfg(feature = "gpu")]
+pub(crate) use runtime::dispatch;
+#[cfg(feature = "gpu")]
 pub(crate) use runtime::for_each_live;
+pub(crate) use runtime::StripIndex;
 pub(crate) use runtime::Survivors;
 pub use runtime::PARALLEL_SLOTS;
-pub use runtime::{Dirty, DirtyRange, LodError, StripsState};
+pub use runtime::{Dirty, DirtyRange, IndexWidth, Indices, LodError, StripsState};
 
 use crate::collapse::CollapseSequence;
 use crate::strip::Strips;
@@ -622,16 +625,22 @@ fn skip_removed(stream: &[u8], at: &mut usize, len: usize) {
 /// Restores the removed indices of a resize record into `region[i..i + len]`:
 /// the strip's indices from the region's start, with the run's right neighbour
 /// already moved to `region[i + len]` (if the run did not end the strip).
-fn restore_removed(stream: &[u8], at: &mut usize, region: &mut [u32], i: usize, len: usize) {
+fn restore_removed<I: StripIndex>(
+    stream: &[u8],
+    at: &mut usize,
+    region: &mut [I],
+    i: usize,
+    len: usize,
+) {
     let symbols = *at;
     *at += len.div_ceil(4);
-    let mut previous = if i > 0 { region[i - 1] } else { 0 };
+    let mut previous = if i > 0 { region[i - 1] } else { I::of(0) };
     for k in 0..len {
         let v = match (stream[symbols + k / 4] >> (2 * (k % 4))) & 3 {
             0 => previous,
             1 => region[i + len],
             2 => region[i + k - 2],
-            _ => unzigzag(varint::read_u32(stream, at), previous),
+            _ => I::of(unzigzag(varint::read_u32(stream, at), previous.into())),
         };
         region[i + k] = v;
         previous = v;

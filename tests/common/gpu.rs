@@ -376,7 +376,7 @@ pub fn reference_lists(
 ) -> ReferenceLists {
     // The triangles in the vertex order the GPU rasterizes them (`common::strip_draw`).
     let drawn: Vec<[u32; 3]> = (0..strips)
-        .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
+        .flat_map(|s| strip_draw(state.strip(s).unwrap_or_default()))
         .collect();
     // Canonical form -> the strip triangles of that form.
     let mut by_form: HashMap<[u32; 3], Vec<[u32; 3]>> = HashMap::new();

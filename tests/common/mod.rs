@@ -22,7 +22,7 @@ pub mod validator;
 
 use morphlod::asset::HEADER_LEN;
 use morphlod::collapse::{canonical, Collapse, CollapseSequence};
-use morphlod::lodstrips::Dirty;
+use morphlod::lodstrips::{Dirty, Indices};
 use morphlod::metrics::{directed_error, sample_surface, symmetric, ErrorStats, SurfaceIndex};
 use morphlod::morph::Morph;
 
@@ -214,11 +214,12 @@ pub const RESTART: u32 = 0xFFFF_FFFF;
 /// Written from the GPU's rules on purpose: it must not share a mistake with
 /// `morphlod::strip::strip_triangles` (which writes odd triangles as `(v[i+1], v[i], v[i+2])`,
 /// the same oriented triangle rotated). Compare results with `canonical`.
-pub fn strip_draw(indices: &[u32]) -> Vec<[u32; 3]> {
+pub fn strip_draw<'a>(indices: impl Into<Indices<'a>>) -> Vec<[u32; 3]> {
+    let indices = indices.into().to_vec();
     let mut out = Vec::new();
     // Vertices since the last restart: the last two, and how many.
     let (mut a, mut b, mut count) = (0u32, 0u32, 0usize);
-    for &v in indices {
+    for &v in &indices {
         if v == RESTART {
             count = 0;
             continue;
@@ -262,7 +263,7 @@ pub struct Mirror {
 
 impl Mirror {
     /// A mirror of a state's buffer as first uploaded whole.
-    pub fn new(region_offsets: &[u32], indices: &[u32], lengths: &[u32]) -> Mirror {
+    pub fn new(region_offsets: &[u32], indices: Indices, lengths: &[u32]) -> Mirror {
         let strips = region_offsets.len() - 1;
         let mut m = Mirror {
             region_offsets: region_offsets.to_vec(),
@@ -301,7 +302,7 @@ impl Mirror {
     }
 
     /// Copies exactly the ranges and lengths the dirty log names.
-    pub fn upload(&mut self, dirty: &Dirty, indices: &[u32], lengths: &[u32]) {
+    pub fn upload(&mut self, dirty: &Dirty, indices: Indices, lengths: &[u32]) {
         let mut touched: Vec<usize> = Vec::new();
         for r in &dirty.ranges {
             let base = self.region_offsets[r.strip as usize] as usize;
@@ -310,7 +311,7 @@ impl Mirror {
                 b <= self.region_offsets[r.strip as usize + 1] as usize,
                 "dirty range {r:?} leaves its region"
             );
-            self.indices[a..b].copy_from_slice(&indices[a..b]);
+            indices.slice(a..b).copy_to(&mut self.indices[a..b]);
             touched.push(r.strip as usize);
         }
         for &s in &dirty.lengths {

@@ -19,6 +19,7 @@ use common::{random_sequence, reference_hashes, strip_draw, tri_hash, Rng};
 use morphlod::collapse::{
     canonical, canonical_multiset, Collapse, CollapseSequence, SequenceError,
 };
+use morphlod::lodstrips::Indices;
 use morphlod::strip::{stripify, Strips};
 use std::collections::HashSet;
 
@@ -45,9 +46,10 @@ fn build_all(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence) -> Vec<
 }
 
 /// What a region draws, as the GPU would.
-fn region_draws(primitive: Primitive, live: &[u32]) -> Vec<[u32; 3]> {
+fn region_draws(primitive: Primitive, live: Indices) -> Vec<[u32; 3]> {
+    let live = live.to_vec();
     match primitive {
-        Primitive::Strips => strip_draw(live),
+        Primitive::Strips => strip_draw(&live),
         Primitive::Triangles => live
             .chunks(3)
             .map(|c| [c[0], c[1], c[2]])
@@ -109,7 +111,7 @@ impl Mirror {
     fn triangles(&self, primitive: Primitive) -> Vec<[u32; 3]> {
         self.regions
             .iter()
-            .flat_map(|live| region_draws(primitive, live))
+            .flat_map(|live| region_draws(primitive, live.into()))
             .collect()
     }
 }
@@ -531,7 +533,7 @@ fn lod_out_of_range_is_refused_and_changes_nothing() {
         assert_eq!(model.lod(), 3);
         assert!(model.take_changed().is_empty(), "{}", model.name());
         for (r, live) in before.iter().enumerate() {
-            assert_eq!(model.region(r), live.as_slice(), "{}", model.name());
+            assert_eq!(model.region(r), live.into(), "{}", model.name());
         }
     }
 }

@@ -712,7 +712,7 @@ fn buffers_decode_to_each_instance_mesh(
                 };
                 tail_exits += usize::from(was_in_tail);
                 let mut expected: Vec<[u32; 3]> = (0..state.lengths().len())
-                    .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
+                    .flat_map(|s| strip_draw(state.strip(s).unwrap_or_default()))
                     .collect();
                 // In any order (a compact copy keeps moved strips at its end), each triangle
                 // as drawn (its winding).
@@ -839,7 +839,7 @@ fn patches_past_one_binding_go_in_chunks() -> Result<()> {
                     .state(i)?
                     .expect("no tail lists without a compact share");
                 let expected: Vec<[u32; 3]> = (0..state.lengths().len())
-                    .flat_map(|s| strip_draw(state.strip(s).unwrap_or(&[])))
+                    .flat_map(|s| strip_draw(state.strip(s).unwrap_or_default()))
                     .collect();
                 assert_eq!(
                     drawn[i.slot() as usize].triangles,

@@ -119,7 +119,7 @@ fn object_draws_the_reference_mesh_over_lods() {
     ] {
         let mut state = StripsState::new(&model);
         let regions: Vec<Vec<u32>> = (0..model.strip_count())
-            .map(|s| state.strip(s).unwrap_or(&[]).to_vec())
+            .map(|s| state.strip(s).unwrap_or_default().to_vec())
             .collect();
         let mut object = Object::new(
             gpu.device(),

@@ -33,7 +33,7 @@ use morphlod::gpu::{
 };
 use morphlod::io::MorphSource;
 use morphlod::io::{load_mesh, LoadOptions};
-use morphlod::lodstrips::{LodStrips, StripsState};
+use morphlod::lodstrips::{Indices, LodStrips, StripsState};
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
 
@@ -125,7 +125,7 @@ fn build_lod(input: &Input) -> (morphlod::strip::Strips, Lod) {
 /// The current strips of `state` as object regions (capacity = live length).
 fn regions(model: &LodStrips, state: &StripsState) -> Vec<Vec<u32>> {
     (0..model.strip_count())
-        .map(|s| state.strip(s).unwrap_or(&[]).to_vec())
+        .map(|s| state.strip(s).unwrap_or_default().to_vec())
         .collect()
 }
 
@@ -223,7 +223,7 @@ fn strips_render_like_reference_lists() -> Result<(), GpuError> {
                 strips.apply_dirty(&dirty, state.indices(), state.lengths())?;
                 for s in 0..model.strip_count() {
                     assert_eq!(
-                        strips.live_indices(s),
+                        strips.live_indices(s).map(Indices::from),
                         state.strip(s),
                         "{}: object region {s} at LOD {lod}",
                         input.name
@@ -453,7 +453,7 @@ fn one_draw_per_frame_and_upload_bytes() -> Result<(), GpuError> {
                 touched.sort_unstable();
                 touched.dedup();
                 for &s in &touched {
-                    diffed.write_region(s, state.strip(s).unwrap_or(&[]))?;
+                    diffed.write_region(s, state.strip(s).unwrap_or_default())?;
                 }
                 let t = f as f32 / (FRAMES - 1) as f32;
                 object.set_t(t)?;

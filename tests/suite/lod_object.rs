@@ -325,7 +325,7 @@ fn move_strategy() -> impl proptest::strategy::Strategy<Value = Move> {
 /// `draws` (a region opens a new record when the slots since the record's first region would
 /// exceed the budget), each from its first region's start to its last live index.
 fn expected_layout(
-    strips: &[&[u32]],
+    strips: &[Vec<u32>],
     capacities: &[usize],
     draws: Draws,
     first_instance: bool,
@@ -517,8 +517,8 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
             }
 
             let state = object.state();
-            let strips: Vec<&[u32]> = (0..capacities.len())
-                .map(|s| state.strip(s).unwrap_or(&[]))
+            let strips: Vec<Vec<u32>> = (0..capacities.len())
+                .map(|s| state.strip(s).unwrap_or_default().to_vec())
                 .collect();
             let drawn = if strip_colours {
                 Draws::PerRegion
@@ -543,7 +543,7 @@ fn object_buffers_match_layout_built_from_scratch() -> Result<(), Error> {
                     strip_draw(&indices[span])
                 })
                 .collect();
-            let by_strips: Vec<[u32; 3]> = strips.iter().flat_map(|s| strip_draw(s)).collect();
+            let by_strips: Vec<[u32; 3]> = strips.iter().flat_map(strip_draw).collect();
             assert!(
                 by_records == by_strips,
                 "{what}: records draw other triangles"
@@ -628,8 +628,8 @@ fn frames_built_ahead_upload_the_strips_of_their_frame() -> Result<(), Error> {
         switches += usize::from(object.state().frame() != before);
         object.prepare(queue);
         oracle.set_with(&model, x, lod, morphlod::deform::Strategy::Steps)?;
-        let strips: Vec<&[u32]> = (0..capacities.len())
-            .map(|s| oracle.strip(s).unwrap_or(&[]))
+        let strips: Vec<Vec<u32>> = (0..capacities.len())
+            .map(|s| oracle.strip(s).unwrap_or_default().to_vec())
             .collect();
         let (indices, records) =
             expected_layout(&strips, &capacities, draws, ctx.first_instance_enabled());

@@ -22,7 +22,7 @@ use crate::common;
 
 use common::{degenerate, random_sequence, reference_hashes, strips_draw, Mirror, Rng};
 use morphlod::collapse::{canonical_multiset, Collapse, CollapseSequence};
-use morphlod::lodstrips::{LodStrips, StripsState};
+use morphlod::lodstrips::{IndexWidth, LodStrips, StripsState};
 use morphlod::strip::{stripify, Strips};
 use proptest::prelude::*;
 
@@ -40,6 +40,8 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
     let s0_len = strips.indices.len();
     let every_step = tris.len() <= FULL_EVERY_STEP_TRIANGLES;
     let mut state = StripsState::new(&model);
+    let width = IndexWidth::for_vertices(seq.vertex_count);
+    assert_eq!(state.index_width(), width, "the narrowest width");
     let mut mirror = Mirror::new(model.region_offsets(), state.indices(), state.lengths());
     let full = |l: usize, mirror: &Mirror, state: &StripsState| {
         let drawn = canonical_multiset(mirror.triangles());
@@ -55,7 +57,7 @@ fn walk(tris: &[[u32; 3]], strips: &Strips, seq: &CollapseSequence, steps: usize
         );
         for s in 0..model.strip_count() {
             assert_eq!(
-                Some(mirror.strip(s)),
+                Some(mirror.strip(s).into()),
                 state.strip(s),
                 "mirror strip {s} at LOD {l}"
             );
@@ -239,10 +241,23 @@ fn generated_meshes_random_sequences() {
         ),
         ("sphere", sphere(4)),
         ("messy", messy()),
+        // Vertex numbers on both sides of 65,535: the runtime's `u32` width.
+        (
+            "grid past u16",
+            past_u16(grid(30, 20, |x, y| (x * 7 + y * 3) % 11 == 0)),
+        ),
     ];
     for (k, (name, (tris, n))) in cases.iter().enumerate() {
         check_mesh(name, tris, *n, 10_000, 1 + k as u64);
     }
+}
+
+/// `mesh` with its vertices numbered from 65,000 (those below unused): a model of more than
+/// 65,536 vertices, stored `u32` wide.
+fn past_u16((tris, n): Mesh) -> Mesh {
+    let first = 65_000;
+    let tris = tris.iter().map(|t| t.map(|v| v + first)).collect();
+    (tris, n + first as usize)
 }
 
 #[test]

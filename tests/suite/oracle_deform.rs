@@ -21,6 +21,9 @@
 //!   positions, so the buffer must be identical, not only draw the same).
 //! * End of walk: the walked state equals fresh states moved straight to the
 //!   final `(frame, lod)` by either strategy.
+//! * The runtime's index width is the one each test names: `u16` for the assets (the body
+//!   included, the crowd's near instance), `u32` for a mesh past 65,536 vertices
+//!   (`random_frames_past_u16`), so both widths of every step and rebuild are walked.
 
 use crate::common;
 
@@ -29,6 +32,7 @@ use morphlod::collapse::{canonical_multiset, CollapseSequence};
 use morphlod::deform::{DeformError, SetError, Strategy};
 use morphlod::io::LoadOptions;
 use morphlod::io::MorphSource;
+use morphlod::lodstrips::{IndexWidth, PARALLEL_SLOTS};
 use morphlod::morph::Morph;
 use morphlod::simplify::{simplify, SimplifyOptions};
 use morphlod::strip::stripify;
@@ -165,7 +169,7 @@ impl Frames<'_> {
         );
         for s in 0..mirror.strip_count() {
             assert_eq!(
-                Some(mirror.strip(s)),
+                Some(mirror.strip(s).into()),
                 state.strip(s),
                 "{at}: mirror strip {s}"
             );
@@ -175,7 +179,8 @@ impl Frames<'_> {
 }
 
 /// Drives `steps` random `set` calls over `(t, lod)`; see the module docs.
-fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
+/// The state's indices must be stored `width` wide.
+fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64, width: IndexWidth) {
     let model = DeformingModel::new(asset).expect("model builds");
     let frames = Frames {
         tris,
@@ -198,6 +203,7 @@ fn walk(name: &str, tris: &[[u32; 3]], asset: &Asset, steps: usize, seed: u64) {
     let end = if looping { 0 } else { r - 1 };
     let mut rng = Rng(seed);
     let mut state = DeformingState::new(&model);
+    assert_eq!(state.index_width(), width, "{name}: index width");
     let mut mirror = Mirror::new(state.region_offsets(), state.indices(), state.lengths());
     frames.full_check(0, 0, &mirror, &state, name);
     let mut used = [0usize; 2];
@@ -305,6 +311,7 @@ fn makehuman_head_animation() {
         &asset,
         10_000,
         1,
+        IndexWidth::U16,
     );
 }
 
@@ -318,6 +325,7 @@ fn makehuman_body_animation() {
         &asset,
         10_000,
         2,
+        IndexWidth::U16,
     );
 }
 
@@ -328,7 +336,14 @@ fn makehuman_body_baby_target() {
         MorphSource::Target("caucasian-male-baby".into()),
     );
     let asset = build_asset(&morph, 8);
-    walk("makehuman_body baby", morph.triangles(), &asset, 10_000, 3);
+    walk(
+        "makehuman_body baby",
+        morph.triangles(),
+        &asset,
+        10_000,
+        3,
+        IndexWidth::U16,
+    );
 }
 
 #[test]
@@ -336,7 +351,14 @@ fn animated_morph_cube() {
     let path = "AnimatedMorphCube-glTF/AnimatedMorphCube.gltf";
     let morph = load_morph(path, MorphSource::Animation("0".into()));
     let asset = build_asset(&morph, 16);
-    walk("AnimatedMorphCube", morph.triangles(), &asset, 10_000, 4);
+    walk(
+        "AnimatedMorphCube",
+        morph.triangles(),
+        &asset,
+        10_000,
+        4,
+        IndexWidth::U16,
+    );
 }
 
 /// The walker's `walk`, built by the production [`morphlod::Builder`] over its skinned poses:
@@ -379,7 +401,14 @@ fn makehuman_walker_skinned_loop() {
     });
     // The poses differ: frame 2 (a quarter of the walk) is not frame 0's sequence.
     assert_ne!(asset.frames[0], asset.frames[2]);
-    walk("makehuman_walker 'walk'", tris, &asset, 10_000, 6);
+    walk(
+        "makehuman_walker 'walk'",
+        tris,
+        &asset,
+        10_000,
+        6,
+        IndexWidth::U16,
+    );
 }
 
 /// Frames whose sequences have nothing in common: random collapse orders
@@ -387,24 +416,52 @@ fn makehuman_walker_skinned_loop() {
 /// stresses rebuilds and switches far more than neighbouring poses do.
 #[test]
 fn unrelated_random_frames() {
-    let (w, h) = (24u32, 16u32);
+    let (tris, asset) = random_frames(24, 16, 0, 9);
+    walk("random frames", &tris, &asset, 10_000, 5, IndexWidth::U16);
+}
+
+/// [`unrelated_random_frames`] past `u16`: the grid's vertices are numbered from 64,000, so
+/// its model has 98,371 vertices, its indices lie on both sides of 65,535 and its runtime
+/// stores them as `u32` (a `u16` buffer would wrap the upper ones, and the hashes fail). Its
+/// `S0` holds at least [`PARALLEL_SLOTS`] slots, so rebuilds from scratch run in chunks on
+/// the pool too (with more than one thread). A few frames and a short walk: the width's paths
+/// are what it adds.
+#[test]
+fn random_frames_past_u16() {
+    let (tris, asset) = random_frames(200, 170, 64_000, 4);
+    assert!(asset.v0.len() > 1 << 16);
+    assert!(asset.s0.indices.len() >= PARALLEL_SLOTS);
+    walk(
+        "random frames past u16",
+        &tris,
+        &asset,
+        1_500,
+        8,
+        IndexWidth::U32,
+    );
+}
+
+/// The asset of [`unrelated_random_frames`]: a `w × h` grid with holes, its vertices numbered
+/// from `first` (those below unused), and `frames` frames of random sequences (the middle one
+/// empty).
+fn random_frames(w: u32, h: u32, first: u32, frames: usize) -> (Vec<[u32; 3]>, Asset) {
     let mut tris = Vec::new();
     for y in 0..h {
         for x in 0..w {
             if (x * 7 + y * 3) % 11 == 0 {
                 continue;
             }
-            let a = y * (w + 1) + x;
+            let a = first + y * (w + 1) + x;
             let (b, c, d) = (a + 1, a + w + 1, a + w + 2);
             tris.push([a, b, d]);
             tris.push([a, d, c]);
         }
     }
-    let n = ((w + 1) * (h + 1)) as usize;
+    let n = (first + (w + 1) * (h + 1)) as usize;
     let mut rng = Rng(77);
-    let sequences: Vec<Arc<CollapseSequence>> = (0..9)
+    let sequences: Vec<Arc<CollapseSequence>> = (0..frames)
         .map(|k| {
-            let steps = if k == 4 { 0 } else { usize::MAX - k };
+            let steps = if k == frames / 2 { 0 } else { usize::MAX - k };
             Arc::new(random_sequence(&tris, n, steps, &mut rng))
         })
         .collect();
@@ -417,7 +474,7 @@ fn unrelated_random_frames() {
         surface: None,
         skin: None,
     };
-    walk("random frames", &tris, &asset, 10_000, 5);
+    (tris, asset)
 }
 
 /// A rebuild logs only what changed (what a crowd uploads after a frame switch): every logged

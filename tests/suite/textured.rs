@@ -238,7 +238,7 @@ fn textured_strips_render_like_reference_lists() -> Result<(), GpuError> {
             let t = i as f32 / 3.0;
             state.set_lod(&model, lod).expect("same model");
             let regions: Vec<Vec<u32>> = (0..model.strip_count())
-                .map(|s| state.strip(s).unwrap_or(&[]).to_vec())
+                .map(|s| state.strip(s).unwrap_or_default().to_vec())
                 .collect();
             let mut drawn = surface_object(&gpu, Topology::Strip, &fixture, &regions, view_proj)?;
             let reference = seq.reference_mesh(&fixture.triangles, lod);

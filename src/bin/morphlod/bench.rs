@@ -244,11 +244,15 @@ pub fn run_bench(
             strips.prepare(queue);
 
             let start = Instant::now();
-            let live: Vec<u32> = (0..strips.object().region_count())
-                .filter_map(|s| strips.state().strip(s))
-                .flat_map(strip_triangles)
-                .flatten()
-                .collect();
+            let (mut live, mut strip) = (Vec::new(), Vec::new());
+            for s in 0..strips.object().region_count() {
+                // The runtime's strip widened (it may be `u16`) into one reused buffer.
+                strip.clear();
+                if let Some(indices) = strips.state().strip(s) {
+                    indices.extend_mapped(&mut strip, |_, v| v);
+                }
+                live.extend(strip_triangles(&strip).flatten());
+            }
             let list_build_us = micros(start);
             list.write_region(0, &live)?;
             list.set_pose(t, track)?;

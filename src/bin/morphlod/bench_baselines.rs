@@ -39,7 +39,7 @@ use crate::bench::{gpu_frame, micros, Sweep};
 use morphlod::collapse::CollapseSequence;
 use morphlod::gpu::camera::{fit_to_bounds, Projection};
 use morphlod::gpu::{Context, MorphPipeline, Object, RenderTarget, ShadeMode, Topology};
-use morphlod::lodstrips::{LodStrips, StripsState};
+use morphlod::lodstrips::{Indices, LodStrips, StripsState};
 use morphlod::strip::Strips;
 use morphlod::IndexedMesh;
 
@@ -89,8 +89,8 @@ impl Baseline for OurLodStrips {
         let offsets = self.model.region_offsets();
         (offsets[r + 1] - offsets[r]) as usize
     }
-    fn region(&self, r: usize) -> &[u32] {
-        self.state.strip(r).unwrap_or(&[])
+    fn region(&self, r: usize) -> Indices<'_> {
+        self.state.strip(r).unwrap_or_default()
     }
     fn take_changed(&mut self) -> Vec<u32> {
         let dirty = self.state.take_dirty();

@@ -7,13 +7,13 @@ use super::{separator_slots, Object, Topology};
 use crate::gpu::checks::check_indices;
 use crate::gpu::upload::clip;
 use crate::gpu::GpuError;
-use crate::lodstrips::Dirty;
+use crate::lodstrips::{dispatch, Dirty, Indices, StripIndex};
 
 impl Object {
     /// Applies what a LOD runtime changed since its last `take_dirty` (a [`Dirty`] from
     /// [`crate::lodstrips::StripsState::take_dirty`], or from any runtime with the same contract):
-    /// `indices` is the runtime's whole index buffer and `lengths` the live length of every
-    /// strip, with strip `r` owning this object's region `r` and the regions packed back to
+    /// `indices` is the runtime's whole index buffer (`&[u32]`, `&[u16]` or a state's
+    /// [`Indices`]) and `lengths` the live length of every strip, with strip `r` owning this object's region `r` and the regions packed back to
     /// back in order, as [`crate::lodstrips::StripsState::indices`] / `lengths` are (no
     /// separators: region `r` of the runtime starts `r` slots before this object's in a strip
     /// object).
@@ -26,15 +26,17 @@ impl Object {
     /// before this call (coarsen then refine) uploads nothing, a frame switch uploads the words
     /// that differ. A strip that shrank gets [`RESTART`](crate::gpu::RESTART) over the positions it
     /// left. Everything is checked before anything changes; on error the object is as before.
-    pub fn apply_dirty(
+    pub fn apply_dirty<'a>(
         &mut self,
         dirty: &Dirty,
-        indices: &[u32],
+        indices: impl Into<Indices<'a>>,
         lengths: &[u32],
     ) -> Result<(), GpuError> {
-        self.check_layout(indices, lengths)?;
-        self.check_dirty(dirty, indices, lengths)?;
-        self.apply_checked(dirty, indices, lengths);
+        dispatch!(Indices, indices.into(), indices => {
+            self.check_layout(indices.len(), lengths)?;
+            self.check_dirty(dirty, indices, lengths)?;
+            self.apply_checked(dirty, indices, lengths);
+        });
         Ok(())
     }
 
@@ -47,26 +49,28 @@ impl Object {
     pub(crate) fn apply_own_dirty(
         &mut self,
         dirty: &Dirty,
-        indices: &[u32],
+        indices: Indices<'_>,
         lengths: &[u32],
     ) -> Result<(), GpuError> {
-        self.check_layout(indices, lengths)?;
-        debug_assert!(
-            self.check_dirty(dirty, indices, lengths).is_ok(),
-            "a runtime of this object's model gave an index out of range"
-        );
-        self.apply_checked(dirty, indices, lengths);
+        dispatch!(Indices, indices, indices => {
+            self.check_layout(indices.len(), lengths)?;
+            debug_assert!(
+                self.check_dirty(dirty, indices, lengths).is_ok(),
+                "a runtime of this object's model gave an index out of range"
+            );
+            self.apply_checked(dirty, indices, lengths);
+        });
         Ok(())
     }
 
-    /// That a runtime's buffer and lengths have this object's layout.
-    fn check_layout(&self, indices: &[u32], lengths: &[u32]) -> Result<(), GpuError> {
+    /// That a runtime's buffer (of `indices` words) and lengths have this object's layout.
+    fn check_layout(&self, indices: usize, lengths: &[u32]) -> Result<(), GpuError> {
         let regions = self.region_count();
         let capacity =
             self.mirror.indices.len() - regions * separator_slots(self.topology) as usize;
-        if indices.len() != capacity || lengths.len() != regions {
+        if indices != capacity || lengths.len() != regions {
             return Err(GpuError::LayoutMismatch {
-                indices: indices.len(),
+                indices,
                 strips: lengths.len(),
                 capacity,
                 regions,
@@ -77,7 +81,12 @@ impl Object {
 
     /// The check pass of [`apply_dirty`](Self::apply_dirty), its layout checked: region
     /// numbers, capacities, and the indices each range will copy.
-    fn check_dirty(&self, dirty: &Dirty, indices: &[u32], lengths: &[u32]) -> Result<(), GpuError> {
+    fn check_dirty<I: StripIndex>(
+        &self,
+        dirty: &Dirty,
+        indices: &[I],
+        lengths: &[u32],
+    ) -> Result<(), GpuError> {
         for &strip in &dirty.lengths {
             let region = strip as usize;
             let (span, live) = self.check_live_length(region, lengths)?;
@@ -108,7 +117,7 @@ impl Object {
     /// The apply pass of [`apply_dirty`](Self::apply_dirty), on a checked `dirty`: nothing here can
     /// fail. The ranges' diffs go to the mirror together, on the thread pool at a large frame
     /// switch ([`IndexMirror::write_all`](crate::gpu::upload::IndexMirror::write_all)).
-    fn apply_checked(&mut self, dirty: &Dirty, indices: &[u32], lengths: &[u32]) {
+    fn apply_checked<I: StripIndex>(&mut self, dirty: &Dirty, indices: &[I], lengths: &[u32]) {
         let regions = &self.region_starts;
         let topology = self.topology;
         let writes = dirty.ranges.iter().map(|range| {

@@ -5,6 +5,7 @@ use super::{Object, Topology};
 use crate::gpu::checks::check_indices;
 use crate::gpu::pipeline::ShadeMode;
 use crate::gpu::{Draws, GpuError, RESTART};
+use crate::lodstrips::{dispatch, Indices, StripIndex};
 
 impl Object {
     /// Chooses how regions are cut into draw records. A change of the records drawn rewrites
@@ -40,7 +41,7 @@ impl Object {
     /// the live part take `live[position]`, positions that leave it take [`RESTART`] in a
     /// strip object (list objects never read their tails and leave them stale). `live` holds
     /// the region's new contents from its start, at least `len` long.
-    pub(super) fn resize(&mut self, region: usize, live: &[u32], len: u32) {
+    pub(super) fn resize<I: StripIndex>(&mut self, region: usize, live: &[I], len: u32) {
         let old = self.lengths[region];
         if old == len {
             return;
@@ -48,7 +49,8 @@ impl Object {
         let start = self.region_starts[region];
         if len > old {
             let source = &live[old as usize..len as usize];
-            self.mirror.write(start + old, len - old, |i| source[i]);
+            self.mirror
+                .write(start + old, len - old, |i| source[i].into());
         } else if self.topology == Topology::Strip {
             self.mirror.write(start + len, old - len, |_| RESTART);
         }
@@ -63,7 +65,21 @@ impl Object {
     /// the whole live strip after a local edit and still upload only the changed words.
     /// Shrinking writes [`RESTART`] over the positions that leave the strip (strip objects)
     /// and may change the region's draw record. Nothing changes when an error is returned.
-    pub fn write_region(&mut self, region: usize, live: &[u32]) -> Result<(), GpuError> {
+    /// `live` is a `&[u32]`, a `&[u16]` or a runtime's [`Indices`].
+    pub fn write_region<'a>(
+        &mut self,
+        region: usize,
+        live: impl Into<Indices<'a>>,
+    ) -> Result<(), GpuError> {
+        dispatch!(Indices, live.into(), live => self.write_region_of(region, live))
+    }
+
+    /// [`write_region`](Self::write_region) in the width of `live`.
+    fn write_region_of<I: StripIndex>(
+        &mut self,
+        region: usize,
+        live: &[I],
+    ) -> Result<(), GpuError> {
         let range = self.region_range(region).ok_or(GpuError::NoSuchRegion {
             region,
             regions: self.region_count(),
@@ -79,7 +95,8 @@ impl Object {
         check_indices(region, live, self.vertex_count, self.strips())?;
 
         let kept = live.len().min(self.lengths[region] as usize);
-        self.mirror.write(range.start, kept as u32, |i| live[i]);
+        self.mirror
+            .write(range.start, kept as u32, |i| live[i].into());
         self.resize(region, live, live.len() as u32);
         self.records
             .update_touched(&self.region_starts, &self.lengths);

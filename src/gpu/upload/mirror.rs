@@ -5,6 +5,7 @@ use std::ops::Range;
 
 use super::spans::coalesce;
 use super::MERGE_GAP_BYTES;
+use crate::lodstrips::StripIndex;
 
 /// The whole index buffer as the GPU will hold it after the next upload, and the words
 /// changed since the last one.
@@ -48,9 +49,10 @@ impl IndexMirror {
     /// its spans and they are appended in order.
     /// `writes` is walked once to count and once to write, and collected only for the pool:
     /// an ordinary frame allocates nothing here.
-    pub(in crate::gpu) fn write_all<'a>(
+    /// The values are a runtime's words in its width, widened as they are copied.
+    pub(in crate::gpu) fn write_all<'a, I: StripIndex>(
         &mut self,
-        writes: impl Iterator<Item = (u32, &'a [u32])> + Clone,
+        writes: impl Iterator<Item = (u32, &'a [I])> + Clone,
     ) {
         let threads = rayon::current_num_threads();
         // The words of `writes` where they go on the pool.
@@ -66,18 +68,18 @@ impl IndexMirror {
             })
             .flatten();
         if let Some(words) = pooled {
-            let writes: Vec<(u32, &[u32])> = writes.collect();
+            let writes: Vec<(u32, &[I])> = writes.collect();
             self.write_in_chunks(&writes, crate::par::piece_len(words, PARALLEL_WORDS / 4));
         } else {
             for (at, values) in writes {
-                self.write(at, values.len() as u32, |i| values[i]);
+                self.write(at, values.len() as u32, |i| values[i].into());
             }
         }
     }
 
     /// [`write_all`](Self::write_all) of ascending, disjoint `writes` cut into chunks of
     /// consecutive writes of about `chunk_words` words, diffed in parallel.
-    fn write_in_chunks(&mut self, writes: &[(u32, &[u32])], chunk_words: usize) {
+    fn write_in_chunks<I: StripIndex>(&mut self, writes: &[(u32, &[I])], chunk_words: usize) {
         // Each chunk: its writes, and the part of the mirror from its first write's position
         // to its last write's end.
         let mut chunks = Vec::new();
@@ -106,7 +108,7 @@ impl IndexMirror {
                     &mut part[offset..offset + values.len()],
                     at,
                     &mut spans,
-                    |i| values[i],
+                    |i| values[i].into(),
                 );
             }
             spans

@@ -3,6 +3,7 @@
 //! what changed marked.
 
 use super::dirty::Mark;
+use super::index::StripIndex;
 use crate::lodstrips::packed::Narrow;
 use crate::lodstrips::{FrameChanges, StripLayout, DEATH_BLOCK};
 
@@ -16,12 +17,12 @@ use crate::lodstrips::{FrameChanges, StripLayout, DEATH_BLOCK};
 /// the frame's `strips_by_death` prefix rather than found by a pass over `strips`; and within a
 /// strip the blocks of slots with nothing alive at `l` are skipped unread ([`rebuild_strip`]).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn rebuild_strips(
+pub(super) fn rebuild_strips<I: StripIndex>(
     layout: &StripLayout,
     frame: &FrameChanges,
     l: u32,
     strips: std::ops::Range<usize>,
-    indices: &mut [u32],
+    indices: &mut [I],
     lens: &mut [u32],
     mut find: impl FnMut(u32) -> u32,
     mut mark: impl FnMut(Mark),
@@ -127,8 +128,9 @@ impl StripWriter {
 
     /// Writes `v` at the next position of `region` (the strip's region and on).
     #[inline]
-    pub(super) fn put(&mut self, region: &mut [u32], v: u32) {
+    pub(super) fn put<I: StripIndex>(&mut self, region: &mut [I], v: u32) {
         let q = self.q;
+        let v = I::of(v);
         if q >= self.old || region[q] != v {
             region[q] = v;
             self.lo = self.lo.min(q);
@@ -158,13 +160,13 @@ impl StripWriter {
 /// those hold nothing alive and are skipped with their copies. At a coarse LOD a long strip
 /// costs a compare per block (64 to a mask) and the few live blocks' slots.
 #[allow(clippy::too_many_arguments)]
-fn rebuild_strip(
+fn rebuild_strip<I: StripIndex>(
     layout: &StripLayout,
     frame: &FrameChanges,
     l: u32,
     s: usize,
     ci: usize,
-    region: &mut [u32],
+    region: &mut [I],
     len: &mut u32,
     find: &mut impl FnMut(u32) -> u32,
     mark: &mut impl FnMut(Mark),

@@ -9,6 +9,7 @@
 //!
 //! One file a stage, in the order a move runs (this file holds the state, its reads and
 //! its entry point [`StripsState::set_lod`]):
+//! * `index`: the index buffer in its model's width (`u16` or `u32`), and its reads;
 //! * `dirty`: the dirty log, what the uploader takes;
 //! * `survivors`: each vertex's survivor at a LOD, for rebuilds;
 //! * `step`: stepping, one recorded step at a time, coarser or finer;
@@ -19,6 +20,7 @@
 
 mod dirty;
 mod entries;
+mod index;
 mod rebuild;
 mod step;
 mod survivors;
@@ -30,6 +32,11 @@ use dirty::DirtyLog;
 pub use dirty::{Dirty, DirtyRange};
 #[cfg(feature = "gpu")]
 pub(crate) use entries::for_each_live;
+#[cfg(feature = "gpu")]
+pub(crate) use index::dispatch;
+use index::IndexBuf;
+pub(crate) use index::StripIndex;
+pub use index::{IndexWidth, Indices};
 pub use rebuild::PARALLEL_SLOTS;
 pub(in crate::lodstrips) use step::cut;
 pub(crate) use survivors::Survivors;
@@ -47,7 +54,8 @@ pub struct StripsState {
     model_id: u64,
     /// The layout's region table, shared.
     region_offsets: Arc<[u32]>,
-    indices: Vec<u32>,
+    /// In the model's width ([`IndexWidth::for_vertices`]).
+    indices: IndexBuf,
     lens: Vec<u32>,
     lod: usize,
     /// Stream position where step `lod` starts.
@@ -105,7 +113,7 @@ impl StripsState {
         StripsState {
             model_id,
             region_offsets: Arc::clone(&layout.region_offsets),
-            indices: layout.s0.clone(),
+            indices: IndexBuf::new(&layout.s0, IndexWidth::for_vertices(layout.vertex_count)),
             live: Live::of(&lens),
             lens,
             lod: 0,
@@ -131,9 +139,15 @@ impl StripsState {
         self.triangles as usize
     }
 
-    /// The whole index buffer (all regions, live parts and stale tails).
-    pub fn indices(&self) -> &[u32] {
-        &self.indices
+    /// The whole index buffer (all regions, live parts and stale tails), in its width.
+    pub fn indices(&self) -> Indices<'_> {
+        self.indices.view()
+    }
+
+    /// The width the indices are stored in: `u16` where the model has at most 65,536
+    /// vertices, chosen when the state is made.
+    pub fn index_width(&self) -> IndexWidth {
+        self.indices.view().width()
     }
 
     /// Live length of every strip.
@@ -142,9 +156,10 @@ impl StripsState {
     }
 
     /// Live indices of strip `i`, or `None` past the last strip.
-    pub fn strip(&self, i: usize) -> Option<&[u32]> {
+    pub fn strip(&self, i: usize) -> Option<Indices<'_>> {
         let base = *self.region_offsets.get(i)? as usize;
-        self.indices.get(base..base + *self.lens.get(i)? as usize)
+        self.indices()
+            .get_range(base..base + *self.lens.get(i)? as usize)
     }
 
     /// Region offsets into [`indices`](Self::indices): strip `i` owns
@@ -156,8 +171,11 @@ impl StripsState {
     /// Bytes this state holds on the heap (its buffers' capacities): what one more instance
     /// of a model costs, which a crowd's memory budget adds up.
     pub fn heap_bytes(&self) -> usize {
-        let words = self.indices.capacity() + self.lens.capacity() + self.group_strips.capacity();
-        words * 4 + self.log.heap_bytes() + self.scratch.capacity() * size_of::<usize>()
+        let words = self.lens.capacity() + self.group_strips.capacity();
+        self.indices.heap_bytes()
+            + words * 4
+            + self.log.heap_bytes()
+            + self.scratch.capacity() * size_of::<usize>()
     }
 
     /// Total live indices over all strips.

@@ -4,6 +4,7 @@
 
 use super::dirty::Mark;
 use super::entries::{empty_dead_strips, live_entries, live_mask, rebuild_strips, StripWriter};
+use super::index::{dispatch, IndexBuf, StripIndex};
 use super::survivors::{roots_backward, Survivors, TAIL_ROOTS};
 use super::{Live, StripsState};
 use crate::lodstrips::packed::Narrow;
@@ -73,7 +74,30 @@ impl StripsState {
     ) {
         let lod = lod.min(frame.max_lod());
         anc.reach(layout.vertex_count as usize, frame, lod);
-        let l = lod as u32;
+        // The buffer is taken out for the rebuild (which writes the lengths and the log
+        // beside it), its width matched once.
+        let mut indices = std::mem::take(&mut self.indices);
+        dispatch!(IndexBuf, &mut indices, v => {
+            self.rebuild_regions(layout, frame, lod as u32, anc, chunk_slots, v)
+        });
+        self.indices = indices;
+        // A rebuild over the whole mesh reads every strip anyway: the counts are summed anew.
+        self.live = Live::of(&self.lens);
+        self.lod = lod;
+        (self.cursor, self.triangles) = frame.seek(lod);
+    }
+
+    /// The strips and the log of [`rebuild_in_chunks`](Self::rebuild_in_chunks) at `l`
+    /// collapses, written into `indices`, the state's buffer taken out of it.
+    fn rebuild_regions<'a, I: StripIndex>(
+        &mut self,
+        layout: &StripLayout,
+        frame: &'a FrameChanges,
+        l: u32,
+        anc: &mut Survivors<'a>,
+        chunk_slots: usize,
+        indices: &mut [I],
+    ) {
         let strips = layout.strip_count();
         match anc.flat() {
             Some(root) if chunk_slots < layout.s0.len() => {
@@ -81,7 +105,7 @@ impl StripsState {
                 // strip bounds that are multiples of 64, so that each chunk marks its own
                 // words of the log's bitsets.
                 let mut chunks = Vec::new();
-                let (mut indices, mut lens) = (&mut self.indices[..], &mut self.lens[..]);
+                let (mut indices, mut lens) = (indices, &mut self.lens[..]);
                 let mut log = self.log.part();
                 let mut first = 0;
                 while first < strips {
@@ -126,17 +150,13 @@ impl StripsState {
                     frame,
                     l,
                     0..strips,
-                    &mut self.indices,
+                    indices,
                     &mut self.lens,
                     |v| anc.find(v),
                     |m| log.apply(m),
                 );
             }
         }
-        // A rebuild over the whole mesh reads every strip anyway: the counts are summed anew.
-        self.live = Live::of(&self.lens);
-        self.lod = lod;
-        (self.cursor, self.triangles) = frame.seek(lod);
     }
 
     /// [`rebuild`](Self::rebuild) at `lod` (not past `frame.max_lod()`) at or past the frame's
@@ -183,35 +203,11 @@ impl StripsState {
         }
         // Every strip not written below is empty now: the counts are those of the strips
         // written (counted without reading the emptied strips' lengths, cold lines).
-        let mut counts = Live::default();
-        for j in 0..frame.strips_alive(l) {
-            let s = frame.strips_by_death.get(j) as usize;
-            // The layout's region table, shared by every state (warm in the cache when a
-            // crowd rebuilds hundreds), not this state's copy.
-            let region = &mut self.indices[layout.region_offsets[s] as usize..];
-            let mut out = StripWriter::new(self.lens[s]);
-            let entries =
-                tail.strip_entries.get(j) as usize..tail.strip_entries.get(j + 1) as usize;
-            let lifetimes = 2 * entries.start..2 * entries.end;
-            let mut live = |v: u32| out.put(region, tail.vertices.get(root[v as usize] as usize));
-            match (&tail.lifetimes, &tail.value) {
-                (Narrow::U16(t), Narrow::U16(v)) => {
-                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
-                }
-                (Narrow::U16(t), Narrow::U32(v)) => {
-                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
-                }
-                (Narrow::U32(t), Narrow::U16(v)) => {
-                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
-                }
-                (Narrow::U32(t), Narrow::U32(v)) => {
-                    live_entries(&t[lifetimes], &v[entries], rel, &mut live)
-                }
-            }
-            out.finish(s, &mut self.lens[s], &mut mark);
-            counts.change(0, self.lens[s]);
-        }
-        self.live = counts;
+        let mut indices = std::mem::take(&mut self.indices);
+        self.live = dispatch!(IndexBuf, &mut indices, v => {
+            write_tail_strips(layout, frame, rel, &root, v, &mut self.lens, &mut mark)
+        });
+        self.indices = indices;
         TAIL_ROOTS.set(root);
         self.lod = lod;
         (self.cursor, self.triangles) = frame.seek(lod);
@@ -248,4 +244,48 @@ impl StripsState {
             }
         }
     }
+}
+
+/// Writes every strip of `frame` not empty at `rel` steps past its tail's LOD into `indices`
+/// (a state's buffer; `lens` its lengths) from its tail entries alive there, the survivors
+/// given by `root` (over the tail's vertices); what changed goes to `mark`. Returns the live
+/// counts of the strips written.
+fn write_tail_strips<I: StripIndex>(
+    layout: &StripLayout,
+    frame: &FrameChanges,
+    rel: u32,
+    root: &[u32],
+    indices: &mut [I],
+    lens: &mut [u32],
+    mark: &mut impl FnMut(Mark),
+) -> Live {
+    let tail = &frame.tail;
+    let mut counts = Live::default();
+    for j in 0..frame.strips_alive(tail.lod + rel) {
+        let s = frame.strips_by_death.get(j) as usize;
+        // The layout's region table, shared by every state (warm in the cache when a
+        // crowd rebuilds hundreds), not this state's copy.
+        let region = &mut indices[layout.region_offsets[s] as usize..];
+        let mut out = StripWriter::new(lens[s]);
+        let entries = tail.strip_entries.get(j) as usize..tail.strip_entries.get(j + 1) as usize;
+        let lifetimes = 2 * entries.start..2 * entries.end;
+        let mut live = |v: u32| out.put(region, tail.vertices.get(root[v as usize] as usize));
+        match (&tail.lifetimes, &tail.value) {
+            (Narrow::U16(t), Narrow::U16(v)) => {
+                live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+            }
+            (Narrow::U16(t), Narrow::U32(v)) => {
+                live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+            }
+            (Narrow::U32(t), Narrow::U16(v)) => {
+                live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+            }
+            (Narrow::U32(t), Narrow::U32(v)) => {
+                live_entries(&t[lifetimes], &v[entries], rel, &mut live)
+            }
+        }
+        out.finish(s, &mut lens[s], mark);
+        counts.change(0, lens[s]);
+    }
+    counts
 }

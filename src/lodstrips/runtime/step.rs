@@ -1,6 +1,7 @@
 //! Stepping: one recorded step at a time, coarsening (rewrites, then resizes) or refining
 //! (resizes undone in reverse order, then rewrites).
 
+use super::index::{dispatch, IndexBuf, StripIndex};
 use super::StripsState;
 use crate::lodstrips::{
     kind_len, read_group, read_header, read_resize_head, restore_removed, skip_removed,
@@ -14,28 +15,40 @@ impl StripsState {
     /// `S0` is every frame's LOD 0).
     pub(crate) fn step_to(&mut self, frame: &FrameChanges, lod: usize) {
         let lod = lod.min(frame.max_lod());
+        if lod == self.lod {
+            return;
+        }
+        // The buffer is taken out for the steps (the rest of the state is theirs to change),
+        // its width matched once.
+        let mut indices = std::mem::take(&mut self.indices);
+        dispatch!(IndexBuf, &mut indices, v => self.steps(frame, lod, v));
+        self.indices = indices;
+    }
+
+    /// [`step_to`](Self::step_to) on the state's buffer `indices`, taken out of it.
+    fn steps<I: StripIndex>(&mut self, frame: &FrameChanges, lod: usize, indices: &mut [I]) {
         while self.lod < lod {
-            self.coarsen(frame);
+            self.coarsen(frame, indices);
         }
         while self.lod > lod {
-            self.refine(frame);
+            self.refine(frame, indices);
         }
     }
 
     /// Applies step `self.lod`: rewrites `u → w`, then the resizes in order.
-    fn coarsen(&mut self, model: &FrameChanges) {
+    fn coarsen<I: StripIndex>(&mut self, model: &FrameChanges, indices: &mut [I]) {
         let s = &model.stream;
         let (_, w) = model.collapse(self.lod);
         let mut at = self.cursor;
         let (groups, resizes, removed) = read_header(s, &mut at);
-        at = self.rewrite(model, at, groups, w);
+        at = self.rewrite(model, indices, at, groups, w);
         for _ in 0..resizes {
             let (group, i, len, kind) = read_resize_head(s, &mut at);
             let strip = self.group_strips[group as usize] as usize;
             skip_removed(s, &mut at, len);
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
-            let region = &mut self.indices[base..base + live];
+            let region = &mut indices[base..base + live];
             let new_live = cut(region, i, len, kind);
             self.live.change(live as u32, new_live as u32);
             self.lens[strip] = new_live as u32;
@@ -51,7 +64,7 @@ impl StripsState {
 
     /// Undoes step `self.lod - 1`: restores the resizes in reverse order, then
     /// writes `u` back.
-    fn refine(&mut self, model: &FrameChanges) {
+    fn refine<I: StripIndex>(&mut self, model: &FrameChanges, indices: &mut [I]) {
         let s = &model.stream;
         let start = step_start_before(s, self.cursor);
         let (u, _) = model.collapse(self.lod - 1);
@@ -82,7 +95,7 @@ impl StripsState {
             let base = self.region_offsets[strip] as usize;
             let live = self.lens[strip] as usize;
             let new_live = live + len - kind_len(kind);
-            let region = &mut self.indices[base..base + new_live];
+            let region = &mut indices[base..base + new_live];
             region.copy_within(i + kind_len(kind)..live, i + len);
             restore_removed(s, &mut at, region, i, len);
             self.live.change(live as u32, new_live as u32);
@@ -90,16 +103,24 @@ impl StripsState {
             self.log.mark(strip, i as u32, new_live as u32);
             self.log.mark_len(strip);
         }
-        self.rewrite(model, rewrites, groups, u);
+        self.rewrite(model, indices, rewrites, groups, u);
         self.cursor = start;
         self.triangles += removed;
         self.lod -= 1;
     }
 
-    /// Writes `value` at every position of the rewrite groups starting at
+    /// Writes `value` into `indices` at every position of the rewrite groups starting at
     /// `at`; returns the stream position after them.
-    fn rewrite(&mut self, model: &FrameChanges, mut at: usize, groups: u32, value: u32) -> usize {
+    fn rewrite<I: StripIndex>(
+        &mut self,
+        model: &FrameChanges,
+        indices: &mut [I],
+        mut at: usize,
+        groups: u32,
+        value: u32,
+    ) -> usize {
         let s = &model.stream;
+        let value = I::of(value);
         let mut strip = 0usize;
         self.group_strips.clear();
         for _ in 0..groups {
@@ -111,7 +132,7 @@ impl StripsState {
             let mut lo = u32::MAX;
             for _ in 0..count {
                 pos += varint::read_u32(s, &mut at);
-                self.indices[base + pos as usize] = value;
+                indices[base + pos as usize] = value;
                 lo = lo.min(pos);
             }
             self.log.mark(strip, lo, pos + 1);
@@ -123,7 +144,12 @@ impl StripsState {
 /// Cuts `region[i..i+len]` (the live part of a strip is all of `region`),
 /// writing the replacement `kind` made of the neighbours `B = region[i-1]`,
 /// `C = region[i+len]`, and packing the tail; returns the new live length.
-pub(in crate::lodstrips) fn cut(region: &mut [u32], i: usize, len: usize, kind: u16) -> usize {
+pub(in crate::lodstrips) fn cut<T: Copy>(
+    region: &mut [T],
+    i: usize,
+    len: usize,
+    kind: u16,
+) -> usize {
     let live = region.len();
     let r = kind_len(kind);
     if r > 0 {

@@ -23,8 +23,8 @@ macro_rules! region_methods {
             self.$field.span(r).len()
         }
 
-        fn region(&self, r: usize) -> &[u32] {
-            self.$field.get(r)
+        fn region(&self, r: usize) -> morphlod::lodstrips::Indices<'_> {
+            self.$field.get(r).into()
         }
 
         fn take_changed(&mut self) -> Vec<u32> {
@@ -38,6 +38,7 @@ pub mod pm;
 pub mod skip_strips;
 
 use morphlod::collapse::{CollapseSequence, SequenceError};
+use morphlod::lodstrips::Indices;
 use morphlod::strip::Strips;
 
 /// The strip restart index: in a region of a strip model it ends one strip and starts the
@@ -97,7 +98,7 @@ pub trait Baseline {
     /// Largest live length region `r` ever has (its span in an index buffer).
     fn region_capacity(&self, r: usize) -> usize;
     /// Live contents of region `r` at the current LOD.
-    fn region(&self, r: usize) -> &[u32];
+    fn region(&self, r: usize) -> Indices<'_>;
     /// Regions changed since the last call (each once, ascending).
     fn take_changed(&mut self) -> Vec<u32>;
     /// Bytes of the model shared by every instance (positions not included).
@@ -258,10 +259,14 @@ pub(crate) fn push_display_strip(mapped: &[u32], out: &mut Vec<u32>) -> usize {
 }
 
 /// Strips (parts between restarts) and vertices (indices other than [`RESTART`]) in `live`.
-pub fn strips_and_vertices(live: &[u32]) -> (usize, usize) {
+pub fn strips_and_vertices(live: Indices) -> (usize, usize) {
     if live.is_empty() {
         return (0, 0);
     }
-    let restarts = live.iter().filter(|&&v| v == RESTART).count();
+    // A `u16` runtime (the LodStrips state of a small mesh) holds no restart (`u32::MAX`).
+    let restarts = match live {
+        Indices::U32(live) => live.iter().filter(|&&v| v == RESTART).count(),
+        Indices::U16(_) => 0,
+    };
     (restarts + 1, live.len() - restarts)
 }

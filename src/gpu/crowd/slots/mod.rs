@@ -363,7 +363,11 @@ impl SlotLayout {
         let bound = (packed * READ_BOUND_EIGHTHS / 8).min(self.compact);
         let copy = |r: usize, from: u32, to: u32, at: u32, out: &mut Vec<[u32; 2]>| {
             let source = self.runtime[r];
-            out.extend((from..to).map(|i| [at + i, indices[(source + i) as usize]]));
+            let words = (source + from) as usize..(source + to) as usize;
+            let word = at + from;
+            indices
+                .slice(words)
+                .extend_mapped(out, |k, v| [word + k as u32, v]);
         };
         let restarts = |from: u32, to: u32, out: &mut Vec<[u32; 2]>| {
             out.extend((from..to).map(|word| [word, RESTART]));
@@ -468,8 +472,8 @@ impl SlotLayout {
             }
             let room = len + len * slack_eighths / 8;
             let source = self.runtime[r] as usize;
-            let strip = &indices[source..source + len as usize];
-            out.extend(strip.iter().zip(at..).map(|(&v, word)| [word, v]));
+            let strip = indices.slice(source..source + len as usize);
+            strip.extend_mapped(out, |k, v| [at + k as u32, v]);
             out.extend((at + len..at + room).map(|word| [word, RESTART]));
             // In strip order: the list stays sorted.
             places.placed.push((r as u32, Place { at, room, len }));
@@ -514,7 +518,11 @@ impl SlotLayout {
         let (indices, lengths) = (state.indices(), state.lengths());
         let copy = |r: usize, from: u32, to: u32, out: &mut Vec<[u32; 2]>| {
             let (slot, source) = (self.starts[r], self.runtime[r]);
-            out.extend((from..to).map(|i| [slot + i, indices[(source + i) as usize]]));
+            let words = (source + from) as usize..(source + to) as usize;
+            let word = slot + from;
+            indices
+                .slice(words)
+                .extend_mapped(out, |k, v| [word + k as u32, v]);
         };
         for (r, range, _) in by_strip(dirty) {
             let (old, new) = (uploaded[r], lengths[r]);

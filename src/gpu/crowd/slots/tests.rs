@@ -14,7 +14,7 @@ fn from_scratch(layout: &SlotLayout, state: &DeformingState) -> Vec<u32> {
     for r in 0..state.lengths().len() {
         let strip = state.strip(r).expect("strip");
         let start = layout.starts[r] as usize;
-        slots[start..start + strip.len()].copy_from_slice(strip);
+        strip.copy_to(&mut slots[start..start + strip.len()]);
     }
     slots
 }
@@ -45,7 +45,7 @@ fn triangles(words: &[u32]) -> Vec<[u32; 3]> {
 /// The triangles of the state's strips, each decoded on its own.
 fn reference(state: &DeformingState) -> Vec<[u32; 3]> {
     let mut out: Vec<[u32; 3]> = (0..state.lengths().len())
-        .flat_map(|r| triangles(state.strip(r).expect("strip")))
+        .flat_map(|r| triangles(&state.strip(r).expect("strip").to_vec()))
         .collect();
     out.sort_unstable();
     out
