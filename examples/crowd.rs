@@ -8,7 +8,11 @@
 //! ```sh
 //! cargo run --release --example crowd                     # window; headless without a display
 //! cargo run --release --example crowd -- --headless --instances 300 --frames 60
+//! cargo run --release --example crowd -- --walkers        # skinned walkers instead of bodies
 //! ```
+//!
+//! `--walkers`: the bodies are MakeHuman walkers (`makehuman_walker.glb`, its `walk` clip with
+//! the `morph` weights), skinned on the GPU by the crowd, each at its own phase and speed.
 //!
 //! Instances out of the camera's view draw nothing (`Crowd::set_culling`, on by default). The
 //! readout shows instances (and those out of view), triangles drawn (and at full detail), the
@@ -47,6 +51,7 @@ use common::{Demo, DemoError, MorphSpec, NamedMorph};
 
 const BODY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_body.glb");
 const FACE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_face.glb");
+const WALKER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_walker.glb");
 const DEMO: Demo = Demo {
     name: "crowd",
     sources: &[BODY, FACE],
@@ -96,6 +101,10 @@ struct Args {
     /// Draw the instances out of view too (to compare: the same pixels, more vertices)
     #[arg(long)]
     no_culling: bool,
+    /// Skinned walkers instead of the bodies (the walker's `walk` clip with its `morph`
+    /// weights), each at its own phase and speed
+    #[arg(long)]
+    walkers: bool,
 }
 
 fn parse_pixels(text: &str) -> Result<f32, String> {
@@ -130,11 +139,23 @@ fn run(args: &Args) -> Result<(), DemoError> {
             morph: MorphSpec::Ready(Box::new(morph)),
         })
     };
-    let morphs = vec![
-        animation(BODY, "morph", "body-morph")?,
-        animation(FACE, "expressions", "face-expressions")?,
-    ];
-    let library = Library::new(DEMO.sources, &out, morphs, args.build_frames)?;
+    let (bodies, sources): (NamedMorph, &[&str]) = if args.walkers {
+        let source = MorphSource::AnimationWithWeights {
+            animation: "walk".into(),
+            weights: "morph".into(),
+        };
+        let morph = load_morph(Path::new(WALKER), &LoadOptions::default(), &source)
+            .map_err(DemoError::lib)?;
+        let walker = NamedMorph {
+            label: "walker-walk".into(),
+            morph: MorphSpec::Ready(Box::new(morph)),
+        };
+        (walker, &[WALKER, FACE])
+    } else {
+        (animation(BODY, "morph", "body-morph")?, DEMO.sources)
+    };
+    let morphs = vec![bodies, animation(FACE, "expressions", "face-expressions")?];
+    let library = Library::new(sources, &out, morphs, args.build_frames)?;
     let assets = [library.load(0)?, library.load(1)?];
     if args.headless {
         return run_headless(args, &assets, &out);
@@ -183,6 +204,8 @@ struct Member {
     id: InstanceId,
     centre: Vec3,
     phase: f32,
+    /// Clip time per second: 1, or a walker's own pace (0.8 to 1.2).
+    speed: f32,
 }
 
 /// What one frame cost and sent, for the readout and the console.
@@ -244,11 +267,10 @@ impl Field {
         for (built, &count) in assets.iter().zip(&counts) {
             let gpu = GpuAsset::from_asset(device, &built.asset).map_err(DemoError::lib)?;
             let id = crowd.add_asset(device, gpu, Arc::clone(&built.model), count.max(1))?;
-            let duration = built
-                .asset
-                .blend
-                .as_ref()
-                .map_or(2.0, |b| b.track.duration().max(1e-3));
+            // A skinned asset plays its clip, the others their weight track.
+            let clip = built.asset.skin.as_ref().map(|s| s.clip.duration);
+            let track = built.asset.blend.as_ref().map(|b| b.track.duration());
+            let duration = clip.or(track).map_or(2.0, |d| d.max(1e-3));
             kinds.push(Kind {
                 id,
                 model: Arc::clone(&built.model),
@@ -302,6 +324,11 @@ impl Field {
                 id,
                 centre: at + centres[kind],
                 phase: unit(i, 7),
+                speed: if args.walkers && kind == 0 {
+                    0.8 + 0.4 * unit(i, 8)
+                } else {
+                    1.0
+                },
             });
         }
         let half = Vec3::new(
@@ -357,7 +384,7 @@ impl Field {
         self.moves.clear();
         for m in &self.members {
             let kind = &self.kinds[m.kind];
-            let t = (seconds / kind.duration + m.phase).fract();
+            let t = (seconds * m.speed / kind.duration + m.phase).fract();
             let distance = (m.centre - eye).length();
             let lod = Lod::screen_error(self.pixels, distance, FOV_Y, height as f32);
             self.moves.push((m.id, t, lod));

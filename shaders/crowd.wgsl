@@ -71,7 +71,8 @@ struct Pose {
     targets: vec2<u32>,
     // Blend parameter between V(0) and V(1).
     t: f32,
-    _pad: u32,
+    // A skinned asset's clip phase (crowd_skin.wgsl); unread without a skin.
+    clip_t: f32,
 }
 
 // One instance as the functions below read it: its placement and its pose.

@@ -12,7 +12,7 @@
 
 use std::sync::Arc;
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::checks::check_size;
@@ -21,6 +21,7 @@ use super::surface::GpuSurface;
 use super::GpuError;
 use crate::asset::{Asset, Surface, MAX_TARGETS};
 use crate::morph::WeightTrack;
+use crate::skin::{BakedClip, Skinning};
 
 /// One asset's vertex data on one device, shared by every object and crowd instance drawing it.
 pub struct GpuAsset {
@@ -35,9 +36,13 @@ pub struct GpuAsset {
     track: Option<WeightTrack>,
     /// A skinned asset's baked clip and vertex skin.
     skin: Option<GpuSkin>,
-    /// A sphere holding both poses (and so every blend of them): centre and radius, object
-    /// space. A crowd culls by it ([`super::Crowd::set_culling`]).
+    /// A sphere holding both poses (and so every blend of them; a skinned asset's: at every
+    /// baked key): centre and radius, object space. A crowd culls by it
+    /// ([`super::Crowd::set_culling`]).
     bound: ([f32; 3], f32),
+    /// The most the vertex stage stretches a target delta: 1, or a skinned asset's
+    /// [`skinned_bound`] stretch.
+    stretch: f32,
 }
 
 /// The morph targets of an asset: CPU deltas (what an object sums on the CPU) and the same
@@ -104,6 +109,7 @@ impl GpuAsset {
             track: None,
             skin: None,
             bound: bounding_sphere(&[v0, v1]),
+            stretch: 1.0,
         })
     }
 
@@ -135,7 +141,9 @@ impl GpuAsset {
             gpu.track = Some(blend.track.clone());
         }
         if let Some(skinning) = &asset.skin {
-            gpu.skin = Some(GpuSkin::new(device, skinning, gpu.vertex_count as usize)?);
+            let (skin, baked) = GpuSkin::new(device, skinning, gpu.vertex_count as usize)?;
+            (gpu.bound, gpu.stretch) = skinned_bound(skinning, &baked, poses);
+            gpu.skin = Some(skin);
         }
         Ok(Arc::new(gpu))
     }
@@ -219,6 +227,12 @@ impl GpuAsset {
     /// not finite: then nothing is outside it).
     pub(super) fn bound(&self) -> ([f32; 3], f32) {
         self.bound
+    }
+
+    /// The most a target delta of length 1 moves a vertex as drawn (1 unskinned): a crowd
+    /// grows [`bound`](Self::bound) by an instance's weights times their reach times it.
+    pub(super) fn stretch(&self) -> f32 {
+        self.stretch
     }
 
     /// Uploads the texture the first time any user of the asset prepares; the bytes written
@@ -330,6 +344,45 @@ fn bounding_sphere(poses: &[&[[f32; 3]]]) -> ([f32; 3], f32) {
             }
         });
     (center.into(), round_up(radius))
+}
+
+/// A skinned asset's culling bound: the sphere holding `V(0)` and `V(1)` skinned at every
+/// baked key (what the GPU draws between two keys is each vertex's blend of its skinned
+/// positions at both, and a blend of the two poses skins to the blend of their skinned
+/// positions: the sphere, convex, holds them all) and unskinned (what a renderer that does
+/// not skin, `DiscreteCrowd`, draws), and the stretch, a bound on how far a skin matrix moves
+/// a target delta of length 1: the largest sum of a vertex's absolute weights times the
+/// largest Frobenius norm of a key's joint matrix's 3×3 part (at least 1, unskinned).
+fn skinned_bound(
+    skinning: &Skinning,
+    baked: &BakedClip,
+    (v0, v1): (&[[f32; 3]], &[[f32; 3]]),
+) -> (([f32; 3], f32), f32) {
+    let mut matrices = Vec::new();
+    let mut poses = vec![v0.to_vec(), v1.to_vec()];
+    let mut norm = 0.0f32;
+    for key in 0..=baked.intervals {
+        baked.matrices_at(key as f32 / baked.intervals as f32, &mut matrices);
+        for m in matrices.chunks_exact(16) {
+            let linear = Mat3::from_cols_slice(&[&m[0..3], &m[4..7], &m[8..11]].concat());
+            let frobenius = (linear.x_axis.length_squared()
+                + linear.y_axis.length_squared()
+                + linear.z_axis.length_squared())
+            .sqrt();
+            norm = norm.max(frobenius);
+        }
+        for pose in [v0, v1] {
+            let mut skinned = Vec::with_capacity(pose.len());
+            skinning.skin.deform(&matrices, pose, &mut skinned);
+            poses.push(skinned);
+        }
+    }
+    let skin = &skinning.skin;
+    let weights = (skin.weights.chunks_exact(skin.influences.max(1)))
+        .map(|w| w.iter().map(|w| w.abs()).sum::<f32>())
+        .fold(0.0, f32::max);
+    let poses: Vec<&[[f32; 3]]> = poses.iter().map(Vec::as_slice).collect();
+    (bounding_sphere(&poses), (weights * norm).max(1.0))
 }
 
 /// `x` as an `f32` no smaller than it (NaN stays NaN).

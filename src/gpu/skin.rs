@@ -43,12 +43,13 @@ impl GpuSkin {
     /// does not fit the mesh or each other is [`GpuError::Skin`]; more than
     /// [`GPU_INFLUENCES`] influences [`GpuError::SkinInfluences`]; more than [`GPU_JOINTS`]
     /// joints [`GpuError::SkinJoints`]; keys that with the vertex skin pass one storage
-    /// binding [`GpuError::ClipTooLarge`] (checked before anything is baked).
+    /// binding [`GpuError::ClipTooLarge`] (checked before anything is baked). The baked clip
+    /// comes back too (a crowd's culling sphere holds its keys' poses).
     pub(super) fn new(
         device: &wgpu::Device,
         skinning: &Skinning,
         vertices: usize,
-    ) -> Result<GpuSkin, GpuError> {
+    ) -> Result<(GpuSkin, BakedClip), GpuError> {
         skinning
             .validate(vertices)
             .map_err(|source| GpuError::Skin { source })?;
@@ -94,11 +95,12 @@ impl GpuSkin {
             contents: bytemuck::cast_slice(&words),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        Ok(GpuSkin {
+        let skin = GpuSkin {
             intervals: intervals as u32,
             buffer,
             clip_bytes,
-        })
+        };
+        Ok((skin, baked))
     }
 
     pub(super) fn gpu_bytes(&self) -> u64 {

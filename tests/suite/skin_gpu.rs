@@ -17,6 +17,20 @@
 //!   `frame_at(t)` (the loop's wrap: `t = 0.97` draws frame 0), and renders like a static
 //!   object holding the CPU's pose, visibly unlike the bind pose. Fails if `set` does not set
 //!   the clip phase, or the vertex stage does not skin (`plain_out(local_position(..))`).
+//! * `crowd_skins_each_walker_at_its_phase`: on both crowd paths, 10 walkers at random
+//!   phases (every other one a baked key), LODs and transforms: each instance's frame is
+//!   `frame_at(t)`, and its skinned positions (`Crowd::blended_positions`, the vertex stage's
+//!   own `skinned_position`) equal the reference (`Skinning::pose_at`) within 1e-5 of the diagonal at keys, and
+//!   between keys the CPU blend of the keys within 1e-5 and the reference within the bound.
+//!   Fails if the crowd skins at phase 0 (`0.0 * poses[slot].clip_t` in `crowd_skin.wgsl`).
+//! * `crowd_of_walkers_draws_the_pixels_of_lod_objects`: 6 walkers at their own phases and
+//!   transforms drawn by a crowd and as `LodObject`s: 0 pixels differ on lavapipe (allowed: 1
+//!   in [`PIXEL_SHARE`] covered pixels: the crowd sums the weights on the GPU, the object on
+//!   the CPU), while a tenth of the clip moves thousands. Fails with the same mutant.
+//! * `culled_walkers_have_no_vertex_in_view`: a walker given root motion (its keys' poses
+//!   leave the bind poses' sphere) in rows across panning views, late in its clip: no culled
+//!   walker has a skinned vertex in view. Fails if the sphere is the bind poses'
+//!   (`skinned_bound` not taken in `GpuAsset::from_asset`).
 //! * `bad_skins_are_typed_errors`: a skin for other vertices, a clip on a node outside the
 //!   skeleton, 5 influences, 65,537 joints, keys larger than a storage binding, and the probe
 //!   of an unskinned object are refused with their `GpuError`. Fails (panics) without the
@@ -30,10 +44,13 @@ use std::sync::{Arc, OnceLock};
 use common::gpu::Gpu;
 use glam::{Mat4, Vec3, Vec4};
 use morphlod::asset::Surface;
-use morphlod::gpu::{self, GpuAsset, GpuError, LodObject, Object, ShadeMode, Topology};
+use morphlod::gpu::{
+    self, Crowd, CrowdError, CrowdPath, GpuAsset, GpuError, LodObject, Object, RenderTarget,
+    ShadeMode, Topology,
+};
 use morphlod::io::{load_morph, LoadOptions, MorphSource};
-use morphlod::morph::Material;
-use morphlod::skin::{BakedClip, SkinError, Skinning};
+use morphlod::morph::{Interpolation, Material};
+use morphlod::skin::{BakedClip, NodeProperty, SkinError, Skinning};
 use morphlod::{Asset, Builder, DeformingModel, Lod};
 
 /// The largest distance, in the pose's diagonal, between the walker drawn from its baked keys
@@ -135,6 +152,39 @@ fn farthest(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Checks positions `drawn` of the morphed pose `bind` skinned at `t`: at a baked key (`at_key`)
+/// the reference within [`ROUNDING`] of the diagonal; between keys the CPU blend of the keys
+/// (`BakedClip::matrices_at`) within [`ROUNDING`] and the reference within the blend's bound.
+fn assert_skinned(
+    drawn: &[[f32; 3]],
+    (skinning, baked): (&Skinning, &BakedClip),
+    (bind, t, at_key): (&[[f32; 3]], f32, bool),
+    case: &str,
+) {
+    let exact = skinning.pose_at(bind, t * skinning.clip.duration);
+    let diagonal = common::diagonal(&exact);
+    let off = farthest(drawn, &exact);
+    if at_key {
+        assert!(
+            off <= ROUNDING * diagonal,
+            "{case}: {off} from the reference at a key"
+        );
+        return;
+    }
+    let (mut matrices, mut mirror) = (Vec::new(), Vec::new());
+    baked.matrices_at(t, &mut matrices);
+    skinning.skin.deform(&matrices, bind, &mut mirror);
+    let from_mirror = farthest(drawn, &mirror);
+    assert!(
+        from_mirror <= ROUNDING * diagonal,
+        "{case}: {from_mirror} from the blend of its keys"
+    );
+    assert!(
+        off <= (BLEND_BOUND + ROUNDING) * diagonal,
+        "{case}: {off} from the reference between keys"
+    );
+}
+
 #[test]
 fn gpu_skinning_is_the_reference_at_keys_and_the_stated_blend_between() -> Result<(), GpuError> {
     let Some(ctx) = Gpu::new() else {
@@ -183,29 +233,13 @@ fn gpu_skinning_is_the_reference_at_keys_and_the_stated_blend_between() -> Resul
         let drawn = object.skinned_pose(device, queue, pipeline)?;
 
         let bind = morphed(&asset.v0, &blend.deltas, &weights);
-        let exact = skinning.pose_at(&bind, t * duration);
-        let diagonal = common::diagonal(&exact);
-        let off = farthest(&drawn.positions, &exact);
         let case = format!("case {case}: t = {t}, weights {weights:?}");
-        if at_key {
-            assert!(
-                off <= ROUNDING * diagonal,
-                "{case}: {off} from the reference at a key"
-            );
-        } else {
-            let mut mirror = Vec::new();
-            baked.matrices_at(t, &mut matrices);
-            skinning.skin.deform(&matrices, &bind, &mut mirror);
-            let from_mirror = farthest(&drawn.positions, &mirror);
-            assert!(
-                from_mirror <= ROUNDING * diagonal,
-                "{case}: {from_mirror} from the blend of its keys"
-            );
-            assert!(
-                off <= (BLEND_BOUND + ROUNDING) * diagonal,
-                "{case}: {off} from the reference between keys"
-            );
-        }
+        assert_skinned(
+            &drawn.positions,
+            (skinning, &baked),
+            (&bind, t, at_key),
+            &case,
+        );
 
         // The normals: the same skin matrix on the morphed normal.
         let normals = morphed(&surface.n0, &surface.normal_deltas, &weights);
@@ -399,5 +433,285 @@ fn bad_skins_are_typed_errors() -> Result<(), GpuError> {
         plain.skinned_pose(device, &ctx.ctx.queue, &ctx.pipeline),
         Err(GpuError::NotSkinned)
     ));
+    Ok(())
+}
+
+/// The crowd paths this device draws: first instance where it has `INDIRECT_FIRST_INSTANCE`,
+/// base vertex everywhere.
+fn crowd_paths(ctx: &Gpu) -> Vec<CrowdPath> {
+    let mut paths = vec![CrowdPath::BaseVertex];
+    if ctx.ctx.first_instance_enabled() {
+        paths.insert(0, CrowdPath::FirstInstance);
+    }
+    paths
+}
+
+/// An empty crowd on `path` drawing into a `RenderTarget`.
+fn crowd_on(ctx: &Gpu, path: CrowdPath) -> Result<Crowd, CrowdError> {
+    Crowd::with_path(
+        &ctx.ctx.device,
+        RenderTarget::COLOR_FORMAT,
+        Some(RenderTarget::DEPTH_FORMAT),
+        path,
+    )
+}
+
+/// A transform that puts the walking walker (the box of its poses at 4 phases; skinned poses
+/// lie elsewhere than the bind pose) into a box of side `size` centred at `at`, turned by
+/// `angle` about the view's y axis.
+fn placed(at: Vec3, size: f32, angle: f32) -> Mat4 {
+    let poses: Vec<[f32; 3]> = [0.0, 0.25, 0.5, 0.75]
+        .iter()
+        .flat_map(|&t| walker().pose_at(t))
+        .collect();
+    let (lo, hi) = morphlod::mesh::bounds(&poses).expect("vertices");
+    let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
+    Mat4::from_translation(at)
+        * Mat4::from_rotation_y(angle)
+        * Mat4::from_scale(Vec3::splat(size / (hi - lo).max_element()))
+        * Mat4::from_translation(-(lo + hi) * 0.5)
+}
+
+#[test]
+fn crowd_skins_each_walker_at_its_phase() -> Result<(), Box<dyn std::error::Error>> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.ctx.device, &ctx.ctx.queue);
+    let asset = walker();
+    let skinning = asset.skin.as_ref().expect("skinned");
+    let blend = asset.blend.as_ref().expect("morph targets");
+    let model = Arc::new(DeformingModel::new(asset)?);
+    let shared = GpuAsset::from_asset(device, asset)?;
+    let intervals = shared.clip_intervals().expect("skinned") as usize;
+    let baked = BakedClip::bake(skinning, intervals);
+    for path in crowd_paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        let walkers = crowd.add_asset(device, Arc::clone(&shared), Arc::clone(&model), 10)?;
+        // Random phases (every other one a baked key), LODs and transforms.
+        let mut state = 52;
+        let mut moves = Vec::new();
+        for i in 0..10 {
+            let t = if i % 2 == 0 {
+                (random(&mut state) * (intervals + 1) as f64).floor() as f32 / intervals as f32
+            } else {
+                random(&mut state) as f32
+            };
+            let at = Vec3::new(random(&mut state) as f32, 0.0, -(random(&mut state) as f32));
+            let id = crowd.add(walkers, placed(at, 1.0, 6.0 * random(&mut state) as f32))?;
+            moves.push((id, t, Lod::Fraction(random(&mut state) as f32)));
+        }
+        crowd.set(&moves)?;
+        crowd.prepare(device, queue);
+        for (i, &(id, t, _)) in moves.iter().enumerate() {
+            let case = format!("{path:?}, walker {i}: t = {t}");
+            assert_eq!(crowd.at(id)?.frame, model.frame_at(t)?, "{case}");
+            let drawn = crowd.blended_positions(device, queue, id)?;
+            let mut weights = Vec::new();
+            blend.track.offsets_at(t, &mut weights);
+            let bind = morphed(&asset.v0, &blend.deltas, &weights);
+            assert_skinned(&drawn, (skinning, &baked), (&bind, t, i % 2 == 0), &case);
+        }
+    }
+    Ok(())
+}
+
+/// Pixels the crowd's image may differ in from the objects': the crowd sums the morph
+/// weights on the GPU, an object on the CPU, so a vertex moves by float rounding and a
+/// silhouette pixel here and there flips (the walk itself moves thousands).
+const PIXEL_SHARE: usize = 200;
+
+#[test]
+fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std::error::Error>> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue, pipeline) = (&ctx.ctx.device, &ctx.ctx.queue, &ctx.pipeline);
+    let asset = walker();
+    let model = Arc::new(DeformingModel::new(asset)?);
+    let shared = GpuAsset::from_asset(device, asset)?;
+    let view_proj = gpu::camera::fit_to_bounds(
+        [-1.7, -1.3, -0.6],
+        [1.7, 1.3, 0.6],
+        Vec3::new(0.1, -0.2, -1.0),
+        1.0,
+        gpu::camera::Projection::Perspective { vertical_fov: 0.6 },
+    )?
+    .view_proj();
+    let target = ctx.target(256, 256, wgpu::Color::BLUE);
+    let render = |draw: &dyn Fn(&mut wgpu::RenderPass<'_>)| -> image::RgbaImage {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = target.begin_pass(&mut encoder);
+            draw(&mut pass);
+        }
+        queue.submit([encoder.finish()]);
+        target
+            .read_image(device, queue)
+            .expect("the image reads back")
+    };
+    let differing = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+    };
+    for path in crowd_paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        crowd.set_view_proj(view_proj);
+        let walkers = crowd.add_asset(device, Arc::clone(&shared), Arc::clone(&model), 6)?;
+        let mut objects = Vec::new();
+        let mut moves = Vec::new();
+        for i in 0..6 {
+            let at = Vec3::new(
+                1.1 * (i as f32 % 3.0 - 1.0),
+                1.2 * ((i / 3) as f32 - 0.5),
+                0.0,
+            );
+            let transform = placed(at, 1.1, 0.7 * i as f32 - 1.5);
+            let t = (0.17 + 0.29 * i as f32).fract();
+            let id = crowd.add(walkers, transform)?;
+            let mut object =
+                LodObject::with_asset(device, pipeline, Arc::clone(&shared), Arc::clone(&model))?;
+            object.set_model(transform);
+            object.set_view_proj(view_proj);
+            object.set(t, Lod::Fraction(0.3))?;
+            object.prepare(queue);
+            objects.push(object);
+            moves.push((id, t, Lod::Fraction(0.3)));
+        }
+        crowd.set(&moves)?;
+        crowd.prepare(device, queue);
+        let image = render(&|pass| crowd.render(pass));
+        let expected = render(&|pass| {
+            for object in &objects {
+                object.render(pass);
+            }
+        });
+        let covered = expected
+            .pixels()
+            .filter(|p| p.0 != [0, 0, 255, 255])
+            .count();
+        let mismatch = differing(&image, &expected);
+        // The objects a tenth of the clip on: what the walk moves in a tenth.
+        for (object, &(_, t, lod)) in objects.iter_mut().zip(&moves) {
+            object.set((t + 0.1).fract(), lod)?;
+            object.prepare(queue);
+        }
+        let on = render(&|pass| {
+            for object in &objects {
+                object.render(pass);
+            }
+        });
+        let moved = differing(&on, &expected);
+        println!("{path:?}: {mismatch} of {covered} covered pixels differ; a tenth of the clip moves {moved}");
+        if mismatch * PIXEL_SHARE > covered {
+            common::gpu::fail_with_images(&format!("walkers, {path:?}"), &image, &expected);
+        }
+        assert!(
+            covered > 2000 && moved > 1000,
+            "{path:?}: the walkers cover {covered} pixels, a tenth of the clip moves {moved}"
+        );
+    }
+    Ok(())
+}
+
+/// The walker walking off (root motion): its root-most translated joint moved, over the
+/// clip, along its own x by what moves the skinned pose by 3 times its diagonal, so that the
+/// keys' poses leave the bind poses' sphere.
+fn walking_off() -> Asset {
+    let shifted = |distance: f32| {
+        let mut asset = walker().clone();
+        let skinning = asset.skin.as_mut().expect("skinned");
+        let duration = skinning.clip.duration;
+        let channel = (skinning.clip.channels.iter_mut())
+            .filter(|c| c.track.property == NodeProperty::Translation)
+            .min_by_key(|c| c.node)
+            .expect("a translation channel");
+        assert_eq!(channel.track.interpolation, Interpolation::Linear);
+        let keys = channel.track.values.chunks_exact_mut(3);
+        for (time, value) in channel.track.times.iter().zip(keys) {
+            value[0] += distance * time / duration;
+        }
+        asset
+    };
+    let end = |asset: &Asset| Vec3::from(asset.pose_at(1.0)[0]);
+    let unit = end(&shifted(1.0)).distance(end(walker()));
+    shifted(3.0 * common::diagonal(&walker().pose_at(1.0)) as f32 / unit)
+}
+
+#[test]
+fn culled_walkers_have_no_vertex_in_view() -> Result<(), Box<dyn std::error::Error>> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.ctx.device, &ctx.ctx.queue);
+    let asset = &walking_off();
+    let model = Arc::new(DeformingModel::new(asset)?);
+    let shared = GpuAsset::from_asset(device, asset)?;
+    let count = 41;
+    for path in crowd_paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        let walkers = crowd.add_asset(device, Arc::clone(&shared), Arc::clone(&model), count)?;
+        // A row of walkers along x, from -6 to 6, 0.3 apart, at depths in -0.5..0.5: some lie
+        // across each side of every view, and a view sees about a third of them.
+        let mut placed_walkers = Vec::new();
+        for i in 0..count {
+            let depth = (0.618 * i as f32).fract() - 0.5;
+            let transform = placed(
+                Vec3::new(0.3 * i as f32 - 6.0, 0.0, depth),
+                1.0,
+                0.5 * i as f32,
+            );
+            placed_walkers.push((crowd.add(walkers, transform)?, transform));
+        }
+        // Walkers across a view's sides: where a sphere that misses the walk fails.
+        let mut edge = 0;
+        for (view, pan) in [0.0f32, 3.3, -4.1].into_iter().enumerate() {
+            let view_proj = gpu::camera::fit_to_bounds(
+                [pan - 2.0, -0.6, -0.6],
+                [pan + 2.0, 0.6, 0.6],
+                -Vec3::Z,
+                1.0,
+                gpu::camera::Projection::Perspective { vertical_fov: 0.6 },
+            )?
+            .view_proj();
+            crowd.set_view_proj(view_proj);
+            let moves: Vec<_> = (placed_walkers.iter().enumerate())
+                .map(|(i, &(id, _))| {
+                    // Late in the clip: walked off from the bind pose by 1.5 to 3 diagonals.
+                    let t = 0.5 + 0.5 * (0.37 * (i + view) as f32).fract();
+                    (id, t, Lod::Fraction(0.4))
+                })
+                .collect();
+            crowd.set(&moves)?;
+            crowd.prepare(device, queue);
+            let mut culled = 0;
+            for (i, &(id, transform)) in placed_walkers.iter().enumerate() {
+                let drawn = crowd.blended_positions(device, queue, id)?;
+                let inside = |p: &[f32; 3]| {
+                    let clip = view_proj * transform * Vec3::from(*p).extend(1.0);
+                    clip.x.abs() <= clip.w
+                        && clip.y.abs() <= clip.w
+                        && (0.0..=clip.w).contains(&clip.z)
+                };
+                let seen = drawn.iter().filter(|p| inside(p)).count();
+                edge += usize::from(seen > 0 && seen < drawn.len());
+                if crowd.at(id)?.culled {
+                    culled += 1;
+                    assert_eq!(
+                        seen, 0,
+                        "{path:?}, view {view}: walker {i} culled with a vertex in view"
+                    );
+                }
+            }
+            println!("{path:?}, view {view}: {culled} of {count} culled");
+            assert!(
+                (5..count as usize - 5).contains(&culled),
+                "{path:?}, view {view}: {culled} culled"
+            );
+        }
+        assert!(
+            edge >= 4,
+            "{path:?}: {edge} walkers across the views' sides"
+        );
+    }
     Ok(())
 }

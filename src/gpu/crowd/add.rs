@@ -80,7 +80,12 @@ impl Crowd {
             usage: wgpu::BufferUsages::COPY_SRC,
         });
         let mesh = mesh_buffer(device, &gpu);
-        let variant = Variant::new(self.path, gpu.has_surface(), gpu.target_count());
+        let variant = Variant::new(
+            self.path,
+            gpu.has_surface(),
+            gpu.target_count(),
+            gpu.is_skinned(),
+        );
         let render = self.pipeline.render_for(device, variant);
         let id = self.assets.len() as u32;
         let capacity = capacity as usize;
@@ -117,10 +122,12 @@ impl Crowd {
         Ok(AssetId(id))
     }
 
+    /// The bind group of an asset drawn as `variant` (a skinned one binds the asset's skin
+    /// too).
     pub(super) fn bind_group(
         &self,
         device: &wgpu::Device,
-        gpu: &GpuAsset,
+        (gpu, variant): (&GpuAsset, Variant),
         mesh: &wgpu::Buffer,
         (placements, poses): (&wgpu::Buffer, &wgpu::Buffer),
     ) -> wgpu::BindGroup {
@@ -165,9 +172,15 @@ impl Crowd {
             binding: 10,
             resource: poses.as_entire_binding(),
         });
+        if let Some(skin) = gpu.skin().filter(|_| variant.skinned) {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 11,
+                resource: skin.buffer.as_entire_binding(),
+            });
+        }
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("crowd asset"),
-            layout: &self.pipeline.layout,
+            layout: &self.pipeline.module(variant).layout,
             entries: &entries,
         })
     }

@@ -54,20 +54,22 @@ impl Frustum {
 }
 
 /// Whether the instance of `block` and `pose` of an asset bounded by `bound` (object space),
-/// whose targets move a vertex at most `reach[k]` per unit weight, lies wholly outside
-/// `frustum`. A model matrix with a projective row is never culled.
+/// whose targets move a vertex at most `reach[k]` per unit weight before the skin and
+/// `stretch` times that after it (1 unskinned), lies wholly outside `frustum`. A model matrix
+/// with a projective row is never culled.
 pub(super) fn outside(
     frustum: &Frustum,
     (block, pose): (&InstanceBlock, &PoseBlock),
     (center, radius): ([f32; 3], f32),
-    reach: &[f32],
+    (reach, stretch): (&[f32], f32),
 ) -> bool {
     let model = Mat4::from_cols_array_2d(&block.model);
     if model.row(3) != Vec4::W {
         return false;
     }
-    // The vertex stage adds the slots' weighted deltas to the blend of the poses.
-    let grown = (0..WEIGHT_SLOTS)
+    // The vertex stage adds the slots' weighted deltas to the blend of the poses (and skins
+    // the sum).
+    let reached = (0..WEIGHT_SLOTS)
         .filter(|&slot| pose.weights[slot] != 0.0)
         .map(|slot| {
             pose.weights[slot].abs()
@@ -76,7 +78,8 @@ pub(super) fn outside(
                     .copied()
                     .unwrap_or(f32::NAN)
         })
-        .fold(radius, |r, d| r + d);
+        .fold(0.0, |r, d| r + d);
+    let grown = radius + stretch * reached;
     // The longest axis the transform scales by bounds the sphere's image.
     let scale = [model.x_axis, model.y_axis, model.z_axis]
         .iter()
@@ -97,6 +100,7 @@ impl CrowdAsset {
             .targets()
             .map_or(&[][..], |targets| targets.reach.as_slice());
         let bound = self.gpu.bound();
+        let reach = (reach, self.gpu.stretch());
         let instances = self.blocks.iter().zip(&self.poses);
         for (member, instance) in self.members.iter_mut().zip(instances) {
             let Some(member) = member else {
@@ -134,7 +138,7 @@ mod tests {
 
     /// Whether the instance of `block` at rest (no weights) is out.
     fn out(frustum: &Frustum, block: &InstanceBlock, bound: ([f32; 3], f32)) -> bool {
-        outside(frustum, (block, &PoseBlock::default()), bound, &[])
+        outside(frustum, (block, &PoseBlock::default()), bound, (&[], 1.0))
     }
 
     /// A unit sphere at x = 4 is 3 beyond the plane x = 1: out. Its transform's scale, its
@@ -155,8 +159,11 @@ mod tests {
         let mut weighted = PoseBlock::default();
         weighted.set_weights(&[0.0, -0.5]);
         let weighted = (&at(4.0, 1.0), &weighted);
-        assert!(!outside(&frustum, weighted, bound, &[0.0, 5.0]));
-        assert!(outside(&frustum, weighted, bound, &[5.0, 0.0]));
+        assert!(!outside(&frustum, weighted, bound, (&[0.0, 5.0], 1.0)));
+        assert!(outside(&frustum, weighted, bound, (&[5.0, 0.0], 1.0)));
+        // Reach 1 grows it to 1.5 (out); a skin that stretches the deltas 5 times, to 3.5.
+        assert!(outside(&frustum, weighted, bound, (&[0.0, 1.0], 1.0)));
+        assert!(!outside(&frustum, weighted, bound, (&[0.0, 1.0], 5.0)));
         // Grazing: a sphere whose surface is on the plane, or just within the slack, is kept.
         assert!(!out(&frustum, &at(2.0, 1.0), bound));
         assert!(!out(&frustum, &at(2.0 + 1e-4, 1.0), bound));

@@ -341,6 +341,7 @@ impl DiscreteCrowd {
             CrowdPath::FirstInstance,
             gpu.has_surface(),
             gpu.target_count(),
+            false,
         );
         let pipeline = base.pipeline.levels_pipeline(device, variant);
         let mut indices: Vec<u32> = Vec::new();
@@ -369,7 +370,7 @@ impl DiscreteCrowd {
             })
         });
         let mesh = mesh_buffer(device, &gpu);
-        let bind_group = base.bind_group(device, &gpu, &mesh, (&placements, &poses));
+        let bind_group = base.bind_group(device, (&gpu, variant), &mesh, (&placements, &poses));
         let mut first = vec![capacity; levels.levels.len() + 1];
         first[0] = 0;
         Ok(DiscreteCrowd {
@@ -423,7 +424,8 @@ impl DiscreteCrowd {
         let view_proj = glam::Mat4::from_cols_array_2d(&self.base.scene.view_proj);
         let frustum = self.culling.then(|| Frustum::new(view_proj));
         let reach = (self.gpu.targets()).map_or(&[][..], |targets| targets.reach.as_slice());
-        let bound = self.gpu.bound();
+        // A skinned asset's bound holds its bind poses too (drawn here unskinned).
+        let (bound, reach) = (self.gpu.bound(), (reach, self.gpu.stretch()));
         // In pieces, a few a thread (the calling thread takes pieces too): the poses, then
         // which instances are out of view.
         let per = par::piece_len(moves.len(), 64);

@@ -18,6 +18,15 @@ pub const CROWD_WGSL: &str = concat!(
     include_str!("../../../shaders/crowd.wgsl")
 );
 
+/// The WGSL source of a crowd's skinned assets: [`CROWD_WGSL`], `shaders/skin.wgsl` and
+/// `shaders/crowd_skin.wgsl` (one module more, made on the first skinned asset).
+pub const CROWD_SKIN_WGSL: &str = concat!(
+    include_str!("../../../shaders/shade.wgsl"),
+    include_str!("../../../shaders/crowd.wgsl"),
+    include_str!("../../../shaders/skin.wgsl"),
+    include_str!("../../../shaders/crowd_skin.wgsl")
+);
+
 pub use crate::gpu::scatter::SCATTER_WGSL;
 
 /// The WGSL source of the tail expansion (`shaders/tail.wgsl`).
@@ -56,8 +65,8 @@ pub(super) struct InstanceBlock {
     pub(super) color: [f32; 4],
 }
 
-/// One instance's pose (`Pose` in `crowd.wgsl`): its 8 weight slots and their targets, and
-/// `t`; what a frame uploads per moved instance: 48 bytes.
+/// One instance's pose (`Pose` in `crowd.wgsl`): its 8 weight slots and their targets, `t`
+/// and a skinned asset's clip phase; what a frame uploads per moved instance: 48 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub(super) struct PoseBlock {
@@ -65,7 +74,8 @@ pub(super) struct PoseBlock {
     /// One target number per byte, slot 0 in the low byte of `targets[0]`.
     pub(super) targets: [u32; 2],
     pub(super) t: f32,
-    pub(super) _pad: u32,
+    /// The clip's phase (`crowd_skin.wgsl` skins at it; unread without a skin).
+    pub(super) clip_t: f32,
 }
 
 impl InstanceBlock {
@@ -88,7 +98,8 @@ impl InstanceBlock {
 
 impl PoseBlock {
     /// Sets the pose at time `t` (clamped, not NaN): for an asset with a weight `track`, its
-    /// weights at `t` in the slots and `t = 0`; else `t` and no weights. `scratch` holds the
+    /// weights at `t` in the slots and `t = 0`; else `t` and no weights. The clip phase is `t`
+    /// (as [`LodObject::set`](crate::gpu::LodObject::set) plays a skinned asset's clip). `scratch` holds the
     /// weights on the way (one per thread, not one allocation per instance and frame).
     pub(super) fn set_pose(
         &mut self,
@@ -96,6 +107,7 @@ impl PoseBlock {
         t: f32,
         scratch: &mut Vec<f32>,
     ) {
+        self.clip_t = t;
         match track {
             Some(track) => {
                 track.offsets_at(t, scratch);
@@ -174,17 +186,20 @@ pub(super) struct Variant {
     surface: bool,
     /// Weight slots summed: 0 (no targets), 4 (at most 4 targets), 8.
     slots: u8,
+    /// Skins after the morph (`crowd_skin.wgsl`'s entry points, a skinned asset).
+    pub(super) skinned: bool,
 }
 
 impl Variant {
     /// The variant of an asset with or without a surface and with `targets` morph targets.
     /// An asset of at most 4 targets fills only slots 0..4 ([`InstanceBlock::set_weights`]
     /// keeps the nonzero weights in ascending target order), so the first 4 slots are its
-    /// whole sum.
-    pub(super) fn new(path: CrowdPath, surface: bool, targets: usize) -> Variant {
+    /// whole sum. A `skinned` variant draws with the same entry point's skinned twin.
+    pub(super) fn new(path: CrowdPath, surface: bool, targets: usize, skinned: bool) -> Variant {
         Variant {
             path,
             surface,
+            skinned,
             slots: match targets {
                 0 => 0,
                 1..=4 => 4,
@@ -193,22 +208,44 @@ impl Variant {
         }
     }
 
-    /// The vertex entry point.
+    /// The vertex entry point: per path, surface and slots the unskinned one and its skinned
+    /// twin.
     pub(super) fn entry_point(self) -> &'static str {
         use CrowdPath::{BaseVertex, FirstInstance};
-        match (self.path, self.surface, self.slots) {
-            (BaseVertex, true, 0) => "vs_pull_surface",
-            (BaseVertex, true, 4) => "vs_pull_surface_targets4",
-            (BaseVertex, true, _) => "vs_pull_surface_targets8",
-            (BaseVertex, false, 0) => "vs_pull_plain",
-            (BaseVertex, false, 4) => "vs_pull_plain_targets4",
-            (BaseVertex, false, _) => "vs_pull_plain_targets8",
-            (FirstInstance, true, 0) => "vs_fetch_surface",
-            (FirstInstance, true, 4) => "vs_fetch_surface_targets4",
-            (FirstInstance, true, _) => "vs_fetch_surface_targets8",
-            (FirstInstance, false, 0) => "vs_fetch_plain",
-            (FirstInstance, false, 4) => "vs_fetch_plain_targets4",
-            (FirstInstance, false, _) => "vs_fetch_plain_targets8",
+        let [plain, skinned] = match (self.path, self.surface, self.slots) {
+            (BaseVertex, true, 0) => ["vs_pull_surface", "vs_pull_surface_skinned"],
+            (BaseVertex, true, 4) => [
+                "vs_pull_surface_targets4",
+                "vs_pull_surface_targets4_skinned",
+            ],
+            (BaseVertex, true, _) => [
+                "vs_pull_surface_targets8",
+                "vs_pull_surface_targets8_skinned",
+            ],
+            (BaseVertex, false, 0) => ["vs_pull_plain", "vs_pull_plain_skinned"],
+            (BaseVertex, false, 4) => ["vs_pull_plain_targets4", "vs_pull_plain_targets4_skinned"],
+            (BaseVertex, false, _) => ["vs_pull_plain_targets8", "vs_pull_plain_targets8_skinned"],
+            (FirstInstance, true, 0) => ["vs_fetch_surface", "vs_fetch_surface_skinned"],
+            (FirstInstance, true, 4) => [
+                "vs_fetch_surface_targets4",
+                "vs_fetch_surface_targets4_skinned",
+            ],
+            (FirstInstance, true, _) => [
+                "vs_fetch_surface_targets8",
+                "vs_fetch_surface_targets8_skinned",
+            ],
+            (FirstInstance, false, 0) => ["vs_fetch_plain", "vs_fetch_plain_skinned"],
+            (FirstInstance, false, 4) => {
+                ["vs_fetch_plain_targets4", "vs_fetch_plain_targets4_skinned"]
+            }
+            (FirstInstance, false, _) => {
+                ["vs_fetch_plain_targets8", "vs_fetch_plain_targets8_skinned"]
+            }
+        };
+        if self.skinned {
+            skinned
+        } else {
+            plain
         }
     }
 
@@ -222,12 +259,60 @@ impl Variant {
     }
 }
 
-/// The pipelines and layouts a crowd draws and edits with. Render pipelines are made when the
-/// first asset that needs their entry point is added.
-pub(super) struct CrowdPipeline {
+/// One shader module of a crowd with its bind group layout (group 0), its render pipelines'
+/// layout and its probe: `crowd.wgsl`'s, and the skinned assets' (`crowd_skin.wgsl`).
+pub(super) struct CrowdModule {
     pub(super) layout: wgpu::BindGroupLayout,
     render_layout: wgpu::PipelineLayout,
     shader: wgpu::ShaderModule,
+    pub(super) probe: wgpu::ComputePipeline,
+}
+
+impl CrowdModule {
+    /// `source` compiled with `entries` as group 0 and the probe's group 1; its probe
+    /// `probe_entry`.
+    fn new(
+        device: &wgpu::Device,
+        (label, source): (&str, &str),
+        entries: &[wgpu::BindGroupLayoutEntry],
+        probe_layout: &wgpu::BindGroupLayout,
+        probe_entry: &str,
+    ) -> CrowdModule {
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(label),
+            entries,
+        });
+        let render_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let probe = compute(
+            device,
+            label,
+            &[&layout, probe_layout],
+            &shader,
+            probe_entry,
+        );
+        CrowdModule {
+            layout,
+            render_layout,
+            shader,
+            probe,
+        }
+    }
+}
+
+/// The pipelines and layouts a crowd draws and edits with. Render pipelines are made when the
+/// first asset that needs their entry point is added, the skinned module with the first
+/// skinned asset.
+pub(super) struct CrowdPipeline {
+    pub(super) plain: CrowdModule,
+    skinned: Option<CrowdModule>,
     /// Colour and depth formats and culling every render pipeline of this crowd uses.
     formats: Formats,
     renders: Vec<(Variant, wgpu::RenderPipeline)>,
@@ -236,7 +321,6 @@ pub(super) struct CrowdPipeline {
     pub(super) tail_layout: wgpu::BindGroupLayout,
     pub(super) tail: wgpu::ComputePipeline,
     pub(super) probe_layout: wgpu::BindGroupLayout,
-    pub(super) probe: wgpu::ComputePipeline,
 }
 
 impl CrowdPipeline {
@@ -246,20 +330,6 @@ impl CrowdPipeline {
         depth: Option<wgpu::TextureFormat>,
         cull_mode: Option<wgpu::Face>,
     ) -> CrowdPipeline {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("crowd.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(CROWD_WGSL.into()),
-        });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("crowd asset"),
-            entries: &crowd_entries(),
-        });
-        let render_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("crowd"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-
         let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("crowd probe"),
             entries: &[
@@ -276,11 +346,11 @@ impl CrowdPipeline {
                 compute_storage(1, false, 4),
             ],
         });
-        let probe = compute(
+        let plain = CrowdModule::new(
             device,
-            "crowd probe",
-            &[&layout, &probe_layout],
-            &shader,
+            ("crowd.wgsl", CROWD_WGSL),
+            &crowd_entries(false),
+            &probe_layout,
             "cs_positions",
         );
         let tail_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -303,9 +373,8 @@ impl CrowdPipeline {
             "expand_tails",
         );
         CrowdPipeline {
-            layout,
-            render_layout,
-            shader,
+            plain,
+            skinned: None,
             formats: Formats {
                 color,
                 depth,
@@ -316,7 +385,31 @@ impl CrowdPipeline {
             tail_layout,
             tail,
             probe_layout,
-            probe,
+        }
+    }
+
+    /// The module `variant` draws with (the skinned one made now if no skinned asset used it
+    /// before).
+    fn module_for(&mut self, device: &wgpu::Device, variant: Variant) -> &CrowdModule {
+        if !variant.skinned {
+            return &self.plain;
+        }
+        self.skinned.get_or_insert_with(|| {
+            CrowdModule::new(
+                device,
+                ("crowd_skin.wgsl", CROWD_SKIN_WGSL),
+                &crowd_entries(true),
+                &self.probe_layout,
+                "cs_skinned_positions",
+            )
+        })
+    }
+
+    /// The module of `variant`, made by [`render_for`](Self::render_for).
+    pub(super) fn module(&self, variant: Variant) -> &CrowdModule {
+        match (variant.skinned, &self.skinned) {
+            (true, Some(skinned)) => skinned,
+            _ => &self.plain,
         }
     }
 
@@ -331,18 +424,17 @@ impl CrowdPipeline {
             CrowdPath::FirstInstance => vertex_buffers(variant.surface),
             CrowdPath::BaseVertex => Vec::new(),
         };
+        let formats = self.formats;
+        let module = self.module_for(device, variant);
+        let entry = variant.entry_point();
         let render = render_pipeline(
             device,
-            &self.render_layout,
-            &self.shader,
-            (
-                variant.entry_point(),
-                variant.entry_point(),
-                variant.fragment(),
-            ),
+            &module.render_layout,
+            &module.shader,
+            (entry, entry, variant.fragment()),
             &buffers,
             wgpu::PrimitiveTopology::TriangleStrip,
-            self.formats,
+            formats,
         );
         self.renders.push((variant, render));
         self.renders.len() - 1
@@ -364,15 +456,12 @@ impl CrowdPipeline {
         device: &wgpu::Device,
         variant: Variant,
     ) -> wgpu::RenderPipeline {
+        let entry = variant.entry_point();
         render_pipeline(
             device,
-            &self.render_layout,
-            &self.shader,
-            (
-                variant.entry_point(),
-                variant.entry_point(),
-                variant.fragment(),
-            ),
+            &self.plain.render_layout,
+            &self.plain.shader,
+            (entry, entry, variant.fragment()),
             &vertex_buffers(variant.surface),
             wgpu::PrimitiveTopology::TriangleList,
             self.formats,
@@ -403,8 +492,9 @@ fn compute(
     })
 }
 
-/// Bindings 0..=10 of `crowd.wgsl`'s group 0.
-fn crowd_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+/// Bindings 0..=10 of `crowd.wgsl`'s group 0, and where `skinned` binding 11
+/// (`crowd_skin.wgsl`'s `skin_data`).
+fn crowd_entries(skinned: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
     let all =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
     let pulled = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
@@ -437,6 +527,9 @@ fn crowd_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     entries.extend((3..8).map(|binding| storage(binding, 4)));
     entries.extend(texture_entries(8));
     entries.push(storage(10, size_of::<PoseBlock>()));
+    if skinned {
+        entries.push(storage(11, 16));
+    }
     entries
 }
 
@@ -446,10 +539,12 @@ mod tests {
     use crate::gpu::pipeline::validated_wgsl;
 
     /// The crowd's shaders parse and validate without a GPU, the Rust blocks have the WGSL
-    /// structs' sizes, and every entry point a crowd may pick is there.
+    /// structs' sizes, and every entry point a crowd may pick is there (the skinned ones in
+    /// the skinned module).
     #[test]
     fn crowd_wgsl_validates_and_blocks_match() {
         let crowd = validated_wgsl(CROWD_WGSL);
+        let skinned = validated_wgsl(CROWD_SKIN_WGSL);
         validated_wgsl(SCATTER_WGSL);
         let tail = validated_wgsl(TAIL_WGSL);
         let job = tail
@@ -478,25 +573,31 @@ mod tests {
         assert_eq!(size("Placement"), size_of::<InstanceBlock>());
         assert_eq!(size("Pose"), size_of::<PoseBlock>());
         // Every variant's vertex entry point exists.
-        for path in [CrowdPath::FirstInstance, CrowdPath::BaseVertex] {
-            for surface in [false, true] {
-                for targets in [0, 3, 4, 5, 8] {
-                    let variant = Variant::new(path, surface, targets);
-                    for (entry, stage) in [
-                        (variant.entry_point(), naga::ShaderStage::Vertex),
-                        (variant.fragment(), naga::ShaderStage::Fragment),
-                    ] {
-                        assert!(
-                            crowd
-                                .entry_points
-                                .iter()
-                                .any(|e| e.name == entry && e.stage == stage),
-                            "crowd.wgsl has no {stage:?} entry point {entry}"
-                        );
-                    }
+        let cases = [CrowdPath::FirstInstance, CrowdPath::BaseVertex]
+            .into_iter()
+            .flat_map(|path| [false, true].map(|surface| (path, surface)))
+            .flat_map(|(path, surface)| [0, 3, 4, 5, 8].map(|targets| (path, surface, targets)));
+        for (path, surface, targets) in cases {
+            for (skin, module) in [(false, &crowd), (true, &skinned)] {
+                let variant = Variant::new(path, surface, targets, skin);
+                for (entry, stage) in [
+                    (variant.entry_point(), naga::ShaderStage::Vertex),
+                    (variant.fragment(), naga::ShaderStage::Fragment),
+                ] {
+                    assert!(
+                        module
+                            .entry_points
+                            .iter()
+                            .any(|e| e.name == entry && e.stage == stage),
+                        "the crowd's shader has no {stage:?} entry point {entry}"
+                    );
                 }
             }
         }
+        assert!(skinned
+            .entry_points
+            .iter()
+            .any(|e| e.name == "cs_skinned_positions"));
     }
 
     #[test]

@@ -228,7 +228,8 @@ impl Crowd {
                         mapped_at_creation: false,
                     })
                 });
-            let group = self.bind_group(device, &a.gpu, &a.mesh, (&placements, &poses));
+            let group =
+                self.bind_group(device, (&a.gpu, a.variant), &a.mesh, (&placements, &poses));
             let a = &mut self.assets[i];
             upload.write(queue, &placements, 0, bytemuck::cast_slice(&a.blocks));
             upload.write(queue, &poses, 0, bytemuck::cast_slice(&a.poses));

@@ -161,8 +161,9 @@ impl Crowd {
 
     /// The positions the vertex stage blends for an instance (object space, before its
     /// transform), computed on the GPU by the same WGSL function (`local_position`) and read
-    /// back: how a test checks the GPU weight sum against the CPU. Uses the blocks as of the
-    /// last [`prepare`](Self::prepare).
+    /// back: how a test checks the GPU weight sum against the CPU. A skinned asset's are its
+    /// skinned positions (`crowd_skin.wgsl`'s `skinned_position`: the morph, then the skin at
+    /// the instance's clip phase). Uses the blocks as of the last [`prepare`](Self::prepare).
     pub fn blended_positions(
         &self,
         device: &wgpu::Device,
@@ -202,7 +203,7 @@ impl Crowd {
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipeline.probe);
+            pass.set_pipeline(&self.pipeline.module(a.variant).probe);
             pass.set_bind_group(0, bind_group, &[]);
             pass.set_bind_group(1, &group, &[]);
             pass.dispatch_workgroups(n.div_ceil(64), 1, 1);

@@ -54,6 +54,7 @@ impl Crowd {
             let spares = &a.spares;
             let reach = (a.gpu.targets()).map_or(&[][..], |targets| targets.reach.as_slice());
             let bound = a.gpu.bound();
+            let reach = (reach, a.gpu.stretch());
             let prepares = a.prepares;
             let lists = a.waiting.index_runs.len();
             // In parallel, in pieces of consecutive slots (a few a thread, so that pieces
