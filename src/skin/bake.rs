@@ -57,17 +57,14 @@ impl BakedClip {
     pub fn bake(skinning: &Skinning, intervals: usize) -> BakedClip {
         let intervals = intervals.max(1);
         let joints = skinning.skin.joint_count();
-        let mut rows = Vec::with_capacity(Self::floats(intervals, joints) as usize);
-        let mut matrices = Vec::new();
-        for i in 0..=intervals {
-            // The time the reference poses `t_i = i / N` at (`Asset::pose_at`: t · duration).
-            let t = i as f32 / intervals as f32;
-            skinning.joint_matrices(t * skinning.clip.duration, &mut matrices);
-            for m in matrices.chunks_exact(16) {
-                // Column-major: row r is m[r], m[4 + r], m[8 + r], m[12 + r].
-                rows.extend((0..3).flat_map(|r| [m[r], m[4 + r], m[8 + r], m[12 + r]]));
-            }
-        }
+        // The times the reference poses `t_i = i / N` at (`Asset::pose_at`: t · duration).
+        let times: Vec<f32> = (0..=intervals)
+            .map(|i| i as f32 / intervals as f32 * skinning.clip.duration)
+            .collect();
+        // Column-major matrices to 3×4 rows: row r is m[r], m[4 + r], m[8 + r], m[12 + r].
+        let rows = (skinning.bake(&times).chunks_exact(16))
+            .flat_map(|m| (0..3).flat_map(move |r| [m[r], m[4 + r], m[8 + r], m[12 + r]]))
+            .collect();
         BakedClip {
             intervals,
             joints,
