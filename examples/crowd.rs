@@ -1,18 +1,22 @@
-//! Crowd: a field of MakeHuman bodies, each playing the body's weight animation (4 whole-body
-//! targets) at its own phase, with textured faces playing their expressions among them, all
-//! drawn by one `gpu::Crowd`: the poses, targets and texture of each asset uploaded once, one
-//! `multi_draw_indexed_indirect` per asset, the weights blended on the GPU. The camera flies
-//! around and over the field and every instance takes its own LOD from its distance (a screen
-//! error of `--pixels`), so near bodies keep their detail and far ones drop most of it.
+//! Crowd: a field of MakeHuman walkers (`makehuman_walker.glb`: its `walk` clip with the
+//! `morph` weights), each at its own phase and pace, walking across the field and turning
+//! back at its edges, with textured faces playing their expressions among them, all drawn by
+//! one `gpu::Crowd`: the poses, targets, skin and texture of each asset uploaded once, one
+//! `multi_draw_indexed_indirect` per asset, the weights blended and the skin applied on the
+//! GPU (per walker only its phase; its walk across the field is root motion,
+//! `Crowd::set_velocity`, moved on the GPU by the crowd's clock). The camera flies around and
+//! over the field and every instance takes its own LOD from its distance (a screen error of
+//! `--pixels`), so near walkers keep their detail and far ones drop most of it.
 //!
 //! ```sh
 //! cargo run --release --example crowd                     # window; headless without a display
 //! cargo run --release --example crowd -- --headless --instances 300 --frames 60
-//! cargo run --release --example crowd -- --walkers        # skinned walkers instead of bodies
+//! cargo run --release --example crowd -- --bodies         # morphing bodies in place instead
+//! cargo run --release --example crowd -- --sheet 8        # out/crowd/sheet.png: 8 frames in a row
 //! ```
 //!
-//! `--walkers`: the bodies are MakeHuman walkers (`makehuman_walker.glb`, its `walk` clip with
-//! the `morph` weights), skinned on the GPU by the crowd, each at its own phase and speed.
+//! `--bodies`: MakeHuman bodies playing the body's weight animation (4 whole-body targets) in
+//! place, unskinned, instead of the walkers.
 //!
 //! Instances out of the camera's view draw nothing (`Crowd::set_culling`, on by default). The
 //! readout shows instances (and those out of view), triangles drawn (and at full detail), the
@@ -54,7 +58,7 @@ const FACE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_face.g
 const WALKER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/makehuman_walker.glb");
 const DEMO: Demo = Demo {
     name: "crowd",
-    sources: &[BODY, FACE],
+    sources: &[WALKER, FACE],
 };
 /// Vertical field of view of the flying camera.
 const FOV_Y: f32 = 50.0 * std::f32::consts::PI / 180.0;
@@ -68,11 +72,11 @@ const TURN_SECONDS: f32 = 40.0;
 /// Simulated seconds per headless frame.
 const HEADLESS_STEP: f32 = 1.0 / 15.0;
 
-/// A field of animated bodies and faces drawn by one crowd, with per-instance LOD.
+/// A field of walkers (or morphing bodies) and faces drawn by one crowd, with per-instance LOD.
 #[derive(Parser, Debug)]
 #[command(name = "crowd")]
 struct Args {
-    /// Instances on the field (every 5th a face, the others bodies)
+    /// Instances on the field (every 5th a face, the others walkers or bodies)
     #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     instances: u32,
     /// Render a frame sequence to numbered PNGs instead of opening a window (automatic when no
@@ -101,10 +105,13 @@ struct Args {
     /// Draw the instances out of view too (to compare: the same pixels, more vertices)
     #[arg(long)]
     no_culling: bool,
-    /// Skinned walkers instead of the bodies (the walker's `walk` clip with its `morph`
-    /// weights), each at its own phase and speed
+    /// Bodies morphing in place (the body's weight animation) instead of the skinned walkers
     #[arg(long)]
-    walkers: bool,
+    bodies: bool,
+    /// Headless: also write `sheet.png`, N of the frames in a row (evenly spaced over the
+    /// sequence), with the camera turning at the window's pace instead of once over the frames
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(2..=16))]
+    sheet: Option<u32>,
 }
 
 fn parse_pixels(text: &str) -> Result<f32, String> {
@@ -139,7 +146,7 @@ fn run(args: &Args) -> Result<(), DemoError> {
             morph: MorphSpec::Ready(Box::new(morph)),
         })
     };
-    let (bodies, sources): (NamedMorph, &[&str]) = if args.walkers {
+    let (bodies, sources): (NamedMorph, &[&str]) = if !args.bodies {
         let source = MorphSource::AnimationWithWeights {
             animation: "walk".into(),
             weights: "morph".into(),
@@ -150,14 +157,14 @@ fn run(args: &Args) -> Result<(), DemoError> {
             label: "walker-walk".into(),
             morph: MorphSpec::Ready(Box::new(morph)),
         };
-        (walker, &[WALKER, FACE])
+        (walker, DEMO.sources)
     } else {
-        (animation(BODY, "morph", "body-morph")?, DEMO.sources)
+        (animation(BODY, "morph", "body-morph")?, &[BODY, FACE])
     };
     let morphs = vec![bodies, animation(FACE, "expressions", "face-expressions")?];
     let library = Library::new(sources, &out, morphs, args.build_frames)?;
     let assets = [library.load(0)?, library.load(1)?];
-    if args.headless {
+    if args.headless || args.sheet.is_some() {
         return run_headless(args, &assets, &out);
     }
     if let Some(reason) = no_display() {
@@ -196,16 +203,72 @@ struct Kind {
     duration: f32,
     /// Triangles at full detail.
     triangles: usize,
+    /// Its object-space ground velocity at its clip's own pace ([`stride_velocity`]): zero
+    /// for an asset that does not walk.
+    stride: Vec3,
+    /// Object to world before its place and heading (standing on the ground, or a face
+    /// floating at head height), and its centre's height above its place.
+    local: Mat4,
+    centre: f32,
 }
 
-/// One instance: its asset, id, where its centre is, and its phase in the animation.
+/// One instance: its asset, id, where it is and where it walks, and its phase in the
+/// animation.
 struct Member {
     kind: usize,
     id: InstanceId,
-    centre: Vec3,
+    /// Its place on the ground at the field's second `since`, heading (radians about y) and
+    /// world velocity from then on (the crowd moves it by the same on the GPU).
+    place: Vec3,
+    since: f32,
+    heading: f32,
+    velocity: Vec3,
     phase: f32,
     /// Clip time per second: 1, or a walker's own pace (0.8 to 1.2).
     speed: f32,
+}
+
+impl Member {
+    /// Its place on the ground at the field's second `seconds`.
+    fn place_at(&self, seconds: f32) -> Vec3 {
+        self.place + (seconds - self.since) * self.velocity
+    }
+}
+
+/// The ground velocity at which a skinned asset's clip, played at its own pace, does not
+/// slide its feet (object space, units per second; zero without a skin): the walk is in
+/// place, so the foot on the ground slides backwards at the walking speed. Sampled at 48
+/// times of the loop: at each, the lowest vertex (the planted foot) and how far it moves to
+/// the next sample; the median per axis leaves out the steps from one foot to the other.
+fn stride_velocity(asset: &morphlod::Asset) -> Vec3 {
+    const SAMPLES: usize = 48;
+    let Some(skinning) = &asset.skin else {
+        return Vec3::ZERO;
+    };
+    let step = skinning.clip.duration / SAMPLES as f32;
+    let poses: Vec<Vec<[f32; 3]>> = (0..=SAMPLES)
+        .map(|i| asset.pose_at(i as f32 / SAMPLES as f32))
+        .collect();
+    let (mut xs, mut zs) = (Vec::new(), Vec::new());
+    for pair in poses.windows(2) {
+        let lowest = (0..pair[0].len()).min_by(|&a, &b| pair[0][a][1].total_cmp(&pair[0][b][1]));
+        if let Some(v) = lowest {
+            xs.push((pair[1][v][0] - pair[0][v][0]) / step);
+            zs.push((pair[1][v][2] - pair[0][v][2]) / step);
+        }
+    }
+    let median = |values: &mut Vec<f32>| {
+        values.sort_by(f32::total_cmp);
+        values.get(values.len() / 2).copied().unwrap_or(0.0)
+    };
+    // The body moves against its planted foot.
+    -Vec3::new(median(&mut xs), 0.0, median(&mut zs))
+}
+
+/// The angle about y of a horizontal direction, from +z towards +x (what
+/// `Mat4::from_rotation_y` adds to it).
+fn heading_of(direction: Vec3) -> f32 {
+    direction.x.atan2(direction.z)
 }
 
 /// What one frame cost and sent, for the readout and the console.
@@ -231,6 +294,8 @@ struct Field {
     members: Vec<Member>,
     /// Half the field's diagonal (the field is centred on the origin).
     radius: f32,
+    /// Half the field's extent along x and z: walkers turn back at its edges.
+    half: Vec3,
     pixels: f32,
     readout: Readout,
     /// The window's scale factor: the readout keeps its size in logical pixels.
@@ -238,6 +303,35 @@ struct Field {
     adapter: String,
     last: Figures,
     moves: Vec<(InstanceId, f32, Lod)>,
+}
+
+/// Places `member` on the ground at `place` at the field's second `since` (the crowd's clock
+/// now), heading `heading`: its transform and, for a walker, its velocity (its stride at its
+/// pace, along its heading), on the crowd and on the member.
+fn field_place(
+    crowd: &mut Crowd,
+    kinds: &[Kind],
+    member: &mut Member,
+    (place, since): (Vec3, f32),
+    heading: f32,
+) -> Result<(), DemoError> {
+    let kind = &kinds[member.kind];
+    // The asset walks along `stride` unturned: turned by `heading - heading_of(stride)` it
+    // walks along `heading`.
+    let turn = if kind.stride == Vec3::ZERO {
+        heading
+    } else {
+        heading - heading_of(kind.stride)
+    };
+    let model = Mat4::from_translation(place) * Mat4::from_rotation_y(turn) * kind.local;
+    let velocity = member.speed * Mat4::from_rotation_y(turn).transform_vector3(kind.stride);
+    crowd.set_transform(member.id, model)?;
+    crowd.set_velocity(member.id, velocity)?;
+    member.place = place;
+    member.since = since;
+    member.heading = heading;
+    member.velocity = velocity;
+    Ok(())
 }
 
 /// A small deterministic hash of `i` to `[0, 1)`: per-instance turns, colours and phases that
@@ -263,8 +357,25 @@ impl Field {
         crowd.set_culling(!args.no_culling);
         let faces = args.instances / FACE_EVERY;
         let counts = [args.instances - faces, faces];
+        let bounds = |built: &BuiltMorph| {
+            let (lo, hi) = morphlod::mesh::bounds(&built.asset.v0).unwrap_or(([0.0; 3], [0.0; 3]));
+            (Vec3::from(lo), Vec3::from(hi))
+        };
+        // Bodies stand on y = 0; a face is scaled to half a body's height and floats at a
+        // body's head height, so both read as people from far away.
+        let (body_lo, body_hi) = bounds(&assets[0]);
+        let (face_lo, face_hi) = bounds(&assets[1]);
+        let height = body_hi.y - body_lo.y;
+        let face_scale = 0.5 * height / (face_hi.y - face_lo.y).max(1e-6);
+        let local = [
+            Mat4::from_translation(Vec3::new(0.0, -body_lo.y, 0.0)),
+            Mat4::from_translation(Vec3::new(0.0, 0.8 * height, 0.0))
+                * Mat4::from_scale(Vec3::splat(face_scale))
+                * Mat4::from_translation(-(face_lo + face_hi) * 0.5),
+        ];
+        let centres = [0.5 * height, 0.8 * height];
         let mut kinds = Vec::new();
-        for (built, &count) in assets.iter().zip(&counts) {
+        for (k, (built, &count)) in assets.iter().zip(&counts).enumerate() {
             let gpu = GpuAsset::from_asset(device, &built.asset).map_err(DemoError::lib)?;
             let id = crowd.add_asset(device, gpu, Arc::clone(&built.model), count.max(1))?;
             // A skinned asset plays its clip, the others their weight track.
@@ -276,41 +387,56 @@ impl Field {
                 model: Arc::clone(&built.model),
                 duration,
                 triangles: built.model.layout().triangle_count(),
+                stride: stride_velocity(&built.asset),
+                local: local[k],
+                centre: centres[k],
             });
         }
-        let bounds = |built: &BuiltMorph| {
-            let (lo, hi) = morphlod::mesh::bounds(&built.asset.v0).unwrap_or(([0.0; 3], [0.0; 3]));
-            (Vec3::from(lo), Vec3::from(hi))
-        };
-        // Bodies stand on y = 0; a face is scaled to half a body's height and floats at a
-        // body's head height, so both read as people from far away.
-        let (body_lo, body_hi) = bounds(&assets[0]);
-        let (face_lo, face_hi) = bounds(&assets[1]);
-        let face_scale = 0.5 * (body_hi.y - body_lo.y) / (face_hi.y - face_lo.y).max(1e-6);
-        let local = [
-            Mat4::from_translation(Vec3::new(0.0, -body_lo.y, 0.0)),
-            Mat4::from_translation(Vec3::new(0.0, 0.8 * (body_hi.y - body_lo.y), 0.0))
-                * Mat4::from_scale(Vec3::splat(face_scale))
-                * Mat4::from_translation(-(face_lo + face_hi) * 0.5),
-        ];
-        let centres = [
-            Vec3::new(0.0, 0.5 * (body_hi.y - body_lo.y), 0.0),
-            Vec3::new(0.0, 0.8 * (body_hi.y - body_lo.y), 0.0),
-        ];
+        if kinds[0].stride != Vec3::ZERO {
+            println!(
+                "crowd: the walkers walk at {:.2} units a second at their clip's pace (their feet do not slide)",
+                kinds[0].stride.length()
+            );
+        }
         let side = (f64::from(args.instances).sqrt().ceil() as u32).max(1);
         let rows = args.instances.div_ceil(side);
+        let half = Vec3::new(
+            0.5 * side as f32 * SPACING.0,
+            0.0,
+            0.5 * rows as f32 * SPACING.1,
+        );
         let mut members = Vec::new();
         for i in 0..args.instances {
             let kind = usize::from(i % FACE_EVERY == FACE_EVERY - 1);
             let jitter = Vec3::new(unit(i, 1) - 0.5, 0.0, unit(i, 2) - 0.5) * 0.3;
-            let at = Vec3::new(
+            let place = Vec3::new(
                 (i % side) as f32 * SPACING.0 - 0.5 * (side - 1) as f32 * SPACING.0,
                 0.0,
                 (i / side) as f32 * SPACING.1 - 0.5 * (rows - 1) as f32 * SPACING.1,
             ) + jitter;
-            let turn = Mat4::from_rotation_y((unit(i, 3) - 0.5) * 1.6);
-            let model = Mat4::from_translation(at) * turn * local[kind];
-            let id = crowd.add(kinds[kind].id, model)?;
+            // Walkers head anywhere; the others face the field's front, turned a little.
+            let stride = kinds[kind].stride;
+            let heading = if stride == Vec3::ZERO {
+                (unit(i, 3) - 0.5) * 1.6
+            } else {
+                unit(i, 3) * std::f32::consts::TAU
+            };
+            let speed = if stride == Vec3::ZERO {
+                1.0
+            } else {
+                0.8 + 0.4 * unit(i, 8)
+            };
+            let mut member = Member {
+                kind,
+                id: crowd.add(kinds[kind].id, Mat4::IDENTITY)?,
+                place,
+                since: 0.0,
+                heading,
+                velocity: Vec3::ZERO,
+                phase: unit(i, 7),
+                speed,
+            };
+            field_place(&mut crowd, &kinds, &mut member, (place, 0.0), heading)?;
             // Bodies have no texture: one colour each, skin to cloth tones.
             let color = [
                 0.45 + 0.45 * unit(i, 4),
@@ -318,29 +444,15 @@ impl Field {
                 0.3 + 0.4 * unit(i, 6),
                 1.0,
             ];
-            crowd.set_color(id, color)?;
-            members.push(Member {
-                kind,
-                id,
-                centre: at + centres[kind],
-                phase: unit(i, 7),
-                speed: if args.walkers && kind == 0 {
-                    0.8 + 0.4 * unit(i, 8)
-                } else {
-                    1.0
-                },
-            });
+            crowd.set_color(member.id, color)?;
+            members.push(member);
         }
-        let half = Vec3::new(
-            0.5 * side as f32 * SPACING.0,
-            0.0,
-            0.5 * rows as f32 * SPACING.1,
-        );
         Ok(Field {
             crowd,
             kinds,
             members,
             radius: half.length().max(1.0),
+            half,
             pixels: args.pixels,
             readout: Readout::new(device, queue, color_format),
             text_scale: 1.0,
@@ -381,18 +493,25 @@ impl Field {
         status: &str,
     ) -> Result<(), DemoError> {
         let (view_proj, eye) = self.camera(angle, width as f32 / height.max(1) as f32);
+        // This frame's view before `set`: an instance `set` sees out of view is parked at its
+        // coarsest LOD (with the last frame's view, one coming into view would be drawn so).
+        self.crowd.set_view_proj(view_proj);
+        let start = Instant::now();
+        // The walkers walk on the GPU (root motion by the crowd's clock); one that passed an
+        // edge of the field turns back into it (one placement written).
+        self.crowd.set_clock(seconds)?;
+        self.turn_back_at_edges(seconds)?;
         self.moves.clear();
         for m in &self.members {
             let kind = &self.kinds[m.kind];
             let t = (seconds * m.speed / kind.duration + m.phase).fract();
-            let distance = (m.centre - eye).length();
+            let centre = m.place_at(seconds) + Vec3::new(0.0, kind.centre, 0.0);
+            let distance = (centre - eye).length();
             let lod = Lod::screen_error(self.pixels, distance, FOV_Y, height as f32);
             self.moves.push((m.id, t, lod));
         }
-        let start = Instant::now();
         self.crowd.set(&self.moves)?;
         let set = start.elapsed();
-        self.crowd.set_view_proj(view_proj);
         let start = Instant::now();
         // The crowd's scatters go in the frame's encoder, submitted with its pass.
         let upload = self.crowd.prepare_with(device, queue, encoder);
@@ -406,6 +525,28 @@ impl Field {
         let text = self.readout_text(status);
         self.readout
             .prepare(device, queue, (width, height), self.text_scale, &text)
+    }
+
+    /// Turns each walker that walked out of the field at `seconds` back into it: its
+    /// heading mirrored at the edge it passed, from where it is now.
+    fn turn_back_at_edges(&mut self, seconds: f32) -> Result<(), DemoError> {
+        let half = self.half;
+        for m in &mut self.members {
+            let at = m.place_at(seconds);
+            let v = m.velocity;
+            let out_x = (at.x > half.x && v.x > 0.0) || (at.x < -half.x && v.x < 0.0);
+            let out_z = (at.z > half.z && v.z > 0.0) || (at.z < -half.z && v.z < 0.0);
+            if out_x || out_z {
+                let turned = Vec3::new(
+                    if out_x { -v.x } else { v.x },
+                    0.0,
+                    if out_z { -v.z } else { v.z },
+                );
+                let heading = heading_of(turned);
+                field_place(&mut self.crowd, &self.kinds, m, (at, seconds), heading)?;
+            }
+        }
+        Ok(())
     }
 
     /// Records the crowd (one multi-draw per asset) and the readout.
@@ -451,10 +592,15 @@ impl Field {
             .max()
             .unwrap_or(0);
         let stats = &last.stats;
+        let people = if self.kinds[0].stride == Vec3::ZERO {
+            "bodies"
+        } else {
+            "walkers"
+        };
         let per_instance = |bytes: u64| bytes as f64 / 1e3 / stats.instances.max(1) as f64;
         format!(
             "{status}\n\
-             instances {} ({} bodies, {faces} faces), {frames} sampled frames each, {} out of view\n\
+             instances {} ({} {people}, {faces} faces), {frames} sampled frames each, {} out of view\n\
              triangles {} drawn of {} at full detail ({:.1}%), LOD {:.2} px\n\
              draws     {} multi-draw(s): one per asset\n\
              CPU ms    set {:.2}  prepare {:.2}  record {:.3}\n\
@@ -511,8 +657,14 @@ fn run_headless(args: &Args, assets: &[BuiltMorph; 2], out: &Path) -> Result<(),
     let mut written = Vec::new();
     // Per-frame figures after the first (which moves every instance from full detail).
     let mut sums = [0.0f64; 6];
+    let mut sheet = Vec::new();
     for i in 0..frames {
-        let angle = std::f32::consts::TAU * i as f32 / frames as f32;
+        let seconds = i as f32 * HEADLESS_STEP;
+        // One turn over the frames; for a sheet the window's pace (the walk, not the flight).
+        let angle = match args.sheet {
+            Some(_) => std::f32::consts::TAU * seconds / TURN_SECONDS,
+            None => std::f32::consts::TAU * i as f32 / frames as f32,
+        };
         let status = format!("crowd  headless frame {}/{frames}", i + 1);
         let mut encoder = device.create_command_encoder(&Default::default());
         field.update(
@@ -520,7 +672,7 @@ fn run_headless(args: &Args, assets: &[BuiltMorph; 2], out: &Path) -> Result<(),
             queue,
             &mut encoder,
             (width, height),
-            i as f32 * HEADLESS_STEP,
+            seconds,
             angle,
             &status,
         )?;
@@ -532,6 +684,12 @@ fn run_headless(args: &Args, assets: &[BuiltMorph; 2], out: &Path) -> Result<(),
         let image = target.read_image(device, queue).map_err(DemoError::lib)?;
         let path = out.join(format!("frame_{i:04}.png"));
         morphlod::gpu::save_png(&image, &path).map_err(DemoError::lib)?;
+        if let Some(n) = args.sheet {
+            // Frames 0, ⌊F/N⌋, … of F: N evenly spaced.
+            if (i * n) % frames < n && sheet.len() < n as usize {
+                sheet.push(image);
+            }
+        }
         let f = &field.last;
         println!(
             "  {} triangles {:8} culled {:5} set {:6.2} ms prepare {:6.2} ms record {:5.2} ms GPU {:7.1} ms uploaded {:8} B",
@@ -565,6 +723,20 @@ fn run_headless(args: &Args, assets: &[BuiltMorph; 2], out: &Path) -> Result<(),
         );
     }
     check_growth("crowd", warm_resident, warm_up, frames, args.max_growth_mb)?;
+    if !sheet.is_empty() {
+        let path = out.join("sheet.png");
+        let mut row = image::RgbaImage::new(width * sheet.len() as u32, height);
+        for (k, frame) in sheet.iter().enumerate() {
+            image::imageops::replace(&mut row, frame, i64::from(width) * k as i64, 0);
+        }
+        morphlod::gpu::save_png(&row, &path).map_err(DemoError::lib)?;
+        println!(
+            "crowd: {} frames, {:.2} s apart, in a row: {}",
+            sheet.len(),
+            f64::from(frames) / sheet.len() as f64 * f64::from(HEADLESS_STEP),
+            path.display()
+        );
+    }
     if let (Some(first), Some(last)) = (written.first(), written.last()) {
         println!(
             "crowd: {frames} frames written: {} .. {}",

@@ -38,7 +38,8 @@ struct Scene {
     light: vec4<f32>,
     // 1: the shader encodes the textured colour to sRGB (linear target).
     encode_srgb: u32,
-    _pad0: u32,
+    // The crowd's clock in seconds (gpu::Crowd::set_clock): root motion's time.
+    clock: f32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -57,8 +58,10 @@ struct Mesh {
 // One instance's placement, 144 bytes (gpu::crowd::InstanceBlock), written where it changes.
 struct Placement {
     model: mat4x4<f32>,
-    // Inverse transpose of model's 3x3 in the xyz of the first three columns.
-    normal_model: mat4x4<f32>,
+    // Inverse transpose of model's 3x3.
+    normal_model: mat3x3<f32>,
+    // Root motion: xyz the world-space velocity per second, w the clock at which model holds.
+    motion: vec4<f32>,
     color: vec4<f32>,
 }
 
@@ -78,7 +81,9 @@ struct Pose {
 // One instance as the functions below read it: its placement and its pose.
 struct Instance {
     model: mat4x4<f32>,
-    normal_model: mat4x4<f32>,
+    normal_model: mat3x3<f32>,
+    // Where root motion has taken it since its placement, world space.
+    offset: vec3<f32>,
     color: vec4<f32>,
     weights_lo: vec4<f32>,
     weights_hi: vec4<f32>,
@@ -105,7 +110,8 @@ struct Instance {
 fn instance_at(slot: u32) -> Instance {
     let b = placements[slot];
     let p = poses[slot];
-    return Instance(b.model, b.normal_model, b.color, p.weights_lo, p.weights_hi, p.targets, p.t);
+    let offset = (scene.clock - b.motion.w) * b.motion.xyz;
+    return Instance(b.model, b.normal_model, offset, b.color, p.weights_lo, p.weights_hi, p.targets, p.t);
 }
 
 struct CrowdOut {
@@ -187,7 +193,7 @@ fn local_position(inst: Instance, v: u32) -> vec3<f32> {
 // The world-space unit normal of an instance's object-space (unnormalised) normal.
 fn world_normal(inst: Instance, normal: vec3<f32>) -> vec3<f32> {
     let local_normal = unit_or_zero(normal);
-    return unit_or_zero((inst.normal_model * vec4<f32>(local_normal, 0.0)).xyz);
+    return unit_or_zero(inst.normal_model * local_normal);
 }
 
 // What every entry point does once it has the vertex's object-space position and world-space
@@ -199,7 +205,7 @@ fn crowd_vertex(
     uv: vec2<f32>,
     color: vec4<f32>,
 ) -> CrowdOut {
-    let world = inst.model * vec4<f32>(position, 1.0);
+    let world = inst.model * vec4<f32>(position, 1.0) + vec4<f32>(inst.offset, 0.0);
     var out: CrowdOut;
     out.clip = scene.view_proj * world;
     out.world = world.xyz;
@@ -238,7 +244,7 @@ struct PlainOut {
 }
 
 fn plain_vertex(inst: Instance, position: vec3<f32>) -> PlainOut {
-    let world = inst.model * vec4<f32>(position, 1.0);
+    let world = inst.model * vec4<f32>(position, 1.0) + vec4<f32>(inst.offset, 0.0);
     var out: PlainOut;
     out.clip = scene.view_proj * world;
     out.world = world.xyz;

@@ -24,13 +24,23 @@
 //!   between keys the CPU blend of the keys within 1e-5 and the reference within the bound.
 //!   Fails if the crowd skins at phase 0 (`0.0 * poses[slot].clip_t` in `crowd_skin.wgsl`).
 //! * `crowd_of_walkers_draws_the_pixels_of_lod_objects`: 6 walkers at their own phases and
-//!   transforms drawn by a crowd and as `LodObject`s: 0 pixels differ on lavapipe (allowed: 1
+//!   transforms drawn by a crowd and as `LodObject`s: 3 of 2,871 pixels differ on lavapipe (allowed: 1
 //!   in [`PIXEL_SHARE`] covered pixels: the crowd sums the weights on the GPU, the object on
 //!   the CPU), while a tenth of the clip moves thousands. Fails with the same mutant.
-//! * `culled_walkers_have_no_vertex_in_view`: a walker given root motion (its keys' poses
-//!   leave the bind poses' sphere) in rows across panning views, late in its clip: no culled
-//!   walker has a skinned vertex in view. Fails if the sphere is the bind poses'
-//!   (`skinned_bound` not taken in `GpuAsset::from_asset`).
+//!   Every other walker walks (`Crowd::set_velocity`, the crowd clock at 2.5 s), placed where
+//!   its velocity takes it to the objects' place. Fails if the vertex stage leaves root
+//!   motion out (`+ vec4<f32>(inst.offset, 0.0)` dropped in `crowd.wgsl`).
+//! * `discrete_walkers_are_skinned_like_the_crowds`: a `DiscreteCrowd` of walkers (the
+//!   engine way: discrete levels drawn instanced) at full detail draws the crowd's pixels at
+//!   their phases, and moves with them. Fails if the discrete crowd draws the unskinned
+//!   variant (`gpu.is_skinned()` → `false` in `DiscreteCrowd::new`).
+//! * `culled_walkers_have_no_vertex_in_view`: a walker given root motion in its clip (its
+//!   keys' poses leave the bind poses' sphere) in rows across panning views, late in its
+//!   clip, a third of them walking along the row (`Crowd::set_velocity`, the clock 1.5 s
+//!   further per view): no culled walker has a skinned vertex in view, and
+//!   `Crowd::transform` is where the velocity took it. Fails if the sphere is the bind
+//!   poses' (`skinned_bound` not taken in `GpuAsset::from_asset`), or culling leaves root
+//!   motion out (`block.offset_at` dropped in `cull::outside`).
 //! * `bad_skins_are_typed_errors`: a skin for other vertices, a clip on a node outside the
 //!   skeleton, 5 influences, 65,537 joints, keys larger than a storage binding, and the probe
 //!   of an unskinned object are refused with their `GpuError`. Fails (panics) without the
@@ -45,8 +55,8 @@ use common::gpu::Gpu;
 use glam::{Mat4, Vec3, Vec4};
 use morphlod::asset::Surface;
 use morphlod::gpu::{
-    self, Crowd, CrowdError, CrowdPath, GpuAsset, GpuError, LodObject, Object, RenderTarget,
-    ShadeMode, Topology,
+    self, Crowd, CrowdError, CrowdPath, DiscreteCrowd, DiscreteLevels, GpuAsset, GpuError,
+    LodObject, Object, RenderTarget, ShadeMode, Topology,
 };
 use morphlod::io::{load_morph, LoadOptions, MorphSource};
 use morphlod::morph::{Interpolation, Material};
@@ -521,6 +531,10 @@ fn crowd_skins_each_walker_at_its_phase() -> Result<(), Box<dyn std::error::Erro
 /// silhouette pixel here and there flips (the walk itself moves thousands).
 const PIXEL_SHARE: usize = 200;
 
+/// The crowd clock of the pixel tests: root motion has moved each walking walker by 2.5 s of
+/// its velocity.
+const CLOCK: f32 = 2.5;
+
 #[test]
 fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std::error::Error>> {
     let Some(ctx) = Gpu::new() else {
@@ -567,7 +581,18 @@ fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std:
             );
             let transform = placed(at, 1.1, 0.7 * i as f32 - 1.5);
             let t = (0.17 + 0.29 * i as f32).fract();
-            let id = crowd.add(walkers, transform)?;
+            // Every other walker walks (root motion): placed at clock 0 where its velocity
+            // takes it to `transform` at CLOCK.
+            let velocity = if i % 2 == 1 {
+                Vec3::new(0.3 * (i as f32 - 3.0), 0.1, -0.2)
+            } else {
+                Vec3::ZERO
+            };
+            let id = crowd.add(
+                walkers,
+                Mat4::from_translation(-CLOCK * velocity) * transform,
+            )?;
+            crowd.set_velocity(id, velocity)?;
             let mut object =
                 LodObject::with_asset(device, pipeline, Arc::clone(&shared), Arc::clone(&model))?;
             object.set_model(transform);
@@ -577,6 +602,7 @@ fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std:
             objects.push(object);
             moves.push((id, t, Lod::Fraction(0.3)));
         }
+        crowd.set_clock(CLOCK)?;
         crowd.set(&moves)?;
         crowd.prepare(device, queue);
         let image = render(&|pass| crowd.render(pass));
@@ -610,6 +636,111 @@ fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std:
             "{path:?}: the walkers cover {covered} pixels, a tenth of the clip moves {moved}"
         );
     }
+    Ok(())
+}
+
+/// The engine way (issue 51's comparison): a `DiscreteCrowd` of walkers, discrete levels
+/// drawn instanced, skins them on the GPU from the same baked clip. At full detail its image
+/// is the crowd's at full detail (same triangles, same skinned vertices), walker for walker
+/// at their own phases, and a bind-pose image differs from it by thousands of pixels.
+#[test]
+fn discrete_walkers_are_skinned_like_the_crowds() -> Result<(), Box<dyn std::error::Error>> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue) = (&ctx.ctx.device, &ctx.ctx.queue);
+    let asset = walker();
+    let model = Arc::new(DeformingModel::new(asset)?);
+    let shared = GpuAsset::from_asset(device, asset)?;
+    // Levels of one of the walker's frames (any sequence: full detail is `S0` for all).
+    let triangles = asset.s0.triangles();
+    let levels = DiscreteLevels::new(&asset.frames[0], &triangles, None, &[0.5])?;
+    let view_proj = gpu::camera::fit_to_bounds(
+        [-1.7, -1.3, -0.6],
+        [1.7, 1.3, 0.6],
+        Vec3::new(0.1, -0.2, -1.0),
+        1.0,
+        gpu::camera::Projection::Perspective { vertical_fov: 0.6 },
+    )?
+    .view_proj();
+    let transforms: Vec<Mat4> = (0..6)
+        .map(|i| {
+            let at = Vec3::new(
+                1.1 * (i as f32 % 3.0 - 1.0),
+                1.2 * ((i / 3) as f32 - 0.5),
+                0.0,
+            );
+            placed(at, 1.1, 0.7 * i as f32 - 1.5)
+        })
+        .collect();
+    let phases: Vec<f32> = (0..6).map(|i| (0.11 + 0.37 * i as f32).fract()).collect();
+    let target = ctx.target(256, 256, wgpu::Color::BLUE);
+    let render = |draw: &dyn Fn(&mut wgpu::RenderPass<'_>)| -> image::RgbaImage {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = target.begin_pass(&mut encoder);
+            draw(&mut pass);
+        }
+        queue.submit([encoder.finish()]);
+        target
+            .read_image(device, queue)
+            .expect("the image reads back")
+    };
+    let differing = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+    };
+    let discrete_at = |phase: &dyn Fn(usize) -> f32| -> Result<image::RgbaImage, CrowdError> {
+        let mut discrete = DiscreteCrowd::new(
+            device,
+            RenderTarget::COLOR_FORMAT,
+            Some(RenderTarget::DEPTH_FORMAT),
+            Arc::clone(&shared),
+            levels.clone(),
+            &transforms,
+        )?;
+        discrete.set_view_proj(view_proj);
+        let moves: Vec<_> = (0..6).map(|i| (phase(i), Lod::Steps(0))).collect();
+        discrete.set(&moves)?;
+        assert_eq!(discrete.instance_levels(), [Some(0); 6]);
+        discrete.prepare(device, queue);
+        Ok(render(&|pass| discrete.render(pass)))
+    };
+    let image = discrete_at(&|i| phases[i])?;
+    for path in crowd_paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        crowd.set_view_proj(view_proj);
+        let walkers = crowd.add_asset(device, Arc::clone(&shared), Arc::clone(&model), 6)?;
+        let mut moves = Vec::new();
+        for (&transform, &t) in transforms.iter().zip(&phases) {
+            moves.push((crowd.add(walkers, transform)?, t, Lod::Steps(0)));
+        }
+        crowd.set(&moves)?;
+        crowd.prepare(device, queue);
+        let expected = render(&|pass| crowd.render(pass));
+        let covered = (expected.pixels())
+            .filter(|p| p.0 != [0, 0, 255, 255])
+            .count();
+        let mismatch = differing(&image, &expected);
+        println!("{path:?}: the discrete walkers differ from the crowd's in {mismatch} of {covered} covered pixels");
+        if mismatch * PIXEL_SHARE > covered {
+            common::gpu::fail_with_images(
+                &format!("discrete walkers, {path:?}"),
+                &image,
+                &expected,
+            );
+        }
+        assert!(
+            covered > 2000,
+            "{path:?}: the walkers cover {covered} pixels"
+        );
+    }
+    // Another phase for every walker: the discrete crowd follows it.
+    let later = discrete_at(&|i| (phases[i] + 0.25).fract())?;
+    let moved = differing(&later, &image);
+    assert!(
+        moved > 1000,
+        "a quarter of the clip later {moved} pixels differ"
+    );
     Ok(())
 }
 
@@ -660,7 +791,11 @@ fn culled_walkers_have_no_vertex_in_view() -> Result<(), Box<dyn std::error::Err
                 1.0,
                 0.5 * i as f32,
             );
-            placed_walkers.push((crowd.add(walkers, transform)?, transform));
+            let id = crowd.add(walkers, transform)?;
+            // Every third walker walks along x, at up to 0.6 units a second either way.
+            let velocity = Vec3::new(0.6 * ((i % 3) as f32 - 1.0), 0.0, 0.0);
+            crowd.set_velocity(id, velocity)?;
+            placed_walkers.push((id, transform, velocity));
         }
         // Walkers across a view's sides: where a sphere that misses the walk fails.
         let mut edge = 0;
@@ -674,8 +809,11 @@ fn culled_walkers_have_no_vertex_in_view() -> Result<(), Box<dyn std::error::Err
             )?
             .view_proj();
             crowd.set_view_proj(view_proj);
+            // The walkers 1.5 s further per view: up to 2.7 units from where they started.
+            let clock = 1.5 * view as f32;
+            crowd.set_clock(clock)?;
             let moves: Vec<_> = (placed_walkers.iter().enumerate())
-                .map(|(i, &(id, _))| {
+                .map(|(i, &(id, _, _))| {
                     // Late in the clip: walked off from the bind pose by 1.5 to 3 diagonals.
                     let t = 0.5 + 0.5 * (0.37 * (i + view) as f32).fract();
                     (id, t, Lod::Fraction(0.4))
@@ -684,7 +822,13 @@ fn culled_walkers_have_no_vertex_in_view() -> Result<(), Box<dyn std::error::Err
             crowd.set(&moves)?;
             crowd.prepare(device, queue);
             let mut culled = 0;
-            for (i, &(id, transform)) in placed_walkers.iter().enumerate() {
+            for (i, &(id, placed_at, velocity)) in placed_walkers.iter().enumerate() {
+                let transform = Mat4::from_translation(clock * velocity) * placed_at;
+                let now = crowd.transform(id)?;
+                assert!(
+                    now.abs_diff_eq(transform, 1e-5),
+                    "{path:?}, view {view}: walker {i} is at {now:?}, not {transform:?}"
+                );
                 let drawn = crowd.blended_positions(device, queue, id)?;
                 let inside = |p: &[f32; 3]| {
                     let clip = view_proj * transform * Vec3::from(*p).extend(1.0);

@@ -23,10 +23,13 @@ const SLACK: f32 = 1e-3;
 /// plane) is left out.
 pub(super) struct Frustum {
     planes: Vec<Vec4>,
+    /// The crowd's clock: root motion moves each instance's sphere by its velocity since.
+    clock: f32,
 }
 
 impl Frustum {
-    pub(super) fn new(view_proj: Mat4) -> Frustum {
+    /// The clip volume of `view_proj` at crowd clock `clock`.
+    pub(super) fn new(view_proj: Mat4, clock: f32) -> Frustum {
         let (x, y, z, w) = (
             view_proj.row(0),
             view_proj.row(1),
@@ -40,7 +43,7 @@ impl Frustum {
                 (length > 0.0 && length.is_finite()).then(|| p / length)
             })
             .collect();
-        Frustum { planes }
+        Frustum { planes, clock }
     }
 
     /// Whether the sphere at `center` of `radius` (world space) lies wholly outside one plane.
@@ -85,7 +88,11 @@ pub(super) fn outside(
         .iter()
         .map(|axis| axis.truncate().length())
         .fold(0.0, f32::max);
-    frustum.outside(model.transform_point3(Vec3::from(center)), grown * scale)
+    let moved = block.offset_at(frustum.clock);
+    frustum.outside(
+        model.transform_point3(Vec3::from(center)) + moved,
+        grown * scale,
+    )
 }
 
 impl CrowdAsset {
@@ -127,7 +134,7 @@ mod tests {
 
     /// Clip space as world space: the identity view sees x and y in -1..1, z in 0..1.
     fn clip_cube() -> Frustum {
-        Frustum::new(Mat4::IDENTITY)
+        Frustum::new(Mat4::IDENTITY, 0.0)
     }
 
     fn at(x: f32, scale: f32) -> InstanceBlock {
@@ -175,6 +182,20 @@ mod tests {
         assert!(!out(&frustum, &at(f32::NAN, 1.0), bound));
     }
 
+    /// Root motion moves the sphere: at x = 4 moving -1.5 a second since clock 2, the unit
+    /// sphere is at x = 4 at clock 2 (out), at x = 1 at clock 4 (in), and past the far side
+    /// at clock 6.5 (x = -2.75, out).
+    #[test]
+    fn moving_spheres_are_tested_where_they_are() {
+        let bound = ([0.0; 3], 1.0);
+        let mut walking = at(4.0, 1.0);
+        walking.motion = [-1.5, 0.0, 0.0, 2.0];
+        let at_clock = |clock: f32| out(&Frustum::new(Mat4::IDENTITY, clock), &walking, bound);
+        assert!(at_clock(2.0));
+        assert!(!at_clock(4.0));
+        assert!(at_clock(6.5));
+    }
+
     /// The near and far planes cull too; a far plane at infinity (a zero normal) is left out.
     #[test]
     fn depth_planes() {
@@ -191,6 +212,6 @@ mod tests {
             [0.0, 0.0, 1.0, 1.0],
             [0.0, 0.0, 0.0, 0.0],
         ]);
-        assert_eq!(Frustum::new(infinite).planes.len(), 5);
+        assert_eq!(Frustum::new(infinite, 0.0).planes.len(), 5);
     }
 }

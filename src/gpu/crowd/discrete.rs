@@ -5,7 +5,9 @@
 //! and drawn with one instanced `draw_indexed` per level; the morph is blended on the GPU by
 //! the crowd's own vertex stage on its fast path (the first-instance entry points of
 //! `shaders/crowd.wgsl`: poses and surface fetched as vertex buffers, the asset's number of
-//! weight slots, `fs_plain` without a surface), reading the same shared [`GpuAsset`].
+//! weight slots, `fs_plain` without a surface), reading the same shared [`GpuAsset`]. A
+//! skinned asset is skinned there too (`shaders/crowd_skin.wgsl`, from the asset's baked
+//! clip at each instance's phase): what Bevy, Unity and Unreal do with a skinned character.
 //!
 //! The instance reaches the vertex stage as `instance_index` (its block's number in the
 //! level-sorted instance buffer): a direct draw keeps `first_instance` on every device, only
@@ -334,14 +336,16 @@ impl DiscreteCrowd {
             check_finite("transform", &model.to_cols_array())?;
             own.push((InstanceBlock::new(*model), PoseBlock::default()));
         }
-        let base = Crowd::new(device, color_format, depth_format);
+        let mut base = Crowd::new(device, color_format, depth_format);
         // The crowd's fast path (fixed-function fetch, the asset's weight slots), whatever
-        // the device: direct draws carry the first instance everywhere.
+        // the device: direct draws carry the first instance everywhere. A skinned asset is
+        // skinned by the crowd's skinned twin of it, from the same baked clip: the engine way
+        // (discrete levels, instanced, GPU skinning).
         let variant = Variant::new(
             CrowdPath::FirstInstance,
             gpu.has_surface(),
             gpu.target_count(),
-            false,
+            gpu.is_skinned(),
         );
         let pipeline = base.pipeline.levels_pipeline(device, variant);
         let mut indices: Vec<u32> = Vec::new();
@@ -422,9 +426,9 @@ impl DiscreteCrowd {
         }
         let track = self.gpu.track();
         let view_proj = glam::Mat4::from_cols_array_2d(&self.base.scene.view_proj);
-        let frustum = self.culling.then(|| Frustum::new(view_proj));
+        let frustum = (self.culling).then(|| Frustum::new(view_proj, self.base.scene.clock));
         let reach = (self.gpu.targets()).map_or(&[][..], |targets| targets.reach.as_slice());
-        // A skinned asset's bound holds its bind poses too (drawn here unskinned).
+        // A skinned asset's bound holds its poses skinned at every baked key.
         let (bound, reach) = (self.gpu.bound(), (reach, self.gpu.stretch()));
         // In pieces, a few a thread (the calling thread takes pieces too): the poses, then
         // which instances are out of view.

@@ -218,7 +218,8 @@ impl Crowd {
             view_proj: uniforms.view_proj,
             light: uniforms.light,
             encode_srgb: u32::from(!color_format.is_srgb()),
-            _pad: [0; 3],
+            clock: 0.0,
+            _pad: [0; 2],
         };
         let scene_buffer = device.create_buffer_init(&BufferInitDescriptor {
             label: Some("crowd scene"),

@@ -39,7 +39,10 @@ pub(super) struct SceneBlock {
     pub(super) view_proj: [[f32; 4]; 4],
     pub(super) light: [f32; 4],
     pub(super) encode_srgb: u32,
-    pub(super) _pad: [u32; 3],
+    /// The crowd's clock, in seconds ([`Crowd::set_clock`](super::Crowd::set_clock)): each
+    /// instance is moved by its velocity times the seconds since its placement.
+    pub(super) clock: f32,
+    pub(super) _pad: [u32; 2],
 }
 
 /// The per-asset block (`Mesh` in `crowd.wgsl`).
@@ -55,13 +58,18 @@ pub(super) struct MeshBlock {
 /// Target slots per instance: the weights summed by the vertex stage.
 pub const WEIGHT_SLOTS: usize = 8;
 
-/// One instance's placement (`Placement` in `crowd.wgsl`): its transform, normal matrix and
-/// colour, 144 bytes, uploaded where they change.
+/// One instance's placement (`Placement` in `crowd.wgsl`): its transform, normal matrix,
+/// motion and colour, 144 bytes, uploaded where they change.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub(super) struct InstanceBlock {
     pub(super) model: [[f32; 4]; 4],
-    pub(super) normal_model: [[f32; 4]; 4],
+    /// The inverse transpose of `model`'s 3×3 (a WGSL `mat3x3`: columns padded to 4).
+    pub(super) normal_model: [[f32; 4]; 3],
+    /// xyz: its world-space velocity per second; w: the crowd clock at which `model` holds.
+    /// The vertex stage adds `(clock - w) * xyz` to every world position (root motion, no
+    /// upload while it walks).
+    pub(super) motion: [f32; 4],
     pub(super) color: [f32; 4],
 }
 
@@ -92,7 +100,14 @@ impl InstanceBlock {
         let mut uniforms = super::super::Uniforms::new();
         uniforms.set_model(model);
         self.model = uniforms.model;
-        self.normal_model = uniforms.normal_model;
+        let [x, y, z, _] = uniforms.normal_model;
+        self.normal_model = [x, y, z];
+    }
+
+    /// Its world-space offset at crowd clock `clock`: what the vertex stage adds.
+    pub(super) fn offset_at(&self, clock: f32) -> glam::Vec3 {
+        let [x, y, z, since] = self.motion;
+        (clock - since) * glam::Vec3::new(x, y, z)
     }
 }
 
@@ -447,24 +462,27 @@ impl CrowdPipeline {
 }
 
 impl CrowdPipeline {
-    /// The discrete-LOD renderer's pipeline: the crowd's shader, bind group layout, formats
+    /// The discrete-LOD renderer's pipeline: the crowd's shader (the skinned one for a
+    /// skinned `variant`, made now if no asset used it before), bind group layout, formats
     /// and `variant`'s entry points and vertex buffers, over triangle lists. On the
     /// first-instance path the instance comes from `instance_index`, which a direct instanced
     /// draw sets on every device.
     pub(super) fn levels_pipeline(
-        &self,
+        &mut self,
         device: &wgpu::Device,
         variant: Variant,
     ) -> wgpu::RenderPipeline {
         let entry = variant.entry_point();
+        let formats = self.formats;
+        let module = self.module_for(device, variant);
         render_pipeline(
             device,
-            &self.plain.render_layout,
-            &self.plain.shader,
+            &module.render_layout,
+            &module.shader,
             (entry, entry, variant.fragment()),
             &vertex_buffers(variant.surface),
             wgpu::PrimitiveTopology::TriangleList,
-            self.formats,
+            formats,
         )
     }
 }
@@ -571,6 +589,31 @@ mod tests {
         assert_eq!(size("Scene"), size_of::<SceneBlock>());
         assert_eq!(size("Mesh"), size_of::<MeshBlock>());
         assert_eq!(size("Placement"), size_of::<InstanceBlock>());
+        // The placement's members where the Rust block has them (the normal matrix a padded
+        // mat3x3, the motion after it).
+        let placement = crowd
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some("Placement"));
+        let Some(naga::TypeInner::Struct { members, .. }) = placement.map(|(_, ty)| &ty.inner)
+        else {
+            panic!("crowd.wgsl has no struct Placement");
+        };
+        let offsets: Vec<(&str, usize)> = (members.iter())
+            .map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize))
+            .collect();
+        assert_eq!(
+            offsets,
+            [
+                ("model", std::mem::offset_of!(InstanceBlock, model)),
+                (
+                    "normal_model",
+                    std::mem::offset_of!(InstanceBlock, normal_model)
+                ),
+                ("motion", std::mem::offset_of!(InstanceBlock, motion)),
+                ("color", std::mem::offset_of!(InstanceBlock, color)),
+            ]
+        );
         assert_eq!(size("Pose"), size_of::<PoseBlock>());
         // Every variant's vertex entry point exists.
         let cases = [CrowdPath::FirstInstance, CrowdPath::BaseVertex]

@@ -81,7 +81,9 @@ impl Crowd {
         }
         self.grow_instance_buffers(device, queue, &mut upload);
         let view_proj = glam::Mat4::from_cols_array_2d(&self.scene.view_proj);
-        let frustum = self.culling.then(|| Frustum::new(view_proj));
+        let frustum = self
+            .culling
+            .then(|| Frustum::new(view_proj, self.scene.clock));
         // A frame that moves many instances far (the first LOD frame of a crowd) can pass one
         // binding's or one dispatch's limit: then its patches go in lists of at most `chunk`
         // words, each full one submitted on its own (`scatter`). A word takes at most 8 bytes
