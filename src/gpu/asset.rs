@@ -141,7 +141,7 @@ impl GpuAsset {
             gpu.track = Some(blend.track.clone());
         }
         if let Some(skinning) = &asset.skin {
-            let (skin, baked) = GpuSkin::new(device, skinning, gpu.vertex_count as usize)?;
+            let (skin, baked) = GpuSkin::new(device, skinning, &asset.v0)?;
             (gpu.bound, gpu.stretch) = skinned_bound(skinning, &baked, poses);
             gpu.skin = Some(skin);
         }
@@ -174,7 +174,7 @@ impl GpuAsset {
     }
 
     /// For a skinned asset, `N`: its clip is baked at the `N + 1` keys `t = i / N`
-    /// ([`crate::skin::BakedClip::intervals_for`]).
+    /// ([`crate::skin::BakedClip::intervals_within`]).
     pub fn clip_intervals(&self) -> Option<u32> {
         self.skin.as_ref().map(|s| s.intervals)
     }
@@ -333,18 +333,32 @@ fn bounding_sphere(poses: &[&[[f32; 3]]]) -> ([f32; 3], f32) {
         .map(|(lo, hi)| (Vec3::from(lo), Vec3::from(hi)))
         .reduce(|(lo, hi), (l, h)| (lo.min(l), hi.max(h)))
         .unwrap_or_default();
-    let center = ((lo.as_dvec3() + hi.as_dvec3()) * 0.5).as_vec3();
-    let radius = (poses.iter().copied().flatten())
+    let center = sphere_center(lo, hi);
+    let radius = (poses.iter()).fold(0.0, |r, pose| farthest(r, center, pose));
+    (center.into(), round_up(radius))
+}
+
+/// The centre of the box `lo..hi` (in `f64`, then `f32`).
+fn sphere_center(lo: Vec3, hi: Vec3) -> Vec3 {
+    ((lo.as_dvec3() + hi.as_dvec3()) * 0.5).as_vec3()
+}
+
+/// The larger of `radius` and the distance from `center` to the farthest point of `pose`,
+/// in `f64`; NaN where either is.
+fn farthest(radius: f64, center: Vec3, pose: &[[f32; 3]]) -> f64 {
+    (pose.iter())
         .map(|&p| (Vec3::from(p).as_dvec3() - center.as_dvec3()).length())
-        .fold(0.0, |r: f64, d| {
+        .fold(radius, |r: f64, d| {
             if r.is_nan() || d.is_nan() {
                 f64::NAN
             } else {
                 r.max(d)
             }
-        });
-    (center.into(), round_up(radius))
+        })
 }
+
+/// What `skinned_bound` hands each pose: its points and, skinned, its key's joint matrices.
+type PoseVisit<'a> = dyn FnMut(&[[f32; 3]], Option<&[f32]>) + 'a;
 
 /// A skinned asset's culling bound: the sphere holding `V(0)` and `V(1)` skinned at every
 /// baked key (what the GPU draws between two keys is each vertex's blend of its skinned
@@ -358,12 +372,31 @@ fn skinned_bound(
     baked: &BakedClip,
     (v0, v1): (&[[f32; 3]], &[[f32; 3]]),
 ) -> (([f32; 3], f32), f32) {
-    let mut matrices = Vec::new();
-    let mut poses = vec![v0.to_vec(), v1.to_vec()];
+    // Every key's poses, one at a time (all at once would hold 2 (N + 1) poses: 124 MB for
+    // the walker's 385 keys): `visit` sees the unskinned poses, then each key's skinned ones
+    // with the key's matrices.
+    let each_pose = |visit: &mut PoseVisit| {
+        let (mut matrices, mut skinned) = (Vec::new(), Vec::new());
+        visit(v0, None);
+        visit(v1, None);
+        for key in 0..=baked.intervals {
+            baked.matrices_at(key as f32 / baked.intervals as f32, &mut matrices);
+            for pose in [v0, v1] {
+                skinning.skin.deform(&matrices, pose, &mut skinned);
+                visit(&skinned, Some(&matrices));
+            }
+        }
+    };
+    // boxAndNorm: the box of every pose (the sphere's centre) and the largest joint
+    // matrix's Frobenius norm.
+    let mut bounds: Option<(Vec3, Vec3)> = None;
     let mut norm = 0.0f32;
-    for key in 0..=baked.intervals {
-        baked.matrices_at(key as f32 / baked.intervals as f32, &mut matrices);
-        for m in matrices.chunks_exact(16) {
+    each_pose(&mut |pose, matrices| {
+        if let Some((lo, hi)) = crate::mesh::bounds(pose) {
+            let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
+            bounds = Some(bounds.map_or((lo, hi), |(l, h)| (l.min(lo), h.max(hi))));
+        }
+        for m in matrices.unwrap_or_default().chunks_exact(16) {
             let linear = Mat3::from_cols_slice(&[&m[0..3], &m[4..7], &m[8..11]].concat());
             let frobenius = (linear.x_axis.length_squared()
                 + linear.y_axis.length_squared()
@@ -371,18 +404,17 @@ fn skinned_bound(
             .sqrt();
             norm = norm.max(frobenius);
         }
-        for pose in [v0, v1] {
-            let mut skinned = Vec::with_capacity(pose.len());
-            skinning.skin.deform(&matrices, pose, &mut skinned);
-            poses.push(skinned);
-        }
-    }
+    });
+    // radius: the farthest point of any pose from the centre.
+    let (lo, hi) = bounds.unwrap_or_default();
+    let center = sphere_center(lo, hi);
+    let mut radius = 0.0f64;
+    each_pose(&mut |pose, _| radius = farthest(radius, center, pose));
     let skin = &skinning.skin;
     let weights = (skin.weights.chunks_exact(skin.influences.max(1)))
         .map(|w| w.iter().map(|w| w.abs()).sum::<f32>())
         .fold(0.0, f32::max);
-    let poses: Vec<&[[f32; 3]]> = poses.iter().map(Vec::as_slice).collect();
-    (bounding_sphere(&poses), (weights * norm).max(1.0))
+    ((center.into(), round_up(radius)), (weights * norm).max(1.0))
 }
 
 /// `x` as an `f32` no smaller than it (NaN stays NaN).

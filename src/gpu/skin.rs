@@ -12,7 +12,7 @@
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::GpuError;
-use crate::skin::{BakedClip, Skinning};
+use crate::skin::{BakedClip, Skinning, BAKE_TOLERANCE};
 
 /// Influences a vertex has on the GPU: one `vec4` of weights.
 pub const GPU_INFLUENCES: usize = 4;
@@ -38,8 +38,9 @@ pub(super) struct GpuSkin {
 }
 
 impl GpuSkin {
-    /// Checks `skinning` for `vertices` vertices and the device, bakes its clip
-    /// ([`BakedClip::intervals_for`]) and uploads it with the vertex skin. A skin or clip that
+    /// Checks `skinning` for the `bind` pose's vertices and the device, bakes its clip at
+    /// keys close enough for [`BAKE_TOLERANCE`] of `bind`'s diagonal
+    /// ([`BakedClip::intervals_within`]) and uploads it with the vertex skin. A skin or clip that
     /// does not fit the mesh or each other is [`GpuError::Skin`]; more than
     /// [`GPU_INFLUENCES`] influences [`GpuError::SkinInfluences`]; more than [`GPU_JOINTS`]
     /// joints [`GpuError::SkinJoints`]; keys that with the vertex skin pass one storage
@@ -48,8 +49,9 @@ impl GpuSkin {
     pub(super) fn new(
         device: &wgpu::Device,
         skinning: &Skinning,
-        vertices: usize,
+        bind: &[[f32; 3]],
     ) -> Result<(GpuSkin, BakedClip), GpuError> {
+        let vertices = bind.len();
         skinning
             .validate(vertices)
             .map_err(|source| GpuError::Skin { source })?;
@@ -71,7 +73,7 @@ impl GpuSkin {
         let max = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
-        let intervals = BakedClip::intervals_for(&skinning.clip);
+        let intervals = BakedClip::intervals_within(skinning, bind, BAKE_TOLERANCE);
         let clip_bytes = 4 * BakedClip::floats(intervals, joints);
         let vertex_bytes = (vertices * VERTEX_WORDS * 4) as u64;
         let bytes = 4 * HEADER_WORDS as u64 + clip_bytes + vertex_bytes;

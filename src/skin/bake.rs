@@ -14,10 +14,25 @@
 use super::{Clip, Skinning};
 
 /// Least keys a second of clip a [`BakedClip`] is baked with ([`BakedClip::intervals_for`]):
-/// at 60 keys a second (72 on its 1/24 s grid) the walker's `walk` drifts at most 2.1e-4 of
-/// its diagonal between keys (`tests/suite/skin_gpu.rs` measures it; the error falls with the
-/// square of the keys' spacing).
+/// at 60 keys a second (72 on its 1/24 s grid) the walker's `walk` drifts up to 2.1e-4 of its
+/// diagonal between keys; [`BakedClip::intervals_within`] bakes finer where that passes
+/// [`BAKE_TOLERANCE`] (the error falls with the square of the keys' spacing).
 pub const BAKE_RATE: f32 = 60.0;
+
+/// The most a vertex may drift between keys, as a share of the bind pose's diagonal, that
+/// [`BakedClip::intervals_within`] bakes for: the GPU's skinned positions are to equal the
+/// reference within 1e-5 of the diagonal at any time (issue 51), and 8e-6 leaves room for
+/// the GPU's rounding and for the vertices the estimate does not probe.
+pub const BAKE_TOLERANCE: f32 = 8e-6;
+
+/// The most bytes a clip's keys take when [`BakedClip::intervals_within`] bakes them finer
+/// than [`BakedClip::intervals_for`]: 1 MiB a clip (issue 51's budget for the clip data a
+/// crowd shares). A clip that needs more for the tolerance keeps the finest count that fits.
+pub const KEY_BUDGET: u64 = 1 << 20;
+
+/// Vertices the drift between keys is estimated on: every `n / PROBED`-th (enough to find
+/// the joints that move most; the GPU tests check every vertex).
+const PROBED: usize = 2048;
 
 /// Floats a joint takes per key: the three rows of its 3×4 matrix (`x`, `y`, `z` rows; a
 /// joint matrix is affine, and the reference skins with its top three rows only).
@@ -45,6 +60,55 @@ impl BakedClip {
             Some(m) => m * least.div_ceil(m),
             None => least,
         }
+    }
+
+    /// The keys to bake `skinning`'s clip at so that a vertex drifts between keys by at most
+    /// `tolerance` of the diagonal of `bind` (the pose the skin applies to; a fraction, e.g.
+    /// [`BAKE_TOLERANCE`]), the keys taking at most [`KEY_BUDGET`] bytes: at least
+    /// [`intervals_for`](Self::intervals_for) and a multiple of the clip's key grid. The drift
+    /// falls with the square of the spacing: from the base count's drift (measured on up to
+    /// 2,048 vertices at a quarter, half and three quarters of every interval) the count that
+    /// meets the tolerance is estimated, measured again, and refined at most 4 times. The
+    /// walker's `walk`: 72 intervals drift 2.1e-4, its 384 drift 7.3e-6 (979 KB of keys).
+    pub fn intervals_within(skinning: &Skinning, bind: &[[f32; 3]], tolerance: f32) -> usize {
+        let base = Self::intervals_for(&skinning.clip);
+        let grid = key_grid(&skinning.clip).unwrap_or(1);
+        let joints = skinning.skin.joint_count().max(1);
+        // The largest multiple of the grid whose keys fit the budget.
+        let most = (KEY_BUDGET / (4 * ROW_FLOATS as u64 * joints as u64)).saturating_sub(1);
+        let most = (most as usize / grid) * grid;
+        let diagonal = crate::mesh::bounds(bind)
+            .map(|(lo, hi)| glam::Vec3::from(hi).distance(glam::Vec3::from(lo)))
+            .filter(|d| d.is_finite() && *d > 0.0);
+        // Nothing to refine: a bind pose without size, no tolerance, or base keys already
+        // past the budget (a long clip; the caller checks them against its buffer limits
+        // before anything is baked).
+        let (Some(diagonal), true) = (diagonal, tolerance > 0.0 && base < most) else {
+            return base;
+        };
+        // probeVertices: every k-th vertex, with its weights.
+        let every = bind.len().div_ceil(PROBED).max(1);
+        let picked: Vec<u32> = (0..bind.len() as u32).step_by(every).collect();
+        let probe = Skinning {
+            skin: skinning.skin.select(&picked),
+            clip: skinning.clip.clone(),
+        };
+        let probe_bind: Vec<[f32; 3]> = picked.iter().map(|&v| bind[v as usize]).collect();
+        // refineKeys: measure, estimate the count the tolerance needs, measure again.
+        let mut n = base;
+        for _ in 0..4 {
+            let drift = Self::bake(&probe, n).max_error(&probe, &probe_bind, 4 * n + 1) / diagonal;
+            if drift.is_nan() || drift <= tolerance {
+                break;
+            }
+            let wanted = (n as f32 * (drift / tolerance).sqrt() * 1.05).ceil() as usize;
+            let next = (grid * wanted.div_ceil(grid)).min(most);
+            if next <= n {
+                break;
+            }
+            n = next;
+        }
+        n
     }
 
     /// Floats the keys of `intervals` intervals take for `joints` joints (computed before

@@ -24,7 +24,7 @@ mod bake;
 mod clip;
 mod skeleton;
 
-pub use bake::{BakedClip, BAKE_RATE, ROW_FLOATS};
+pub use bake::{BakedClip, BAKE_RATE, BAKE_TOLERANCE, KEY_BUDGET, ROW_FLOATS};
 pub use clip::{Clip, JointChannel, NodeProperty, NodeTrack};
 pub use skeleton::{trs_matrix, Skeleton, NO_PARENT, TRS, UNIT_TOLERANCE};
 

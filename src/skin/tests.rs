@@ -166,3 +166,38 @@ fn bad_skins_are_refused_with_what_is_wrong() {
     short.clip.duration = 0.5;
     assert!(matches!(short.validate(3), Err(SkinError::Duration { .. })));
 }
+
+/// The arm turns 90° in 1 s: baked at the base 60 keys a second its vertex cuts the chord
+/// between keys, `1 - cos(0.75°)` ≈ 8.6e-5 of its unit radius (3.8e-5 of the bind pose's
+/// diagonal, √5); `intervals_within` bakes finer until the drift, measured on every vertex
+/// at 16 times an interval, is within the tolerance, and stops at the base where the
+/// tolerance is loose, the bind pose has no size, or the keys would pass the budget.
+#[test]
+fn keys_are_baked_close_enough_for_the_tolerance() {
+    let arm = arm();
+    let bind = vec![[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 0.0, 0.0]];
+    let diagonal = 5f32.sqrt();
+    let base = BakedClip::intervals_for(&arm.clip);
+    assert_eq!(base, 60);
+    let drift = |n: usize| BakedClip::bake(&arm, n).max_error(&arm, &bind, 16 * n + 1) / diagonal;
+    assert!(drift(base) > BAKE_TOLERANCE, "{}", drift(base));
+    let n = BakedClip::intervals_within(&arm, &bind, BAKE_TOLERANCE);
+    assert!(n > base && drift(n) <= BAKE_TOLERANCE, "{n}: {}", drift(n));
+    // Not wastefully fine: half as many keys would not do.
+    assert!(drift(n / 2) > BAKE_TOLERANCE, "{n}");
+    assert_eq!(BakedClip::intervals_within(&arm, &bind, 1e-3), base);
+    assert_eq!(
+        BakedClip::intervals_within(&arm, &[[1.0, 1.0, 0.0]; 3], 1e-9),
+        base
+    );
+    // A clip whose base keys pass the budget keeps them (the caller checks its limits).
+    let mut long = arm.clone();
+    long.clip.duration = 1e4;
+    long.clip.channels[0].track.times[1] = 1e4;
+    let long_base = BakedClip::intervals_for(&long.clip);
+    assert!(4 * BakedClip::floats(long_base, 2) > KEY_BUDGET);
+    assert_eq!(
+        BakedClip::intervals_within(&long, &bind, BAKE_TOLERANCE),
+        long_base
+    );
+}

@@ -17,8 +17,12 @@ use morphlod::io::{load_morph, LoadOptions, MorphSource};
 use morphlod::morph::Morph;
 use std::path::Path;
 
-/// three.js's skinned positions of mesh 0 of `file` at each sample (clip name → seconds).
-fn three_positions(file: &Path, samples: &[Vec<(&str, f32)>]) -> Option<Vec<Vec<[f32; 3]>>> {
+/// three.js's skinned positions of mesh 0 of `file` at each sample (clip name → seconds);
+/// `None` where node or three.js is missing (outside CI).
+pub(crate) fn three_positions(
+    file: &Path,
+    samples: &[Vec<(&str, f32)>],
+) -> Option<Vec<Vec<[f32; 3]>>> {
     let json: Vec<serde_json::Value> = samples
         .iter()
         .map(|s| {

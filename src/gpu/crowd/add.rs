@@ -5,7 +5,7 @@ use std::sync::Arc;
 use wgpu::util::{BufferInitDescriptor, DeviceExt};
 
 use super::member::{Member, Spares};
-use super::patches::{draw_args, Span, Waiting};
+use super::patches::{draw_args, DirtySlots, Span, Waiting};
 use super::pipeline::{CrowdPath, InstanceBlock, MeshBlock, PoseBlock, Variant};
 use super::pool::{Pool, GRANULE};
 use super::slots::SlotLayout;
@@ -108,7 +108,7 @@ impl Crowd {
             free: Vec::new(),
             blocks: Vec::with_capacity(capacity),
             poses: Vec::with_capacity(capacity),
-            dirty_blocks: Span::EMPTY,
+            dirty_blocks: DirtySlots::default(),
             dirty_poses: Span::EMPTY,
             waiting: Waiting::default(),
             arriving: Vec::new(),

@@ -74,7 +74,7 @@ pub use self::discrete::{
     DiscreteCrowd, DiscreteLevel, DiscreteLevels, LevelsError, SharedSequence,
 };
 use self::member::{Member, Spares};
-use self::patches::{Span, Waiting};
+use self::patches::{DirtySlots, Span, Waiting};
 pub use self::pipeline::{CrowdPath, CROWD_WGSL, SCATTER_WGSL, TAIL_WGSL, WEIGHT_SLOTS};
 use self::pipeline::{CrowdPipeline, InstanceBlock, PoseBlock, SceneBlock, Variant};
 use self::pool::{Area, Pool};
@@ -138,7 +138,7 @@ struct CrowdAsset {
     /// Each slot's placement and pose, and the slots changed since the last prepare.
     blocks: Vec<InstanceBlock>,
     poses: Vec<PoseBlock>,
-    dirty_blocks: Span,
+    dirty_blocks: DirtySlots,
     dirty_poses: Span,
     /// The patches made since the last prepare.
     waiting: Waiting,

@@ -186,6 +186,47 @@ impl Piece {
     }
 }
 
+/// Unchanged slots a run of changed ones carries rather than be split in two writes: a
+/// `write_buffer` call costs more than these ~1 KB of placements.
+const RUN_GAP: u32 = 8;
+
+/// Slots changed since the last upload, written as runs ([`take_runs`](Self::take_runs)):
+/// a few instances changed far apart (walkers turned at a field's edges) cost their own
+/// blocks, not the whole span between them.
+#[derive(Clone, Debug, Default)]
+pub(super) struct DirtySlots(Vec<u32>);
+
+impl DirtySlots {
+    pub(super) fn add(&mut self, slot: u32) {
+        self.0.push(slot);
+        // Bounded between uploads however often one slot changes.
+        if self.0.len() >= 1 << 16 {
+            self.0.sort_unstable();
+            self.0.dedup();
+        }
+    }
+
+    pub(super) fn clear(&mut self) {
+        self.0.clear();
+    }
+
+    /// The changed slots as ascending, disjoint ranges (gaps of at most [`RUN_GAP`]
+    /// unchanged slots merged), emptied.
+    pub(super) fn take_runs(&mut self) -> Vec<std::ops::Range<u32>> {
+        self.0.sort_unstable();
+        self.0.dedup();
+        let mut runs: Vec<std::ops::Range<u32>> = Vec::new();
+        for &slot in &self.0 {
+            match runs.last_mut() {
+                Some(run) if slot - run.end <= RUN_GAP => run.end = slot + 1,
+                _ => runs.push(slot..slot + 1),
+            }
+        }
+        self.0.clear();
+        runs
+    }
+}
+
 /// A range of slots changed since the last upload (empty: `start >= end`).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Span {
@@ -207,5 +248,41 @@ impl Span {
     pub(super) fn take(&mut self) -> Option<std::ops::Range<u32>> {
         let span = std::mem::replace(self, Span::EMPTY);
         (span.start < span.end).then_some(span.start..span.end)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Changed slots come back sorted, once each, as runs that merge gaps of at most
+    /// `RUN_GAP` unchanged slots and split larger ones; taking empties the set.
+    #[test]
+    fn dirty_slots_are_written_in_runs() {
+        let mut dirty = DirtySlots::default();
+        for slot in [
+            9000,
+            3,
+            5,
+            4,
+            3,
+            5 + RUN_GAP + 1,
+            5 + RUN_GAP + 1 + RUN_GAP + 2,
+            0,
+        ] {
+            dirty.add(slot);
+        }
+        let far = 5 + RUN_GAP + 1 + RUN_GAP + 2;
+        assert_eq!(
+            dirty.take_runs(),
+            [0..RUN_GAP + 7, far..far + 1, 9000..9001]
+        );
+        assert!(dirty.take_runs().is_empty());
+        // Bounded however often one slot changes.
+        for _ in 0..(1 << 17) {
+            dirty.add(7);
+        }
+        assert!(dirty.0.len() < 1 << 16);
+        assert_eq!(dirty.take_runs(), vec![7..8]);
     }
 }

@@ -176,9 +176,9 @@ impl Crowd {
             // expandTails: after the index scatter, which may have patched an area before its
             // instance moved into a tail list.
             a.expand_tails(device, queue, &self.pipeline, dispatches, &mut upload);
-            // writeInstances: the changed placements and poses, one range each.
+            // writeInstances: the changed placements in runs, the moved poses in one range.
             let (placements, poses) = a.instance_buffers.as_ref().expect("grown above");
-            if let Some(range) = a.dirty_blocks.take() {
+            for range in a.dirty_blocks.take_runs() {
                 let blocks = &a.blocks[range.start as usize..range.end as usize];
                 let offset = u64::from(range.start) * size_of::<InstanceBlock>() as u64;
                 upload.write(queue, placements, offset, bytemuck::cast_slice(blocks));
@@ -235,7 +235,7 @@ impl Crowd {
             let a = &mut self.assets[i];
             upload.write(queue, &placements, 0, bytemuck::cast_slice(&a.blocks));
             upload.write(queue, &poses, 0, bytemuck::cast_slice(&a.poses));
-            a.dirty_blocks = Span::EMPTY;
+            a.dirty_blocks.clear();
             a.dirty_poses = Span::EMPTY;
             a.instance_buffers = Some((placements, poses));
             a.bind_group = Some(group);
