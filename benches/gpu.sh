@@ -45,6 +45,11 @@ run() {
     --animation morph --frames 32 -o "$out/body.mlod"
 [ -s "$out/body_shared.mlod" ] || run build-body-shared "$m" build assets/makehuman_body.glb \
     --animation morph --frames 32 --sequence shared -o "$out/body_shared.mlod"
+[ -s "$out/walker.mlod" ] || run build-walker "$m" build assets/makehuman_walker.glb \
+    --animation walk --weights morph --frames 16 -o "$out/walker.mlod"
+[ -s "$out/walker_shared.mlod" ] || run build-walker-shared "$m" build \
+    assets/makehuman_walker.glb --animation walk --weights morph --frames 16 --sequence shared \
+    -o "$out/walker_shared.mlod"
 [ -s "$out/mc16.mlod" ] || run build-mc16 "$m" build assets/man.off assets/camel.off \
     --frames 16 -o "$out/mc16.mlod"
 
@@ -72,6 +77,11 @@ for crowd_path in first-instance base-vertex; do
         --scene walk-through --frames "$frames" --skip-full $shared --crowd-path "$crowd_path" \
         --json "$out/walk-$walkers-$crowd_path.json"
 done
+# The same walk through WALKERS skinned walkers (issue 51), against the engine way (the
+# discrete levels skinned and instanced).
+run "walk-$walkers-skinned" "$m" bench "$out/walker.mlod" --crowd "$walkers" \
+    --scene walk-through --frames "$frames" --skip-full --levels-from "$out/walker_shared.mlod" \
+    --json "$out/walk-$walkers-skinned.json"
 # The shared-sequence asset: no frame switches.
 run crowd-shared "$m" bench "$out/body_shared.mlod" --crowd "$crowd" --frames "$frames" \
     --skip-full $levels --json "$out/crowd-shared.json"
@@ -85,7 +95,7 @@ for pair in 1 2; do
     done
 done
 
-# The demo (800 bodies and 200 faces at the default mix), with and without culling, and the
+# The demo (800 walkers and 200 faces at the default mix), with and without culling, and the
 # GPU tests, where packed.
 if [ -x "$bin/crowd" ]; then
     run crowd-demo "$bin/crowd" --headless --instances "$crowd" --frames "$frames" \
@@ -103,7 +113,7 @@ for t in suite memory; do
     [ -z "$test_bin" ] && continue
     if [ "$t" = suite ]; then
         run test-suite "$test_bin" --test-threads 4 crowd:: gpu_ lod_object:: image_oracle:: \
-            textured::
+            textured:: skin_gpu::
     else
         run test-memory "$test_bin"
     fi

@@ -109,7 +109,8 @@ struct Args {
     #[arg(long)]
     bodies: bool,
     /// Headless: also write `sheet.png`, N of the frames in a row (evenly spaced over the
-    /// sequence), with the camera turning at the window's pace instead of once over the frames
+    /// sequence, without the readout), with the camera turning at the window's pace instead of
+    /// once over the frames
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(2..=16))]
     sheet: Option<u32>,
 }
@@ -298,6 +299,8 @@ struct Field {
     half: Vec3,
     pixels: f32,
     readout: Readout,
+    /// Whether the readout is drawn (not on a sheet's frames: they show the walk).
+    show_readout: bool,
     /// The window's scale factor: the readout keeps its size in logical pixels.
     text_scale: f32,
     adapter: String,
@@ -455,6 +458,7 @@ impl Field {
             half,
             pixels: args.pixels,
             readout: Readout::new(device, queue, color_format),
+            show_readout: args.sheet.is_none(),
             text_scale: 1.0,
             adapter: format!("{} ({:?})", adapter.name, adapter.backend),
             last: Figures::default(),
@@ -522,7 +526,10 @@ impl Field {
             stats: self.crowd.stats(),
             ..self.last.clone()
         };
-        let text = self.readout_text(status);
+        let text = match self.show_readout {
+            true => self.readout_text(status),
+            false => String::new(),
+        };
         self.readout
             .prepare(device, queue, (width, height), self.text_scale, &text)
     }
