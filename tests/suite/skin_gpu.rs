@@ -588,6 +588,56 @@ fn crowd_skins_each_walker_at_its_phase() -> Result<(), Box<dyn std::error::Erro
     Ok(())
 }
 
+/// The view of six walkers on a 3 × 2 grid ([`six_walkers_at`]), seen from the front.
+fn six_walkers_view() -> Result<Mat4, GpuError> {
+    Ok(gpu::camera::fit_to_bounds(
+        [-1.7, -1.3, -0.6],
+        [1.7, 1.3, 0.6],
+        Vec3::new(0.1, -0.2, -1.0),
+        1.0,
+        gpu::camera::Projection::Perspective { vertical_fov: 0.6 },
+    )?
+    .view_proj())
+}
+
+/// Walker `i` of six on a 3 × 2 grid, each turned its own way.
+fn six_walkers_at(i: usize) -> Mat4 {
+    let at = Vec3::new(
+        1.1 * (i as f32 % 3.0 - 1.0),
+        1.2 * ((i / 3) as f32 - 0.5),
+        0.0,
+    );
+    placed(at, 1.1, 0.7 * i as f32 - 1.5)
+}
+
+/// What `draw` records, rendered into `target` and read back.
+fn rendered(
+    ctx: &Gpu,
+    target: &RenderTarget,
+    draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
+) -> image::RgbaImage {
+    let (device, queue) = (&ctx.ctx.device, &ctx.ctx.queue);
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = target.begin_pass(&mut encoder);
+        draw(&mut pass);
+    }
+    queue.submit([encoder.finish()]);
+    target
+        .read_image(device, queue)
+        .expect("the image reads back")
+}
+
+/// Pixels that differ between two images of one size.
+fn differing(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+/// Pixels not of the blue background.
+fn covered(image: &image::RgbaImage) -> usize {
+    image.pixels().filter(|p| p.0 != [0, 0, 255, 255]).count()
+}
+
 /// Pixels the crowd's image may differ in from the objects': the crowd sums the morph
 /// weights on the GPU, an object on the CPU, so a vertex moves by float rounding and a
 /// silhouette pixel here and there flips (the walk itself moves thousands).
@@ -606,29 +656,9 @@ fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std:
     let asset = walker();
     let model = Arc::new(DeformingModel::new(asset)?);
     let shared = GpuAsset::from_asset(device, asset)?;
-    let view_proj = gpu::camera::fit_to_bounds(
-        [-1.7, -1.3, -0.6],
-        [1.7, 1.3, 0.6],
-        Vec3::new(0.1, -0.2, -1.0),
-        1.0,
-        gpu::camera::Projection::Perspective { vertical_fov: 0.6 },
-    )?
-    .view_proj();
+    let view_proj = six_walkers_view()?;
     let target = ctx.target(256, 256, wgpu::Color::BLUE);
-    let render = |draw: &dyn Fn(&mut wgpu::RenderPass<'_>)| -> image::RgbaImage {
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = target.begin_pass(&mut encoder);
-            draw(&mut pass);
-        }
-        queue.submit([encoder.finish()]);
-        target
-            .read_image(device, queue)
-            .expect("the image reads back")
-    };
-    let differing = |a: &image::RgbaImage, b: &image::RgbaImage| {
-        a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
-    };
+    let render = |draw: &dyn Fn(&mut wgpu::RenderPass<'_>)| rendered(&ctx, &target, draw);
     for path in crowd_paths(&ctx) {
         let mut crowd = crowd_on(&ctx, path)?;
         crowd.set_view_proj(view_proj);
@@ -636,12 +666,7 @@ fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std:
         let mut objects = Vec::new();
         let mut moves = Vec::new();
         for i in 0..6 {
-            let at = Vec3::new(
-                1.1 * (i as f32 % 3.0 - 1.0),
-                1.2 * ((i / 3) as f32 - 0.5),
-                0.0,
-            );
-            let transform = placed(at, 1.1, 0.7 * i as f32 - 1.5);
+            let transform = six_walkers_at(i);
             let t = (0.17 + 0.29 * i as f32).fract();
             // Every other walker walks (root motion): placed at clock 0 where its velocity
             // takes it to `transform` at CLOCK.
@@ -673,10 +698,7 @@ fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std:
                 object.render(pass);
             }
         });
-        let covered = expected
-            .pixels()
-            .filter(|p| p.0 != [0, 0, 255, 255])
-            .count();
+        let covered = covered(&expected);
         let mismatch = differing(&image, &expected);
         // The objects a tenth of the clip on: what the walk moves in a tenth.
         for (object, &(_, t, lod)) in objects.iter_mut().zip(&moves) {
@@ -717,40 +739,11 @@ fn discrete_walkers_are_skinned_like_the_crowds() -> Result<(), Box<dyn std::err
     // Levels of one of the walker's frames (any sequence: full detail is `S0` for all).
     let triangles = asset.s0.triangles();
     let levels = DiscreteLevels::new(&asset.frames[0], &triangles, None, &[0.5])?;
-    let view_proj = gpu::camera::fit_to_bounds(
-        [-1.7, -1.3, -0.6],
-        [1.7, 1.3, 0.6],
-        Vec3::new(0.1, -0.2, -1.0),
-        1.0,
-        gpu::camera::Projection::Perspective { vertical_fov: 0.6 },
-    )?
-    .view_proj();
-    let transforms: Vec<Mat4> = (0..6)
-        .map(|i| {
-            let at = Vec3::new(
-                1.1 * (i as f32 % 3.0 - 1.0),
-                1.2 * ((i / 3) as f32 - 0.5),
-                0.0,
-            );
-            placed(at, 1.1, 0.7 * i as f32 - 1.5)
-        })
-        .collect();
+    let view_proj = six_walkers_view()?;
+    let transforms: Vec<Mat4> = (0..6).map(six_walkers_at).collect();
     let phases: Vec<f32> = (0..6).map(|i| (0.11 + 0.37 * i as f32).fract()).collect();
     let target = ctx.target(256, 256, wgpu::Color::BLUE);
-    let render = |draw: &dyn Fn(&mut wgpu::RenderPass<'_>)| -> image::RgbaImage {
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = target.begin_pass(&mut encoder);
-            draw(&mut pass);
-        }
-        queue.submit([encoder.finish()]);
-        target
-            .read_image(device, queue)
-            .expect("the image reads back")
-    };
-    let differing = |a: &image::RgbaImage, b: &image::RgbaImage| {
-        a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
-    };
+    let render = |draw: &dyn Fn(&mut wgpu::RenderPass<'_>)| rendered(&ctx, &target, draw);
     let discrete_at = |phase: &dyn Fn(usize) -> f32| -> Result<image::RgbaImage, CrowdError> {
         let mut discrete = DiscreteCrowd::new(
             device,
@@ -779,9 +772,7 @@ fn discrete_walkers_are_skinned_like_the_crowds() -> Result<(), Box<dyn std::err
         crowd.set(&moves)?;
         crowd.prepare(device, queue);
         let expected = render(&|pass| crowd.render(pass));
-        let covered = (expected.pixels())
-            .filter(|p| p.0 != [0, 0, 255, 255])
-            .count();
+        let covered = covered(&expected);
         let mismatch = differing(&image, &expected);
         println!("{path:?}: the discrete walkers differ from the crowd's in {mismatch} of {covered} covered pixels");
         if mismatch * PIXEL_SHARE > covered {
