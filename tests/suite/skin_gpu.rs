@@ -31,6 +31,10 @@
 //!   Every other walker walks (`Crowd::set_velocity`, the crowd clock at 2.5 s), placed where
 //!   its velocity takes it to the objects' place. Fails if the vertex stage leaves root
 //!   motion out (`+ vec4<f32>(inst.offset, 0.0)` dropped in `crowd.wgsl`).
+//! * `crowd_skins_the_normals_of_a_surface`: walkers with normals drawn smooth-shaded by the
+//!   crowd's skinned surface stage and as `LodObject`s shade alike (0 of 3,051 covered pixels
+//!   more than 8 steps apart on lavapipe). Fails if the crowd leaves the normal unskinned (the
+//!   morphed normal for the skinned one in `pulled_skinned` and `fetched_skinned`: 753).
 //! * `discrete_walkers_are_skinned_like_the_crowds`: a `DiscreteCrowd` of walkers (the
 //!   engine way: discrete levels drawn instanced) at full detail draws the crowd's pixels at
 //!   their phases, and moves with them. Fails if the discrete crowd draws the unskinned
@@ -718,6 +722,70 @@ fn crowd_of_walkers_draws_the_pixels_of_lod_objects() -> Result<(), Box<dyn std:
         assert!(
             covered > 2000 && moved > 1000,
             "{path:?}: the walkers cover {covered} pixels, a tenth of the clip moves {moved}"
+        );
+    }
+    Ok(())
+}
+
+/// Channel steps a smooth-shaded pixel may differ by between the crowd and the objects: the
+/// crowd sums the normal deltas on the GPU, an object on the CPU, and random normals shade
+/// steeply.
+const SHADE_STEPS: u8 = 8;
+
+/// The crowd's skinned surface stage (`pulled_skinned`, `fetched_skinned`): six walkers with
+/// normals (random, with random normal deltas) drawn smooth-shaded by a crowd, at their own
+/// phases, and as `LodObject`s, whose skinned normals the first test checks against the
+/// reference: at most 1 in [`PIXEL_SHARE`] covered pixels differ by more than [`SHADE_STEPS`].
+#[test]
+fn crowd_skins_the_normals_of_a_surface() -> Result<(), Box<dyn std::error::Error>> {
+    let Some(ctx) = Gpu::new() else {
+        return Ok(());
+    };
+    let (device, queue, pipeline) = (&ctx.ctx.device, &ctx.ctx.queue, &ctx.pipeline);
+    let asset = &walker_with_normals();
+    let model = Arc::new(DeformingModel::new(asset)?);
+    let shared = GpuAsset::from_asset(device, asset)?;
+    let view_proj = six_walkers_view()?;
+    let target = ctx.target(256, 256, wgpu::Color::BLUE);
+    let render = |draw: &dyn Fn(&mut wgpu::RenderPass<'_>)| rendered(&ctx, &target, draw);
+    let shaded_apart = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        (a.pixels().zip(b.pixels()))
+            .filter(|(p, q)| (p.0.iter().zip(q.0)).any(|(x, y)| x.abs_diff(y) > SHADE_STEPS))
+            .count()
+    };
+    for path in crowd_paths(&ctx) {
+        let mut crowd = crowd_on(&ctx, path)?;
+        crowd.set_view_proj(view_proj);
+        let walkers = crowd.add_asset(device, Arc::clone(&shared), Arc::clone(&model), 6)?;
+        let mut objects = Vec::new();
+        let mut moves = Vec::new();
+        for i in 0..6 {
+            let (transform, t) = (six_walkers_at(i), (0.23 + 0.31 * i as f32).fract());
+            moves.push((crowd.add(walkers, transform)?, t, Lod::Fraction(0.3)));
+            let mut object =
+                LodObject::with_asset(device, pipeline, Arc::clone(&shared), Arc::clone(&model))?;
+            object.set_model(transform);
+            object.set_view_proj(view_proj);
+            object.set(t, Lod::Fraction(0.3))?;
+            object.prepare(queue);
+            objects.push(object);
+        }
+        crowd.set(&moves)?;
+        crowd.prepare(device, queue);
+        let image = render(&|pass| crowd.render(pass));
+        let expected = render(&|pass| {
+            for object in &objects {
+                object.render(pass);
+            }
+        });
+        let (covered, apart) = (covered(&expected), shaded_apart(&image, &expected));
+        println!("{path:?}: {apart} of {covered} covered pixels shaded apart");
+        if apart * PIXEL_SHARE > covered {
+            common::gpu::fail_with_images(&format!("shaded walkers, {path:?}"), &image, &expected);
+        }
+        assert!(
+            covered > 2000,
+            "{path:?}: the walkers cover {covered} pixels"
         );
     }
     Ok(())
