@@ -477,6 +477,29 @@ fn info_reports_attributes_and_seams() {
     );
 }
 
+/// `info` on the walker names its skin (53 joints, its inverse bind matrices, the node that
+/// draws mesh 0 with it) and which animation moves the joints: `walk`'s 14 channels are all on
+/// skin joints, `morph` drives the weights; each with its length.
+#[test]
+fn info_lists_skins_and_the_animations_that_move_them() {
+    let walker = asset("makehuman_walker.glb");
+    let out = morphlod(&["info", walker.to_str().unwrap()]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    for needle in [
+        "1 skin(s)\n  skin 0",
+        ": 53 joints, with inverse bind matrices; drawn by node ",
+        " (mesh 0)\n",
+        "animation 0 'walk': 0 weight channel(s), 14 other channel(s) (14 on skin joints), 1 s",
+        "animation 1 'morph': 1 weight channel(s), 0 other channel(s) (0 on skin joints), 8 s",
+    ] {
+        assert!(stdout.contains(needle), "{needle:?} not in\n{stdout}");
+    }
+    // Without a skin, no skin line.
+    let out = morphlod(&["info", asset("makehuman_face.glb").to_str().unwrap()]);
+    assert!(!text(&out.stdout).contains("skin(s)"));
+}
+
 /// A tetrahedron with UVs in `dir/name.gltf` whose base-colour texture is the external file
 /// `dir/name.png` holding `png`.
 fn textured_tetrahedron(dir: &Scratch, name: &str, png: &[u8]) -> PathBuf {

@@ -29,7 +29,9 @@ pub mod summary;
 pub mod write;
 
 pub use crate::skin::{NodeProperty, NodeTrack};
-pub use summary::{inspect, AnimationSummary, GltfSummary, MeshSummary, WeightChannelSummary};
+pub use summary::{
+    inspect, AnimationSummary, GltfSummary, MeshSummary, SkinSummary, WeightChannelSummary,
+};
 
 use crate::io::{AttributedMesh, LoadError, LoadOptions};
 use crate::mesh::IndexedMesh;

@@ -1,6 +1,6 @@
-//! What `morphlod info` prints for a glTF file: its meshes with their morph targets and
-//! its animations with the channels that drive morph weights. Reads the structure and the
-//! keyframe times only, no vertex data.
+//! What `morphlod info` prints for a glTF file: its meshes with their morph targets, its
+//! skins, and its animations with the channels that drive morph weights and those that move
+//! a skin's joints. Reads the structure and the keyframe times only, no vertex data.
 
 use super::document::Document;
 use super::{display_name, interpolation, quoted, target_names};
@@ -16,7 +16,20 @@ use std::path::Path;
 #[derive(Clone, Debug, PartialEq)]
 pub struct GltfSummary {
     pub meshes: Vec<MeshSummary>,
+    pub skins: Vec<SkinSummary>,
     pub animations: Vec<AnimationSummary>,
+}
+
+/// A skin: its joints and the nodes that draw a mesh with it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkinSummary {
+    pub index: usize,
+    pub name: Option<String>,
+    pub joints: usize,
+    /// Whether it gives inverse bind matrices (identity where not, as the spec says).
+    pub inverse_binds: bool,
+    /// The nodes that draw a mesh with it: (node, mesh).
+    pub users: Vec<(usize, usize)>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -42,6 +55,11 @@ pub struct AnimationSummary {
     /// Channels animating translation, rotation or scale (a skinned mesh's clip moves its
     /// joints with them).
     pub other_channels: usize,
+    /// Of those, the channels on a skin's joints (`build --animation` plays them as the
+    /// skinned deformation).
+    pub joint_channels: usize,
+    /// Time of the last keyframe of any channel, in seconds.
+    pub duration: f32,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -92,17 +110,28 @@ pub fn inspect(path: &Path) -> Result<GltfSummary, LoadError> {
             })
         })
         .collect::<Result<Vec<_>, LoadError>>()?;
+    let skins: Vec<SkinSummary> = (doc.document.skins())
+        .map(|skin| SkinSummary {
+            index: skin.index(),
+            name: skin.name().map(str::to_string),
+            joints: skin.joints().count(),
+            inverse_binds: skin.inverse_bind_matrices().is_some(),
+            users: (doc.document.nodes())
+                .filter(|node| node.skin().is_some_and(|s| s.index() == skin.index()))
+                .filter_map(|node| Some((node.index(), node.mesh()?.index())))
+                .collect(),
+        })
+        .collect();
+    let joints: std::collections::HashSet<usize> = (doc.document.skins())
+        .flat_map(|skin| skin.joints().map(|joint| joint.index()).collect::<Vec<_>>())
+        .collect();
     let animations = doc
         .document
         .animations()
         .map(|animation| {
             let mut weight_channels = Vec::new();
-            let mut other_channels = 0;
+            let (mut other_channels, mut joint_channels, mut duration) = (0, 0, 0.0f32);
             for channel in animation.channels() {
-                if channel.target().property() != gltf::animation::Property::MorphTargetWeights {
-                    other_channels += 1;
-                    continue;
-                }
                 let sampler = channel.sampler();
                 let element = format!(
                     "animation {} sampler {} input",
@@ -110,7 +139,13 @@ pub fn inspect(path: &Path) -> Result<GltfSummary, LoadError> {
                     sampler.index()
                 );
                 let times = doc.read_floats(&sampler.input(), &element, Dimensions::Scalar)?;
+                duration = duration.max(times.last().copied().unwrap_or(0.0));
                 let node = channel.target().node();
+                if channel.target().property() != gltf::animation::Property::MorphTargetWeights {
+                    other_channels += 1;
+                    joint_channels += usize::from(joints.contains(&node.index()));
+                    continue;
+                }
                 weight_channels.push(WeightChannelSummary {
                     node: node.index(),
                     mesh: node.mesh().map(|m| m.index()),
@@ -124,10 +159,16 @@ pub fn inspect(path: &Path) -> Result<GltfSummary, LoadError> {
                 name: animation.name().map(str::to_string),
                 weight_channels,
                 other_channels,
+                joint_channels,
+                duration,
             })
         })
         .collect::<Result<Vec<_>, LoadError>>()?;
-    Ok(GltfSummary { meshes, animations })
+    Ok(GltfSummary {
+        meshes,
+        skins,
+        animations,
+    })
 }
 
 impl fmt::Display for GltfSummary {
@@ -151,15 +192,38 @@ impl fmt::Display for GltfSummary {
                 }
             }
         }
+        if !self.skins.is_empty() {
+            writeln!(f, "{} skin(s)", self.skins.len())?;
+        }
+        for s in &self.skins {
+            let users: Vec<String> = (s.users.iter())
+                .map(|(node, mesh)| format!("node {node} (mesh {mesh})"))
+                .collect();
+            writeln!(
+                f,
+                "  skin {} {}: {} joints, {} inverse bind matrices; drawn by {}",
+                s.index,
+                quoted(&s.name),
+                s.joints,
+                if s.inverse_binds { "with" } else { "identity" },
+                if users.is_empty() {
+                    "no node".to_string()
+                } else {
+                    users.join(", ")
+                }
+            )?;
+        }
         writeln!(f, "{} animation(s)", self.animations.len())?;
         for a in &self.animations {
             writeln!(
                 f,
-                "  animation {} {}: {} weight channel(s), {} other channel(s)",
+                "  animation {} {}: {} weight channel(s), {} other channel(s) ({} on skin joints), {} s",
                 a.index,
                 quoted(&a.name),
                 a.weight_channels.len(),
-                a.other_channels
+                a.other_channels,
+                a.joint_channels,
+                a.duration
             )?;
             for c in &a.weight_channels {
                 let mesh = c
