@@ -500,7 +500,6 @@ impl Field {
         // This frame's view before `set`: an instance `set` sees out of view is parked at its
         // coarsest LOD (with the last frame's view, one coming into view would be drawn so).
         self.crowd.set_view_proj(view_proj);
-        let start = Instant::now();
         // The walkers walk on the GPU (root motion by the crowd's clock); one that passed an
         // edge of the field turns back into it (one placement written).
         self.crowd.set_clock(seconds)?;
@@ -514,6 +513,8 @@ impl Field {
             let lod = Lod::screen_error(self.pixels, distance, FOV_Y, height as f32);
             self.moves.push((m.id, t, lod));
         }
+        // The crowd's `set` (the field's own loops above are the application's).
+        let start = Instant::now();
         self.crowd.set(&self.moves)?;
         let set = start.elapsed();
         let start = Instant::now();
