@@ -8,7 +8,8 @@
 //! * far instances (in tail lists from their first move) grow the heap by at most 2 KB each;
 //! * what the crowd still holds beyond its empty self once they are gone (the scatter's run
 //!   list, kept with the capacity of the largest frame) is at most 8 bytes per word patched in
-//!   one frame (a run list's bound).
+//!   one frame (a run list's bound), and is what `CrowdStats::scratch_host_bytes` accounts
+//!   (within a sixteenth); the scratch on both sides holds at least 4 bytes a word patched.
 //!
 //! Its own test binary (one test) so that no other test allocates while it measures.
 
@@ -131,9 +132,25 @@ fn host_memory_per_instance_is_bounded() {
         assert_eq!(state.index_width(), IndexWidth::U16);
     }
     let grown = per_instance(live(), empty);
-    let accounted = crowd.stats().instance_host_bytes as f64 / f64::from(COUNT);
+    let stats = crowd.stats();
+    let accounted = stats.instance_host_bytes as f64 / f64::from(COUNT);
+    // The scratch the largest frame left: its run list on the host, its patch lists on the
+    // GPU, each at least 4 bytes a patched word.
+    assert!(
+        stats.scratch_gpu_bytes >= 4 * most && stats.scratch_host_bytes >= 4 * most,
+        "{most} words patched in a frame; scratch {} B GPU, {} B host",
+        stats.scratch_gpu_bytes,
+        stats.scratch_host_bytes
+    );
     let held = remove(&mut crowd, &ids) as f64 / f64::from(COUNT);
     let kept = live() - empty;
+    // What the crowd keeps once its instances are gone is its scratch, as it accounts it.
+    let scratch = crowd.stats().scratch_host_bytes as isize;
+    println!("kept {kept} bytes, the run list's {scratch}");
+    assert!(
+        scratch <= kept && kept - scratch <= kept / 16,
+        "the crowd keeps {kept} bytes and accounts {scratch} of scratch"
+    );
     let bound = instance_bound(&model).min(HOST_BYTES_PER_INSTANCE);
     println!(
         "host bytes per body instance: {held:.0} held, {accounted:.0} accounted (bound \

@@ -154,7 +154,16 @@ impl Crowd {
             let shared = a.gpu.gpu_bytes() + a.tail_words.as_ref().map_or(0, |b| b.size());
             stats.shared_gpu_bytes += shared;
             let blocks = (a.instance_buffers.as_ref()).map_or(0, |(b, p)| b.size() + p.size());
-            stats.gpu_bytes += shared + a.pool.gpu_bytes() + blocks + a.restarts.size();
+            let scratch: u64 = (a.binds.iter())
+                .map(|binds| {
+                    let patches = binds.patches.iter().flatten();
+                    let jobs = binds.tail_jobs.iter().map(|(buffer, _)| buffer.size());
+                    patches.map(|p| p.buffer.size()).sum::<u64>() + jobs.sum::<u64>()
+                })
+                .sum();
+            stats.scratch_gpu_bytes += scratch;
+            stats.scratch_host_bytes += (a.run_list.capacity() * size_of::<u32>()) as u64;
+            stats.gpu_bytes += shared + a.pool.gpu_bytes() + blocks + a.restarts.size() + scratch;
         }
         stats
     }

@@ -215,8 +215,15 @@ pub struct CrowdStats {
     /// GPU bytes the instances hold: their areas of index memory, records and blocks.
     pub instance_gpu_bytes: u64,
     /// GPU bytes of every buffer the crowd made: index memory (pages as grown), records,
-    /// instance blocks, tail lists and templates, the shared assets.
+    /// instance blocks, tail lists and templates, the shared assets, and the scratch below.
     pub gpu_bytes: u64,
+    /// Of `gpu_bytes`, the scratch `prepare` keeps between frames: per page the scatters'
+    /// patch lists and the tail jobs, each as large as the largest frame's since the page
+    /// last grew (the frame that spawns thousands of instances sets it).
+    pub scratch_gpu_bytes: u64,
+    /// Host bytes of the scratch `prepare` keeps between frames: the encoded run list, as
+    /// large as the largest frame's.
+    pub scratch_host_bytes: u64,
     /// GPU bytes shared per asset (the [`GpuAsset`](crate::gpu::GpuAsset)s), summed.
     pub shared_gpu_bytes: u64,
     /// Host bytes the instances hold: runtimes, GPU-side lengths, and their record and block
