@@ -1431,6 +1431,14 @@ fn bad_input_is_refused_and_changes_nothing() -> Result<()> {
         crowd.set_color(a, [0.0, f32::INFINITY, 0.0, 1.0]),
         Err(CrowdError::NonFinite { .. })
     ));
+    assert!(matches!(
+        crowd.set_velocity(a, glam::Vec3::new(0.0, f32::NAN, 0.0)),
+        Err(CrowdError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        crowd.set_clock(f32::NEG_INFINITY),
+        Err(CrowdError::NonFinite { .. })
+    ));
     // No capacity wall: a third instance past the room reserved is added (and removed).
     let c = crowd.add(asset, glam::Mat4::IDENTITY)?;
     crowd.remove(c)?;
