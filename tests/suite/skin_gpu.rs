@@ -299,6 +299,35 @@ fn gpu_skinning_is_the_reference_at_keys_and_the_stated_blend_between() -> Resul
     Ok(())
 }
 
+/// A `LodObject` of `asset` (its model and GPU asset made here), and the model.
+fn lod_object_of(
+    ctx: &Gpu,
+    asset: &Asset,
+) -> Result<(LodObject, Arc<DeformingModel>), morphlod::Error> {
+    let (device, pipeline) = (&ctx.ctx.device, &ctx.pipeline);
+    let model = Arc::new(DeformingModel::new(asset)?);
+    let shared = GpuAsset::from_asset(device, asset)?;
+    let object = LodObject::with_asset(device, pipeline, shared, Arc::clone(&model))?;
+    Ok((object, model))
+}
+
+/// `object` set to `t` and `lod` and uploaded: the positions its vertex stage draws, read
+/// back (`Object::skinned_pose`).
+fn drawn_at(
+    ctx: &Gpu,
+    object: &mut LodObject,
+    t: f32,
+    lod: Lod,
+) -> Result<Vec<[f32; 3]>, morphlod::Error> {
+    let (device, queue, pipeline) = (&ctx.ctx.device, &ctx.ctx.queue, &ctx.pipeline);
+    object.set(t, lod)?;
+    object.prepare(queue);
+    Ok(object
+        .object()
+        .skinned_pose(device, queue, pipeline)?
+        .positions)
+}
+
 /// The GPU against an independent skinning (issue 51's second oracle): three.js's skinned
 /// walker (`.ci/gltf-loader/skin.mjs`, its AnimationMixer at `walk`'s time and `morph`'s)
 /// and `LodObject`'s vertex stage read back agree within 1e-4 of the diagonal at times on
@@ -317,16 +346,10 @@ fn gpu_skinning_is_three_js_skinning() -> Result<(), morphlod::Error> {
     let Some(three) = crate::skin_oracle::three_positions(&path, &samples) else {
         return Ok(());
     };
-    let (device, queue, pipeline) = (&ctx.ctx.device, &ctx.ctx.queue, &ctx.pipeline);
-    let asset = walker();
-    let model = Arc::new(DeformingModel::new(asset)?);
-    let shared = GpuAsset::from_asset(device, asset)?;
-    let mut walking = LodObject::with_asset(device, pipeline, shared, model)?;
+    let (mut walking, _) = lod_object_of(&ctx, walker())?;
     for (&t, theirs) in ts.iter().zip(&three) {
-        walking.set(t, Lod::Fraction(0.0))?;
-        walking.prepare(queue);
-        let drawn = walking.object().skinned_pose(device, queue, pipeline)?;
-        let far = farthest(&drawn.positions, theirs);
+        let drawn = drawn_at(&ctx, &mut walking, t, Lod::Fraction(0.0))?;
+        let far = farthest(&drawn, theirs);
         let diagonal = common::diagonal(theirs);
         println!(
             "t = {t}: the GPU {:.2e} of the diagonal from three.js",
@@ -354,7 +377,6 @@ fn a_retimed_gait_is_skinned_as_finely_as_the_budget_allows() -> Result<(), morp
     let Some(ctx) = Gpu::new() else {
         return Ok(());
     };
-    let (device, queue, pipeline) = (&ctx.ctx.device, &ctx.ctx.queue, &ctx.pipeline);
     let mut asset = walker().clone();
     let skinning = asset.skin.as_mut().expect("skinned");
     let scale = 0.61 / skinning.clip.duration;
@@ -373,16 +395,14 @@ fn a_retimed_gait_is_skinned_as_finely_as_the_budget_allows() -> Result<(), morp
         }
     }
     let skinning = asset.skin.clone().expect("skinned");
-    let model = Arc::new(DeformingModel::new(&asset)?);
-    let shared = GpuAsset::from_asset(device, &asset)?;
-    let intervals = shared.clip_intervals().expect("skinned") as usize;
+    let (mut walking, _) = lod_object_of(&ctx, &asset)?;
+    let intervals = walking.object().asset().clip_intervals().expect("skinned") as usize;
     let budget = morphlod::skin::KEY_BUDGET / (4 * BakedClip::floats(1, 53) / 2) - 1;
     assert_eq!(intervals as u64, budget, "as many keys as the budget holds");
     let baked = BakedClip::bake(&skinning, intervals);
     let diagonal = common::diagonal(&asset.v0);
     let drift = f64::from(baked.max_error(&skinning, &asset.v0, 4 * intervals + 1)) / diagonal;
     println!("the retimed gait: {intervals} intervals, the keys' blend drifts {drift:.3e}");
-    let mut walking = LodObject::with_asset(device, pipeline, shared, model)?;
     let (mut matrices, mut mirror) = (Vec::new(), Vec::new());
     for case in 0..24 {
         let t = if case % 3 == 0 {
@@ -390,9 +410,7 @@ fn a_retimed_gait_is_skinned_as_finely_as_the_budget_allows() -> Result<(), morp
         } else {
             random(&mut state) as f32
         };
-        walking.set(t, Lod::Fraction(0.0))?;
-        walking.prepare(queue);
-        let drawn = walking.object().skinned_pose(device, queue, pipeline)?;
+        let drawn = drawn_at(&ctx, &mut walking, t, Lod::Fraction(0.0))?;
         let mut weights = Vec::new();
         let blend = asset.blend.as_ref().expect("morph targets");
         blend.track.offsets_at(t, &mut weights);
@@ -401,10 +419,7 @@ fn a_retimed_gait_is_skinned_as_finely_as_the_budget_allows() -> Result<(), morp
         skinning.skin.deform(&matrices, &bind, &mut mirror);
         let exact = asset.pose_at(t);
         let diagonal = common::diagonal(&exact);
-        let (from_mirror, off) = (
-            farthest(&drawn.positions, &mirror),
-            farthest(&drawn.positions, &exact),
-        );
+        let (from_mirror, off) = (farthest(&drawn, &mirror), farthest(&drawn, &exact));
         assert!(
             from_mirror <= ROUNDING * diagonal,
             "t = {t}: {from_mirror} from the keys' blend"
@@ -425,20 +440,16 @@ fn lod_object_skins_at_its_t_and_draws_the_frame_of_t() -> Result<(), morphlod::
     };
     let (device, queue, pipeline) = (&ctx.ctx.device, &ctx.ctx.queue, &ctx.pipeline);
     let asset = walker();
-    let model = Arc::new(DeformingModel::new(asset)?);
-    let shared = GpuAsset::from_asset(device, asset)?;
-    let mut walking = LodObject::with_asset(device, pipeline, shared, Arc::clone(&model))?;
+    let (mut walking, model) = lod_object_of(&ctx, asset)?;
     walking.set_shade_mode(ShadeMode::Faceted);
 
     // The clip's phase and the weights follow `set`'s t, and the strips its frame.
     for t in [0.0, 0.3, 0.61, 0.97] {
-        walking.set(t, Lod::Fraction(0.5))?;
-        walking.prepare(queue);
+        let drawn = drawn_at(&ctx, &mut walking, t, Lod::Fraction(0.5))?;
         let frame = model.frame_at(t).expect("t is a number");
         assert_eq!(walking.state().frame(), frame, "t = {t}");
-        let drawn = walking.object().skinned_pose(device, queue, pipeline)?;
         let exact = asset.pose_at(t);
-        let off = farthest(&drawn.positions, &exact);
+        let off = farthest(&drawn, &exact);
         let bound = BETWEEN_KEYS * common::diagonal(&exact);
         assert!(off <= bound, "t = {t}: {off} from Asset::pose_at");
     }
