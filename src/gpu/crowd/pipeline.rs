@@ -109,6 +109,12 @@ impl InstanceBlock {
         let [x, y, z, since] = self.motion;
         (clock - since) * glam::Vec3::new(x, y, z)
     }
+
+    /// Its object-to-world transform at crowd clock `clock`: `model` moved by its offset.
+    pub(super) fn model_at(&self, clock: f32) -> glam::Mat4 {
+        glam::Mat4::from_translation(self.offset_at(clock))
+            * glam::Mat4::from_cols_array_2d(&self.model)
+    }
 }
 
 impl PoseBlock {

@@ -162,9 +162,7 @@ impl Crowd {
         let clock = self.scene.clock;
         let a = self.member_asset(id)?;
         let block = &mut a.blocks[id.slot as usize];
-        let now = glam::Mat4::from_translation(block.offset_at(clock))
-            * glam::Mat4::from_cols_array_2d(&block.model);
-        block.set_model(now);
+        block.set_model(block.model_at(clock));
         block.motion = [velocity.x, velocity.y, velocity.z, clock];
         a.dirty_blocks.add(id.slot);
         Ok(())
@@ -175,8 +173,7 @@ impl Crowd {
     pub fn transform(&self, id: InstanceId) -> Result<glam::Mat4, CrowdError> {
         self.member(id)?;
         let block = &self.assets[id.asset as usize].blocks[id.slot as usize];
-        let model = glam::Mat4::from_cols_array_2d(&block.model);
-        Ok(glam::Mat4::from_translation(block.offset_at(self.scene.clock)) * model)
+        Ok(block.model_at(self.scene.clock))
     }
 
     /// Sets the crowd's clock, in seconds (finite; default 0): the time root motion
